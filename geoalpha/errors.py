@@ -1,0 +1,46 @@
+"""Exception and warning classes raised by geoalpha.
+
+Every error geoalpha raises on bad input derives from :class:`GeoAlphaError`
+(and from :class:`ValueError`, so ``except ValueError`` keeps working); every
+warning derives from :class:`GeoAlphaWarning`.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "AntimeridianWarning",
+    "DegenerateGroupWarning",
+    "DroppedRowsWarning",
+    "GeoAlphaError",
+    "GeoAlphaWarning",
+    "InvalidInputError",
+    "SearchWarning",
+]
+
+
+class GeoAlphaError(ValueError):
+    """Base class of the errors geoalpha raises on bad input."""
+
+
+class InvalidInputError(GeoAlphaError):
+    """Input points, groups or options that geoalpha cannot use."""
+
+
+class GeoAlphaWarning(UserWarning):
+    """Base class of the warnings geoalpha emits."""
+
+
+class DegenerateGroupWarning(GeoAlphaWarning):
+    """Groups with fewer than 3 distinct points, or all collinear, have no alpha."""
+
+
+class DroppedRowsWarning(GeoAlphaWarning):
+    """Input rows were left out of the result (missing or empty geometry, no group)."""
+
+
+class AntimeridianWarning(GeoAlphaWarning):
+    """A group crosses the antimeridian; its hull was split at +-180 degrees."""
+
+
+class SearchWarning(GeoAlphaWarning):
+    """A non-exact alpha search (ladder or bisection) gave a weaker result."""
