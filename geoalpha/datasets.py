@@ -1,0 +1,97 @@
+"""Real point datasets bundled with geoalpha, loaded as GeoDataFrames.
+
+See ``geoalpha/data/README.md`` for the provenance and licence of each file.
+"""
+
+from __future__ import annotations
+
+from importlib.resources import files
+from pathlib import Path
+
+__all__ = ["DATASETS", "load", "path"]
+
+#: name -> (file, longitude column, latitude column, group column, description)
+DATASETS: dict[str, tuple[str, str, str, str, str]] = {
+    "stats19": (
+        "stats19_2014_subset_razshain.csv",
+        "Longitude",
+        "Latitude",
+        "Local_Authority_(Highway)",
+        "1,017 UK road accidents of 2014 (STATS19) by highway local authority; "
+        "OGL v3.0",
+    ),
+    "uk_clusters": (
+        "uk_accident_dbscan_clusters_joaofig.csv",
+        "Longitude",
+        "Latitude",
+        "Cluster",
+        "15,255 UK road accident locations 2013-2016 in 691 DBSCAN clusters; "
+        "MIT (joaofig), data OGL v3.0",
+    ),
+    "us_airports": (
+        "us_airports_vega.csv",
+        "longitude",
+        "latitude",
+        "state",
+        "3,376 US airports (FAA, via vega_datasets) by state; US government work",
+    ),
+}
+
+
+def path(name: str) -> Path:
+    """Return the path of a bundled dataset's CSV file.
+
+    Parameters
+    ----------
+    name : str
+        One of ``"stats19"``, ``"uk_clusters"``, ``"us_airports"``.
+
+    Returns
+    -------
+    pathlib.Path
+        Location of the CSV file inside the installed package.
+
+    Examples
+    --------
+    >>> from geoalpha import datasets
+    >>> datasets.path("stats19").name
+    'stats19_2014_subset_razshain.csv'
+    """
+    if name not in DATASETS:
+        raise KeyError(
+            f"unknown dataset {name!r}; expected one of {', '.join(sorted(DATASETS))}"
+        )
+    return Path(str(files("geoalpha").joinpath("data", DATASETS[name][0])))
+
+
+def load(name: str):
+    """Load a bundled dataset as a GeoDataFrame of points in EPSG:4326.
+
+    Parameters
+    ----------
+    name : str
+        One of ``"stats19"``, ``"uk_clusters"``, ``"us_airports"``.
+
+    Returns
+    -------
+    geopandas.GeoDataFrame
+        Every row of the CSV file, with point geometries built from its
+        longitude/latitude columns (WGS84). ``DATASETS[name][3]`` names the
+        column to group by.
+
+    Examples
+    --------
+    >>> from geoalpha import datasets
+    >>> gdf = datasets.load("uk_clusters")
+    >>> len(gdf), gdf["Cluster"].nunique(), gdf.crs.to_epsg()
+    (15255, 691, 4326)
+    """
+    import geopandas as gpd
+    import pandas as pd
+
+    csv = path(name)  # raises KeyError naming the valid names
+    _, lon, lat, _, _ = DATASETS[name]
+    frame = pd.read_csv(csv, low_memory=False)
+    return gpd.GeoDataFrame(
+        frame, geometry=gpd.points_from_xy(frame[lon], frame[lat]), crs="EPSG:4326"
+    )
