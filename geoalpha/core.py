@@ -1,0 +1,646 @@
+"""Exact optimal alpha shapes on Delaunay triangulations, batched over groups.
+
+Pure numpy/scipy: no pandas, no shapely. Everything works on many groups at
+once; the only Python loop per group is the call to Qhull (scipy's
+:class:`~scipy.spatial.Delaunay`), which is the floor any method pays.
+
+Notation (see ``DESIGN.md``): a triangle ``t`` of the Delaunay triangulation
+has circumradius ``r(t)``; it is *solid* at ``alpha`` when ``alpha * r(t) <= 1``,
+i.e. when ``r(t) <= R`` with ``R = 1 / alpha``. We work with the radius
+threshold ``R`` throughout and convert to ``alpha`` only at the edges.
+
+With ``holes=False`` every triangle gets a *fill radius* ``f(t)`` (the
+max-min radius along dual paths to the outside of the convex hull) and the
+filled shape at ``R`` is ``{t : f(t) <= R}``; with ``holes=True`` the weights
+are the radii themselves. Both cases then share one machinery:
+
+* coverage holds from ``R_cov = max_v min_{t ni v} w(t)`` on;
+* the number of edge-connected pieces at ``R`` is
+  ``#{t : w(t) <= R} - #{MSF edges of weight <= R}`` where the minimum
+  spanning forest is taken on the dual graph weighted by ``max(w_a, w_b)``.
+
+Evaluating both at every spectrum value is ``O(m log m)`` for ``m`` triangles.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.sparse import csr_array
+from scipy.sparse.csgraph import (
+    breadth_first_order,
+    connected_components,
+    minimum_spanning_tree,
+)
+from scipy.spatial import Delaunay, QhullError
+
+__all__ = [
+    "Rings",
+    "Spectrum",
+    "Triangulation",
+    "boundary_rings",
+    "fill_radius",
+    "merge_ties",
+    "optimal_radius",
+    "piece_labels",
+    "radius_of_alpha",
+    "triangulate",
+]
+
+#: Relative slack of the solid test ``r <= 1 / alpha`` when alpha comes from a
+#: user (a float): ``1 / (1 / r)`` may differ from ``r`` by an ulp, and
+#: ``alpha_shape(p, optimal_alpha(p))`` must give the optimal shape.
+ALPHA_RTOL = 8 * np.finfo(float).eps
+
+#: Circumradii that agree to this relative tolerance are one spectrum value.
+TIE_RTOL = 1e-10
+
+
+@dataclass(frozen=True)
+class Triangulation:
+    """Delaunay triangulations of many groups, concatenated.
+
+    Attributes
+    ----------
+    xy : ndarray of shape (p, 2)
+        The distinct points, sorted by group, in the input coordinates.
+    local : ndarray of shape (p, 2)
+        The same points relative to their group's first point (used for all
+        metric computations, so that large offsets such as UTM northings lose
+        no precision).
+    point_group : ndarray of shape (p,)
+        Group code of each distinct point.
+    point_ptr : ndarray of shape (G + 1,)
+        Distinct points of group ``g`` are ``point_ptr[g]:point_ptr[g + 1]``.
+    input_point : ndarray of shape (n,)
+        For each input row, the index of its distinct point.
+    vertex : ndarray of shape (p,)
+        For each distinct point, the triangulation vertex that represents it:
+        itself, or for a point that Qhull merged with a numerically coincident
+        one (a "coplanar" point), that neighbour.
+    triangles : ndarray of shape (m, 3)
+        Vertex indices (into ``xy``) of every triangle, counter-clockwise.
+    neighbors : ndarray of shape (m, 3)
+        ``neighbors[t, j]`` is the triangle across the edge opposite vertex
+        ``j`` of ``t``, or -1 on the convex hull.
+    tri_group : ndarray of shape (m,)
+        Group code of each triangle; triangles are contiguous by group.
+    tri_ptr : ndarray of shape (G + 1,)
+        Triangles of group ``g`` are ``tri_ptr[g]:tri_ptr[g + 1]``.
+    radius : ndarray of shape (m,)
+        Circumradius of each triangle (``inf`` for a flat one).
+    degenerate : ndarray of shape (G,)
+        True for groups with fewer than 3 distinct points or all collinear
+        (no triangle, hence no alpha).
+    """
+
+    xy: np.ndarray
+    local: np.ndarray
+    point_group: np.ndarray
+    point_ptr: np.ndarray
+    input_point: np.ndarray
+    vertex: np.ndarray
+    triangles: np.ndarray
+    neighbors: np.ndarray
+    tri_group: np.ndarray
+    tri_ptr: np.ndarray
+    radius: np.ndarray
+    degenerate: np.ndarray
+
+    @property
+    def n_groups(self) -> int:
+        """Number of groups."""
+        return len(self.point_ptr) - 1
+
+    def dual_edges(self) -> tuple[np.ndarray, np.ndarray]:
+        """Return each pair of edge-adjacent triangles once, as ``(a, b)``, a < b."""
+        a = np.repeat(np.arange(len(self.triangles)), 3)
+        b = self.neighbors.ravel()
+        keep = b > a
+        return a[keep], b[keep]
+
+
+def _check_points(points) -> np.ndarray:
+    xy = np.asarray(points, dtype=float)
+    if xy.ndim != 2 or xy.shape[1] != 2:
+        raise ValueError(
+            f"points must be an (n, 2) array of x, y; got shape {xy.shape}"
+        )
+    bad = np.flatnonzero(~np.isfinite(xy).all(axis=1))
+    if len(bad):
+        shown = ", ".join(map(str, bad[:10])) + (", ..." if len(bad) > 10 else "")
+        raise ValueError(
+            f"points must have finite coordinates; got NaN or inf in {len(bad)} "
+            f"row(s) (positions {shown})"
+        )
+    return xy
+
+
+def _group_codes(groups, n: int, n_groups: int | None) -> tuple[np.ndarray, int]:
+    if groups is None:
+        return np.zeros(n, dtype=np.int64), 1 if n_groups is None else n_groups
+    codes = np.asarray(groups)
+    if codes.shape != (n,) or not np.issubdtype(codes.dtype, np.integer):
+        raise ValueError(
+            f"groups must be {n} integer group codes (one per point); got "
+            f"{codes.dtype} array of shape {codes.shape}"
+        )
+    codes = codes.astype(np.int64, copy=False)
+    if n and codes.min() < 0:
+        raise ValueError("groups must be codes >= 0 (as from pandas.factorize)")
+    size = int(codes.max()) + 1 if n else 0
+    if n_groups is None:
+        n_groups = size
+    elif n_groups < size:
+        raise ValueError(f"n_groups={n_groups} but groups has code {size - 1}")
+    return codes, n_groups
+
+
+def triangulate(points, groups=None, *, n_groups: int | None = None) -> Triangulation:
+    """Delaunay-triangulate the distinct points of every group.
+
+    Parameters
+    ----------
+    points : array_like of shape (n, 2)
+        Planar coordinates (a metric CRS for meaningful alphas).
+    groups : array_like of shape (n,), optional
+        Integer group code ``0 .. G-1`` of each point; all one group if None.
+    n_groups : int, optional
+        Number of groups ``G`` (default: largest code + 1); codes without a
+        point make empty, degenerate groups.
+
+    Returns
+    -------
+    Triangulation
+
+    Raises
+    ------
+    ValueError
+        If coordinates are NaN/inf (the message names the rows) or the
+        shapes do not fit.
+
+    Examples
+    --------
+    >>> tri = triangulate([[0, 0], [1, 0], [0, 1], [1, 1], [1, 1]])
+    >>> len(tri.xy), len(tri.triangles), tri.degenerate.tolist()
+    (4, 2, [False])
+    """
+    xy_in = _check_points(points)
+    n = len(xy_in)
+    codes, n_groups = _group_codes(groups, n, n_groups)
+
+    # Distinct points, sorted by (group, x, y).
+    order = np.lexsort((xy_in[:, 1], xy_in[:, 0], codes))
+    sx, sc = xy_in[order], codes[order]
+    first = np.ones(n, dtype=bool)
+    first[1:] = (sc[1:] != sc[:-1]) | (sx[1:] != sx[:-1]).any(axis=1)
+    xy, point_group = sx[first], sc[first]
+    input_point = np.empty(n, dtype=np.int64)
+    input_point[order] = np.cumsum(first) - 1
+
+    counts = np.bincount(point_group, minlength=n_groups)
+    point_ptr = np.zeros(n_groups + 1, dtype=np.int64)
+    np.cumsum(counts, out=point_ptr[1:])
+    # Origin of each group: its first distinct point. Differences of nearby
+    # floats are exact (Sterbenz), so gridded data stay exactly gridded.
+    origin = xy[np.minimum(point_ptr[:-1], max(len(xy) - 1, 0))] if len(xy) else xy
+    local = xy - origin[point_group]
+
+    # The one loop per group: Qhull. Everything else is batched below.
+    simplices, neighbors, ntri, coplanar = [], [], np.zeros(n_groups, np.int64), []
+    degenerate = counts < 3
+    for g in np.flatnonzero(~degenerate):
+        s, e = point_ptr[g], point_ptr[g + 1]
+        try:
+            d = Delaunay(local[s:e])
+        except QhullError:  # all (numerically) collinear
+            degenerate[g] = True
+            continue
+        simplices.append(d.simplices + s)
+        neighbors.append(d.neighbors)
+        ntri[g] = len(d.simplices)
+        if len(d.coplanar):
+            coplanar.append(d.coplanar[:, [0, 2]] + s)
+
+    tri_ptr = np.zeros(n_groups + 1, dtype=np.int64)
+    np.cumsum(ntri, out=tri_ptr[1:])
+    tri_group = np.repeat(np.arange(n_groups), ntri)
+    if simplices:
+        triangles = np.concatenate(simplices).astype(np.int64)
+        nb = np.concatenate(neighbors).astype(np.int64)
+        nb = np.where(nb >= 0, nb + tri_ptr[tri_group][:, None], -1)
+    else:
+        triangles = np.empty((0, 3), dtype=np.int64)
+        nb = np.empty((0, 3), dtype=np.int64)
+
+    # Orient every triangle counter-clockwise (swap vertices 1, 2 and the
+    # neighbours opposite them where Qhull gave them clockwise).
+    p0, p1, p2 = (local[triangles[:, k]] for k in range(3))
+    cross = (p1[:, 0] - p0[:, 0]) * (p2[:, 1] - p0[:, 1]) - (p1[:, 1] - p0[:, 1]) * (
+        p2[:, 0] - p0[:, 0]
+    )
+    cw = cross < 0
+    triangles[cw] = triangles[cw][:, [0, 2, 1]]
+    nb[cw] = nb[cw][:, [0, 2, 1]]
+    radius = merge_ties(_circumradius(p0, p1, p2, np.abs(cross)))
+
+    # Points Qhull merged with a nearby vertex are represented by it.
+    vertex = np.arange(len(xy))
+    if coplanar:
+        cp = np.concatenate(coplanar)
+        vertex[cp[:, 0]] = cp[:, 1]
+
+    return Triangulation(
+        xy=xy,
+        local=local,
+        point_group=point_group,
+        point_ptr=point_ptr,
+        input_point=input_point,
+        vertex=vertex,
+        triangles=triangles,
+        neighbors=nb,
+        tri_group=tri_group,
+        tri_ptr=tri_ptr,
+        radius=radius,
+        degenerate=degenerate,
+    )
+
+
+def _circumradius(p0, p1, p2, twice_area) -> np.ndarray:
+    """Circumradius ``|ab| |bc| |ca| / (4 area)``; ``inf`` for flat triangles."""
+    a = np.hypot(*(p1 - p0).T)
+    b = np.hypot(*(p2 - p1).T)
+    c = np.hypot(*(p0 - p2).T)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r = a * b * c / (2.0 * twice_area)
+    r[~(twice_area > 0)] = np.inf
+    return r
+
+
+def merge_ties(radius: np.ndarray, rtol: float = TIE_RTOL) -> np.ndarray:
+    """Give radii that agree to ``rtol`` (relative) the largest of their values.
+
+    Cocircular points (grids, rounded coordinates) have triangles with the same
+    circumradius in exact arithmetic, which rounding splits by an ulp or two.
+    Merging them keeps such triangles entering the shape together, as the
+    definition wants. Runs of values each within ``rtol`` of the previous one
+    form one value.
+
+    Examples
+    --------
+    >>> merge_ties(np.array([1.0, 1.0 + 1e-15, 2.0])).tolist()
+    [1.000000000000001, 1.000000000000001, 2.0]
+    """
+    if len(radius) == 0:
+        return radius
+    order = np.argsort(radius, kind="stable")
+    s = radius[order]
+    start = np.ones(len(s), dtype=bool)
+    start[1:] = s[1:] > s[:-1] * (1.0 + rtol)
+    run_max = np.maximum.reduceat(s, np.flatnonzero(start))
+    out = np.empty_like(radius)
+    out[order] = run_max[np.cumsum(start) - 1]
+    return out
+
+
+def _ranks(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Return the sorted distinct values and the rank of each value among them."""
+    uniq, inverse = np.unique(values, return_inverse=True)
+    return uniq, inverse.reshape(values.shape)
+
+
+def fill_radius(tri: Triangulation) -> np.ndarray:
+    """Fill radius of every triangle: when it joins the shape with holes filled.
+
+    A triangle that is not solid at ``R`` is filled in when every dual path
+    from it to the outside of the convex hull passes through a solid
+    triangle. So it belongs to the filled shape exactly when
+    ``R >= f(t)``, where ``f(t)`` is the widest-path (max-min) value of the
+    circumradius along dual paths from ``t`` to the outside. Computed for all
+    groups at once with one maximum spanning tree rooted at a shared
+    "outside" node, then path minima by pointer jumping.
+
+    Parameters
+    ----------
+    tri : Triangulation
+
+    Returns
+    -------
+    ndarray of shape (m,)
+        ``f(t) <= r(t)``, each a value of the radius spectrum.
+    """
+    m = len(tri.triangles)
+    if m == 0:
+        return tri.radius.copy()
+    r = tri.radius
+    a, b = tri.dual_edges()
+    hull = np.flatnonzero((tri.neighbors < 0).any(axis=1))
+    outside = m
+    src = np.concatenate([a, hull])
+    dst = np.concatenate([b, np.full(len(hull), outside)])
+    w = np.concatenate([np.minimum(r[a], r[b]), r[hull]])
+    # Maximum spanning tree = minimum spanning tree on reversed ranks (> 0).
+    uniq, rank = _ranks(w)
+    cost = (len(uniq) - rank).astype(float)
+    graph = csr_array((cost, (src, dst)), shape=(m + 1, m + 1))
+    tree = minimum_spanning_tree(graph)
+    _, parent = breadth_first_order(
+        tree, outside, directed=False, return_predecessors=True
+    )
+    parent[outside] = outside
+    r_ext = np.append(r, np.inf)
+    # Edge weight towards the parent is min(r[t], r[parent]) (r[outside] = inf);
+    # the fill radius is the minimum over the path to the root.
+    val = np.minimum(r_ext, r_ext[parent])
+    while True:
+        grand = parent[parent]
+        if np.array_equal(grand, parent):
+            break
+        val = np.minimum(val, val[parent])
+        parent = grand
+    return val[:m]
+
+
+def _min_at(target: np.ndarray, index: np.ndarray, values: np.ndarray) -> None:
+    np.minimum.at(target, index, values)
+
+
+@dataclass(frozen=True)
+class Spectrum:
+    """Validity oracle for one weight per triangle (radius or fill radius).
+
+    Answers, for any group and radius threshold ``R``, how many edge-connected
+    pieces the shape ``{t : w(t) <= R}`` has and whether it covers every
+    point, in ``O(log m)`` per query after an ``O(m log m)`` set-up.
+
+    Attributes
+    ----------
+    values : ndarray
+        Sorted distinct weights of all groups.
+    tri_keys, msf_keys : ndarray
+        Sorted ``group * (K + 1) + rank`` keys of the triangles and of the
+        minimum-spanning-forest edges (``K = len(values)``).
+    tri_ptr, msf_ptr : ndarray of shape (G + 1,)
+        Group offsets into the sorted keys.
+    cover : ndarray of shape (G,)
+        Smallest ``R`` at which every point of the group is covered
+        (``inf`` for degenerate groups).
+    """
+
+    values: np.ndarray
+    tri_keys: np.ndarray
+    msf_keys: np.ndarray
+    tri_ptr: np.ndarray
+    msf_ptr: np.ndarray
+    cover: np.ndarray
+
+    @classmethod
+    def build(cls, tri: Triangulation, weight: np.ndarray) -> Spectrum:
+        """Set up the oracle for ``weight`` (one value per triangle of ``tri``)."""
+        m, G = len(tri.triangles), tri.n_groups
+        values, rank = _ranks(weight)
+        stride = len(values) + 1
+        tri_keys = np.sort(tri.tri_group * stride + rank)
+
+        a, b = tri.dual_edges()
+        edge_rank = np.maximum(rank[a], rank[b])
+        graph = csr_array(((edge_rank + 1).astype(float), (a, b)), shape=(m, m))
+        forest = minimum_spanning_tree(graph).tocoo()
+        fa = np.asarray(forest.row, dtype=np.int64)
+        f_rank = np.maximum(rank[fa], rank[np.asarray(forest.col, dtype=np.int64)])
+        f_group = tri.tri_group[fa]
+        msf_keys = np.sort(f_group * stride + f_rank)
+        msf_ptr = np.zeros(G + 1, dtype=np.int64)
+        np.cumsum(np.bincount(f_group, minlength=G), out=msf_ptr[1:])
+
+        # Coverage: each vertex needs one incident triangle in the shape.
+        p = len(tri.xy)
+        vmin = np.full(p, np.inf)
+        _min_at(vmin, tri.triangles.ravel(), np.repeat(weight, 3))
+        is_vertex = np.zeros(p, dtype=bool)
+        is_vertex[tri.triangles.ravel()] = True
+        cover = np.full(G, -np.inf)
+        np.maximum.at(cover, tri.point_group[is_vertex], vmin[is_vertex])
+        cover[tri.degenerate] = np.inf
+        return cls(values, tri_keys, msf_keys, tri.tri_ptr, msf_ptr, cover)
+
+    def _count(self, keys, ptr, group, rank) -> np.ndarray:
+        stride = len(self.values) + 1
+        return np.searchsorted(keys, group * stride + rank, side="right") - ptr[group]
+
+    def pieces_at_rank(self, group: np.ndarray, rank: np.ndarray) -> np.ndarray:
+        """Edge-connected pieces of group ``group`` with weights of rank <= ``rank``."""
+        return self._count(self.tri_keys, self.tri_ptr, group, rank) - self._count(
+            self.msf_keys, self.msf_ptr, group, rank
+        )
+
+    def pieces(self, group, radius) -> np.ndarray:
+        """Edge-connected pieces of each ``group``'s shape at radius threshold ``radius``."""
+        group = np.asarray(group, dtype=np.int64)
+        rank = np.searchsorted(self.values, radius, side="right") - 1
+        return self.pieces_at_rank(group, rank)
+
+    def valid(self, group, radius, components: int = 1) -> np.ndarray:
+        """True where the shape at ``radius`` covers every point in <= ``components`` pieces."""
+        group = np.asarray(group, dtype=np.int64)
+        radius = np.asarray(radius, dtype=float)
+        n = self.pieces(group, radius)
+        return (radius >= self.cover[group]) & (n >= 1) & (n <= components)
+
+
+def optimal_radius(
+    tri: Triangulation, weight: np.ndarray, spectrum: Spectrum, components: int = 1
+) -> np.ndarray:
+    """Smallest spectrum value ``R`` at which each group's shape is valid.
+
+    The optimal alpha is ``1 / R``. Every candidate ``R`` (each triangle's
+    weight) is tested with the :class:`Spectrum` oracle, so the result is the
+    true minimum over the spectrum even where validity is not monotone.
+
+    Parameters
+    ----------
+    tri : Triangulation
+    weight : ndarray of shape (m,)
+        Radius (``holes=True``) or fill radius (``holes=False``).
+    spectrum : Spectrum
+        ``Spectrum.build(tri, weight)``.
+    components : int
+        Largest number of edge-connected pieces allowed.
+
+    Returns
+    -------
+    ndarray of shape (G,)
+        ``inf`` for degenerate groups (and where only the convex hull with a
+        flat triangle is valid, i.e. alpha = 0).
+    """
+    rank = np.searchsorted(spectrum.values, weight)
+    g = tri.tri_group
+    n = spectrum.pieces_at_rank(g, rank)
+    ok = (weight >= spectrum.cover[g]) & (n >= 1) & (n <= components)
+    best = np.full(tri.n_groups, np.inf)
+    _min_at(best, g[ok], weight[ok])
+    return best
+
+
+def radius_of_alpha(alpha) -> np.ndarray:
+    """Radius threshold ``1 / alpha`` (``inf`` for 0) with a few ulps of slack.
+
+    The slack (:data:`ALPHA_RTOL`) makes ``alpha * r <= 1`` hold for the
+    triangle ``r = 1 / alpha`` came from despite rounding.
+    """
+    alpha = np.asarray(alpha, dtype=float)
+    with np.errstate(divide="ignore"):
+        return np.where(alpha > 0, (1.0 / alpha) * (1.0 + ALPHA_RTOL), np.inf)
+
+
+def piece_labels(tri: Triangulation, inside: np.ndarray) -> np.ndarray:
+    """Label the edge-connected pieces of the triangles where ``inside`` is True.
+
+    Returns an array of shape (m,) with labels ``0 .. P-1`` numbered by group
+    (pieces of group 0 first) and -1 for triangles outside the shape.
+    """
+    m = len(tri.triangles)
+    a, b = tri.dual_edges()
+    keep = inside[a] & inside[b]
+    graph = csr_array((np.ones(keep.sum()), (a[keep], b[keep])), shape=(m, m))
+    _, raw = connected_components(graph, directed=False)
+    raw = np.where(inside, raw, -1)
+    # Renumber pieces in order of group (triangles are sorted by group).
+    first = np.full(m + 1, m, dtype=np.int64)
+    sel = np.flatnonzero(inside)
+    _min_at(first, raw[sel], sel)
+    order = np.argsort(first, kind="stable")
+    new = np.empty_like(order)
+    new[order] = np.arange(len(order))
+    return np.where(inside, new[raw], -1)
+
+
+@dataclass(frozen=True)
+class Rings:
+    """Boundary rings of the pieces of a shape, ready for polygon assembly.
+
+    Attributes
+    ----------
+    vertex : ndarray of shape (k,)
+        Point index (into ``Triangulation.xy``) of each ring vertex, rings one
+        after another, each listed once (not closed).
+    ring : ndarray of shape (k,)
+        Ring number of each vertex, ``0 .. R-1``, non-decreasing.
+    ring_piece : ndarray of shape (R,)
+        Piece number of each ring; the shell of a piece comes before its holes.
+    piece_group : ndarray of shape (P,)
+        Group code of each piece, non-decreasing.
+    """
+
+    vertex: np.ndarray
+    ring: np.ndarray
+    ring_piece: np.ndarray
+    piece_group: np.ndarray
+
+
+def boundary_rings(tri: Triangulation, inside: np.ndarray, piece: np.ndarray) -> Rings:
+    """Trace the boundary of every piece of a shape into closed rings.
+
+    Each boundary edge is directed with the shape on its left. At a vertex
+    where a piece's boundary touches itself, the ring turns through the
+    exterior wedge (the first outgoing edge counter-clockwise from the
+    reversed incoming one), so shells and holes that touch at a vertex become
+    separate rings, as valid OGC polygons want. Rings are ordered with the
+    list-ranking (pointer jumping) technique, with no loop over edges.
+
+    Parameters
+    ----------
+    tri : Triangulation
+    inside : ndarray of bool, shape (m,)
+        Triangles in the shape.
+    piece : ndarray of shape (m,)
+        Piece labels from :func:`piece_labels`.
+
+    Returns
+    -------
+    Rings
+    """
+    t = np.repeat(np.arange(len(tri.triangles)), 3)
+    j = np.tile(np.arange(3), len(tri.triangles))
+    nb = tri.neighbors.ravel()
+    border = inside[t] & ((nb < 0) | ~inside[np.maximum(nb, 0)])
+    t, j = t[border], j[border]
+    u = tri.triangles[t, (j + 1) % 3]
+    v = tri.triangles[t, (j + 2) % 3]
+    pc = piece[t]
+    n_edges = len(t)
+    n_pieces = int(piece.max()) + 1 if len(piece) and piece.max() >= 0 else 0
+    piece_group = np.zeros(n_pieces, dtype=np.int64)
+    piece_group[pc] = tri.tri_group[t]
+    if n_edges == 0:
+        empty = np.empty(0, dtype=np.int64)
+        return Rings(empty, empty, empty, piece_group)
+
+    # Successor of each edge: an outgoing edge of the same piece at its head.
+    stride = len(tri.xy)
+    out_key = pc * stride + u
+    order = np.argsort(out_key, kind="stable")
+    sorted_key = out_key[order]
+    in_key = pc * stride + v
+    lo = np.searchsorted(sorted_key, in_key, side="left")
+    hi = np.searchsorted(sorted_key, in_key, side="right")
+    nxt = order[lo]
+    pinch = np.flatnonzero(hi - lo > 1)
+    if len(pinch):
+        nxt[pinch] = _turn_through_exterior(tri.local, u, v, order, lo, hi, pinch)
+
+    # Rings are the cycles of the successor permutation.
+    graph = csr_array((np.ones(n_edges), (np.arange(n_edges), nxt)), (n_edges,) * 2)
+    n_rings, label = connected_components(graph, directed=True, connection="weak")
+    root = np.full(n_rings, n_edges, dtype=np.int64)
+    _min_at(root, label, np.arange(n_edges))
+    # List ranking: distance of each edge to the last edge before the root.
+    succ = np.where(nxt == root[label], np.arange(n_edges), nxt)
+    dist = (succ != np.arange(n_edges)).astype(np.int64)
+    while True:
+        jump = succ[succ]
+        if np.array_equal(jump, succ):
+            break
+        dist = dist + dist[succ]
+        succ = jump
+    length = np.bincount(label, minlength=n_rings)
+    position = length[label] - 1 - dist
+
+    # Shell (counter-clockwise, positive area) first within each piece.
+    pu, pv = tri.local[u], tri.local[v]
+    area2 = np.bincount(
+        label, weights=pu[:, 0] * pv[:, 1] - pv[:, 0] * pu[:, 1], minlength=n_rings
+    )
+    ring_piece_raw = pc[root]
+    ring_order = np.lexsort((np.arange(n_rings), area2 <= 0, ring_piece_raw))
+    ring_new = np.empty(n_rings, dtype=np.int64)
+    ring_new[ring_order] = np.arange(n_rings)
+    ring = ring_new[label]
+    edge_order = np.lexsort((position, ring))
+    return Rings(
+        vertex=u[edge_order],
+        ring=ring[edge_order],
+        ring_piece=ring_piece_raw[ring_order],
+        piece_group=piece_group,
+    )
+
+
+def _turn_through_exterior(local, u, v, order, lo, hi, pinch) -> np.ndarray:
+    """Successor at pinch vertices: first outgoing edge CCW from the reverse edge."""
+    count = hi[pinch] - lo[pinch]
+    edge = np.repeat(pinch, count)
+    start = np.repeat(lo[pinch], count)
+    offset = np.arange(len(edge)) - np.repeat(np.cumsum(count) - count, count)
+    cand = order[start + offset]
+    head = local[v[edge]]
+    back = local[u[edge]] - head
+    ahead = local[v[cand]] - head
+    turn = np.mod(
+        np.arctan2(ahead[:, 1], ahead[:, 0]) - np.arctan2(back[:, 1], back[:, 0]),
+        2 * np.pi,
+    )
+    best = np.lexsort((turn, edge))
+    first = np.ones(len(best), dtype=bool)
+    first[1:] = edge[best][1:] != edge[best][:-1]
+    return cand[best][first]

@@ -1,0 +1,340 @@
+"""Optimal alpha shapes of point arrays: the array-level public API.
+
+:func:`alpha_shapes` is the batched entry point (many groups in one call, as
+the GeoPandas layer uses it); :func:`optimal_alpha` and :func:`alpha_shape`
+are the one-group conveniences.
+"""
+
+from __future__ import annotations
+
+import warnings
+from typing import Literal, NamedTuple
+
+import numpy as np
+
+from geoalpha import core, search, shapes
+from geoalpha.errors import DegenerateGroupWarning, InvalidInputError, SearchWarning
+
+__all__ = ["AlphaShapes", "alpha_shape", "alpha_shapes", "optimal_alpha"]
+
+Search = Literal["exact", "ladder", "bisect"]
+_SEARCHES = ("exact", "ladder", "bisect")
+
+
+class AlphaShapes(NamedTuple):
+    """Result of :func:`alpha_shapes`, one entry per group.
+
+    Attributes
+    ----------
+    alpha : ndarray of float
+        The alpha used (the optimum unless one was given), in 1/unit of the
+        coordinates; ``nan`` for degenerate groups, 0 means the convex hull.
+    geometry : ndarray of object
+        Polygon, MultiPolygon (several pieces) or empty Polygon (degenerate
+        group, or nothing solid at the given alpha).
+    n_points : ndarray of int
+        Input points of the group (duplicates included).
+    n_distinct : ndarray of int
+        Distinct points of the group.
+    n_parts : ndarray of int
+        Edge-connected pieces of the shape.
+    degenerate : ndarray of bool
+        Fewer than 3 distinct points, or all collinear: no triangle, no alpha.
+    """
+
+    alpha: np.ndarray
+    geometry: np.ndarray
+    n_points: np.ndarray
+    n_distinct: np.ndarray
+    n_parts: np.ndarray
+    degenerate: np.ndarray
+
+
+def _check_options(holes, components, search_: str) -> None:
+    if not isinstance(holes, bool | np.bool_):
+        raise InvalidInputError(f"holes must be True or False; got {holes!r}")
+    if isinstance(components, bool) or not isinstance(components, int | np.integer):
+        raise InvalidInputError(
+            f"components must be an integer >= 1; got {components!r}"
+        )
+    if components < 1:
+        raise InvalidInputError(f"components must be an integer >= 1; got {components}")
+    if search_ not in _SEARCHES:
+        raise InvalidInputError(
+            f"search must be one of {', '.join(map(repr, _SEARCHES))}; got {search_!r}"
+        )
+
+
+def _radius_threshold(
+    tri: core.Triangulation,
+    weight: np.ndarray,
+    alpha,
+    components: int,
+    search_: str,
+    max_iterations: int,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Per group: the alpha (nan if degenerate) and the radius threshold R."""
+    G = tri.n_groups
+    if alpha is not None:
+        a = np.broadcast_to(np.asarray(alpha, dtype=float), (G,)).copy()
+        if not np.isfinite(a).all() or (a < 0).any():
+            raise InvalidInputError(f"alpha must be finite and >= 0; got {alpha!r}")
+        a[tri.degenerate] = np.nan
+        return a, core.radius_of_alpha(a)
+
+    spectrum = core.Spectrum.build(tri, weight)
+    if search_ == "exact":
+        radius = core.optimal_radius(tri, weight, spectrum, components)
+        with np.errstate(divide="ignore"):
+            a = 1.0 / radius
+        a[tri.degenerate] = np.nan
+        return a, radius
+
+    def valid(groups, alphas):
+        return spectrum.valid(groups, core.radius_of_alpha(alphas), components)
+
+    if search_ == "ladder":
+        a, _ = search.ladder_alpha(valid, G)
+    else:
+        a, gave_up, _ = search.bisect_alpha(valid, G, max_iterations=max_iterations)
+        gave_up &= ~tri.degenerate
+        if gave_up.any():
+            warnings.warn(
+                f"search='bisect' did not converge within max_iterations="
+                f"{max_iterations} for {gave_up.sum()} group(s) (codes "
+                f"{_shown(np.flatnonzero(gave_up))}) and returned alpha=0, the "
+                "convex hull, as alphashape does; use search='exact'",
+                SearchWarning,
+                stacklevel=4,
+            )
+    a[tri.degenerate] = np.nan
+    return a, core.radius_of_alpha(a)
+
+
+def _shown(items, limit: int = 10) -> str:
+    items = list(items)
+    text = ", ".join(map(str, items[:limit]))
+    return text + (", ..." if len(items) > limit else "")
+
+
+def alpha_shapes(
+    points,
+    groups=None,
+    *,
+    alpha=None,
+    holes: bool = False,
+    components: int = 1,
+    search: Search = "exact",
+    max_iterations: int = 10_000,
+    coords=None,
+    n_groups: int | None = None,
+) -> AlphaShapes:
+    """Optimal alpha shapes of many groups of points in one call.
+
+    Parameters
+    ----------
+    points : array_like of shape (n, 2)
+        Coordinates in a metric (projected) CRS; alpha is in 1/unit of them.
+    groups : array_like of int, shape (n,), optional
+        Group code ``0 .. G-1`` of each point (e.g. from
+        :func:`pandas.factorize`); all points form one group if None.
+    alpha : float or array_like of shape (G,), optional
+        Use this alpha instead of the optimum (0 is the convex hull).
+    holes : bool, default False
+        Keep holes (True) or fill every hole not connected to the outside
+        (False, the seed paper's "no empty space in the middle").
+    components : int, default 1
+        Largest number of edge-connected pieces a valid shape may have.
+    search : {"exact", "ladder", "bisect"}, default "exact"
+        How the optimum is searched: ``"exact"`` finds the true maximum over
+        the Delaunay circumradius spectrum; ``"ladder"`` is the seed paper's
+        integer ladder (5000, 3000, ..., 5, 0, then integer bisection) and
+        ``"bisect"`` ``alphashape``'s float bisection from 0 to the largest
+        float. Both use the same validity test as ``"exact"``, but their
+        answers depend on the units: integer alphas in 1/metre are nearly
+        always 0, the convex hull; the bisection cannot converge when the
+        optimum is >= 4 and then returns 0 with a :class:`SearchWarning`.
+    max_iterations : int, default 10000
+        Bisection steps before ``search="bisect"`` gives up.
+    coords : array_like of shape (n, 2), optional
+        Coordinates to build the output geometries from, one row per input
+        point (default: ``points``). The GeoPandas layer passes the input
+        longitude/latitude here, so that every polygon vertex is exactly an
+        input point although the computation ran in metres.
+    n_groups : int, optional
+        Number of groups (default: largest code + 1).
+
+    Returns
+    -------
+    AlphaShapes
+        Per group: ``alpha``, ``geometry``, ``n_points``, ``n_distinct``,
+        ``n_parts``, ``degenerate``.
+
+    Raises
+    ------
+    InvalidInputError
+        On NaN/inf coordinates (naming the rows), bad shapes or options.
+
+    Notes
+    -----
+    A triangle is solid when ``alpha * r <= 1`` (evaluated with a few ulps
+    of slack, so that feeding an optimal alpha back gives the optimal
+    shape). Groups with fewer than 3 distinct points, or all collinear, are
+    *degenerate*: ``alpha`` is nan and the geometry an empty Polygon; no
+    warning is raised here (check ``degenerate``).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> pts = np.array([[0, 0], [4, 0], [4, 4], [0, 4], [2, 3.5],
+    ...                 [10, 0], [12, 0], [11, 2]])
+    >>> res = alpha_shapes(pts, [0, 0, 0, 0, 0, 1, 1, 1])
+    >>> res.alpha.round(4).tolist(), res.n_points.tolist()
+    [[0.3536, 0.625], [5, 3]]
+    >>> [g.geom_type for g in res.geometry]
+    ['Polygon', 'Polygon']
+    """
+    _check_options(holes, components, search)
+    try:
+        tri = core.triangulate(points, groups, n_groups=n_groups)
+    except ValueError as err:
+        raise InvalidInputError(str(err)) from err
+    weight = tri.radius if holes else core.fill_radius(tri)
+    a, radius = _radius_threshold(
+        tri, weight, alpha, components, search, max_iterations
+    )
+
+    inside = weight <= radius[tri.tri_group]
+    piece = core.piece_labels(tri, inside)
+    rings = core.boundary_rings(tri, inside, piece)
+    if coords is None:
+        out_xy = tri.xy
+    else:
+        c = np.asarray(coords, dtype=float)
+        if c.shape != (len(tri.input_point), 2):
+            raise InvalidInputError(
+                f"coords must have the shape of points {(len(tri.input_point), 2)}; "
+                f"got {c.shape}"
+            )
+        out_xy = np.empty_like(tri.xy)
+        out_xy[tri.input_point] = c
+    geometry = shapes.assemble(out_xy, rings, tri.n_groups)
+    n_parts = np.bincount(rings.piece_group, minlength=tri.n_groups)
+    codes = tri.point_group[tri.input_point]
+    return AlphaShapes(
+        alpha=a,
+        geometry=geometry,
+        n_points=np.bincount(codes, minlength=tri.n_groups),
+        n_distinct=np.diff(tri.point_ptr),
+        n_parts=n_parts,
+        degenerate=tri.degenerate.copy(),
+    )
+
+
+def _one_group(points, **kwargs) -> AlphaShapes:
+    res = alpha_shapes(points, None, n_groups=1, **kwargs)
+    if res.degenerate[0]:
+        warnings.warn(
+            f"no alpha shape: the {res.n_distinct[0]} distinct point(s) are fewer "
+            "than 3 or all collinear; alpha is nan and the shape empty",
+            DegenerateGroupWarning,
+            stacklevel=3,
+        )
+    return res
+
+
+def optimal_alpha(
+    points,
+    *,
+    holes: bool = False,
+    components: int = 1,
+    search: Search = "exact",
+    max_iterations: int = 10_000,
+) -> float:
+    """Largest alpha whose shape is one piece containing every point.
+
+    Parameters
+    ----------
+    points : array_like of shape (n, 2)
+        Coordinates in a metric CRS (alpha comes in 1/unit of them).
+    holes : bool, default False
+        Keep holes (True) or fill them (False).
+    components : int, default 1
+        Largest number of edge-connected pieces allowed.
+    search : {"exact", "ladder", "bisect"}, default "exact"
+        See :func:`alpha_shapes`.
+    max_iterations : int, default 10000
+        For ``search="bisect"``.
+
+    Returns
+    -------
+    float
+        ``max{alpha >= 0 : S(alpha) valid}``, exactly ``1 / r(t)`` for one
+        Delaunay triangle ``t`` (or 0 for the convex hull); ``nan`` with a
+        :class:`DegenerateGroupWarning` for fewer than 3 distinct points or
+        collinear points.
+
+    Raises
+    ------
+    InvalidInputError
+        If a coordinate is NaN or inf (the message names the rows).
+
+    Examples
+    --------
+    >>> optimal_alpha([[0, 0], [4, 0], [4, 4], [0, 4], [2, 3.5]])
+    0.3535533905932738
+    """
+    return float(
+        _one_group(
+            points,
+            holes=holes,
+            components=components,
+            search=search,
+            max_iterations=max_iterations,
+        ).alpha[0]
+    )
+
+
+def alpha_shape(
+    points,
+    alpha: float | None = None,
+    *,
+    holes: bool = False,
+    components: int = 1,
+    search: Search = "exact",
+):
+    """Alpha shape of a point set, at the optimal alpha by default.
+
+    Parameters
+    ----------
+    points : array_like of shape (n, 2)
+        Coordinates in a metric CRS.
+    alpha : float, optional
+        None for the optimum, 0 for the convex hull, else the union of the
+        Delaunay triangles with ``alpha * circumradius <= 1``.
+    holes : bool, default False
+        Keep holes (True) or fill them (False).
+    components : int, default 1
+        For the optimum: largest number of pieces allowed.
+    search : {"exact", "ladder", "bisect"}, default "exact"
+        See :func:`alpha_shapes`.
+
+    Returns
+    -------
+    shapely.Polygon or shapely.MultiPolygon
+        At the optimum, one valid Polygon (a MultiPolygon of at most
+        ``components`` parts) covering every input point, whose vertices are
+        input points. At a given alpha, a MultiPolygon where pieces separate
+        and an empty Polygon when nothing is solid.
+
+    Examples
+    --------
+    >>> shape = alpha_shape([[0, 0], [4, 0], [4, 4], [0, 4], [2, 3.5]])
+    >>> shape.geom_type, shape.area
+    ('Polygon', 13.0)
+    >>> alpha_shape([[0, 0], [4, 0], [4, 4], [0, 4], [2, 3.5]], alpha=0).area
+    16.0
+    """
+    return _one_group(
+        points, alpha=alpha, holes=holes, components=components, search=search
+    ).geometry[0]

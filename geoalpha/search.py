@@ -1,0 +1,142 @@
+"""The seed paper's integer ladder and ``alphashape``'s float bisection.
+
+Both are kept for comparison with the exact optimum and use the very same
+validity test (:meth:`geoalpha.core.Spectrum.valid`), vectorised over groups.
+Their answers depend on the coordinate units: an integer alpha in 1/metre is
+nearly always 0 (the convex hull), while in 1/degree it is a usable value.
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Callable
+
+import numpy as np
+
+__all__ = ["LADDER", "bisect_alpha", "ladder_alpha"]
+
+#: The seed paper's descending rungs of integer alphas.
+LADDER: tuple[int, ...] = (5000, 3000, 1000, 500, 300, 100, 50, 25, 18, 10, 5, 0)
+
+#: ``valid(groups, alphas) -> bool array``: is the shape of each group valid?
+Oracle = Callable[[np.ndarray, np.ndarray], np.ndarray]
+
+
+def ladder_alpha(
+    valid: Oracle, n_groups: int, rungs: tuple[int, ...] = LADDER
+) -> tuple[np.ndarray, int]:
+    """Largest integer alpha found by the seed paper's ladder search.
+
+    Test the descending ``rungs``; at the first rung that passes, bisect the
+    integers between it (valid) and the rung above (not valid). A group valid
+    at the top rung gets the top rung.
+
+    Parameters
+    ----------
+    valid : callable
+        ``valid(groups, alphas)`` -> bool array, vectorised over groups.
+    n_groups : int
+        Number of groups.
+    rungs : tuple of int
+        Descending alphas ending with 0 (the convex hull, always valid).
+
+    Returns
+    -------
+    alpha : ndarray of shape (n_groups,)
+        The integer alpha of each group.
+    tests : int
+        Largest number of validity tests one group needed.
+
+    Examples
+    --------
+    >>> ok = lambda g, a: a <= np.array([7.0, 4000.0])[g]
+    >>> ladder_alpha(ok, 2)[0].tolist()
+    [7.0, 4000.0]
+    """
+    rungs_arr = np.asarray(rungs, dtype=float)
+    groups = np.arange(n_groups)
+    passes = valid(
+        np.repeat(groups, len(rungs_arr)), np.tile(rungs_arr, n_groups)
+    ).reshape(n_groups, len(rungs_arr))
+    passes[:, -1] = True  # alpha = 0 is the convex hull
+    first = passes.argmax(axis=1)
+    lo = rungs_arr[first]
+    hi = np.where(first > 0, rungs_arr[np.maximum(first - 1, 0)], lo)
+    tests = first + 1
+    while True:
+        active = np.flatnonzero(hi - lo > 1)
+        if len(active) == 0:
+            break
+        mid = np.floor((lo[active] + hi[active]) / 2)
+        ok = valid(groups[active], mid)
+        lo[active] = np.where(ok, mid, lo[active])
+        hi[active] = np.where(ok, hi[active], mid)
+        tests[active] += 1
+    return lo, int(tests.max(initial=0))
+
+
+def bisect_alpha(
+    valid: Oracle,
+    n_groups: int,
+    *,
+    max_iterations: int = 10_000,
+    lower: float = 0.0,
+    upper: float = sys.float_info.max,
+) -> tuple[np.ndarray, np.ndarray, int]:
+    """``alphashape.optimizealpha``'s float bisection, vectorised over groups.
+
+    Bisects between ``lower`` and ``upper`` until they are closer than
+    ``2 * eps`` (an absolute tolerance, so it cannot converge once the
+    optimum is >= 4, where floats are farther apart) or ``max_iterations`` is
+    exceeded, in which case it gives up and returns 0 (the convex hull), as
+    ``alphashape`` does. A group valid at ``upper`` also gets 0.
+
+    Parameters
+    ----------
+    valid : callable
+        ``valid(groups, alphas)`` -> bool array, vectorised over groups.
+    n_groups : int
+        Number of groups.
+    max_iterations : int
+        Bisection steps before giving up.
+    lower, upper : float
+        Initial bracket.
+
+    Returns
+    -------
+    alpha : ndarray of shape (n_groups,)
+    gave_up : ndarray of bool, shape (n_groups,)
+        Groups for which the bisection did not converge (alpha set to 0).
+    tests : int
+        Largest number of validity tests one group needed.
+
+    Examples
+    --------
+    >>> ok = lambda g, a: a <= np.array([0.75, 100.0])[g]
+    >>> alpha, gave_up, _ = bisect_alpha(ok, 2, max_iterations=2000)
+    >>> alpha.round(9).tolist(), gave_up.tolist()
+    ([0.75, 0.0], [False, True])
+    """
+    groups = np.arange(n_groups)
+    lo = np.full(n_groups, float(lower))
+    hi = np.full(n_groups, float(upper))
+    gave_up = np.zeros(n_groups, dtype=bool)
+    unbounded = valid(groups, hi)
+    active = ~unbounded
+    tol = np.finfo(float).eps * 2
+    iterations = 0
+    while True:
+        active &= (hi - lo) > tol
+        idx = np.flatnonzero(active)
+        if len(idx) == 0:
+            break
+        mid = (hi[idx] + lo[idx]) * 0.5
+        ok = valid(idx, mid)
+        lo[idx] = np.where(ok, mid, lo[idx])
+        hi[idx] = np.where(ok, hi[idx], mid)
+        iterations += 1
+        if iterations > max_iterations:  # alphashape's counter > max_iterations
+            gave_up[idx] = True
+            break
+    lo[gave_up | unbounded] = 0.0
+    return lo, gave_up, iterations + 1

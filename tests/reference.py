@@ -1,0 +1,123 @@
+"""Brute-force references for the exact optimum, straight from DESIGN.md.
+
+They share nothing with geoalpha.core but scipy's Delaunay: every spectrum
+value is tried in increasing order of radius and the shape is checked by its
+definition.
+
+* :func:`shapely_optimum` builds the shape as ``shapely.union_all`` of
+  triangles, counts its pieces as the parts of that union (GEOS splits
+  pieces that touch only at a vertex) and tests coverage with
+  ``shapely.covers``. Slow; for small sets.
+* :func:`graph_optimum` counts edge-connected pieces with scipy's
+  ``connected_components`` on the triangles of each candidate shape, and
+  coverage from vertex incidence. O(m^2); for the real datasets' groups.
+
+Holes are filled (``holes=False``) by a plain breadth-first search from the
+outside of the convex hull through non-solid triangles.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+
+import numpy as np
+import shapely
+from scipy.sparse import csr_array
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import Delaunay
+
+
+def triangulation(points):
+    pts = np.unique(np.asarray(points, dtype=float), axis=0)
+    local = pts - pts.mean(axis=0)
+    d = Delaunay(local)
+    a, b, c = (local[d.simplices[:, k]] for k in range(3))
+    # circumcentre formula
+    bx, by = b[:, 0] - a[:, 0], b[:, 1] - a[:, 1]
+    cx, cy = c[:, 0] - a[:, 0], c[:, 1] - a[:, 1]
+    den = 2 * (bx * cy - by * cx)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ux = (cy * (bx**2 + by**2) - by * (cx**2 + cy**2)) / den
+        uy = (bx * (cx**2 + cy**2) - cx * (bx**2 + by**2)) / den
+        r = np.hypot(ux, uy)
+    r[den == 0] = np.inf
+    return pts, d.simplices, d.neighbors, r
+
+
+#: Radii this close (relative) are the same value: cocircular points give equal
+#: radii in exact arithmetic that rounding splits (DESIGN: ties are attained).
+TIE = 1e-10
+
+
+def shape_mask(neighbors, r, R, holes):
+    """Triangles in S(R): solid ones, plus enclosed ones when holes=False."""
+    solid = r <= R * (1 + TIE)
+    if holes:
+        return solid
+    reach = np.zeros(len(r), dtype=bool)
+    queue = deque()
+    for t in range(len(r)):
+        if not solid[t] and (neighbors[t] < 0).any():
+            reach[t] = True
+            queue.append(t)
+    while queue:
+        t = queue.popleft()
+        for s in neighbors[t]:
+            if s >= 0 and not solid[s] and not reach[s]:
+                reach[s] = True
+                queue.append(s)
+    return ~reach
+
+
+def spectrum(r):
+    """Distinct radii, ascending; of near-equal ones (within TIE) the largest."""
+    u = np.unique(r)
+    keep = np.append(u[1:] > u[:-1] * (1 + TIE), True)
+    return u[keep]
+
+
+def shapely_shape(pts, simplices, mask):
+    tris = shapely.polygons(pts[simplices[mask]])
+    return shapely.union_all(tris)
+
+
+def shapely_valid(pts, shape, components):
+    if shape.is_empty:
+        return False, 0
+    parts = len(shape.geoms) if shape.geom_type == "MultiPolygon" else 1
+    covered = bool(shapely.covers(shape, shapely.points(pts)).all())
+    return covered and parts <= components, parts
+
+
+def shapely_optimum(points, holes=False, components=1):
+    """(alpha, shape) by trying every spectrum value with shapely."""
+    pts, simplices, neighbors, r = triangulation(points)
+    for R in spectrum(r):
+        mask = shape_mask(neighbors, r, R, holes)
+        shape = shapely_shape(pts, simplices, mask)
+        ok, _ = shapely_valid(pts, shape, components)
+        if ok:
+            return (1.0 / R if np.isfinite(R) else 0.0), shape
+    raise AssertionError("the convex hull is always valid")
+
+
+def graph_optimum(points, holes=False, components=1):
+    """Optimal alpha by trying every spectrum value with connected_components."""
+    pts, simplices, neighbors, r = triangulation(points)
+    m = len(r)
+    a = np.repeat(np.arange(m), 3)
+    b = neighbors.ravel()
+    keep = b >= 0
+    a, b = a[keep], b[keep]
+    for R in spectrum(r):
+        mask = shape_mask(neighbors, r, R, holes)
+        covered = np.zeros(len(pts), dtype=bool)
+        covered[simplices[mask].ravel()] = True
+        if not covered.all():
+            continue
+        e = mask[a] & mask[b]
+        g = csr_array((np.ones(e.sum()), (a[e], b[e])), shape=(m, m))
+        _, label = connected_components(g, directed=False)
+        if len(np.unique(label[mask])) <= components:
+            return 1.0 / R if np.isfinite(R) else 0.0
+    raise AssertionError("the convex hull is always valid")
