@@ -436,13 +436,13 @@ class Spectrum:
         )
 
     def pieces(self, group, radius) -> np.ndarray:
-        """Edge-connected pieces of each ``group``'s shape at radius threshold ``radius``."""
+        """Count the edge-connected pieces of each group's shape at ``radius``."""
         group = np.asarray(group, dtype=np.int64)
         rank = np.searchsorted(self.values, radius, side="right") - 1
         return self.pieces_at_rank(group, rank)
 
     def valid(self, group, radius, components: int = 1) -> np.ndarray:
-        """True where the shape at ``radius`` covers every point in <= ``components`` pieces."""
+        """Test coverage and at most ``components`` pieces at ``radius``."""
         group = np.asarray(group, dtype=np.int64)
         radius = np.asarray(radius, dtype=float)
         n = self.pieces(group, radius)

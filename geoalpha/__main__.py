@@ -1,0 +1,6 @@
+"""Run the ``geoalpha`` command: ``python -m geoalpha``."""
+
+from geoalpha.cli import main
+
+if __name__ == "__main__":
+    main(prog_name="geoalpha")
