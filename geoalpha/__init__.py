@@ -13,6 +13,7 @@ from geoalpha.errors import (
     InvalidInputError,
     SearchWarning,
 )
+from geoalpha.optimal import AlphaShapes, alpha_shape, alpha_shapes, optimal_alpha
 
 try:
     __version__ = version("geoalpha")
@@ -20,6 +21,7 @@ except PackageNotFoundError:  # pragma: no cover - running from a source tree
     __version__ = "0+unknown"
 
 __all__ = [
+    "AlphaShapes",
     "AntimeridianWarning",
     "DegenerateGroupWarning",
     "DroppedRowsWarning",
@@ -28,4 +30,7 @@ __all__ = [
     "InvalidInputError",
     "SearchWarning",
     "__version__",
+    "alpha_shape",
+    "alpha_shapes",
+    "optimal_alpha",
 ]
