@@ -89,7 +89,10 @@ class Triangulation:
     tri_ptr : ndarray of shape (G + 1,)
         Triangles of group ``g`` are ``tri_ptr[g]:tri_ptr[g + 1]``.
     radius : ndarray of shape (m,)
-        Circumradius of each triangle (``inf`` for a flat one).
+        Circumradius of each triangle (``inf`` for a flat one); radii equal up
+        to :data:`TIE_RTOL` are merged (see :func:`merge_ties`).
+    area : ndarray of shape (m,)
+        Area of each triangle.
     degenerate : ndarray of shape (G,)
         True for groups with fewer than 3 distinct points or all collinear
         (no triangle, hence no alpha).
@@ -106,6 +109,7 @@ class Triangulation:
     tri_group: np.ndarray
     tri_ptr: np.ndarray
     radius: np.ndarray
+    area: np.ndarray
     degenerate: np.ndarray
 
     @property
@@ -157,7 +161,9 @@ def _group_codes(groups, n: int, n_groups: int | None) -> tuple[np.ndarray, int]
     return codes, n_groups
 
 
-def triangulate(points, groups=None, *, n_groups: int | None = None) -> Triangulation:
+def triangulate(
+    points, groups=None, *, n_groups: int | None = None, progress=None
+) -> Triangulation:
     """Delaunay-triangulate the distinct points of every group.
 
     Parameters
@@ -169,6 +175,9 @@ def triangulate(points, groups=None, *, n_groups: int | None = None) -> Triangul
     n_groups : int, optional
         Number of groups ``G`` (default: largest code + 1); codes without a
         point make empty, degenerate groups.
+    progress : object with an ``update(n)`` method, optional
+        Told how many groups were triangulated, every 256 groups (a
+        ``tqdm`` bar fits).
 
     Returns
     -------
@@ -210,7 +219,10 @@ def triangulate(points, groups=None, *, n_groups: int | None = None) -> Triangul
     # The one loop per group: Qhull. Everything else is batched below.
     simplices, neighbors, ntri, coplanar = [], [], np.zeros(n_groups, np.int64), []
     degenerate = counts < 3
-    for g in np.flatnonzero(~degenerate):
+    todo = np.flatnonzero(~degenerate)
+    for i, g in enumerate(todo.tolist()):
+        if progress is not None and i % 256 == 255:
+            progress.update(256)
         s, e = point_ptr[g], point_ptr[g + 1]
         try:
             d = Delaunay(local[s:e])
@@ -223,6 +235,8 @@ def triangulate(points, groups=None, *, n_groups: int | None = None) -> Triangul
         if len(d.coplanar):
             coplanar.append(d.coplanar[:, [0, 2]] + s)
 
+    if progress is not None:
+        progress.update(len(todo) % 256)
     tri_ptr = np.zeros(n_groups + 1, dtype=np.int64)
     np.cumsum(ntri, out=tri_ptr[1:])
     tri_group = np.repeat(np.arange(n_groups), ntri)
@@ -244,6 +258,7 @@ def triangulate(points, groups=None, *, n_groups: int | None = None) -> Triangul
     triangles[cw] = triangles[cw][:, [0, 2, 1]]
     nb[cw] = nb[cw][:, [0, 2, 1]]
     radius = merge_ties(_circumradius(p0, p1, p2, np.abs(cross)))
+    area = np.abs(cross) / 2.0
 
     # Points Qhull merged with a nearby vertex are represented by it.
     vertex = np.arange(len(xy))
@@ -263,6 +278,7 @@ def triangulate(points, groups=None, *, n_groups: int | None = None) -> Triangul
         tri_group=tri_group,
         tri_ptr=tri_ptr,
         radius=radius,
+        area=area,
         degenerate=degenerate,
     )
 

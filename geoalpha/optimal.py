@@ -38,6 +38,9 @@ class AlphaShapes(NamedTuple):
         Distinct points of the group.
     n_parts : ndarray of int
         Edge-connected pieces of the shape.
+    area : ndarray of float
+        Area of the shape in the units of ``points`` squared (square metres for
+        metric coordinates), whatever ``coords`` the geometry was built from.
     degenerate : ndarray of bool
         Fewer than 3 distinct points, or all collinear: no triangle, no alpha.
     """
@@ -47,6 +50,7 @@ class AlphaShapes(NamedTuple):
     n_points: np.ndarray
     n_distinct: np.ndarray
     n_parts: np.ndarray
+    area: np.ndarray
     degenerate: np.ndarray
 
 
@@ -128,6 +132,7 @@ def alpha_shapes(
     max_iterations: int = 10_000,
     coords=None,
     n_groups: int | None = None,
+    progress=None,
 ) -> AlphaShapes:
     """Optimal alpha shapes of many groups of points in one call.
 
@@ -163,12 +168,14 @@ def alpha_shapes(
         input point although the computation ran in metres.
     n_groups : int, optional
         Number of groups (default: largest code + 1).
+    progress : object with an ``update(n)`` method, optional
+        Progress of the triangulation, in groups (e.g. a ``tqdm`` bar).
 
     Returns
     -------
     AlphaShapes
         Per group: ``alpha``, ``geometry``, ``n_points``, ``n_distinct``,
-        ``n_parts``, ``degenerate``.
+        ``n_parts``, ``area``, ``degenerate``.
 
     Raises
     ------
@@ -196,7 +203,7 @@ def alpha_shapes(
     """
     _check_options(holes, components, search)
     try:
-        tri = core.triangulate(points, groups, n_groups=n_groups)
+        tri = core.triangulate(points, groups, n_groups=n_groups, progress=progress)
     except ValueError as err:
         raise InvalidInputError(str(err)) from err
     weight = tri.radius if holes else core.fill_radius(tri)
@@ -227,6 +234,9 @@ def alpha_shapes(
         n_points=np.bincount(codes, minlength=tri.n_groups),
         n_distinct=np.diff(tri.point_ptr),
         n_parts=n_parts,
+        area=np.bincount(
+            tri.tri_group[inside], weights=tri.area[inside], minlength=tri.n_groups
+        ),
         degenerate=tri.degenerate.copy(),
     )
 
