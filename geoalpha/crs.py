@@ -281,13 +281,17 @@ def _group_arcs(
     gaps[first] = -np.inf
     inner_gap = np.maximum.reduceat(gaps, first)
     wrap_gap = sorted_lon[first] + 360.0 - sorted_lon[last]
-    out["crossing"][wide] = inner_gap > wrap_gap
-    if out["crossing"].any():
-        shifted = unwrap_lon(sub_lon, sub_codes, out["crossing"])
-        low, high = _group_min_max(shifted, sub_codes, n_groups)
-        cross = out["crossing"]
-        west[cross] = low[cross]
-        east[cross] = high[cross]
+    crossing = inner_gap > wrap_gap
+    out["crossing"][wide] = crossing
+    if crossing.any():
+        # The arc starts after the largest gap and ends before it (+360).
+        segment = np.repeat(np.arange(first.size), counts)
+        at_max = np.flatnonzero(gaps == inner_gap[segment])
+        _, first_max = np.unique(segment[at_max], return_index=True)
+        after_gap = at_max[first_max]
+        ids = np.flatnonzero(wide)[crossing]
+        west[ids] = sorted_lon[after_gap[crossing]]
+        east[ids] = sorted_lon[after_gap[crossing] - 1] + 360.0
     return out
 
 
@@ -346,6 +350,12 @@ def unwrap_lon(lon: Any, codes: Any, crossing: Any) -> np.ndarray:
         [0, 360) without a jump; the other points are unchanged. Polygons
         built from these longitudes go back to [-180, 180] with
         :func:`split_antimeridian`.
+
+    Notes
+    -----
+    A group whose points span more than 180 degrees of longitude (around a
+    pole, or half the globe) has no meaningful single polygon in
+    longitude/latitude; its unwrapped longitudes may still jump.
 
     Examples
     --------
