@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from importlib.metadata import PackageNotFoundError, version
 
+from geoalpha.accessor import register as _register_accessor
 from geoalpha.errors import (
     AntimeridianWarning,
     DegenerateGroupWarning,
@@ -14,6 +15,7 @@ from geoalpha.errors import (
     SearchWarning,
 )
 from geoalpha.optimal import AlphaShapes, alpha_shape, alpha_shapes, optimal_alpha
+from geoalpha.tools import hull
 
 try:
     __version__ = version("geoalpha")
@@ -32,5 +34,8 @@ __all__ = [
     "__version__",
     "alpha_shape",
     "alpha_shapes",
+    "hull",
     "optimal_alpha",
 ]
+
+_register_accessor()

@@ -1,0 +1,581 @@
+"""``hull()``: one tight polygon per group of points in a GeoDataFrame.
+
+The GeoDataFrame layer: grouping (as :meth:`GeoDataFrame.dissolve`), input
+checks, the metric CRS round trip, degenerate groups and the output table.
+The numbers come from :mod:`geoalpha.optimal` (one batched call for all
+groups) and the comparison methods from shapely/GEOS and :mod:`geoalpha.knn`.
+"""
+
+from __future__ import annotations
+
+import sys
+import warnings
+from typing import Any, Literal
+
+import numpy as np
+import pandas as pd
+import pyproj
+import shapely
+
+from geoalpha import crs as gcrs
+from geoalpha.errors import (
+    AntimeridianWarning,
+    DegenerateGroupWarning,
+    DroppedRowsWarning,
+    GeoAlphaWarning,
+    InvalidInputError,
+)
+from geoalpha.optimal import alpha_shapes
+from geoalpha.shapes import EMPTY_POLYGON
+
+__all__ = ["DEGENERATE_POLICIES", "METHODS", "RESULT_COLUMNS", "hull"]
+
+#: Hull methods of :func:`hull`.
+METHODS = ("alpha", "convex", "concave", "knn")
+#: What :func:`hull` does with groups that have no alpha shape.
+DEGENERATE_POLICIES = ("buffer", "empty", "drop")
+#: Columns :func:`hull` adds next to the group keys (then ``geometry``).
+RESULT_COLUMNS = (
+    "alpha",
+    "radius",
+    "n_points",
+    "n_parts",
+    "area_m2",
+    "crs_used",
+    "method",
+)
+#: Show a progress bar by default from this many groups on (on a terminal).
+PROGRESS_MIN_GROUPS = 2000
+_POINT_TYPES = (0, 4)  # shapely type ids of Point and MultiPoint
+
+
+def _labels(index: pd.Index, mask: np.ndarray, limit: int = 10) -> str:
+    labels = [repr(v) if isinstance(v, str) else str(v) for v in index[mask][:limit]]
+    more = ", ..." if mask.sum() > limit else ""
+    return ", ".join(labels) + more
+
+
+def _as_frame(data) -> Any:
+    import geopandas as gpd
+
+    if isinstance(data, gpd.GeoSeries):
+        return data.to_frame("geometry").set_geometry("geometry")
+    if isinstance(data, gpd.GeoDataFrame):
+        if data._geometry_column_name not in data.columns:
+            raise InvalidInputError(
+                "hull() needs a GeoDataFrame with an active geometry column; "
+                "call set_geometry() first"
+            )
+        return data
+    raise InvalidInputError(
+        f"hull() needs a GeoDataFrame or GeoSeries; got {type(data).__name__}"
+    )
+
+
+def _groups(frame, by, dropna: bool, sort: bool) -> tuple[np.ndarray, pd.DataFrame]:
+    """Group code per row (-1: dropped NaN key) and the key table (one row a group)."""
+    if by is None:
+        return np.zeros(len(frame), dtype=np.int64), pd.DataFrame(index=range(1))
+    names = by if isinstance(by, list) else [by]
+    for name in names:
+        if isinstance(name, str | int | tuple) and not isinstance(name, bool):
+            if name not in frame.columns:
+                raise InvalidInputError(
+                    f"hull(by={by!r}): no column {name!r}; the columns are "
+                    f"{', '.join(map(str, frame.columns))}"
+                )
+    try:
+        grouped = frame.groupby(by, dropna=dropna, sort=sort)
+        codes = grouped.ngroup().fillna(-1).to_numpy(dtype=np.int64)
+        index = grouped.size().index
+    except (ValueError, KeyError, TypeError) as err:
+        raise InvalidInputError(f"hull(by=...) cannot group the rows: {err}") from err
+    keys = index.to_frame(index=False)
+    keys.columns = [
+        "group" if (c is None or isinstance(c, int)) and len(keys.columns) == 1 else c
+        for c in keys.columns
+    ]
+    clash = [c for c in keys.columns if c in (*RESULT_COLUMNS, "geometry")]
+    if clash:
+        raise InvalidInputError(
+            f"group column(s) {clash} have the name of a result column; rename them "
+            f"(result columns: {', '.join(RESULT_COLUMNS)}, geometry)"
+        )
+    return codes, keys
+
+
+def _check_choice(name: str, value, choices) -> None:
+    if value not in choices:
+        raise InvalidInputError(
+            f"{name} must be one of {', '.join(map(repr, choices))}; got {value!r}"
+        )
+
+
+def _progress(progress, n_groups: int):
+    if progress is False or (
+        progress is None and (n_groups < PROGRESS_MIN_GROUPS or not sys.stderr.isatty())
+    ):
+        return None
+    try:
+        from tqdm.auto import tqdm
+    except ImportError as err:
+        if progress is None:
+            return None
+        raise ImportError(
+            "progress=True needs tqdm: pip install geoalpha[progress]"
+        ) from err
+    return tqdm(total=n_groups, unit="group", desc="geoalpha hull", file=sys.stderr)
+
+
+class _Projection:
+    """Coordinates for the computation (metric) and for the output (input CRS)."""
+
+    def __init__(self, coords, codes, n_groups, src, crs):
+        self.out = coords.copy()
+        self.crossing = np.zeros(n_groups, dtype=bool)
+        self.crs_list: list = []
+        self.crs_index = np.zeros(n_groups, dtype=np.int64)
+        self.src = src
+        if crs is None:  # planar: use the coordinates as they are
+            self.xy = coords
+            self.names = np.full(n_groups, gcrs.crs_name(src) if src else "")
+            return
+        if src is None:
+            raise InvalidInputError(
+                "the input has no CRS, so it cannot be projected to metres; set it "
+                "with gdf.set_crs(...) or pass crs=None to use the coordinates as "
+                "planar values"
+            )
+        if src.is_geographic:
+            lon, lat = coords[:, 0], coords[:, 1]
+            self.xy, self.crs_list, self.crs_index = gcrs.metric_crs(
+                lon, lat, codes, n_groups, crs=crs, source_crs=src
+            )
+            self.crossing = gcrs.crosses_antimeridian(lon, codes, n_groups)
+            self.out[:, 0] = gcrs.unwrap_lon(lon, codes, self.crossing)
+        elif isinstance(crs, str) and crs.strip().lower() == "auto":
+            self.xy, self.crs_list = coords, [src]
+        else:
+            target = gcrs.parse_crs(crs)
+            if target.is_geographic:
+                raise InvalidInputError(
+                    f"crs= must be a projected (metric) CRS, got "
+                    f"{gcrs.crs_name(target)} (geographic)"
+                )
+            t = pyproj.Transformer.from_crs(src, target, always_xy=True)
+            self.xy = np.column_stack(t.transform(coords[:, 0], coords[:, 1]))
+            self.crs_list = [target]
+        self.names = np.array([gcrs.crs_name(c) for c in self.crs_list], dtype=object)[
+            self.crs_index
+        ]
+
+    def to_output(self, geoms: np.ndarray, groups: np.ndarray) -> np.ndarray:
+        """Transform metric geometries of ``groups`` back to the output coordinates."""
+        if not self.crs_list:
+            return geoms
+        out = geoms.copy()
+        for k, target in enumerate(self.crs_list):
+            sel = self.crs_index[groups] == k
+            if not sel.any() or target == self.src:
+                continue
+            back = pyproj.Transformer.from_crs(target, self.src, always_xy=True)
+
+            def move(c, back=back):
+                return np.column_stack(back.transform(c[:, 0], c[:, 1]))
+
+            out[sel] = shapely.transform(geoms[sel], move)
+        wrap = self.crossing[groups]
+        if wrap.any():
+            out[wrap] = shapely.transform(
+                out[wrap], lambda c: np.column_stack([c[:, 0] % 360.0, c[:, 1]])
+            )
+        return out
+
+
+def _to_input_vertices(geoms, groups, xy, out, codes) -> np.ndarray:
+    """Replace metric vertex coordinates (input points) by their output coordinates."""
+    coords, which = shapely.get_coordinates(geoms, return_index=True)
+    keys = pd.MultiIndex.from_arrays([codes, xy[:, 0], xy[:, 1]])
+    first = ~keys.duplicated()
+    table = keys[first]
+    loc = table.get_indexer(
+        pd.MultiIndex.from_arrays([groups[which], coords[:, 0], coords[:, 1]])
+    )
+    if (loc < 0).any():  # pragma: no cover - GEOS keeps input coordinates
+        raise RuntimeError("a hull vertex is not an input point")
+    return shapely.set_coordinates(geoms.copy(), out[np.flatnonzero(first)[loc]])
+
+
+def _comparison_hulls(method, proj, codes, n_groups, *, holes, ratio, k, bar):
+    """Convex hull of GEOS concave hull or KNN hull per group, in metric coords."""
+    order = np.argsort(codes, kind="stable")
+    xy, sc = proj.xy[order], codes[order]
+    ptr = np.searchsorted(sc, np.arange(n_groups + 1))
+    geoms = np.full(n_groups, EMPTY_POLYGON, dtype=object)
+    labels = np.full(n_groups, method, dtype=object)
+    if method == "concave":
+        mp = shapely.multipoints(xy, indices=sc)
+        present = np.unique(sc)
+        geoms[present] = shapely.concave_hull(
+            mp[present], ratio=ratio, allow_holes=holes
+        )
+        labels[:] = f"concave ratio={ratio:g}"
+        if bar is not None:
+            bar.update(n_groups)
+    else:
+        from geoalpha.knn import knn_hull
+
+        for g in range(n_groups):
+            try:
+                geoms[g], used = knn_hull(xy[ptr[g] : ptr[g + 1]], k=k)
+                labels[g] = f"knn k={used}"
+            except InvalidInputError:
+                pass
+            if bar is not None:
+                bar.update(1)
+    degenerate = shapely.get_type_id(geoms) != 3  # Polygon
+    geoms[degenerate] = EMPTY_POLYGON
+    area = shapely.area(geoms)
+    present = ~degenerate
+    out = np.full(n_groups, EMPTY_POLYGON, dtype=object)
+    out[present] = _to_input_vertices(
+        geoms[present], np.flatnonzero(present), proj.xy, proj.out, codes
+    )
+    return out, area, labels, degenerate
+
+
+def hull(
+    gdf,
+    by=None,
+    *,
+    alpha: float | None = None,
+    holes: bool = False,
+    components: int = 1,
+    crs: Any = "auto",
+    method: Literal["alpha", "convex", "concave", "knn"] = "alpha",
+    search: Literal["exact", "ladder", "bisect"] = "exact",
+    ratio: float = 0.3,
+    k: int = 3,
+    degenerate: Literal["buffer", "empty", "drop"] = "buffer",
+    buffer: float = 1.0,
+    vertices: bool = False,
+    dropna: bool = True,
+    sort: bool = True,
+    progress: bool | None = None,
+):
+    """Tightest single polygon around each group of points.
+
+    For every group, finds the optimal alpha exactly (the largest alpha whose
+    alpha shape is one polygon containing every point of the group) and
+    returns the polygons in a GeoDataFrame in the input CRS, one row per
+    group, ready for ``to_file``. Also available as ``gdf.alpha.hull(...)``.
+
+    Parameters
+    ----------
+    gdf : GeoDataFrame or GeoSeries
+        Point geometries (MultiPoints count as their points).
+    by : str, list of str, or array_like, optional
+        Group the rows by these columns or values, as in
+        :meth:`GeoDataFrame.dissolve`; None gives one hull of all points.
+    alpha : float, optional
+        Use this alpha (1/metre) for every group instead of the optimum;
+        0 is the convex hull.
+    holes : bool, default False
+        Keep holes in the shapes (True) or fill every hole (False).
+    components : int, default 1
+        Largest number of separate pieces a group's shape may have (a
+        MultiPolygon when > 1).
+    crs : "auto", CRS or None, default "auto"
+        Metric CRS for the computation. ``"auto"``: geographic input goes to
+        one UTM zone when the data fit it, else to a UTM zone or a local
+        Lambert azimuthal equal-area CRS per group (see
+        :func:`geoalpha.crs.metric_crs`); projected input is used as is.
+        A CRS (anything pyproj accepts): use that projected CRS. None: use
+        the coordinates as planar values as they are (required for input
+        without a CRS; with lon/lat input alphas are then in 1/degree, as in
+        the seed paper).
+    method : {"alpha", "convex", "concave", "knn"}, default "alpha"
+        ``"alpha"``: the optimal alpha shape (exact unless ``search`` says
+        otherwise). ``"convex"``: the convex hull. ``"concave"``: GEOS
+        :func:`shapely.concave_hull` with ``ratio``. ``"knn"``: the
+        Moreira-Santos k-nearest-neighbour concave hull, starting at ``k``.
+        All give the same output table.
+    search : {"exact", "ladder", "bisect"}, default "exact"
+        With ``method="alpha"``: ``"ladder"`` and ``"bisect"`` reproduce the
+        seed paper's integer ladder and ``alphashape``'s float bisection.
+        Their results depend on units: integer alphas in 1/metre are nearly
+        always 0, the convex hull.
+    ratio : float, default 0.3
+        ``ratio`` of :func:`shapely.concave_hull` (``method="concave"``).
+    k : int, default 3
+        Starting number of neighbours for ``method="knn"``.
+    degenerate : {"buffer", "empty", "drop"}, default "buffer"
+        What a group with fewer than 3 distinct points, or all collinear,
+        becomes (it has no alpha shape): ``"buffer"`` a polygon ``buffer``
+        metres around its points (so every group keeps a polygonal row and
+        the table still exports to a Shapefile), ``"empty"`` an empty
+        Polygon, ``"drop"`` no row. A :class:`DegenerateGroupWarning` names
+        the groups in every case.
+    buffer : float, default 1.0
+        Width in metres (in units of the computation CRS) for
+        ``degenerate="buffer"``.
+    vertices : bool, default False
+        Accept non-point geometries and use their vertices as points
+        (otherwise they are an error).
+    dropna : bool, default True
+        Drop rows whose group key is missing (counted in a
+        :class:`DroppedRowsWarning`), as in ``dissolve``; False makes them a
+        group of their own.
+    sort : bool, default True
+        Sort the groups by key, as in ``dissolve``.
+    progress : bool, optional
+        Show a progress bar (needs ``tqdm``: ``pip install geoalpha[progress]``).
+        Default: only for long runs on a terminal.
+
+    Returns
+    -------
+    GeoDataFrame
+        In the input CRS, one row per group: the group key column(s), then
+        ``alpha`` (1/metre in the computation CRS; nan for the methods
+        without one and for degenerate groups; 0 for the convex hull),
+        ``radius`` (1/alpha, metres), ``n_points`` (input rows of the group),
+        ``n_parts`` (polygons in the geometry), ``area_m2`` (area in the
+        computation CRS), ``crs_used`` (the computation CRS), ``method``
+        and ``geometry`` (Polygon; MultiPolygon when ``components > 1`` or a
+        group is split at the antimeridian). Polygon vertices are input
+        coordinates (except for degenerate buffers and antimeridian cuts).
+
+    Raises
+    ------
+    InvalidInputError
+        For non-point geometries (unless ``vertices=True``), a ``by`` column
+        that does not exist, input without CRS (unless ``crs=None``),
+        longitude/latitude out of range, NaN coordinates, bad options. The
+        message names the rows or columns.
+
+    Warns
+    -----
+    DroppedRowsWarning
+        Rows with a missing or empty geometry or a missing group key.
+    DegenerateGroupWarning
+        Groups with fewer than 3 distinct points or all collinear.
+    AntimeridianWarning
+        Groups across +-180 degrees, returned as split MultiPolygons.
+
+    Notes
+    -----
+    The accessor is named ``alpha``, so on a result ``hulls["alpha"]`` is
+    the column and ``hulls.alpha`` the accessor.
+
+    .. versionadded:: 0.1.0
+
+    Examples
+    --------
+    >>> import geoalpha
+    >>> from geoalpha import datasets
+    >>> points = datasets.load("uk_clusters")
+    >>> hulls = points.alpha.hull(by="Cluster")
+    >>> len(hulls), hulls["n_points"].sum() == len(points)
+    (691, True)
+    >>> hulls.geom_type.unique().tolist(), hulls.crs.to_epsg()
+    (['Polygon'], 4326)
+    """
+    frame = _as_frame(gdf)
+    _check_choice("method", method, METHODS)
+    _check_choice("degenerate", degenerate, DEGENERATE_POLICIES)
+    geoms = np.asarray(frame.geometry.array, dtype=object)
+    index = frame.index
+
+    # Rows: missing/empty geometries and missing keys are dropped (and told).
+    codes, keys = _groups(frame, by, dropna, sort)
+    n_groups = len(keys)
+    missing = shapely.is_missing(geoms) | shapely.is_empty(geoms)
+    types = shapely.get_type_id(geoms)
+    other = ~missing & ~np.isin(types, _POINT_TYPES)
+    if other.any() and not vertices:
+        kinds = pd.Series(shapely.get_type_id(geoms[other])).map(
+            dict(enumerate(shapely.GeometryType.__members__))
+        )
+        names = ", ".join(
+            f"{n} {t.title().replace('string', 'String')}"
+            for t, n in kinds.value_counts().items()
+        )
+        raise InvalidInputError(
+            f"hull() needs point geometries; got {names} row(s) (index "
+            f"{_labels(index, other)}); pass vertices=True to use their vertices"
+        )
+    no_key = codes < 0
+    dropped = missing | no_key
+    if dropped.any():
+        parts = []
+        if missing.any():
+            parts.append(
+                f"{missing.sum()} with a missing or empty geometry (index "
+                f"{_labels(index, missing)})"
+            )
+        if (no_key & ~missing).any():
+            parts.append(
+                f"{(no_key & ~missing).sum()} with a missing group key (index "
+                f"{_labels(index, no_key & ~missing)}; dropna=False keeps them)"
+            )
+        warnings.warn(
+            f"hull() dropped {dropped.sum()} of {len(frame)} rows: " + "; ".join(parts),
+            DroppedRowsWarning,
+            stacklevel=_stacklevel(),
+        )
+    kept = np.flatnonzero(~dropped)
+    coords, which = shapely.get_coordinates(geoms[kept], return_index=True)
+    pcodes = codes[kept][which]
+    n_points = np.bincount(codes[kept], minlength=n_groups)
+    try:
+        proj = _Projection(coords, pcodes, n_groups, frame.crs, crs)
+    except InvalidInputError as err:
+        raise InvalidInputError(_rows_to_index(str(err), kept[which], index)) from err
+
+    bar = _progress(progress, n_groups)
+    try:
+        if method in ("alpha", "convex"):
+            res = alpha_shapes(
+                proj.xy,
+                pcodes,
+                alpha=0.0 if method == "convex" else alpha,
+                holes=holes,
+                components=components,
+                search=search,
+                coords=proj.out,
+                n_groups=n_groups,
+                progress=bar,
+            )
+            geometry, area, is_degenerate = res.geometry, res.area, res.degenerate
+            alphas = res.alpha
+            label = method if method == "convex" or search == "exact" else search
+            labels = np.full(n_groups, label, dtype=object)
+        else:
+            geometry, area, labels, is_degenerate = _comparison_hulls(
+                method, proj, pcodes, n_groups, holes=holes, ratio=ratio, k=k, bar=bar
+            )
+            alphas = np.full(n_groups, np.nan)
+    finally:
+        if bar is not None:
+            bar.close()
+
+    keep_group = np.ones(n_groups, dtype=bool)
+    if is_degenerate.any():
+        geometry, area, keep_group = _degenerate_groups(
+            geometry,
+            area,
+            is_degenerate,
+            keys,
+            n_points,
+            proj,
+            pcodes,
+            degenerate,
+            buffer,
+        )
+
+    geometry = _finish(geometry, proj.crossing, keys)
+    with np.errstate(divide="ignore"):
+        radius = 1.0 / alphas
+    import geopandas as gpd
+
+    table = keys.copy()
+    table["alpha"] = alphas
+    table["radius"] = radius
+    table["n_points"] = n_points
+    table["n_parts"] = shapely.get_num_geometries(geometry)
+    table["area_m2"] = area
+    table["crs_used"] = proj.names
+    table["method"] = labels
+    out = gpd.GeoDataFrame(table, geometry=list(geometry), crs=frame.crs)
+    return out[keep_group].reset_index(drop=True)
+
+
+def _stacklevel() -> int:
+    """Stack level that points warnings at the user's call (through the accessor)."""
+    frame, level = sys._getframe(1), 1
+    while frame is not None and frame.f_globals.get("__name__", "").startswith(
+        "geoalpha."
+    ):
+        frame, level = frame.f_back, level + 1
+    return level
+
+
+def _rows_to_index(message: str, rows: np.ndarray, index: pd.Index) -> str:
+    """Name rows of the input frame (by index label) in a crs error message."""
+    import re
+
+    def label(m):
+        pos = [int(p) for p in re.findall(r"\d+", m.group(1))]
+        shown = ", ".join(str(index[rows[p]]) for p in pos if p < len(rows))
+        return f"(index {shown}{', ...' if '...' in m.group(1) else ''})"
+
+    return re.sub(r"\(positions? ([\d, .]+)\)", label, message)
+
+
+def _degenerate_groups(
+    geometry, area, is_degenerate, keys, n_points, proj, pcodes, policy, width
+):
+    """Apply the degenerate-group policy and warn, naming the groups."""
+    groups = np.flatnonzero(is_degenerate & (n_points > 0))
+    keep = np.ones(len(geometry), dtype=bool)
+    geometry = geometry.copy()
+    area = area.copy()
+    if policy == "buffer":
+        sel = np.flatnonzero(np.isin(pcodes, groups))
+        sel = sel[np.argsort(pcodes[sel], kind="stable")]
+        mp = shapely.multipoints(
+            proj.xy[sel], indices=np.searchsorted(groups, pcodes[sel])
+        )
+        buffered = shapely.buffer(shapely.convex_hull(mp), width)
+        area[groups] = shapely.area(buffered)
+        geometry[groups] = proj.to_output(buffered, groups)
+        done = f"their rows hold a {width:g} m buffer around their points"
+    elif policy == "empty":
+        geometry[groups] = EMPTY_POLYGON
+        done = "their rows hold an empty polygon"
+    else:
+        keep[groups] = False
+        done = f"they were dropped ({n_points[groups].sum()} rows)"
+    names = [
+        ", ".join(map(str, row)) if len(row) else "all points"
+        for row in keys.iloc[groups[:10]].itertuples(index=False)
+    ]
+    listed = "; ".join(
+        f"{n!r} ({c} row{'s' if c != 1 else ''})"
+        for n, c in zip(names, n_points[groups[:10]], strict=True)
+    )
+    warnings.warn(
+        f"{len(groups)} group(s) have fewer than 3 distinct points or all points "
+        f"on a line, so no alpha shape: {listed}"
+        f"{', ...' if len(groups) > 10 else ''}; {done} (degenerate={policy!r})",
+        DegenerateGroupWarning,
+        stacklevel=_stacklevel(),
+    )
+    return geometry, area, keep
+
+
+def _finish(geometry: np.ndarray, crossing: np.ndarray, keys) -> np.ndarray:
+    """Split antimeridian groups, and repair what the CRS round trip broke."""
+    geometry = geometry.copy()
+    if crossing.any():
+        geometry[crossing] = gcrs.split_antimeridian(geometry[crossing])
+        names = [", ".join(map(str, r)) for r in keys[crossing].itertuples(index=False)]
+        warnings.warn(
+            f"{crossing.sum()} group(s) cross the antimeridian (+-180 degrees): "
+            f"{'; '.join(names[:10])}; their hulls are MultiPolygons split at "
+            "+-180 degrees (RFC 7946)",
+            AntimeridianWarning,
+            stacklevel=_stacklevel(),
+        )
+    invalid = ~shapely.is_valid(geometry)
+    if invalid.any():
+        geometry[invalid] = shapely.make_valid(geometry[invalid], method="structure")
+        names = [", ".join(map(str, r)) for r in keys[invalid].itertuples(index=False)]
+        warnings.warn(
+            f"{invalid.sum()} hull(s) became invalid in the input CRS (coordinates "
+            "too close for it) and were repaired with make_valid: "
+            + "; ".join(names[:10]),
+            GeoAlphaWarning,
+            stacklevel=_stacklevel(),
+        )
+    return geometry
