@@ -42,7 +42,6 @@ __all__ = [
     "boundary_rings",
     "fill_radius",
     "merge_ties",
-    "optimal_radius",
     "piece_labels",
     "radius_of_alpha",
     "triangulate",
@@ -64,21 +63,24 @@ class Triangulation:
     Attributes
     ----------
     xy : ndarray of shape (p, 2)
-        The distinct points, sorted by group, in the input coordinates.
+        The points sorted by group (duplicates included), in the input
+        coordinates.
     local : ndarray of shape (p, 2)
         The same points relative to their group's first point (used for all
         metric computations, so that large offsets such as UTM northings lose
         no precision).
     point_group : ndarray of shape (p,)
-        Group code of each distinct point.
+        Group code of each point.
     point_ptr : ndarray of shape (G + 1,)
-        Distinct points of group ``g`` are ``point_ptr[g]:point_ptr[g + 1]``.
+        Points of group ``g`` are ``point_ptr[g]:point_ptr[g + 1]``.
     input_point : ndarray of shape (n,)
-        For each input row, the index of its distinct point.
+        For each input row, its index in ``xy``.
     vertex : ndarray of shape (p,)
-        For each distinct point, the triangulation vertex that represents it:
-        itself, or for a point that Qhull merged with a numerically coincident
-        one (a "coplanar" point), that neighbour.
+        For each point, the triangulation vertex that represents it: itself,
+        or for a duplicate or a point that Qhull merged with a numerically
+        coincident one (a "coplanar" point), that neighbour.
+    n_distinct : ndarray of shape (G,)
+        Distinct points of each group.
     triangles : ndarray of shape (m, 3)
         Vertex indices (into ``xy``) of every triangle, counter-clockwise.
     neighbors : ndarray of shape (m, 3)
@@ -91,6 +93,11 @@ class Triangulation:
     radius : ndarray of shape (m,)
         Circumradius of each triangle (``inf`` for a flat one); radii equal up
         to :data:`TIE_RTOL` are merged (see :func:`merge_ties`).
+    values : ndarray of shape (K,)
+        The radius spectrum: sorted distinct radii of all groups.
+    rank : ndarray of shape (m,)
+        Rank of each triangle's radius in ``values`` (``radius == values[rank]``).
+        The computations run on ranks, which are exact and sort as radii do.
     area : ndarray of shape (m,)
         Area of each triangle.
     degenerate : ndarray of shape (G,)
@@ -104,11 +111,14 @@ class Triangulation:
     point_ptr: np.ndarray
     input_point: np.ndarray
     vertex: np.ndarray
+    n_distinct: np.ndarray
     triangles: np.ndarray
     neighbors: np.ndarray
     tri_group: np.ndarray
     tri_ptr: np.ndarray
     radius: np.ndarray
+    values: np.ndarray
+    rank: np.ndarray
     area: np.ndarray
     degenerate: np.ndarray
 
@@ -192,21 +202,24 @@ def triangulate(
     Examples
     --------
     >>> tri = triangulate([[0, 0], [1, 0], [0, 1], [1, 1], [1, 1]])
-    >>> len(tri.xy), len(tri.triangles), tri.degenerate.tolist()
-    (4, 2, [False])
+    >>> tri.n_distinct.tolist(), len(tri.triangles), tri.degenerate.tolist()
+    ([4], 2, [False])
     """
     xy_in = _check_points(points)
     n = len(xy_in)
     codes, n_groups = _group_codes(groups, n, n_groups)
 
-    # Distinct points, sorted by (group, x, y).
-    order = np.lexsort((xy_in[:, 1], xy_in[:, 0], codes))
-    sx, sc = xy_in[order], codes[order]
-    first = np.ones(n, dtype=bool)
-    first[1:] = (sc[1:] != sc[:-1]) | (sx[1:] != sx[:-1]).any(axis=1)
-    xy, point_group = sx[first], sc[first]
+    # Points sorted by group (a no-op when they already are). Duplicates stay:
+    # Qhull keeps one of them as the vertex and reports the others as
+    # "coplanar" points, which map to that vertex below.
+    if n > 1 and (codes[1:] < codes[:-1]).any():
+        order = np.argsort(codes, kind="stable")
+        xy, point_group = xy_in[order], codes[order]
+    else:
+        order = np.arange(n)
+        xy, point_group = xy_in, codes
     input_point = np.empty(n, dtype=np.int64)
-    input_point[order] = np.cumsum(first) - 1
+    input_point[order] = np.arange(n)
 
     counts = np.bincount(point_group, minlength=n_groups)
     point_ptr = np.zeros(n_groups + 1, dtype=np.int64)
@@ -257,14 +270,20 @@ def triangulate(
     cw = cross < 0
     triangles[cw] = triangles[cw][:, [0, 2, 1]]
     nb[cw] = nb[cw][:, [0, 2, 1]]
-    radius = merge_ties(_circumradius(p0, p1, p2, np.abs(cross)))
+    radius, rank, values = merge_ties(_circumradius(p0, p1, p2, np.abs(cross)))
     area = np.abs(cross) / 2.0
 
     # Points Qhull merged with a nearby vertex are represented by it.
     vertex = np.arange(len(xy))
+    n_distinct = counts.copy()
     if coplanar:
         cp = np.concatenate(coplanar)
         vertex[cp[:, 0]] = cp[:, 1]
+        same = (xy[cp[:, 0]] == xy[cp[:, 1]]).all(axis=1)
+        n_distinct -= np.bincount(point_group[cp[same, 0]], minlength=n_groups)
+    n_distinct[degenerate] = _distinct_counts(xy, point_group, degenerate, n_groups)[
+        degenerate
+    ]
 
     return Triangulation(
         xy=xy,
@@ -273,28 +292,47 @@ def triangulate(
         point_ptr=point_ptr,
         input_point=input_point,
         vertex=vertex,
+        n_distinct=n_distinct,
         triangles=triangles,
         neighbors=nb,
         tri_group=tri_group,
         tri_ptr=tri_ptr,
         radius=radius,
+        values=values,
+        rank=rank,
         area=area,
         degenerate=degenerate,
     )
 
 
+def _distinct_counts(xy, point_group, which, n_groups) -> np.ndarray:
+    """Distinct points per group, counted for the groups in ``which`` only."""
+    sel = np.flatnonzero(which[point_group])
+    out = np.zeros(n_groups, dtype=np.int64)
+    if len(sel):
+        p, g = xy[sel], point_group[sel]
+        o = np.lexsort((p[:, 1], p[:, 0], g))
+        p, g = p[o], g[o]
+        new = np.ones(len(sel), dtype=bool)
+        new[1:] = (g[1:] != g[:-1]) | (p[1:] != p[:-1]).any(axis=1)
+        out += np.bincount(g[new], minlength=n_groups)
+    return out
+
+
 def _circumradius(p0, p1, p2, twice_area) -> np.ndarray:
     """Circumradius ``|ab| |bc| |ca| / (4 area)``; ``inf`` for flat triangles."""
-    a = np.hypot(*(p1 - p0).T)
-    b = np.hypot(*(p2 - p1).T)
-    c = np.hypot(*(p0 - p2).T)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        r = a * b * c / (2.0 * twice_area)
+    a2 = np.square(p1 - p0).sum(axis=1)
+    b2 = np.square(p2 - p1).sum(axis=1)
+    c2 = np.square(p0 - p2).sum(axis=1)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        r = np.sqrt(a2 * b2 * c2) / (2.0 * twice_area)
     r[~(twice_area > 0)] = np.inf
     return r
 
 
-def merge_ties(radius: np.ndarray, rtol: float = TIE_RTOL) -> np.ndarray:
+def merge_ties(
+    radius: np.ndarray, rtol: float = TIE_RTOL
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Give radii that agree to ``rtol`` (relative) the largest of their values.
 
     Cocircular points (grids, rounded coordinates) have triangles with the same
@@ -303,31 +341,35 @@ def merge_ties(radius: np.ndarray, rtol: float = TIE_RTOL) -> np.ndarray:
     definition wants. Runs of values each within ``rtol`` of the previous one
     form one value.
 
+    Returns
+    -------
+    merged : ndarray
+        The merged radii, same shape as ``radius``.
+    rank : ndarray of int
+        Rank of each merged radius among the distinct ones.
+    values : ndarray
+        The distinct merged radii, ascending (``merged == values[rank]``).
+
     Examples
     --------
-    >>> merge_ties(np.array([1.0, 1.0 + 1e-15, 2.0])).tolist()
-    [1.000000000000001, 1.000000000000001, 2.0]
+    >>> merged, rank, values = merge_ties(np.array([2.0, 1.0, 1.0 + 1e-15]))
+    >>> merged.tolist(), rank.tolist(), values.tolist()
+    ([2.0, 1.000000000000001, 1.000000000000001], [1, 0, 0], [1.000000000000001, 2.0])
     """
     if len(radius) == 0:
-        return radius
-    order = np.argsort(radius, kind="stable")
+        return radius, np.zeros(0, dtype=np.int64), radius
+    order = np.argsort(radius)
     s = radius[order]
     start = np.ones(len(s), dtype=bool)
     start[1:] = s[1:] > s[:-1] * (1.0 + rtol)
-    run_max = np.maximum.reduceat(s, np.flatnonzero(start))
-    out = np.empty_like(radius)
-    out[order] = run_max[np.cumsum(start) - 1]
-    return out
-
-
-def _ranks(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Return the sorted distinct values and the rank of each value among them."""
-    uniq, inverse = np.unique(values, return_inverse=True)
-    return uniq, inverse.reshape(values.shape)
+    values = np.maximum.reduceat(s, np.flatnonzero(start))
+    rank = np.empty(len(radius), dtype=np.int64)
+    rank[order] = np.cumsum(start) - 1
+    return values[rank], rank, values
 
 
 def fill_radius(tri: Triangulation) -> np.ndarray:
-    """Fill radius of every triangle: when it joins the shape with holes filled.
+    """Fill radius of every triangle, as a rank into ``tri.values``.
 
     A triangle that is not solid at ``R`` is filled in when every dual path
     from it to the outside of the convex hull passes through a solid
@@ -335,7 +377,7 @@ def fill_radius(tri: Triangulation) -> np.ndarray:
     ``R >= f(t)``, where ``f(t)`` is the widest-path (max-min) value of the
     circumradius along dual paths from ``t`` to the outside. Computed for all
     groups at once with one maximum spanning tree rooted at a shared
-    "outside" node, then path minima by pointer jumping.
+    "outside" node, then path minima by pointer jumping, all on radius ranks.
 
     Parameters
     ----------
@@ -343,31 +385,30 @@ def fill_radius(tri: Triangulation) -> np.ndarray:
 
     Returns
     -------
-    ndarray of shape (m,)
-        ``f(t) <= r(t)``, each a value of the radius spectrum.
+    ndarray of int, shape (m,)
+        Rank of ``f(t)`` in ``tri.values``; ``f(t) <= r(t)``.
     """
     m = len(tri.triangles)
+    rank = tri.rank
     if m == 0:
-        return tri.radius.copy()
-    r = tri.radius
+        return rank.copy()
+    top = len(tri.values)  # rank of the outside: above every radius
     a, b = tri.dual_edges()
     hull = np.flatnonzero((tri.neighbors < 0).any(axis=1))
     outside = m
     src = np.concatenate([a, hull])
     dst = np.concatenate([b, np.full(len(hull), outside)])
-    w = np.concatenate([np.minimum(r[a], r[b]), r[hull]])
+    w = np.concatenate([np.minimum(rank[a], rank[b]), rank[hull]])
     # Maximum spanning tree = minimum spanning tree on reversed ranks (> 0).
-    uniq, rank = _ranks(w)
-    cost = (len(uniq) - rank).astype(float)
-    graph = csr_array((cost, (src, dst)), shape=(m + 1, m + 1))
+    graph = csr_array(((top - w).astype(float), (src, dst)), shape=(m + 1, m + 1))
     tree = minimum_spanning_tree(graph)
     _, parent = breadth_first_order(
         tree, outside, directed=False, return_predecessors=True
     )
     parent[outside] = outside
-    r_ext = np.append(r, np.inf)
-    # Edge weight towards the parent is min(r[t], r[parent]) (r[outside] = inf);
-    # the fill radius is the minimum over the path to the root.
+    r_ext = np.append(rank, top)
+    # Edge weight towards the parent is min(rank[t], rank[parent]); the fill
+    # radius is the minimum over the path to the root.
     val = np.minimum(r_ext, r_ext[parent])
     while True:
         grand = parent[parent]
@@ -386,22 +427,23 @@ def _min_at(target: np.ndarray, index: np.ndarray, values: np.ndarray) -> None:
 class Spectrum:
     """Validity oracle for one weight per triangle (radius or fill radius).
 
-    Answers, for any group and radius threshold ``R``, how many edge-connected
-    pieces the shape ``{t : w(t) <= R}`` has and whether it covers every
-    point, in ``O(log m)`` per query after an ``O(m log m)`` set-up.
+    Weights are ranks into the radius spectrum ``values``. The oracle answers,
+    for any group and radius threshold ``R``, how many edge-connected pieces
+    the shape ``{t : w(t) <= R}`` has and whether it covers every point, in
+    ``O(log m)`` per query after an ``O(m log m)`` set-up.
 
     Attributes
     ----------
     values : ndarray
-        Sorted distinct weights of all groups.
+        The radius spectrum (``Triangulation.values``).
     tri_keys, msf_keys : ndarray
         Sorted ``group * (K + 1) + rank`` keys of the triangles and of the
         minimum-spanning-forest edges (``K = len(values)``).
     tri_ptr, msf_ptr : ndarray of shape (G + 1,)
         Group offsets into the sorted keys.
     cover : ndarray of shape (G,)
-        Smallest ``R`` at which every point of the group is covered
-        (``inf`` for degenerate groups).
+        Smallest rank at which every point of the group is covered (``K``
+        for degenerate groups).
     """
 
     values: np.ndarray
@@ -411,12 +453,16 @@ class Spectrum:
     msf_ptr: np.ndarray
     cover: np.ndarray
 
+    @property
+    def stride(self) -> int:
+        """Multiplier of the group in the keys."""
+        return len(self.values) + 1
+
     @classmethod
-    def build(cls, tri: Triangulation, weight: np.ndarray) -> Spectrum:
-        """Set up the oracle for ``weight`` (one value per triangle of ``tri``)."""
+    def build(cls, tri: Triangulation, rank: np.ndarray) -> Spectrum:
+        """Set up the oracle for weights ``rank`` (one per triangle of ``tri``)."""
         m, G = len(tri.triangles), tri.n_groups
-        values, rank = _ranks(weight)
-        stride = len(values) + 1
+        stride = len(tri.values) + 1
         tri_keys = np.sort(tri.tri_group * stride + rank)
 
         a, b = tri.dual_edges()
@@ -424,7 +470,7 @@ class Spectrum:
         graph = csr_array(((edge_rank + 1).astype(float), (a, b)), shape=(m, m))
         forest = minimum_spanning_tree(graph).tocoo()
         fa = np.asarray(forest.row, dtype=np.int64)
-        f_rank = np.maximum(rank[fa], rank[np.asarray(forest.col, dtype=np.int64)])
+        f_rank = np.asarray(forest.data, dtype=np.int64) - 1
         f_group = tri.tri_group[fa]
         msf_keys = np.sort(f_group * stride + f_rank)
         msf_ptr = np.zeros(G + 1, dtype=np.int64)
@@ -432,71 +478,65 @@ class Spectrum:
 
         # Coverage: each vertex needs one incident triangle in the shape.
         p = len(tri.xy)
-        vmin = np.full(p, np.inf)
-        _min_at(vmin, tri.triangles.ravel(), np.repeat(weight, 3))
-        is_vertex = np.zeros(p, dtype=bool)
-        is_vertex[tri.triangles.ravel()] = True
-        cover = np.full(G, -np.inf)
+        vmin = np.full(p, stride, dtype=np.int64)
+        _min_at(vmin, tri.triangles.ravel(), np.repeat(rank, 3))
+        is_vertex = vmin < stride
+        cover = np.full(G, -1, dtype=np.int64)
         np.maximum.at(cover, tri.point_group[is_vertex], vmin[is_vertex])
-        cover[tri.degenerate] = np.inf
-        return cls(values, tri_keys, msf_keys, tri.tri_ptr, msf_ptr, cover)
+        cover[tri.degenerate] = stride - 1
+        return cls(tri.values, tri_keys, msf_keys, tri.tri_ptr, msf_ptr, cover)
 
-    def _count(self, keys, ptr, group, rank) -> np.ndarray:
-        stride = len(self.values) + 1
-        return np.searchsorted(keys, group * stride + rank, side="right") - ptr[group]
+    def rank_of(self, radius) -> np.ndarray:
+        """Rank of the largest spectrum value <= ``radius`` (-1 if none)."""
+        return np.searchsorted(self.values, radius, side="right") - 1
 
     def pieces_at_rank(self, group: np.ndarray, rank: np.ndarray) -> np.ndarray:
-        """Edge-connected pieces of group ``group`` with weights of rank <= ``rank``."""
-        return self._count(self.tri_keys, self.tri_ptr, group, rank) - self._count(
-            self.msf_keys, self.msf_ptr, group, rank
-        )
+        """Count the pieces of each group's shape with weights of rank <= ``rank``."""
+        key = group * self.stride + rank
+        n_tri = np.searchsorted(self.tri_keys, key, side="right") - self.tri_ptr[group]
+        n_msf = np.searchsorted(self.msf_keys, key, side="right") - self.msf_ptr[group]
+        return n_tri - n_msf
 
     def pieces(self, group, radius) -> np.ndarray:
         """Count the edge-connected pieces of each group's shape at ``radius``."""
         group = np.asarray(group, dtype=np.int64)
-        rank = np.searchsorted(self.values, radius, side="right") - 1
-        return self.pieces_at_rank(group, rank)
+        return self.pieces_at_rank(group, self.rank_of(radius))
 
     def valid(self, group, radius, components: int = 1) -> np.ndarray:
         """Test coverage and at most ``components`` pieces at ``radius``."""
         group = np.asarray(group, dtype=np.int64)
-        radius = np.asarray(radius, dtype=float)
-        n = self.pieces(group, radius)
-        return (radius >= self.cover[group]) & (n >= 1) & (n <= components)
+        rank = self.rank_of(np.asarray(radius, dtype=float))
+        n = self.pieces_at_rank(group, rank)
+        return (rank >= self.cover[group]) & (n >= 1) & (n <= components)
 
+    def optimum(self, components: int = 1) -> np.ndarray:
+        """Smallest valid rank of every group (``K`` where there is none).
 
-def optimal_radius(
-    tri: Triangulation, weight: np.ndarray, spectrum: Spectrum, components: int = 1
-) -> np.ndarray:
-    """Smallest spectrum value ``R`` at which each group's shape is valid.
-
-    The optimal alpha is ``1 / R``. Every candidate ``R`` (each triangle's
-    weight) is tested with the :class:`Spectrum` oracle, so the result is the
-    true minimum over the spectrum even where validity is not monotone.
-
-    Parameters
-    ----------
-    tri : Triangulation
-    weight : ndarray of shape (m,)
-        Radius (``holes=True``) or fill radius (``holes=False``).
-    spectrum : Spectrum
-        ``Spectrum.build(tri, weight)``.
-    components : int
-        Largest number of edge-connected pieces allowed.
-
-    Returns
-    -------
-    ndarray of shape (G,)
-        ``inf`` for degenerate groups (and where only the convex hull with a
-        flat triangle is valid, i.e. alpha = 0).
-    """
-    rank = np.searchsorted(spectrum.values, weight)
-    g = tri.tri_group
-    n = spectrum.pieces_at_rank(g, rank)
-    ok = (weight >= spectrum.cover[g]) & (n >= 1) & (n <= components)
-    best = np.full(tri.n_groups, np.inf)
-    _min_at(best, g[ok], weight[ok])
-    return best
+        Every spectrum value of the group (each distinct key) is a candidate,
+        so the result is the true minimum even where validity is not
+        monotone. Candidates are visited in sorted order, so the look-ups
+        walk the sorted keys forward.
+        """
+        keys = self.tri_keys
+        K = self.stride - 1
+        G = len(self.cover)
+        best = np.full(G, K, dtype=np.int64)
+        if len(keys) == 0:
+            return best
+        last = np.ones(len(keys), dtype=bool)
+        last[:-1] = keys[1:] != keys[:-1]
+        end = np.flatnonzero(last)
+        key = keys[end]
+        group, rank = np.divmod(key, self.stride)
+        n = (end + 1 - self.tri_ptr[group]) - (
+            np.searchsorted(self.msf_keys, key, side="right") - self.msf_ptr[group]
+        )
+        ok = (rank >= self.cover[group]) & (n >= 1) & (n <= components)
+        g_ok, r_ok = group[ok], rank[ok]
+        first = np.ones(len(g_ok), dtype=bool)
+        first[1:] = g_ok[1:] != g_ok[:-1]
+        best[g_ok[first]] = r_ok[first]
+        return best
 
 
 def radius_of_alpha(alpha) -> np.ndarray:
@@ -520,16 +560,22 @@ def piece_labels(tri: Triangulation, inside: np.ndarray) -> np.ndarray:
     a, b = tri.dual_edges()
     keep = inside[a] & inside[b]
     graph = csr_array((np.ones(keep.sum()), (a[keep], b[keep])), shape=(m, m))
-    _, raw = connected_components(graph, directed=False)
-    raw = np.where(inside, raw, -1)
-    # Renumber pieces in order of group (triangles are sorted by group).
-    first = np.full(m + 1, m, dtype=np.int64)
+    n, raw = connected_components(graph, directed=False)
+    used = np.zeros(n, dtype=bool)
+    used[raw[inside]] = True
+    label = (np.cumsum(used) - 1)[raw]
+    label[~inside] = -1
+    # scipy numbers components by their smallest node, and triangles are
+    # sorted by group, so labels follow groups; make sure of it.
+    first = np.full(int(used.sum()), m, dtype=np.int64)
     sel = np.flatnonzero(inside)
-    _min_at(first, raw[sel], sel)
-    order = np.argsort(first, kind="stable")
-    new = np.empty_like(order)
-    new[order] = np.arange(len(order))
-    return np.where(inside, new[raw], -1)
+    _min_at(first, label[sel], sel)
+    if len(first) and not (np.diff(first) > 0).all():  # pragma: no cover
+        order = np.argsort(first, kind="stable")
+        new = np.empty_like(order)
+        new[order] = np.arange(len(order))
+        label[sel] = new[label[sel]]
+    return label
 
 
 @dataclass(frozen=True)

@@ -69,7 +69,7 @@ def _check_options(holes, components, search_: str) -> None:
         )
 
 
-def _radius_threshold(
+def _rank_threshold(
     tri: core.Triangulation,
     weight: np.ndarray,
     alpha,
@@ -77,22 +77,24 @@ def _radius_threshold(
     search_: str,
     max_iterations: int,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Per group: the alpha (nan if degenerate) and the radius threshold R."""
+    """Per group: the alpha (nan if degenerate) and the largest solid rank."""
     G = tri.n_groups
     if alpha is not None:
         a = np.broadcast_to(np.asarray(alpha, dtype=float), (G,)).copy()
         if not np.isfinite(a).all() or (a < 0).any():
             raise InvalidInputError(f"alpha must be finite and >= 0; got {alpha!r}")
         a[tri.degenerate] = np.nan
-        return a, core.radius_of_alpha(a)
+        rank = np.searchsorted(tri.values, core.radius_of_alpha(a), side="right") - 1
+        return a, rank
 
     spectrum = core.Spectrum.build(tri, weight)
     if search_ == "exact":
-        radius = core.optimal_radius(tri, weight, spectrum, components)
+        rank = spectrum.optimum(components)
+        radius = np.append(tri.values, np.inf)[rank]
         with np.errstate(divide="ignore"):
             a = 1.0 / radius
         a[tri.degenerate] = np.nan
-        return a, radius
+        return a, rank
 
     def valid(groups, alphas):
         return spectrum.valid(groups, core.radius_of_alpha(alphas), components)
@@ -112,7 +114,7 @@ def _radius_threshold(
                 stacklevel=4,
             )
     a[tri.degenerate] = np.nan
-    return a, core.radius_of_alpha(a)
+    return a, spectrum.rank_of(core.radius_of_alpha(a))
 
 
 def _shown(items, limit: int = 10) -> str:
@@ -206,12 +208,10 @@ def alpha_shapes(
         tri = core.triangulate(points, groups, n_groups=n_groups, progress=progress)
     except ValueError as err:
         raise InvalidInputError(str(err)) from err
-    weight = tri.radius if holes else core.fill_radius(tri)
-    a, radius = _radius_threshold(
-        tri, weight, alpha, components, search, max_iterations
-    )
+    weight = tri.rank if holes else core.fill_radius(tri)
+    a, top = _rank_threshold(tri, weight, alpha, components, search, max_iterations)
 
-    inside = weight <= radius[tri.tri_group]
+    inside = weight <= top[tri.tri_group]
     piece = core.piece_labels(tri, inside)
     rings = core.boundary_rings(tri, inside, piece)
     if coords is None:
@@ -232,7 +232,7 @@ def alpha_shapes(
         alpha=a,
         geometry=geometry,
         n_points=np.bincount(codes, minlength=tri.n_groups),
-        n_distinct=np.diff(tri.point_ptr),
+        n_distinct=tri.n_distinct.copy(),
         n_parts=n_parts,
         area=np.bincount(
             tri.tri_group[inside], weights=tri.area[inside], minlength=tri.n_groups
