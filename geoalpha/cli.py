@@ -105,6 +105,11 @@ def main(ctx: click.Context, verbose: int, quiet: int) -> None:
     _configure_logging(verbose - quiet)
 
 
+def _crs_option(value: str) -> str | None:
+    """``none`` (any case) means no CRS."""
+    return None if value.strip().lower() == "none" else value
+
+
 def _group_columns(values: tuple[str, ...], columns, source: str) -> list[str]:
     """Resolve ``--by`` values (repeatable, comma-separated) to columns."""
     by: list[str] = []
@@ -213,7 +218,8 @@ _progress_option = click.option(
     default="EPSG:4326",
     show_default=True,
     help="CRS of the CSV coordinates (or of a file that has none), "
-    "e.g. EPSG:27700 for British National Grid.",
+    "e.g. EPSG:27700 for British National Grid; 'none' for planar "
+    "coordinates without CRS (alpha is then in 1/unit).",
 )
 @click.option(
     "--layer",
@@ -269,11 +275,12 @@ _progress_option = click.option(
 )
 @click.option(
     "--crs",
-    metavar="auto|CRS",
+    metavar="auto|CRS|none",
     default="auto",
     show_default=True,
     help="Metric CRS the shapes are computed in; 'auto' picks a UTM zone "
-    "(or a local CRS per group). The output keeps INPUT's CRS.",
+    "(or a local CRS per group); 'none' uses the coordinates as they are. "
+    "The output keeps INPUT's CRS.",
 )
 @click.option(
     "--degenerate",
@@ -282,6 +289,12 @@ _progress_option = click.option(
     show_default=True,
     help="Groups with fewer than 3 distinct or only collinear points: a small "
     "buffer polygon, an empty geometry, or no row.",
+)
+@click.option(
+    "--dropna/--no-dropna",
+    default=True,
+    show_default=True,
+    help="Leave out rows whose --by value is missing, or make them a group.",
 )
 @_overwrite_option
 @_engine_option
@@ -303,6 +316,7 @@ def hull(
     ratio: float,
     crs: str,
     degenerate: str,
+    dropna: bool,
     overwrite: bool,
     engine: str | None,
     progress: bool | None,
@@ -330,7 +344,10 @@ def hull(
     verbosity = _verbosity()
     with _reporting(verbosity):
         check_output(output, layer=output_layer, overwrite=overwrite)
-        points = read_points(input_path, x=x, y=y, crs=crs_in, layer=layer)
+        points = read_points(input_path, x=x, y=y, crs=_crs_option(crs_in), layer=layer)
+        work_crs = _crs_option(crs)
+        if points.crs is None and work_crs == "auto":
+            work_crs = None  # planar input: compute in its own units
         columns = _group_columns(by, list(points.columns), input_path)
         _run(
             points,
@@ -344,11 +361,12 @@ def hull(
             alpha=alpha,
             holes=holes,
             components=components,
-            crs=crs,
+            crs=work_crs,
             method=method,
             search=search,
             ratio=ratio,
             degenerate=degenerate,
+            dropna=dropna,
             progress=progress,
         )
 

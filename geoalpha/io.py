@@ -91,9 +91,10 @@ def read_points(
         pair found among ``longitude/latitude``, ``lon/lat``, ``lng/lat``,
         ``long/lat``, ``x/y`` and ``easting/northing`` (any letter case) is
         used. Not allowed for files that store geometries.
-    crs : str, int or pyproj.CRS, default "EPSG:4326"
+    crs : str, int, pyproj.CRS or None, default "EPSG:4326"
         CRS of the coordinates of a table, or of a vector file that stores
-        none (a Shapefile without ``.prj``). A file's own CRS always wins.
+        none (a Shapefile without ``.prj``); None leaves them without CRS
+        (planar coordinates). A file's own CRS always wins.
     layer : str or int, optional
         Layer to read from a multi-layer file such as a GeoPackage; the first
         layer by default.
@@ -126,16 +127,17 @@ def read_points(
     local = "://" not in source and not source.startswith("/vsi")
     if local and not Path(source).exists():
         raise FileNotFoundError(f"input file {source} does not exist")
-    try:
-        crs = pyproj.CRS.from_user_input(crs)
-    except pyproj.exceptions.CRSError as err:
-        raise InvalidInputError(f"unknown CRS {crs!r}: {err}") from err
+    if crs is not None:
+        try:
+            crs = pyproj.CRS.from_user_input(crs)
+        except pyproj.exceptions.CRSError as err:
+            raise InvalidInputError(f"unknown CRS {crs!r}: {err}") from err
 
     suffix = Path(source).suffix.lower()
     if suffix in _TABLE_SUFFIXES:
         if layer is not None:
             raise InvalidInputError(
-                f"{source} is a table; layer= applies to multi-layer files only"
+                f"{source} is a table; layer= (--layer) applies to multi-layer files"
             )
         return _points_from_table(_read_csv(source), source, x, y, crs)
     if suffix in _PARQUET_SUFFIXES and not _has_geo_metadata(source):
@@ -143,11 +145,15 @@ def read_points(
 
     if x is not None or y is not None:
         raise InvalidInputError(
-            f"{source} stores geometries; x= and y= apply to tables (CSV) only"
+            f"{source} stores geometries; x= and y= (--x, --y) apply to tables "
+            "(CSV) only"
         )
     gdf = _read_vector(source, suffix, layer)
-    if gdf.crs is None:
-        _check_lonlat(gdf.geometry.x, gdf.geometry.y, crs, source, "x", "y")
+    if gdf.crs is None and crs is not None:
+        import shapely
+
+        xy = shapely.get_coordinates(gdf.geometry.array)
+        _check_lonlat(xy[:, 0], xy[:, 1], crs, source, "x", "y")
         gdf = gdf.set_crs(crs)
     return gdf
 
@@ -275,7 +281,7 @@ def _points_from_table(frame: pd.DataFrame, source, x, y, crs) -> gpd.GeoDataFra
 def _check_lonlat(xs, ys, crs, source: str, x: str, y: str) -> None:
     import numpy as np
 
-    if not crs.is_geographic:
+    if crs is None or not crs.is_geographic:
         return
     xs = np.asarray(xs, dtype=float)
     ys = np.asarray(ys, dtype=float)
@@ -283,7 +289,7 @@ def _check_lonlat(xs, ys, crs, source: str, x: str, y: str) -> None:
         outside = (np.abs(xs) > 180) | (np.abs(ys) > 90)
     if outside.any():
         raise InvalidInputError(
-            f"{int(outside.sum())} rows of {source} have {x}/{y} outside the "
+            f"{int(outside.sum())} points of {source} have {x}/{y} outside the "
             f"longitude/latitude range of {crs.to_string()}; if they are "
             "projected coordinates, give their CRS with crs= (--crs-in), "
             "e.g. EPSG:27700"

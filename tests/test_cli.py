@@ -1,0 +1,421 @@
+"""The ``geoalpha`` command (geoalpha.cli), driven through click's CliRunner."""
+
+from __future__ import annotations
+
+import importlib
+import os
+import subprocess
+import sys
+import types
+import warnings
+from pathlib import Path
+
+import geopandas as gpd
+import pandas as pd
+import pytest
+import shapely
+from click.testing import CliRunner
+
+import geoalpha
+from geoalpha import datasets
+from geoalpha.cli import main
+from geoalpha.errors import DegenerateGroupWarning, InvalidInputError
+
+GROUP = "Local_Authority_(Highway)"
+REPO = Path(__file__).resolve().parents[1]
+
+
+def _real_hull():
+    try:
+        return importlib.import_module("geoalpha.tools").hull
+    except (ImportError, AttributeError):
+        return None
+
+
+needs_hull = pytest.mark.skipif(
+    _real_hull() is None, reason="geoalpha.tools.hull is not written yet"
+)
+
+
+def run(*args, **kwargs):
+    """Invoke the command; stdout and stderr are kept apart."""
+    try:
+        runner = CliRunner(mix_stderr=False)  # click < 8.2
+    except TypeError:
+        runner = CliRunner()
+    return runner.invoke(main, [str(a) for a in args], **kwargs)
+
+
+@pytest.fixture
+def points_csv(tmp_path):
+    """Four local authorities of the 2014 STATS19 extract, as a CSV file."""
+    pts = datasets.load("stats19")
+    keep = ["E09000033", "E09000013", "E09000030", "E08000020"]  # last: 1 point
+    table = pd.DataFrame(pts[pts[GROUP].isin(keep)].drop(columns="geometry"))
+    path = tmp_path / "accidents.csv"
+    table[["Accident_Index", "Longitude", "Latitude", GROUP]].to_csv(path, index=False)
+    return path
+
+
+@pytest.fixture
+def fake_hull(monkeypatch):
+    """Stand in for geoalpha.tools.hull: convex hulls, and a record of the call."""
+    calls = []
+
+    def hull(gdf, by=None, **options):
+        calls.append({"by": by, **options})
+        keys = [by] if isinstance(by, str) else list(by or [])
+        frame = gdf.assign(_all=0) if not keys else gdf
+        groups = frame.dissolve(by=keys or "_all", as_index=False)
+        sizes = frame.groupby(keys or "_all").size().to_numpy()
+        if (sizes < 3).any():
+            warnings.warn(
+                "1 group has fewer than 3 distinct points\n(buffered)",
+                DegenerateGroupWarning,
+                stacklevel=2,
+            )
+        out = groups[[*keys, "geometry"]].copy()
+        out["geometry"] = shapely.buffer(groups.geometry.convex_hull.array, 1e-4)
+        out["alpha"] = 0.0
+        out["n_points"] = sizes
+        return out
+
+    module = types.ModuleType("geoalpha.tools")
+    module.hull = hull
+    monkeypatch.setitem(sys.modules, "geoalpha.tools", module)
+    return calls
+
+
+# --------------------------------------------------------------------------
+# the group
+
+
+def test_version():
+    result = run("--version")
+    assert result.exit_code == 0
+    assert result.stdout == f"geoalpha {geoalpha.__version__}\n"
+
+
+def test_python_dash_m_geoalpha():
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join(
+        p for p in (str(REPO), env.get("PYTHONPATH")) if p
+    )
+    done = subprocess.run(
+        [sys.executable, "-m", "geoalpha", "--version"],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=60,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.startswith("geoalpha ")
+
+
+@pytest.mark.parametrize(
+    ("args", "expected"),
+    [
+        ([], ["geoalpha demo hulls.gpkg", "demo", "hull", "--verbose", "--quiet"]),
+        (["hull"], ["INPUT OUTPUT", "--by COL[,COL...]", "--crs-in", "--overwrite"]),
+        (["demo"], ["uk_clusters", "Local_Authority_(Highway)", "--dataset"]),
+    ],
+)
+def test_help(args, expected):
+    result = run(*args, "--help")
+    assert result.exit_code == 0
+    for text in expected:
+        assert text in result.stdout
+
+
+# --------------------------------------------------------------------------
+# options reach hull(); output is reported
+
+
+def test_options_are_passed_to_hull(fake_hull, points_csv, tmp_path):
+    result = run(
+        "hull", points_csv, tmp_path / "h.gpkg", "--by", f"Accident_Index,{GROUP}",
+        "--alpha", "0.5", "--holes", "--components", "2", "--method", "concave",
+        "--search", "ladder", "--ratio", "0.5", "--crs", "EPSG:27700",
+        "--degenerate", "drop", "--no-dropna", "--no-progress",
+    )  # fmt: skip
+    assert result.exit_code == 0, result.stderr
+    assert fake_hull == [
+        {
+            "by": ["Accident_Index", GROUP],
+            "alpha": 0.5,
+            "holes": True,
+            "components": 2,
+            "crs": "EPSG:27700",
+            "method": "concave",
+            "search": "ladder",
+            "ratio": 0.5,
+            "degenerate": "drop",
+            "dropna": False,
+            "progress": False,
+        }
+    ]
+
+
+def test_defaults_passed_to_hull(fake_hull, points_csv, tmp_path):
+    result = run("hull", points_csv, tmp_path / "h.gpkg", "--by", GROUP)
+    assert result.exit_code == 0, result.stderr
+    assert fake_hull == [
+        {
+            "by": GROUP,
+            "alpha": None,
+            "holes": False,
+            "components": 1,
+            "crs": "auto",
+            "method": "alpha",
+            "search": "exact",
+            "ratio": 0.3,
+            "degenerate": "buffer",
+            "dropna": True,
+            "progress": None,
+        }
+    ]
+
+
+def test_by_repeated_and_absent(fake_hull, points_csv, tmp_path):
+    run("hull", points_csv, tmp_path / "a.gpkg", "--by", GROUP, "--by", "Latitude")
+    run("hull", points_csv, tmp_path / "b.gpkg")
+    assert [call["by"] for call in fake_hull] == [[GROUP, "Latitude"], None]
+    assert len(gpd.read_file(tmp_path / "b.gpkg")) == 1
+
+
+def test_summary_warnings_and_shapefile_fields(fake_hull, points_csv, tmp_path):
+    out = tmp_path / "h.shp"
+    result = run("hull", points_csv, out, "--by", GROUP)
+    assert result.exit_code == 0, result.stderr
+    assert result.stdout == ""
+    assert result.stderr.splitlines() == [
+        "Warning: 1 group has fewer than 3 distinct points (buffered)",
+        f"Shapefile field '{GROUP}' written as 'Local_Auth'",
+        f"Wrote 4 hulls of 55 points to {out}",
+    ]
+    assert sorted(gpd.read_file(out)["Local_Auth"]) == [
+        "E08000020",
+        "E09000013",
+        "E09000030",
+        "E09000033",
+    ]
+
+
+def test_quiet_prints_nothing(fake_hull, points_csv, tmp_path):
+    result = run("-q", "hull", points_csv, tmp_path / "h.shp", "--by", GROUP)
+    assert result.exit_code == 0
+    assert result.stderr == result.stdout == ""
+    assert fake_hull[0]["progress"] is False  # no progress bar either
+
+
+def test_geopackage_layer_in_summary(fake_hull, points_csv, tmp_path):
+    out = tmp_path / "h.gpkg"
+    result = run("hull", points_csv, out, "--by", GROUP, "--output-layer", "la")
+    assert (
+        result.stderr.splitlines()[-1]
+        == f"Wrote 4 hulls of 55 points to {out} (layer 'la')"
+    )
+    assert gpd.read_file(out, layer="la").crs == "EPSG:4326"
+
+
+def test_projected_csv_with_explicit_columns(fake_hull, tmp_path):
+    pts = datasets.load("stats19").iloc[:30]
+    path = tmp_path / "bng.csv"
+    pts[["Location_Easting_OSGR", "Location_Northing_OSGR", GROUP]].to_csv(path)
+    out = tmp_path / "h.fgb"
+    result = run(
+        "hull", path, out, "--by", GROUP, "--x", "Location_Easting_OSGR",
+        "--y", "Location_Northing_OSGR", "--crs-in", "EPSG:27700",
+        "--engine", "fiona",
+    )  # fmt: skip
+    assert result.exit_code == 0, result.stderr
+    assert gpd.read_file(out).crs == "EPSG:27700"
+
+
+def test_planar_coordinates_with_crs_in_none(fake_hull, tmp_path):
+    path = _write(tmp_path / "trees.csv", "x,y,species\n1,2,oak\n500,9,oak\n")
+    result = run("hull", path, tmp_path / "t.gpkg", "--crs-in", "none")
+    assert result.exit_code == 0, result.stderr
+    assert fake_hull[0]["crs"] is None
+    assert gpd.read_file(tmp_path / "t.gpkg").crs is None
+
+
+# --------------------------------------------------------------------------
+# bad input: exit status 1 and one "Error:" line
+
+
+def _write(path: Path, text: str) -> Path:
+    path.write_text(text)
+    return path
+
+
+@pytest.mark.parametrize(
+    ("make_args", "message"),
+    [
+        (
+            lambda d, csv: [d / "nope.csv", d / "h.gpkg"],
+            "Error: input file {d}/nope.csv does not exist",
+        ),
+        (
+            lambda d, csv: [csv, d / "h.gpkg", "--by", "Borough"],
+            "Error: --by column 'Borough' not found in {d}/accidents.csv; its "
+            "columns are: Accident_Index, Longitude, Latitude, " + GROUP,
+        ),
+        (
+            lambda d, csv: [_write(d / "s.csv", "site,n\na,1\n"), d / "h.gpkg"],
+            "Error: no coordinate columns found in {d}/s.csv",
+        ),
+        (
+            lambda d, csv: [_write(d / "bad.gpkg", "not a GeoPackage"), d / "h.gpkg"],
+            "Error: cannot read {d}/bad.gpkg",
+        ),
+        (
+            lambda d, csv: [csv, _write(d / "old.gpkg", "precious")],
+            "Error: output {d}/old.gpkg already exists; use --overwrite",
+        ),
+        (
+            lambda d, csv: [csv, d / "h.kml"],
+            "Error: cannot tell the output format of {d}/h.kml",
+        ),
+        (
+            lambda d, csv: [csv, d / "h.shp", "--output-layer", "x"],
+            "Error: a layer name applies to GeoPackage (.gpkg) output only",
+        ),
+        (
+            lambda d, csv: [csv, d / "h.gpkg", "--crs-in", "EPSG:0"],
+            "Error: unknown CRS 'EPSG:0'",
+        ),
+        (
+            lambda d, csv: [csv, d / "h.gpkg", "--x", "Latitude"],
+            "Error: give both x= and y= (--x and --y)",
+        ),
+    ],
+    ids=[
+        "missing-file",
+        "missing-column",
+        "no-coordinates",
+        "unreadable",
+        "exists",
+        "extension",
+        "layer",
+        "crs",
+        "x-only",
+    ],
+)
+def test_bad_input_gives_one_error_line(tmp_path, points_csv, make_args, message):
+    args = make_args(tmp_path, points_csv)
+    before = sorted(os.listdir(tmp_path))
+    result = run("hull", *args)
+    assert result.exit_code == 1
+    lines = result.stderr.splitlines()
+    assert len(lines) == 1, result.stderr
+    assert lines[0].startswith(message.format(d=tmp_path))
+    assert "Traceback" not in result.stderr
+    assert sorted(os.listdir(tmp_path)) == before  # nothing written
+    if (tmp_path / "old.gpkg").exists():
+        assert (tmp_path / "old.gpkg").read_text() == "precious"
+
+
+def test_verbose_adds_the_traceback(tmp_path):
+    result = run("-v", "hull", tmp_path / "nope.csv", tmp_path / "h.gpkg")
+    assert result.exit_code == 1
+    assert result.stderr.startswith("Traceback (most recent call last):")
+    assert result.stderr.splitlines()[-1].startswith("Error: input file")
+
+
+def test_geoalpha_errors_from_hull_are_one_line(monkeypatch, points_csv, tmp_path):
+    def hull(*args, **kwargs):
+        raise InvalidInputError("hull() needs point geometries;\ngot 3 LineString")
+
+    monkeypatch.setitem(sys.modules, "geoalpha.tools", types.SimpleNamespace(hull=hull))
+    result = run("hull", points_csv, tmp_path / "h.gpkg")
+    assert result.exit_code == 1
+    assert result.stderr == ("Error: hull() needs point geometries; got 3 LineString\n")
+
+
+def test_unexpected_errors_name_their_type(monkeypatch, points_csv, tmp_path):
+    def broken(*args, **kwargs):
+        raise ZeroDivisionError("division by zero")
+
+    monkeypatch.setattr("geoalpha.io.read_points", broken)
+    result = run("hull", points_csv, tmp_path / "h.gpkg")
+    assert result.exit_code == 1
+    assert result.stderr == (
+        "Error: ZeroDivisionError: division by zero "
+        "(rerun as 'geoalpha -v ...' for the traceback)\n"
+    )
+
+
+def test_usage_errors_exit_2():
+    result = run("hull", "a.csv", "b.gpkg", "--method", "magic")
+    assert result.exit_code == 2
+    assert "'magic' is not one of 'alpha', 'convex', 'concave', 'knn'" in result.stderr
+
+
+def test_demo_refuses_existing_output(tmp_path):
+    (tmp_path / "d.gpkg").write_text("precious")
+    result = run("demo", tmp_path / "d.gpkg")
+    assert result.exit_code == 1
+    assert result.stderr == (
+        f"Error: output {tmp_path}/d.gpkg already exists; use --overwrite "
+        "(overwrite=True) to replace it\n"
+    )
+
+
+# --------------------------------------------------------------------------
+# end to end, with the real computation
+
+
+@needs_hull
+@pytest.mark.parametrize(
+    ("suffix", "engine", "group"),
+    [(".gpkg", "pyogrio", GROUP), (".shp", "fiona", "Local_Auth")],
+)
+def test_hull_end_to_end(points_csv, tmp_path, suffix, engine, group):
+    out = tmp_path / f"hulls{suffix}"
+    result = run("hull", points_csv, out, "--by", GROUP, "--engine", engine)
+    assert result.exit_code == 0, result.stderr
+    assert result.stderr.splitlines()[-1].startswith(
+        f"Wrote 4 hulls of 55 points to {out}"
+    )
+    with pytest.warns(DegenerateGroupWarning, match="E08000020"):
+        expected = _real_hull()(_csv_points(points_csv), by=GROUP)
+    back = gpd.read_file(out, engine=engine).sort_values(group, ignore_index=True)
+    expected = expected.sort_values(GROUP, ignore_index=True)
+    assert back[group].tolist() == expected[GROUP].tolist()
+    assert back["n_points"].tolist() == expected["n_points"].tolist()
+    assert back["alpha"].tolist() == pytest.approx(
+        expected["alpha"].tolist(), nan_ok=True
+    )
+    assert back.crs == expected.crs
+    assert back.geometry.geom_equals(expected.geometry).all()
+
+
+def _csv_points(path):
+    from geoalpha.io import read_points
+
+    return read_points(path)
+
+
+@needs_hull
+def test_demo_default_dataset(tmp_path):
+    out = tmp_path / "uk.gpkg"
+    result = run("-q", "demo", out)
+    assert result.exit_code == 0, result.stderr
+    hulls = gpd.read_file(out)
+    assert len(hulls) == 691
+    assert hulls.crs == "EPSG:4326"
+    assert set(hulls.geom_type) <= {"Polygon", "MultiPolygon"}
+
+
+@needs_hull
+def test_demo_stats19_warns_about_degenerate_groups(tmp_path):
+    out = tmp_path / "la.shp"
+    result = run("demo", out, "--dataset", "stats19")
+    assert result.exit_code == 0, result.stderr
+    lines = result.stderr.splitlines()
+    assert any(line.startswith("Warning: ") for line in lines)
+    assert f"Shapefile field '{GROUP}' written as 'Local_Auth'" in lines
+    assert lines[-1] == f"Wrote 13 hulls of 1,017 points to {out}"
+    assert len(gpd.read_file(out)) == 13
