@@ -136,9 +136,11 @@ class _Projection:
         self.crs_list: list = []
         self.crs_index = np.zeros(n_groups, dtype=np.int64)
         self.src = src
+        self.scale = 1.0
+        self.wide = np.zeros(n_groups, dtype=bool)
         if crs is None:  # planar: use the coordinates as they are
             self.xy = coords
-            self.names = np.full(n_groups, gcrs.crs_name(src) if src else "")
+            self.names = np.full(n_groups, gcrs.crs_name(src) if src else "planar")
             return
         if src is None:
             raise InvalidInputError(
@@ -153,8 +155,16 @@ class _Projection:
             )
             self.crossing = gcrs.crosses_antimeridian(lon, codes, n_groups)
             self.out[:, 0] = gcrs.unwrap_lon(lon, codes, self.crossing)
+            width = np.full(n_groups, -np.inf)
+            np.maximum.at(width, codes, self.out[:, 0])
+            low = np.full(n_groups, np.inf)
+            np.minimum.at(low, codes, self.out[:, 0])
+            self.wide = width - low > 180.0
         elif isinstance(crs, str) and crs.strip().lower() == "auto":
-            self.xy, self.crs_list = coords, [src]
+            # Used as it is, in metres: a CRS in feet is scaled (alpha stays 1/m).
+            self.scale = src.axis_info[0].unit_conversion_factor or 1.0
+            self.xy = coords * self.scale if self.scale != 1.0 else coords
+            self.crs_list = [src]
         else:
             target = gcrs.parse_crs(crs)
             if target.is_geographic:
@@ -174,6 +184,8 @@ class _Projection:
         if not self.crs_list:
             return geoms
         out = geoms.copy()
+        if self.scale != 1.0:
+            return shapely.transform(geoms, lambda c: c / self.scale)
         for k, target in enumerate(self.crs_list):
             sel = self.crs_index[groups] == k
             if not sel.any() or target == self.src:
@@ -233,7 +245,7 @@ def _comparison_hulls(method, proj, codes, n_groups, *, holes, ratio, k, bar):
                 pass
             if bar is not None:
                 bar.update(1)
-    degenerate = shapely.get_type_id(geoms) != 3  # Polygon
+    degenerate = (shapely.get_type_id(geoms) != 3) | shapely.is_empty(geoms)
     geoms[degenerate] = EMPTY_POLYGON
     area = shapely.area(geoms)
     present = ~degenerate
@@ -241,7 +253,46 @@ def _comparison_hulls(method, proj, codes, n_groups, *, holes, ratio, k, bar):
     out[present] = _to_input_vertices(
         geoms[present], np.flatnonzero(present), proj.xy, proj.out, codes
     )
-    return out, area, labels, degenerate
+    return _cover_points(out, proj.out, codes), area, labels, degenerate
+
+
+def _convex_hulls(proj, codes, n_groups):
+    """Convex hulls in the output coordinates, where they are exact."""
+    order = np.argsort(codes, kind="stable")
+    hulls = np.full(n_groups, EMPTY_POLYGON, dtype=object)
+    present = np.unique(codes)
+    hulls[present] = shapely.convex_hull(
+        shapely.multipoints(proj.out[order], indices=codes[order])
+    )[present]
+    return hulls
+
+
+def _cover_points(geoms, out_xy, codes) -> np.ndarray:
+    """Make sure every point is covered in the output coordinates.
+
+    A hull built in metres and given the input (e.g. lon/lat) coordinates of
+    its vertices can leave a point next to a long edge just outside. Such a
+    point gets the triangle between it and its nearest boundary edge (all
+    three vertices are input points); this changes areas by well under 1 %.
+    """
+    geoms = geoms.copy()
+    points = shapely.points(out_xy)
+    shapely.prepare(geoms)
+    outside = ~shapely.covers(geoms[codes], points) & ~shapely.is_empty(geoms[codes])
+    for g in np.unique(codes[outside]):
+        poly = geoms[g]
+        for p in points[outside & (codes == g)]:
+            if poly.covers(p):
+                continue
+            parts = shapely.get_parts(poly)
+            part = parts[np.argmin(shapely.distance(parts, p))]
+            ring = shapely.get_coordinates(part.exterior)
+            segments = shapely.linestrings(np.stack([ring[:-1], ring[1:]], axis=1))
+            k = int(np.argmin(shapely.distance(segments, p)))
+            ear = shapely.Polygon([ring[k], (p.x, p.y), ring[k + 1]])
+            poly = shapely.union(poly, ear)
+        geoms[g] = poly
+    return geoms
 
 
 def hull(
@@ -393,13 +444,8 @@ def hull(
     types = shapely.get_type_id(geoms)
     other = ~missing & ~np.isin(types, _POINT_TYPES)
     if other.any() and not vertices:
-        kinds = pd.Series(shapely.get_type_id(geoms[other])).map(
-            dict(enumerate(shapely.GeometryType.__members__))
-        )
-        names = ", ".join(
-            f"{n} {t.title().replace('string', 'String')}"
-            for t, n in kinds.value_counts().items()
-        )
+        kinds = pd.Series(np.asarray(frame.geom_type)[other])
+        names = ", ".join(f"{n} {t}" for t, n in kinds.value_counts().items())
         raise InvalidInputError(
             f"hull() needs point geometries; got {names} row(s) (index "
             f"{_labels(index, other)}); pass vertices=True to use their vertices"
@@ -427,6 +473,14 @@ def hull(
     coords, which = shapely.get_coordinates(geoms[kept], return_index=True)
     pcodes = codes[kept][which]
     n_points = np.bincount(codes[kept], minlength=n_groups)
+    bad = ~np.isfinite(coords).all(axis=1)
+    if bad.any():
+        rows = np.zeros(len(index), dtype=bool)
+        rows[kept[which[bad]]] = True
+        raise InvalidInputError(
+            "hull() needs finite coordinates; got NaN or infinite values in "
+            f"{rows.sum()} row(s) (index {_labels(index, rows)})"
+        )
     try:
         proj = _Projection(coords, pcodes, n_groups, frame.crs, crs)
     except InvalidInputError as err:
@@ -448,6 +502,9 @@ def hull(
             )
             geometry, area, is_degenerate = res.geometry, res.area, res.degenerate
             alphas = res.alpha
+            if method == "convex":
+                convex = _convex_hulls(proj, pcodes, n_groups)
+                geometry = np.where(is_degenerate, geometry, convex)
             label = method if method == "convex" or search == "exact" else search
             labels = np.full(n_groups, label, dtype=object)
         else:
@@ -473,7 +530,7 @@ def hull(
             buffer,
         )
 
-    geometry = _finish(geometry, proj.crossing, keys)
+    geometry = _finish(geometry, proj.crossing, proj.wide, keys)
     with np.errstate(divide="ignore"):
         radius = 1.0 / alphas
     import geopandas as gpd
@@ -482,7 +539,9 @@ def hull(
     table["alpha"] = alphas
     table["radius"] = radius
     table["n_points"] = n_points
-    table["n_parts"] = shapely.get_num_geometries(geometry)
+    table["n_parts"] = np.where(
+        shapely.is_empty(geometry), 0, shapely.get_num_geometries(geometry)
+    )
     table["area_m2"] = area
     table["crs_used"] = proj.names
     table["method"] = labels
@@ -554,28 +613,45 @@ def _degenerate_groups(
     return geometry, area, keep
 
 
-def _finish(geometry: np.ndarray, crossing: np.ndarray, keys) -> np.ndarray:
-    """Split antimeridian groups, and repair what the CRS round trip broke."""
+def _finish(
+    geometry: np.ndarray, crossing: np.ndarray, wide: np.ndarray, keys
+) -> np.ndarray:
+    """Repair what the CRS round trip broke, then split antimeridian groups."""
     geometry = geometry.copy()
+    invalid = ~shapely.is_valid(geometry)
+    if invalid.any():
+        geometry[invalid] = shapely.make_valid(geometry[invalid], method="structure")
+        if (invalid & ~wide).any():
+            warnings.warn(
+                f"{(invalid & ~wide).sum()} hull(s) became invalid in the input CRS "
+                "(coordinates too close for it) and were repaired with make_valid: "
+                + _names(keys, invalid & ~wide),
+                GeoAlphaWarning,
+                stacklevel=_stacklevel(),
+            )
     if crossing.any():
         geometry[crossing] = gcrs.split_antimeridian(geometry[crossing])
-        names = [", ".join(map(str, r)) for r in keys[crossing].itertuples(index=False)]
         warnings.warn(
             f"{crossing.sum()} group(s) cross the antimeridian (+-180 degrees): "
-            f"{'; '.join(names[:10])}; their hulls are MultiPolygons split at "
+            f"{_names(keys, crossing)}; their hulls are MultiPolygons split at "
             "+-180 degrees (RFC 7946)",
             AntimeridianWarning,
             stacklevel=_stacklevel(),
         )
-    invalid = ~shapely.is_valid(geometry)
-    if invalid.any():
-        geometry[invalid] = shapely.make_valid(geometry[invalid], method="structure")
-        names = [", ".join(map(str, r)) for r in keys[invalid].itertuples(index=False)]
+    if wide.any():
         warnings.warn(
-            f"{invalid.sum()} hull(s) became invalid in the input CRS (coordinates "
-            "too close for it) and were repaired with make_valid: "
-            + "; ".join(names[:10]),
+            f"{wide.sum()} group(s) span more than 180 degrees of longitude: "
+            f"{_names(keys, wide)}; no longitude/latitude polygon can represent "
+            "their hull faithfully (it may not contain all their points); "
+            "'area_m2' and 'alpha' are right, for the geometry use crs= with a "
+            "projected output or split the group",
             GeoAlphaWarning,
             stacklevel=_stacklevel(),
         )
     return geometry
+
+
+def _names(keys, mask: np.ndarray, limit: int = 10) -> str:
+    rows = keys[mask].head(limit).itertuples(index=False)
+    names = [", ".join(map(str, r)) or "all points" for r in rows]
+    return "; ".join(names) + (", ..." if mask.sum() > limit else "")
