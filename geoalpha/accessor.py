@@ -7,6 +7,7 @@ is :func:`geoalpha.hull` with ``gdf`` as its first argument.
 from __future__ import annotations
 
 import functools
+import sys
 import warnings
 
 from geoalpha import tools
@@ -51,11 +52,19 @@ def register(name: str = "alpha") -> None:
     """Register :class:`AlphaAccessor` as ``name`` on GeoDataFrame and GeoSeries.
 
     Called on ``import geoalpha``. A column of the same name is still
-    reachable with ``gdf[name]``; ``gdf.<name>`` is the accessor.
+    reachable with ``gdf[name]``; ``gdf.<name>`` is the accessor. The
+    dask-geopandas GeoDataFrame and GeoSeries get it too when
+    ``dask_geopandas`` is already imported (importing :mod:`geoalpha.dask`
+    registers it there in any case), so that ``import geoalpha`` does not
+    import dask.
     """
     import geopandas as gpd
 
-    for cls in (gpd.GeoDataFrame, gpd.GeoSeries):
+    classes = [gpd.GeoDataFrame, gpd.GeoSeries]
+    dgpd = sys.modules.get("dask_geopandas")
+    if dgpd is not None:
+        classes += [dgpd.GeoDataFrame, dgpd.GeoSeries]
+    for cls in classes:
         existing = getattr(cls, name, None)
         if existing is not None and not isinstance(
             cls.__dict__.get(name), _CachedAccessor

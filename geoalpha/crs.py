@@ -595,7 +595,12 @@ def metric_crs(
         groups around a pole are centred on the pole; antimeridian-crossing
         groups are centred with unwrapped longitudes). Anything else is
         parsed by :func:`parse_crs` and used for every group; it must be a
-        projected CRS in metres.
+        projected CRS in metres. ``"auto-group"``: the per-group choice of
+        ``"auto"`` without the whole-dataset check (for a subset of the data
+        whose whole-dataset check was done elsewhere, as
+        :mod:`geoalpha.dask` does for each partition).
+
+        .. versionadded:: 0.2.0 ``"auto-group"``
     source_crs : CRS, optional
         The geographic CRS of ``lon``/``lat``; default EPSG:4326 (WGS 84).
 
@@ -643,8 +648,11 @@ def metric_crs(
     source_key = _WGS84 if source is None else source.srs
     check_lonlat(lon, lat)
 
-    if isinstance(crs, str) and crs.strip().lower() == "auto":
-        crs_list, crs_index = _choose_auto(lon, lat, codes, n_groups)
+    mode = crs.strip().lower() if isinstance(crs, str) else None
+    if mode in ("auto", "auto-group"):
+        crs_list, crs_index = _choose_auto(
+            lon, lat, codes, n_groups, whole=mode == "auto"
+        )
     else:
         forced = parse_crs(crs)
         if forced is None:
@@ -684,20 +692,28 @@ def metric_crs(
 
 
 def _choose_auto(
-    lon: np.ndarray, lat: np.ndarray, codes: np.ndarray, n_groups: int
+    lon: np.ndarray,
+    lat: np.ndarray,
+    codes: np.ndarray,
+    n_groups: int,
+    whole: bool = True,
 ) -> tuple[list[pyproj.CRS], np.ndarray]:
-    """CRS choice of ``metric_crs(crs="auto")``: (crs_list, crs_index)."""
+    """CRS choice of ``metric_crs(crs="auto")``: (crs_list, crs_index).
+
+    ``whole=False`` skips the whole-dataset check (``crs="auto-group"``).
+    """
     if lon.size == 0:
         return [], np.zeros(n_groups, dtype=np.intp)
-    south, north = np.array([lat.min()]), np.array([lat.max()])
-    west, east = np.array([lon.min()]), np.array([lon.max()])
-    if east[0] - west[0] > 2 * UTM_HALF_WIDTH:
-        # Maybe narrow the other way round the globe (data across +-180).
-        arc = _group_arcs(lon, None, np.zeros(lon.size, dtype=np.intp), 1)
-        west, east = arc["west"], arc["east"]
-    epsg, fits = _utm_keys(west, east, south, north)
-    if fits[0]:
-        return [_crs_from_key(int(epsg[0]))], np.zeros(n_groups, dtype=np.intp)
+    if whole:
+        south, north = np.array([lat.min()]), np.array([lat.max()])
+        west, east = np.array([lon.min()]), np.array([lon.max()])
+        if east[0] - west[0] > 2 * UTM_HALF_WIDTH:
+            # Maybe narrow the other way round the globe (data across +-180).
+            arc = _group_arcs(lon, None, np.zeros(lon.size, dtype=np.intp), 1)
+            west, east = arc["west"], arc["east"]
+        epsg, fits = _utm_keys(west, east, south, north)
+        if fits[0]:
+            return [_crs_from_key(int(epsg[0]))], np.zeros(n_groups, dtype=np.intp)
 
     arcs = _group_arcs(lon, lat, codes, n_groups)
     filled = ~np.isnan(arcs["west"])

@@ -7,6 +7,8 @@ warning derives from :class:`GeoAlphaWarning`.
 
 from __future__ import annotations
 
+import sys
+
 __all__ = [
     "AntimeridianWarning",
     "DegenerateGroupWarning",
@@ -44,3 +46,17 @@ class AntimeridianWarning(GeoAlphaWarning):
 
 class SearchWarning(GeoAlphaWarning):
     """A non-exact alpha search (ladder or bisection) gave a weaker result."""
+
+
+def user_stacklevel() -> int:
+    """Return the ``stacklevel`` that points a warning at the user's own line.
+
+    Counts the frames of geoalpha's modules between the caller and the first
+    frame outside geoalpha (through the accessor, ``hull``, ``alpha_shapes``).
+    """
+    frame, level = sys._getframe(1), 1
+    while frame is not None and frame.f_globals.get("__name__", "").startswith(
+        "geoalpha."
+    ):
+        frame, level = frame.f_back, level + 1
+    return level

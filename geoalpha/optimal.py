@@ -13,7 +13,12 @@ from typing import Literal, NamedTuple
 import numpy as np
 
 from geoalpha import core, search, shapes
-from geoalpha.errors import DegenerateGroupWarning, InvalidInputError, SearchWarning
+from geoalpha.errors import (
+    DegenerateGroupWarning,
+    InvalidInputError,
+    SearchWarning,
+    user_stacklevel,
+)
 
 __all__ = ["AlphaShapes", "alpha_shape", "alpha_shapes", "optimal_alpha"]
 
@@ -111,7 +116,7 @@ def _rank_threshold(
                 f"{_shown(np.flatnonzero(gave_up))}) and returned alpha=0, the "
                 "convex hull, as alphashape does; use search='exact'",
                 SearchWarning,
-                stacklevel=4,
+                stacklevel=user_stacklevel(),
             )
     a[tri.degenerate] = np.nan
     return a, spectrum.rank_of(core.radius_of_alpha(a))
@@ -135,6 +140,7 @@ def alpha_shapes(
     coords=None,
     n_groups: int | None = None,
     progress=None,
+    n_jobs: int = 1,
 ) -> AlphaShapes:
     """Optimal alpha shapes of many groups of points in one call.
 
@@ -172,6 +178,11 @@ def alpha_shapes(
         Number of groups (default: largest code + 1).
     progress : object with an ``update(n)`` method, optional
         Progress of the triangulation, in groups (e.g. a ``tqdm`` bar).
+    n_jobs : int, default 1
+        Worker processes to spread the groups over (-1: one per core); see
+        :mod:`geoalpha.parallel`. The result is the same for every value.
+
+        .. versionadded:: 0.2.0
 
     Returns
     -------
@@ -204,6 +215,22 @@ def alpha_shapes(
     ['Polygon', 'Polygon']
     """
     _check_options(holes, components, search)
+    if type(n_jobs) is not int or n_jobs != 1:
+        from geoalpha.parallel import alpha_shapes_parallel
+
+        return alpha_shapes_parallel(
+            points,
+            groups,
+            n_jobs=n_jobs,
+            alpha=alpha,
+            holes=holes,
+            components=components,
+            search=search,
+            max_iterations=max_iterations,
+            coords=coords,
+            n_groups=n_groups,
+            progress=progress,
+        )
     try:
         tri = core.triangulate(points, groups, n_groups=n_groups, progress=progress)
     except ValueError as err:
@@ -248,7 +275,7 @@ def _one_group(points, **kwargs) -> AlphaShapes:
             f"no alpha shape: the {res.n_distinct[0]} distinct point(s) are fewer "
             "than 3 or all collinear; alpha is nan and the shape empty",
             DegenerateGroupWarning,
-            stacklevel=3,
+            stacklevel=user_stacklevel(),
         )
     return res
 

@@ -24,6 +24,7 @@ from geoalpha.errors import (
     DroppedRowsWarning,
     GeoAlphaWarning,
     InvalidInputError,
+    user_stacklevel,
 )
 from geoalpha.optimal import alpha_shapes
 from geoalpha.shapes import EMPTY_POLYGON
@@ -53,6 +54,12 @@ def _labels(index: pd.Index, mask: np.ndarray, limit: int = 10) -> str:
     labels = [repr(v) if isinstance(v, str) else str(v) for v in index[mask][:limit]]
     more = ", ..." if mask.sum() > limit else ""
     return ", ".join(labels) + more
+
+
+def _is_dask(data) -> bool:
+    """Tell whether ``data`` is a dask-geopandas frame (without importing dask)."""
+    dgpd = sys.modules.get("dask_geopandas")
+    return dgpd is not None and isinstance(data, dgpd.GeoDataFrame | dgpd.GeoSeries)
 
 
 def _as_frame(data) -> Any:
@@ -138,6 +145,8 @@ class _Projection:
         self.src = src
         self.scale = 1.0
         self.wide = np.zeros(n_groups, dtype=bool)
+        #: Unit of the computation coordinates, for messages.
+        self.unit = "m" if crs is not None else _unit_name(src)
         if crs is None:  # planar: use the coordinates as they are
             self.xy = coords
             self.names = np.full(n_groups, gcrs.crs_name(src) if src else "planar")
@@ -160,7 +169,7 @@ class _Projection:
             low = np.full(n_groups, np.inf)
             np.minimum.at(low, codes, self.out[:, 0])
             self.wide = width - low > 180.0
-        elif isinstance(crs, str) and crs.strip().lower() == "auto":
+        elif isinstance(crs, str) and crs.strip().lower() in ("auto", "auto-group"):
             # Used as it is, in metres: a CRS in feet is scaled (alpha stays 1/m).
             self.scale = src.axis_info[0].unit_conversion_factor or 1.0
             self.xy = coords * self.scale if self.scale != 1.0 else coords
@@ -202,6 +211,13 @@ class _Projection:
                 out[wrap], lambda c: np.column_stack([c[:, 0] % 360.0, c[:, 1]])
             )
         return out
+
+
+def _unit_name(crs) -> str:
+    """Name of the unit of planar coordinates used as they are (crs=None)."""
+    if crs is None:
+        return "unit"
+    return crs.axis_info[0].unit_name if crs.axis_info else "unit"
 
 
 def _to_input_vertices(geoms, groups, xy, out, codes) -> np.ndarray:
@@ -272,8 +288,8 @@ def _cover_points(geoms, out_xy, codes) -> np.ndarray:
 
     A hull built in metres and given the input (e.g. lon/lat) coordinates of
     its vertices can leave a point next to a long edge just outside. Such a
-    point gets the triangle between it and its nearest boundary edge (all
-    three vertices are input points); this changes areas by well under 1 %.
+    point becomes a vertex of its nearest shell edge (the edge a-b becomes
+    a-p-b, all input points), which changes areas by well under 1 %.
     """
     geoms = geoms.copy()
     points = shapely.points(out_xy)
@@ -282,17 +298,31 @@ def _cover_points(geoms, out_xy, codes) -> np.ndarray:
     for g in np.unique(codes[outside]):
         poly = geoms[g]
         for p in points[outside & (codes == g)]:
-            if poly.covers(p):
-                continue
-            parts = shapely.get_parts(poly)
-            part = parts[np.argmin(shapely.distance(parts, p))]
-            ring = shapely.get_coordinates(part.exterior)
-            segments = shapely.linestrings(np.stack([ring[:-1], ring[1:]], axis=1))
-            k = int(np.argmin(shapely.distance(segments, p)))
-            ear = shapely.Polygon([ring[k], (p.x, p.y), ring[k + 1]])
-            poly = shapely.union(poly, ear)
+            if not poly.covers(p):
+                poly = _take_in(poly, p)
         geoms[g] = poly
     return geoms
+
+
+def _take_in(poly, p):
+    """Insert point ``p`` into the nearest shell edge of ``poly``."""
+    parts = list(shapely.get_parts(poly))
+    i = int(np.argmin(shapely.distance(parts, p)))
+    part = parts[i]
+    ring = shapely.get_coordinates(part.exterior)
+    segments = shapely.linestrings(np.stack([ring[:-1], ring[1:]], axis=1))
+    k = int(np.argmin(shapely.distance(segments, p)))
+    shell = np.insert(ring, k + 1, [p.x, p.y], axis=0)
+    grown = shapely.Polygon(shell, [r.coords for r in part.interiors])
+    if not grown.is_valid:  # fall back to adding the ear, slightly widened
+        ear = shapely.Polygon([ring[k], (p.x, p.y), ring[k + 1]])
+        width = 1e-9 * max(np.ptp(ring, axis=0).max(), abs(p.x), abs(p.y), 1.0)
+        grown = shapely.union(part, shapely.buffer(ear, width))
+        grown = _polygonal(np.array([grown], dtype=object))[0]
+    parts[i] = grown
+    if len(parts) == 1:
+        return parts[0]
+    return shapely.multipolygons(shapely.get_parts(np.array(parts, dtype=object)))
 
 
 def hull(
@@ -305,6 +335,7 @@ def hull(
     crs: Any = "auto",
     method: Literal["alpha", "convex", "concave", "knn"] = "alpha",
     search: Literal["exact", "ladder", "bisect"] = "exact",
+    max_iterations: int = 10_000,
     ratio: float = 0.3,
     k: int = 3,
     degenerate: Literal["buffer", "empty", "drop"] = "buffer",
@@ -313,6 +344,7 @@ def hull(
     dropna: bool = True,
     sort: bool = True,
     progress: bool | None = None,
+    n_jobs: int = 1,
 ):
     """Tightest single polygon around each group of points.
 
@@ -324,7 +356,9 @@ def hull(
     Parameters
     ----------
     gdf : GeoDataFrame or GeoSeries
-        Point geometries (MultiPoints count as their points).
+        Point geometries (MultiPoints count as their points). A
+        ``dask_geopandas.GeoDataFrame`` gives a lazy result: see
+        :func:`geoalpha.dask.hull`.
     by : str, list of str, or array_like, optional
         Group the rows by these columns or values, as in
         :meth:`GeoDataFrame.dissolve`; None gives one hull of all points.
@@ -356,6 +390,9 @@ def hull(
         seed paper's integer ladder and ``alphashape``'s float bisection.
         Their results depend on units: integer alphas in 1/metre are nearly
         always 0, the convex hull.
+    max_iterations : int, default 10000
+        Bisection steps before ``search="bisect"`` gives up (``alphashape``'s
+        default).
     ratio : float, default 0.3
         ``ratio`` of :func:`shapely.concave_hull` (``method="concave"``).
     k : int, default 3
@@ -368,8 +405,8 @@ def hull(
         Polygon, ``"drop"`` no row. A :class:`DegenerateGroupWarning` names
         the groups in every case.
     buffer : float, default 1.0
-        Width in metres (in units of the computation CRS) for
-        ``degenerate="buffer"``.
+        Width for ``degenerate="buffer"``, in metres (in the coordinate units
+        with ``crs=None``: degrees for lon/lat input).
     vertices : bool, default False
         Accept non-point geometries and use their vertices as points
         (otherwise they are an error).
@@ -382,6 +419,13 @@ def hull(
     progress : bool, optional
         Show a progress bar (needs ``tqdm``: ``pip install geoalpha[progress]``).
         Default: only for long runs on a terminal.
+    n_jobs : int, default 1
+        Worker processes to spread the groups over (-1: one per core), for
+        ``method="alpha"`` and ``"convex"``; the result is the same for every
+        value. Pays off from about 100,000 points (see
+        :mod:`geoalpha.parallel`).
+
+        .. versionadded:: 0.2.0
 
     Returns
     -------
@@ -392,8 +436,10 @@ def hull(
         ``radius`` (1/alpha, metres), ``n_points`` (input rows of the group),
         ``n_parts`` (polygons in the geometry), ``area_m2`` (area in the
         computation CRS), ``crs_used`` (the computation CRS), ``method``
-        and ``geometry`` (Polygon; MultiPolygon when ``components > 1`` or a
-        group is split at the antimeridian). Polygon vertices are input
+        and ``geometry`` (Polygon; MultiPolygon when ``components > 1``, when a
+        group is split at the antimeridian, or, for ``"concave"``/``"knn"``,
+        when a hull built in metres touches itself in the input CRS and is
+        repaired, with a :class:`GeoAlphaWarning`). Polygon vertices are input
         coordinates (except for degenerate buffers and antimeridian cuts).
 
     Raises
@@ -431,6 +477,28 @@ def hull(
     >>> hulls.geom_type.unique().tolist(), hulls.crs.to_epsg()
     (['Polygon'], 4326)
     """
+    if _is_dask(gdf):
+        from geoalpha.dask import hull as dask_hull
+
+        return dask_hull(
+            gdf,
+            by,
+            alpha=alpha,
+            holes=holes,
+            components=components,
+            crs=crs,
+            method=method,
+            search=search,
+            ratio=ratio,
+            k=k,
+            degenerate=degenerate,
+            buffer=buffer,
+            vertices=vertices,
+            dropna=dropna,
+            sort=sort,
+            progress=progress,
+            n_jobs=n_jobs,
+        )
     frame = _as_frame(gdf)
     _check_choice("method", method, METHODS)
     _check_choice("degenerate", degenerate, DEGENERATE_POLICIES)
@@ -496,9 +564,11 @@ def hull(
                 holes=holes,
                 components=components,
                 search=search,
+                max_iterations=max_iterations,
                 coords=proj.out,
                 n_groups=n_groups,
                 progress=bar,
+                n_jobs=n_jobs,
             )
             geometry, area, is_degenerate = res.geometry, res.area, res.degenerate
             alphas = res.alpha
@@ -531,6 +601,9 @@ def hull(
         )
 
     geometry = _finish(geometry, proj.crossing, proj.wide, keys)
+    if method != "alpha":  # repairs may have cut a sliver holding a point
+        plain = ~proj.crossing[pcodes]
+        geometry = _cover_points(geometry, proj.out[plain], pcodes[plain])
     with np.errstate(divide="ignore"):
         radius = 1.0 / alphas
     import geopandas as gpd
@@ -549,14 +622,7 @@ def hull(
     return out[keep_group].reset_index(drop=True)
 
 
-def _stacklevel() -> int:
-    """Stack level that points warnings at the user's call (through the accessor)."""
-    frame, level = sys._getframe(1), 1
-    while frame is not None and frame.f_globals.get("__name__", "").startswith(
-        "geoalpha."
-    ):
-        frame, level = frame.f_back, level + 1
-    return level
+_stacklevel = user_stacklevel
 
 
 def _rows_to_index(message: str, rows: np.ndarray, index: pd.Index) -> str:
@@ -588,7 +654,7 @@ def _degenerate_groups(
         buffered = shapely.buffer(shapely.convex_hull(mp), width)
         area[groups] = shapely.area(buffered)
         geometry[groups] = proj.to_output(buffered, groups)
-        done = f"their rows hold a {width:g} m buffer around their points"
+        done = f"their rows hold a {width:g} {proj.unit} buffer around their points"
     elif policy == "empty":
         geometry[groups] = EMPTY_POLYGON
         done = "their rows hold an empty polygon"
@@ -620,7 +686,9 @@ def _finish(
     geometry = geometry.copy()
     invalid = ~shapely.is_valid(geometry)
     if invalid.any():
-        geometry[invalid] = shapely.make_valid(geometry[invalid], method="structure")
+        geometry[invalid] = _polygonal(
+            shapely.make_valid(geometry[invalid], method="structure")
+        )
         if (invalid & ~wide).any():
             warnings.warn(
                 f"{(invalid & ~wide).sum()} hull(s) became invalid in the input CRS "
@@ -649,6 +717,27 @@ def _finish(
             stacklevel=_stacklevel(),
         )
     return geometry
+
+
+def _polygonal(geoms: np.ndarray) -> np.ndarray:
+    """Keep the polygonal parts (area > 0) of repaired geometries.
+
+    Giving a hull built in metres its lon/lat vertices can make a ring touch
+    itself; ``make_valid`` then returns a MultiPolygon, sometimes with
+    collapsed lines, which are dropped here.
+    """
+    parts, which = shapely.get_parts(geoms, return_index=True)
+    keep = (shapely.get_type_id(parts) == 3) & (shapely.area(parts) > 0)
+    out = geoms.copy()
+    for g in np.unique(which):
+        mine = parts[(which == g) & keep]
+        if len(mine) == 1:
+            out[g] = mine[0]
+        elif len(mine) > 1:
+            out[g] = shapely.multipolygons(mine)
+        else:
+            out[g] = EMPTY_POLYGON
+    return out
 
 
 def _names(keys, mask: np.ndarray, limit: int = 10) -> str:

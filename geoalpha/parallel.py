@@ -1,0 +1,316 @@
+"""Spread the groups of :func:`geoalpha.alpha_shapes` over worker processes.
+
+``alpha_shapes(..., n_jobs=k)`` and ``hull(..., n_jobs=k)`` land here. The
+groups are cut into contiguous runs of group codes holding about the same
+number of points, every run is computed by :func:`~geoalpha.alpha_shapes` in
+a :class:`concurrent.futures.ProcessPoolExecutor`, and the per-group fields
+are concatenated back in group order. Each group is computed exactly as in a
+single call (same points, same code path), so the result equals
+``n_jobs=1``.
+
+Why processes and not threads: the per-group Qhull call of
+:class:`scipy.spatial.Delaunay` holds the GIL, and so do most of the batched
+numpy/scipy steps after it; two threads run no faster than one (measured in
+``benchmarks/bench_scale.py``).
+
+Start method: on Linux the workers are forked, so they inherit the (sorted)
+input arrays without copying them through a pipe; elsewhere (macOS, Windows)
+the default start method of :mod:`multiprocessing` is used and each worker
+receives its slice of the arrays. Set :data:`START_METHOD` to force one
+(e.g. ``"spawn"`` or ``"forkserver"`` when the calling process runs threads
+that must not be forked).
+"""
+
+from __future__ import annotations
+
+import itertools
+import multiprocessing
+import os
+import sys
+import warnings
+from concurrent.futures import ProcessPoolExecutor, as_completed
+
+import numpy as np
+
+from geoalpha import core
+from geoalpha.errors import InvalidInputError
+
+__all__ = [
+    "CHUNKS_PER_JOB",
+    "MIN_POINTS_PER_JOB",
+    "START_METHOD",
+    "alpha_shapes_parallel",
+    "effective_n_jobs",
+    "split_groups",
+]
+
+#: Fewer points than this per worker are not worth a process (starting a
+#: worker and moving its results costs about as much as ~20,000 points).
+MIN_POINTS_PER_JOB = 20_000
+#: Runs of groups per worker: more than one, so that a worker slowed down by
+#: other load on the machine does not hold up the whole call.
+CHUNKS_PER_JOB = 2
+#: :mod:`multiprocessing` start method; None: ``"fork"`` on Linux, else the
+#: platform default.
+START_METHOD: str | None = None
+
+# Inputs of the running parallel calls, by call id. Forked workers inherit
+# this dict, so tasks only carry row and group ranges.
+_SHARED: dict[int, tuple] = {}
+_CALL_IDS = itertools.count()
+
+
+def effective_n_jobs(n_jobs) -> int:
+    """Return the number of worker processes that ``n_jobs`` asks for.
+
+    Parameters
+    ----------
+    n_jobs : int
+        ``1``: no worker process; ``k > 1``: ``k`` workers; ``-1``: one per
+        core available to this process; ``-k``: all cores but ``k - 1`` (as
+        in joblib and scikit-learn), at least one.
+
+    Returns
+    -------
+    int
+
+    Raises
+    ------
+    InvalidInputError
+        If ``n_jobs`` is 0 or not an integer.
+
+    Examples
+    --------
+    >>> effective_n_jobs(1), effective_n_jobs(3)
+    (1, 3)
+    >>> effective_n_jobs(-1) >= 1
+    True
+    """
+    if isinstance(n_jobs, bool) or not isinstance(n_jobs, int | np.integer):
+        raise InvalidInputError(
+            f"n_jobs must be a positive integer or -1 (all cores); got {n_jobs!r}"
+        )
+    if n_jobs == 0:
+        raise InvalidInputError(
+            "n_jobs must be a positive integer or -1 (all cores); got 0"
+        )
+    if n_jobs > 0:
+        return int(n_jobs)
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover - not on Linux
+        cores = os.cpu_count() or 1
+    return max(cores + 1 + int(n_jobs), 1)
+
+
+def split_groups(counts, n_chunks: int) -> np.ndarray:
+    """Cut groups ``0 .. G-1`` into contiguous runs of about equal point count.
+
+    Parameters
+    ----------
+    counts : array_like of int, shape (G,)
+        Points per group.
+    n_chunks : int
+        Number of runs wanted; fewer come back when there are fewer groups
+        with points, or when one group outweighs a run.
+
+    Returns
+    -------
+    ndarray of int
+        Group boundaries ``[0, b1, ..., G]``: run ``i`` is groups
+        ``bounds[i]:bounds[i + 1]``; every run holds at least one point.
+
+    Examples
+    --------
+    >>> split_groups([5, 5, 5, 5], 2).tolist()
+    [0, 2, 4]
+    >>> split_groups([100, 1, 1, 1], 2).tolist()
+    [0, 1, 4]
+    """
+    counts = np.asarray(counts, dtype=np.int64)
+    cum = np.cumsum(counts)
+    total = int(cum[-1]) if len(cum) else 0
+    if total == 0 or n_chunks <= 1:
+        return np.array([0, len(counts)], dtype=np.int64)
+    targets = total * np.arange(1, n_chunks) / n_chunks
+    # Cut after the group whose cumulative count is nearest each target.
+    after = np.searchsorted(cum, targets, side="left")
+    before = np.maximum(after - 1, 0)
+    nearer = np.where(
+        np.abs(cum[before] - targets) < np.abs(cum[after] - targets), before, after
+    )
+    cuts = np.unique(nearer + 1)
+    # Keep the cuts that leave at least one point on each side.
+    before_cut = np.concatenate([[0], cum])
+    out = [0]
+    for cut in cuts[cuts < len(counts)].tolist():
+        if before_cut[cut] > before_cut[out[-1]]:
+            out.append(cut)
+    if len(out) > 1 and before_cut[out[-1]] == total:
+        out.pop()
+    out.append(len(counts))
+    return np.asarray(out, dtype=np.int64)
+
+
+def _start_context():
+    method = START_METHOD
+    if method is None and sys.platform.startswith("linux"):
+        method = "fork"
+    return multiprocessing.get_context(method)
+
+
+def _run(task):
+    """Worker: ``alpha_shapes`` of one run of groups; warnings come back too."""
+    from geoalpha.optimal import alpha_shapes
+
+    call, lo, hi, g1, data, kwargs = task
+    points, codes, coords, alpha = _SHARED[call] if data is None else data
+    if data is None:
+        points, codes = points[lo:hi], codes[lo:hi]
+        coords = None if coords is None else coords[lo:hi]
+    if alpha is not None and np.ndim(alpha) == 1:
+        alpha = alpha[:g1]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        # Codes stay global (groups before this run are empty, hence skipped),
+        # so that messages name the same groups as a single call would.
+        res = alpha_shapes(
+            points, codes, alpha=alpha, coords=coords, n_groups=g1, n_jobs=1, **kwargs
+        )
+    return res, [(w.category, str(w.message)) for w in caught]
+
+
+def _stacklevel() -> int:
+    """Stack level that points a re-raised warning at the caller of geoalpha."""
+    frame, level = sys._getframe(1), 1
+    while frame is not None and frame.f_globals.get("__name__", "").startswith(
+        "geoalpha."
+    ):
+        frame, level = frame.f_back, level + 1
+    return level
+
+
+def alpha_shapes_parallel(
+    points,
+    groups=None,
+    *,
+    n_jobs: int = -1,
+    alpha=None,
+    coords=None,
+    n_groups: int | None = None,
+    progress=None,
+    **kwargs,
+):
+    """:func:`~geoalpha.alpha_shapes` with the groups spread over processes.
+
+    Parameters
+    ----------
+    points, groups, alpha, coords, n_groups
+        As in :func:`~geoalpha.alpha_shapes`.
+    n_jobs : int, default -1
+        Worker processes (see :func:`effective_n_jobs`). At most one per
+        :data:`MIN_POINTS_PER_JOB` points is started; with one, the call runs
+        in this process.
+    progress : object with an ``update(n)`` method, optional
+        Told the number of groups of each run as the run completes.
+    **kwargs
+        The other options of :func:`~geoalpha.alpha_shapes` (``holes``,
+        ``components``, ``search``, ``max_iterations``).
+
+    Returns
+    -------
+    AlphaShapes
+        Equal, field by field, to ``alpha_shapes(points, groups, ...)``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> pts = np.array([[0, 0], [4, 0], [4, 4], [0, 4], [2, 3.5],
+    ...                 [10, 0], [12, 0], [11, 2]])
+    >>> res = alpha_shapes_parallel(pts, [0, 0, 0, 0, 0, 1, 1, 1], n_jobs=2)
+    >>> res.alpha.round(4).tolist()
+    [0.4308, 0.8]
+    """
+    from geoalpha.optimal import AlphaShapes, alpha_shapes
+
+    workers = effective_n_jobs(n_jobs)
+    try:
+        xy = core._check_points(points)
+        codes, n_groups = core._group_codes(groups, len(xy), n_groups)
+    except ValueError as err:
+        raise InvalidInputError(str(err)) from err
+    n = len(xy)
+    workers = min(workers, max(n // max(MIN_POINTS_PER_JOB, 1), 1), max(n_groups, 1))
+    if workers <= 1:
+        return alpha_shapes(
+            xy,
+            codes,
+            alpha=alpha,
+            coords=coords,
+            n_groups=n_groups,
+            progress=progress,
+            n_jobs=1,
+            **kwargs,
+        )
+    if coords is not None:
+        coords = np.asarray(coords, dtype=float)
+        if coords.shape != (n, 2):
+            raise InvalidInputError(
+                f"coords must have the shape of points {(n, 2)}; got {coords.shape}"
+            )
+    if alpha is not None:
+        alpha = np.asarray(alpha, dtype=float)
+        if alpha.ndim == 1 and alpha.shape != (n_groups,):
+            raise InvalidInputError(
+                f"alpha must be a number or one per group ({n_groups}); got "
+                f"shape {alpha.shape}"
+            )
+
+    # Rows sorted by group (stable, a no-op when they already are), so that a
+    # run of groups is a slice of rows.
+    if n > 1 and (codes[1:] < codes[:-1]).any():
+        order = np.argsort(codes, kind="stable")
+        xy, codes = xy[order], codes[order]
+        coords = None if coords is None else coords[order]
+    counts = np.bincount(codes, minlength=n_groups)
+    bounds = split_groups(counts, workers * CHUNKS_PER_JOB)
+    rows = np.concatenate([[0], np.cumsum(counts)])[bounds]
+
+    context = _start_context()
+    call = next(_CALL_IDS)
+    shared = context.get_start_method() == "fork"
+    if shared:
+        _SHARED[call] = (xy, codes, coords, alpha)
+    tasks = []
+    for lo, hi, g1 in zip(rows[:-1], rows[1:], bounds[1:], strict=True):
+        data = None
+        if not shared:
+            data = (
+                xy[lo:hi],
+                codes[lo:hi],
+                None if coords is None else coords[lo:hi],
+                alpha,
+            )
+        tasks.append((call, int(lo), int(hi), int(g1), data, kwargs))
+    results: list = [None] * len(tasks)
+    try:
+        with ProcessPoolExecutor(
+            max_workers=min(workers, len(tasks)), mp_context=context
+        ) as pool:
+            futures = {pool.submit(_run, task): i for i, task in enumerate(tasks)}
+            for future in as_completed(futures):
+                i = futures[future]
+                results[i] = future.result()
+                if progress is not None:
+                    progress.update(int(bounds[i + 1] - bounds[i]))
+    finally:
+        _SHARED.pop(call, None)
+
+    for _, caught in results:
+        for category, message in caught:
+            warnings.warn(message, category, stacklevel=_stacklevel())
+    parts = [
+        [np.asarray(field)[g0:] for field in res]
+        for (res, _), g0 in zip(results, bounds[:-1], strict=True)
+    ]
+    return AlphaShapes(*(np.concatenate(f) for f in zip(*parts, strict=True)))
