@@ -471,8 +471,12 @@ def hull(
     >>> import geoalpha
     >>> from geoalpha import datasets
     >>> points = datasets.load("uk_clusters")
-    >>> hulls = points.alpha.hull(by="Cluster")
-    >>> len(hulls), hulls["n_points"].sum() == len(points)
+    >>> import warnings
+    >>> with warnings.catch_warnings(record=True) as caught:  # one 2-point cluster
+    ...     hulls = points.alpha.hull(by="Cluster")
+    >>> caught[0].category.__name__
+    'DegenerateGroupWarning'
+    >>> len(hulls), int(hulls["n_points"].sum()) == len(points)
     (691, True)
     >>> hulls.geom_type.unique().tolist(), hulls.crs.to_epsg()
     (['Polygon'], 4326)
