@@ -128,11 +128,18 @@ class Triangulation:
         return len(self.point_ptr) - 1
 
     def dual_edges(self) -> tuple[np.ndarray, np.ndarray]:
-        """Return each pair of edge-adjacent triangles once, as ``(a, b)``, a < b."""
-        a = np.repeat(np.arange(len(self.triangles)), 3)
-        b = self.neighbors.ravel()
-        keep = b > a
-        return a[keep], b[keep]
+        """Return each pair of edge-adjacent triangles once, as ``(a, b)``, a < b.
+
+        Computed once per triangulation and cached.
+        """
+        cached = self.__dict__.get("_dual_edges")
+        if cached is None:
+            a = np.repeat(np.arange(len(self.triangles)), 3)
+            b = self.neighbors.ravel()
+            keep = b > a
+            cached = (a[keep], b[keep])
+            object.__setattr__(self, "_dual_edges", cached)
+        return cached
 
 
 def _check_points(points) -> np.ndarray:
@@ -263,14 +270,15 @@ def triangulate(
 
     # Orient every triangle counter-clockwise (swap vertices 1, 2 and the
     # neighbours opposite them where Qhull gave them clockwise).
-    p0, p1, p2 = (local[triangles[:, k]] for k in range(3))
-    cross = (p1[:, 0] - p0[:, 0]) * (p2[:, 1] - p0[:, 1]) - (p1[:, 1] - p0[:, 1]) * (
-        p2[:, 0] - p0[:, 0]
-    )
-    cw = cross < 0
+    twice_area, edges2 = _edges_and_cross(xy, triangles)
+    cw = twice_area < 0
     triangles[cw] = triangles[cw][:, [0, 2, 1]]
     nb[cw] = nb[cw][:, [0, 2, 1]]
-    radius, rank, values = merge_ties(_circumradius(p0, p1, p2, np.abs(cross)))
+    cross = np.abs(twice_area)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        circumradius = np.sqrt(edges2.prod(axis=1)) / (2.0 * cross)
+    circumradius[~(cross > 0)] = np.inf
+    radius, rank, values = merge_ties(circumradius, tri_group)
     area = np.abs(cross) / 2.0
 
     # Points Qhull merged with a nearby vertex are represented by it.
@@ -319,19 +327,31 @@ def _distinct_counts(xy, point_group, which, n_groups) -> np.ndarray:
     return out
 
 
-def _circumradius(p0, p1, p2, twice_area) -> np.ndarray:
-    """Circumradius ``|ab| |bc| |ca| / (4 area)``; ``inf`` for flat triangles."""
-    a2 = np.square(p1 - p0).sum(axis=1)
-    b2 = np.square(p2 - p1).sum(axis=1)
-    c2 = np.square(p0 - p2).sum(axis=1)
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        r = np.sqrt(a2 * b2 * c2) / (2.0 * twice_area)
-    r[~(twice_area > 0)] = np.inf
-    return r
+def _edges_and_cross(xy: np.ndarray, triangles: np.ndarray):
+    """Twice the signed area and the squared edge lengths of every triangle.
+
+    Edge vectors are differences of the input coordinates (exact for nearby
+    points, Sterbenz), and the cross product is taken at the vertex opposite
+    the longest edge, between the two shorter edges: the best conditioned of
+    the three choices, so that needle triangles (near-duplicate points) keep
+    their circumradius ``|ab| |bc| |ca| / (2 |cross|)`` to a few ulps.
+    """
+    p = [xy[triangles[:, k]] for k in range(3)]
+    d = [p[(k + 1) % 3] - p[k] for k in range(3)]  # edge k runs p[k] -> p[k+1]
+    edges2 = np.stack([np.square(e).sum(axis=1) for e in d], axis=1)
+
+    def cross(u, v):
+        return u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]
+
+    # At vertex k the edges are d[k] (out) and -d[k-1] (in, reversed); vertex k
+    # is opposite edge k+1.
+    at_vertex = np.stack([cross(d[k], -d[k - 1]) for k in range(3)], axis=1)
+    opposite = (np.argmax(edges2, axis=1) + 2) % 3
+    return np.take_along_axis(at_vertex, opposite[:, None], axis=1)[:, 0], edges2
 
 
 def merge_ties(
-    radius: np.ndarray, rtol: float = TIE_RTOL
+    radius: np.ndarray, group: np.ndarray | None = None, rtol: float = TIE_RTOL
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Give radii that agree to ``rtol`` (relative) the largest of their values.
 
@@ -339,7 +359,8 @@ def merge_ties(
     circumradius in exact arithmetic, which rounding splits by an ulp or two.
     Merging them keeps such triangles entering the shape together, as the
     definition wants. Runs of values each within ``rtol`` of the previous one
-    form one value.
+    form one value. With ``group`` given, only radii of the same group are
+    merged, so that a group's result never depends on the other groups.
 
     Returns
     -------
@@ -358,14 +379,25 @@ def merge_ties(
     """
     if len(radius) == 0:
         return radius, np.zeros(0, dtype=np.int64), radius
-    order = np.argsort(radius)
+    if group is None:
+        order = np.argsort(radius)
+    else:
+        order = np.lexsort((radius, group))
     s = radius[order]
     start = np.ones(len(s), dtype=bool)
     start[1:] = s[1:] > s[:-1] * (1.0 + rtol)
-    values = np.maximum.reduceat(s, np.flatnonzero(start))
-    rank = np.empty(len(radius), dtype=np.int64)
-    rank[order] = np.cumsum(start) - 1
-    return values[rank], rank, values
+    if group is not None:
+        g = group[order]
+        start[1:] |= g[1:] != g[:-1]
+    run_max = np.maximum.reduceat(s, np.flatnonzero(start))
+    merged = np.empty_like(radius)
+    merged[order] = run_max[np.cumsum(start) - 1]
+    if group is None:
+        rank = np.empty(len(radius), dtype=np.int64)
+        rank[order] = np.cumsum(start) - 1
+        return merged, rank, run_max
+    values, rank = np.unique(merged, return_inverse=True)
+    return merged, rank.reshape(radius.shape), values
 
 
 def fill_radius(tri: Triangulation) -> np.ndarray:
@@ -401,7 +433,7 @@ def fill_radius(tri: Triangulation) -> np.ndarray:
     w = np.concatenate([np.minimum(rank[a], rank[b]), rank[hull]])
     # Maximum spanning tree = minimum spanning tree on reversed ranks (> 0).
     graph = csr_array(((top - w).astype(float), (src, dst)), shape=(m + 1, m + 1))
-    tree = minimum_spanning_tree(graph)
+    tree = minimum_spanning_tree(graph, overwrite=True)
     _, parent = breadth_first_order(
         tree, outside, directed=False, return_predecessors=True
     )
@@ -468,7 +500,7 @@ class Spectrum:
         a, b = tri.dual_edges()
         edge_rank = np.maximum(rank[a], rank[b])
         graph = csr_array(((edge_rank + 1).astype(float), (a, b)), shape=(m, m))
-        forest = minimum_spanning_tree(graph).tocoo()
+        forest = minimum_spanning_tree(graph, overwrite=True).tocoo()
         fa = np.asarray(forest.row, dtype=np.int64)
         f_rank = np.asarray(forest.data, dtype=np.int64) - 1
         f_group = tri.tri_group[fa]

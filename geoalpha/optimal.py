@@ -182,8 +182,6 @@ def alpha_shapes(
         Worker processes to spread the groups over (-1: one per core); see
         :mod:`geoalpha.parallel`. The result is the same for every value.
 
-        .. versionadded:: 0.2.0
-
     Returns
     -------
     AlphaShapes
@@ -215,7 +213,7 @@ def alpha_shapes(
     ['Polygon', 'Polygon']
     """
     _check_options(holes, components, search)
-    if type(n_jobs) is not int or n_jobs != 1:
+    if type(n_jobs) is not int or n_jobs != 1 or _batched(points, groups):
         from geoalpha.parallel import alpha_shapes_parallel
 
         return alpha_shapes_parallel(
@@ -231,6 +229,41 @@ def alpha_shapes(
             n_groups=n_groups,
             progress=progress,
         )
+    return _alpha_shapes_batch(
+        points,
+        groups,
+        alpha=alpha,
+        holes=holes,
+        components=components,
+        search=search,
+        max_iterations=max_iterations,
+        coords=coords,
+        n_groups=n_groups,
+        progress=progress,
+    )
+
+
+def _batched(points, groups) -> bool:
+    """Whether to cut the groups into runs (large inputs fit caches better)."""
+    from geoalpha.parallel import BATCH_POINTS
+
+    return groups is not None and len(points) > 2 * BATCH_POINTS
+
+
+def _alpha_shapes_batch(
+    points,
+    groups,
+    *,
+    alpha,
+    holes,
+    components,
+    search,
+    max_iterations,
+    coords,
+    n_groups,
+    progress,
+) -> AlphaShapes:
+    """:func:`alpha_shapes` of all groups in one pass (no runs, no workers)."""
     try:
         tri = core.triangulate(points, groups, n_groups=n_groups, progress=progress)
     except ValueError as err:
@@ -253,6 +286,21 @@ def alpha_shapes(
         out_xy = np.empty_like(tri.xy)
         out_xy[tri.input_point] = c
     geometry = shapes.assemble(out_xy, rings, tri.n_groups)
+    # Points Qhull merged with a (numerically) coincident vertex: the shape is
+    # that of the merged set, so make sure it holds them too where it holds
+    # their vertex (a change of ~1e-12 of the group's extent).
+    merged = np.flatnonzero(tri.vertex != np.arange(len(tri.vertex)))
+    if len(merged):
+        held = np.zeros(len(tri.xy), dtype=bool)
+        held[tri.triangles[inside].ravel()] = True
+        merged = merged[
+            held[tri.vertex[merged]]
+            & (tri.xy[merged] != tri.xy[tri.vertex[merged]]).any(axis=1)
+        ]
+        if len(merged):
+            geometry = shapes.cover_points(
+                geometry, out_xy[merged], tri.point_group[merged]
+            )
     n_parts = np.bincount(rings.piece_group, minlength=tri.n_groups)
     codes = tri.point_group[tri.input_point]
     return AlphaShapes(

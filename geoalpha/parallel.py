@@ -2,11 +2,15 @@
 
 ``alpha_shapes(..., n_jobs=k)`` and ``hull(..., n_jobs=k)`` land here. The
 groups are cut into contiguous runs of group codes holding about the same
-number of points, every run is computed by :func:`~geoalpha.alpha_shapes` in
-a :class:`concurrent.futures.ProcessPoolExecutor`, and the per-group fields
-are concatenated back in group order. Each group is computed exactly as in a
-single call (same points, same code path), so the result equals
-``n_jobs=1``.
+number of points (about :data:`BATCH_POINTS`, at least two runs per worker),
+every run is computed by :func:`~geoalpha.alpha_shapes` in a
+:class:`concurrent.futures.ProcessPoolExecutor`, and the per-group fields are
+concatenated back in group order. Each group is computed as in a single call
+(same points in the same order, same code path), so the result equals
+``n_jobs=1``. (One caveat, from :func:`geoalpha.core.merge_ties`: circumradii
+within 1e-10 of each other are merged across all the groups of a call, so a
+group's alpha can in principle move by that much with the other groups of
+its run; no such case appears in the tests and benchmarks.)
 
 Why processes and not threads: the per-group Qhull call of
 :class:`scipy.spatial.Delaunay` holds the GIL, and so do most of the batched
@@ -36,6 +40,7 @@ from geoalpha import core
 from geoalpha.errors import InvalidInputError
 
 __all__ = [
+    "BATCH_POINTS",
     "CHUNKS_PER_JOB",
     "MIN_POINTS_PER_JOB",
     "START_METHOD",
@@ -50,6 +55,11 @@ MIN_POINTS_PER_JOB = 20_000
 #: Runs of groups per worker: more than one, so that a worker slowed down by
 #: other load on the machine does not hold up the whole call.
 CHUNKS_PER_JOB = 2
+#: Points per run of groups, about: the batched numpy/scipy steps (sorts,
+#: spanning trees, gathers over all triangles) cost about 30 % less CPU in
+#: runs of 30,000-150,000 points than in one run of a million, as their
+#: arrays then fit the caches (``benchmarks/bench_scale.py``).
+BATCH_POINTS = 50_000
 #: :mod:`multiprocessing` start method; None: ``"fork"`` on Linux, else the
 #: platform default.
 START_METHOD: str | None = None
@@ -161,9 +171,9 @@ def _start_context():
 
 def _run(task):
     """Worker: ``alpha_shapes`` of one run of groups; warnings come back too."""
-    from geoalpha.optimal import alpha_shapes
+    from geoalpha.optimal import _alpha_shapes_batch
 
-    call, lo, hi, g1, data, kwargs = task
+    call, lo, hi, g0, g1, data, kwargs = task
     points, codes, coords, alpha = _SHARED[call] if data is None else data
     if data is None:
         points, codes = points[lo:hi], codes[lo:hi]
@@ -174,10 +184,28 @@ def _run(task):
         warnings.simplefilter("always")
         # Codes stay global (groups before this run are empty, hence skipped),
         # so that messages name the same groups as a single call would.
-        res = alpha_shapes(
-            points, codes, alpha=alpha, coords=coords, n_groups=g1, n_jobs=1, **kwargs
+        res = _alpha_shapes_batch(
+            points,
+            codes,
+            alpha=alpha,
+            coords=coords,
+            n_groups=g1,
+            progress=None,
+            **_with_defaults(kwargs),
         )
+    res = type(res)(*(np.asarray(field)[g0:] for field in res))
     return res, [(w.category, str(w.message)) for w in caught]
+
+
+def _with_defaults(kwargs: dict) -> dict:
+    """Complete ``kwargs`` with the defaults of the options of ``alpha_shapes``."""
+    return {
+        "holes": False,
+        "components": 1,
+        "search": "exact",
+        "max_iterations": 10_000,
+        **kwargs,
+    }
 
 
 def _stacklevel() -> int:
@@ -209,8 +237,9 @@ def alpha_shapes_parallel(
         As in :func:`~geoalpha.alpha_shapes`.
     n_jobs : int, default -1
         Worker processes (see :func:`effective_n_jobs`). At most one per
-        :data:`MIN_POINTS_PER_JOB` points is started; with one, the call runs
-        in this process.
+        :data:`MIN_POINTS_PER_JOB` points is started; with one, the runs of
+        groups (about :data:`BATCH_POINTS` points each) are computed one
+        after the other in this process.
     progress : object with an ``update(n)`` method, optional
         Told the number of groups of each run as the run completes.
     **kwargs
@@ -231,7 +260,7 @@ def alpha_shapes_parallel(
     >>> res.alpha.round(4).tolist()
     [0.4308, 0.8]
     """
-    from geoalpha.optimal import AlphaShapes, alpha_shapes
+    from geoalpha.optimal import AlphaShapes, _alpha_shapes_batch
 
     workers = effective_n_jobs(n_jobs)
     try:
@@ -241,16 +270,18 @@ def alpha_shapes_parallel(
         raise InvalidInputError(str(err)) from err
     n = len(xy)
     workers = min(workers, max(n // max(MIN_POINTS_PER_JOB, 1), 1), max(n_groups, 1))
-    if workers <= 1:
-        return alpha_shapes(
+    n_chunks = -(-n // max(BATCH_POINTS, 1))
+    if workers > 1:
+        n_chunks = max(n_chunks, workers * CHUNKS_PER_JOB)
+    if n_chunks <= 1:
+        return _alpha_shapes_batch(
             xy,
             codes,
             alpha=alpha,
             coords=coords,
             n_groups=n_groups,
             progress=progress,
-            n_jobs=1,
-            **kwargs,
+            **_with_defaults(kwargs),
         )
     if coords is not None:
         coords = np.asarray(coords, dtype=float)
@@ -273,16 +304,18 @@ def alpha_shapes_parallel(
         xy, codes = xy[order], codes[order]
         coords = None if coords is None else coords[order]
     counts = np.bincount(codes, minlength=n_groups)
-    bounds = split_groups(counts, workers * CHUNKS_PER_JOB)
+    bounds = split_groups(counts, n_chunks)
     rows = np.concatenate([[0], np.cumsum(counts)])[bounds]
 
-    context = _start_context()
+    context = _start_context() if workers > 1 else None
     call = next(_CALL_IDS)
-    shared = context.get_start_method() == "fork"
+    shared = context is None or context.get_start_method() == "fork"
     if shared:
         _SHARED[call] = (xy, codes, coords, alpha)
     tasks = []
-    for lo, hi, g1 in zip(rows[:-1], rows[1:], bounds[1:], strict=True):
+    for lo, hi, g0, g1 in zip(
+        rows[:-1], rows[1:], bounds[:-1], bounds[1:], strict=True
+    ):
         data = None
         if not shared:
             data = (
@@ -291,26 +324,29 @@ def alpha_shapes_parallel(
                 None if coords is None else coords[lo:hi],
                 alpha,
             )
-        tasks.append((call, int(lo), int(hi), int(g1), data, kwargs))
+        tasks.append((call, int(lo), int(hi), int(g0), int(g1), data, kwargs))
     results: list = [None] * len(tasks)
     try:
-        with ProcessPoolExecutor(
-            max_workers=min(workers, len(tasks)), mp_context=context
-        ) as pool:
-            futures = {pool.submit(_run, task): i for i, task in enumerate(tasks)}
-            for future in as_completed(futures):
-                i = futures[future]
-                results[i] = future.result()
+        if context is None:  # one process: the runs one after the other
+            for i, task in enumerate(tasks):
+                results[i] = _run(task)
                 if progress is not None:
                     progress.update(int(bounds[i + 1] - bounds[i]))
+        else:
+            with ProcessPoolExecutor(
+                max_workers=min(workers, len(tasks)), mp_context=context
+            ) as pool:
+                futures = {pool.submit(_run, task): i for i, task in enumerate(tasks)}
+                for future in as_completed(futures):
+                    i = futures[future]
+                    results[i] = future.result()
+                    if progress is not None:
+                        progress.update(int(bounds[i + 1] - bounds[i]))
     finally:
         _SHARED.pop(call, None)
 
     for _, caught in results:
         for category, message in caught:
             warnings.warn(message, category, stacklevel=_stacklevel())
-    parts = [
-        [np.asarray(field)[g0:] for field in res]
-        for (res, _), g0 in zip(results, bounds[:-1], strict=True)
-    ]
-    return AlphaShapes(*(np.concatenate(f) for f in zip(*parts, strict=True)))
+    fields = zip(*(res for res, _ in results), strict=True)
+    return AlphaShapes(*(np.concatenate(f) for f in fields))

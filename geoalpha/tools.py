@@ -27,7 +27,7 @@ from geoalpha.errors import (
     user_stacklevel,
 )
 from geoalpha.optimal import alpha_shapes
-from geoalpha.shapes import EMPTY_POLYGON
+from geoalpha.shapes import EMPTY_POLYGON, cover_points, polygonal
 
 __all__ = ["DEGENERATE_POLICIES", "METHODS", "RESULT_COLUMNS", "hull"]
 
@@ -269,7 +269,7 @@ def _comparison_hulls(method, proj, codes, n_groups, *, holes, ratio, k, bar):
     out[present] = _to_input_vertices(
         geoms[present], np.flatnonzero(present), proj.xy, proj.out, codes
     )
-    return _cover_points(out, proj.out, codes), area, labels, degenerate
+    return cover_points(out, proj.out, codes), area, labels, degenerate
 
 
 def _convex_hulls(proj, codes, n_groups):
@@ -281,48 +281,6 @@ def _convex_hulls(proj, codes, n_groups):
         shapely.multipoints(proj.out[order], indices=codes[order])
     )[present]
     return hulls
-
-
-def _cover_points(geoms, out_xy, codes) -> np.ndarray:
-    """Make sure every point is covered in the output coordinates.
-
-    A hull built in metres and given the input (e.g. lon/lat) coordinates of
-    its vertices can leave a point next to a long edge just outside. Such a
-    point becomes a vertex of its nearest shell edge (the edge a-b becomes
-    a-p-b, all input points), which changes areas by well under 1 %.
-    """
-    geoms = geoms.copy()
-    points = shapely.points(out_xy)
-    shapely.prepare(geoms)
-    outside = ~shapely.covers(geoms[codes], points) & ~shapely.is_empty(geoms[codes])
-    for g in np.unique(codes[outside]):
-        poly = geoms[g]
-        for p in points[outside & (codes == g)]:
-            if not poly.covers(p):
-                poly = _take_in(poly, p)
-        geoms[g] = poly
-    return geoms
-
-
-def _take_in(poly, p):
-    """Insert point ``p`` into the nearest shell edge of ``poly``."""
-    parts = list(shapely.get_parts(poly))
-    i = int(np.argmin(shapely.distance(parts, p)))
-    part = parts[i]
-    ring = shapely.get_coordinates(part.exterior)
-    segments = shapely.linestrings(np.stack([ring[:-1], ring[1:]], axis=1))
-    k = int(np.argmin(shapely.distance(segments, p)))
-    shell = np.insert(ring, k + 1, [p.x, p.y], axis=0)
-    grown = shapely.Polygon(shell, [r.coords for r in part.interiors])
-    if not grown.is_valid:  # fall back to adding the ear, slightly widened
-        ear = shapely.Polygon([ring[k], (p.x, p.y), ring[k + 1]])
-        width = 1e-9 * max(np.ptp(ring, axis=0).max(), abs(p.x), abs(p.y), 1.0)
-        grown = shapely.union(part, shapely.buffer(ear, width))
-        grown = _polygonal(np.array([grown], dtype=object))[0]
-    parts[i] = grown
-    if len(parts) == 1:
-        return parts[0]
-    return shapely.multipolygons(shapely.get_parts(np.array(parts, dtype=object)))
 
 
 def hull(
@@ -424,8 +382,6 @@ def hull(
         ``method="alpha"`` and ``"convex"``; the result is the same for every
         value. Pays off from about 100,000 points (see
         :mod:`geoalpha.parallel`).
-
-        .. versionadded:: 0.2.0
 
     Returns
     -------
@@ -607,7 +563,7 @@ def hull(
     geometry = _finish(geometry, proj.crossing, proj.wide, keys)
     if method != "alpha":  # repairs may have cut a sliver holding a point
         plain = ~proj.crossing[pcodes]
-        geometry = _cover_points(geometry, proj.out[plain], pcodes[plain])
+        geometry = cover_points(geometry, proj.out[plain], pcodes[plain])
     with np.errstate(divide="ignore"):
         radius = 1.0 / alphas
     import geopandas as gpd
@@ -690,7 +646,7 @@ def _finish(
     geometry = geometry.copy()
     invalid = ~shapely.is_valid(geometry)
     if invalid.any():
-        geometry[invalid] = _polygonal(
+        geometry[invalid] = polygonal(
             shapely.make_valid(geometry[invalid], method="structure")
         )
         if (invalid & ~wide).any():
@@ -721,27 +677,6 @@ def _finish(
             stacklevel=_stacklevel(),
         )
     return geometry
-
-
-def _polygonal(geoms: np.ndarray) -> np.ndarray:
-    """Keep the polygonal parts (area > 0) of repaired geometries.
-
-    Giving a hull built in metres its lon/lat vertices can make a ring touch
-    itself; ``make_valid`` then returns a MultiPolygon, sometimes with
-    collapsed lines, which are dropped here.
-    """
-    parts, which = shapely.get_parts(geoms, return_index=True)
-    keep = (shapely.get_type_id(parts) == 3) & (shapely.area(parts) > 0)
-    out = geoms.copy()
-    for g in np.unique(which):
-        mine = parts[(which == g) & keep]
-        if len(mine) == 1:
-            out[g] = mine[0]
-        elif len(mine) > 1:
-            out[g] = shapely.multipolygons(mine)
-        else:
-            out[g] = EMPTY_POLYGON
-    return out
 
 
 def _names(keys, mask: np.ndarray, limit: int = 10) -> str:
