@@ -1,0 +1,345 @@
+"""Optimal alpha hulls of dask-geopandas frames: data larger than memory.
+
+``geoalpha.hull(ddf, by=...)`` and ``ddf.alpha.hull(by=...)`` on a
+:class:`dask_geopandas.GeoDataFrame` land in :func:`hull` here. The result is
+lazy; ``.compute()`` gives the GeoDataFrame that the eager call gives on
+``ddf.compute()``, value for value and coordinate for coordinate, even when a
+group's points are spread over many partitions (text columns may come back
+with dask's string dtype):
+
+1. the rows are shuffled by the group key (``ddf.shuffle(on=by)``), so that
+   every group ends up whole in one partition; geometries travel as WKB
+   (exact, and a plain binary column for any shuffle method) with their row
+   position, and every partition is put back in input order before the hull,
+   since the last bits of a hull depend on the order of its group's points;
+2. with ``crs="auto"`` on longitude/latitude input, one cheap reduction of the
+   longitude/latitude extent makes the whole-dataset decision of
+   :func:`geoalpha.crs.metric_crs`: the partitions get that UTM zone when the
+   data fit one, else ``crs="auto-group"`` (each group its own metric CRS);
+   a partition alone would see only its own points and could decide
+   otherwise;
+3. :func:`geoalpha.hull` runs on every partition (``map_partitions``);
+4. with ``sort=True`` the (small: one row per group) result is gathered into
+   one partition sorted by key, as the eager call returns it.
+
+Importing this module imports dask-geopandas (``pip install geoalpha[dask]``)
+and registers the ``.alpha`` accessor on its frames; ``import geoalpha`` does
+that only when ``dask_geopandas`` is already imported, so that it never
+imports dask itself.
+"""
+
+from __future__ import annotations
+
+import inspect
+
+import numpy as np
+import pandas as pd
+import shapely
+
+from geoalpha import crs as gcrs
+from geoalpha import tools
+from geoalpha.accessor import register as _register_accessor
+from geoalpha.errors import InvalidInputError
+
+try:
+    import dask
+    import dask_geopandas
+except ImportError as err:  # pragma: no cover - the dask extra is installed in CI
+    raise ImportError(
+        "geoalpha on dask-geopandas frames needs dask-geopandas: "
+        "pip install geoalpha[dask]"
+    ) from err
+
+__all__ = ["hull"]
+
+_EXTENT = ["west", "east", "west360", "east360", "south", "north"]
+#: Column carrying each row's position in ``ddf.compute()`` through the shuffle.
+_ROW = "__geoalpha_row__"
+#: Row positions are ``partition << _ROW_BITS | row in partition``.
+_ROW_BITS = 40
+_HULL_PARAMETERS = inspect.signature(tools.hull).parameters
+
+
+def _key_names(frame, by) -> list:
+    if by is None:
+        return []
+    names = by if isinstance(by, list) else [by]
+    for name in names:
+        if not isinstance(name, str | int | tuple) or isinstance(name, bool):
+            raise InvalidInputError(
+                f"hull(by=...) on a dask-geopandas frame needs column names; got "
+                f"{type(name).__name__} (assign the values as a column first)"
+            )
+        if name not in frame.columns:
+            raise InvalidInputError(
+                f"hull(by={by!r}): no column {name!r}; the columns are "
+                f"{', '.join(map(str, frame.columns))}"
+            )
+    return names
+
+
+def _extent(part, names: list, dropna: bool) -> pd.DataFrame:
+    """Longitude/latitude extent of the points of a partition that hull() keeps.
+
+    ``west360``/``east360`` are the extent of the longitudes taken in
+    [0, 360), which is the narrow one for data across +-180 degrees.
+    """
+    geoms = np.asarray(part.geometry.array, dtype=object)
+    keep = ~(shapely.is_missing(geoms) | shapely.is_empty(geoms))
+    if names and dropna:
+        keep &= part[names].notna().all(axis=1).to_numpy()
+    xy = shapely.get_coordinates(geoms[keep])
+    row = [np.nan] * len(_EXTENT)
+    if len(xy):
+        lon, lat = xy[:, 0], xy[:, 1]
+        shifted = np.mod(lon, 360.0)
+        row = [lon.min(), lon.max(), shifted.min(), shifted.max(), lat.min(), lat.max()]
+    return pd.DataFrame([row], columns=_EXTENT)
+
+
+def _decide_crs(extents: pd.DataFrame, source_crs):
+    """Choose the ``crs`` of the partitions: the dataset's UTM zone or "auto-group".
+
+    The extreme longitudes (plain and in [0, 360)) and latitudes are points
+    of the data, and the smallest longitude arc covering all the data, when
+    it is narrow enough to fit a UTM zone, is the one covering these extreme
+    points; so :func:`geoalpha.crs.metric_crs` on them alone decides as it
+    would on the whole dataset.
+    """
+    e = extents.dropna()
+    if e.empty:
+        return "auto-group"
+    lon = np.array([e.west.min(), e.east.max(), e.west360.min(), e.east360.max()])
+    lon = np.where(lon >= 180.0, lon - 360.0, lon)
+    lat = np.array([e.south.min(), e.north.max()] * 2)
+    try:
+        _, chosen, _ = gcrs.metric_crs(
+            lon, lat, np.zeros(4, dtype=np.intp), 1, crs="auto", source_crs=source_crs
+        )
+    except InvalidInputError:  # the partitions raise it, naming the rows
+        return "auto-group"
+    # One group: "auto" gives the dataset's UTM zone (an EPSG code) when the
+    # data fit one, else a local LAEA CRS (a PROJ string).
+    return chosen[0] if gcrs.crs_name(chosen[0]).startswith("EPSG:") else "auto-group"
+
+
+def _meta(frame_meta, by, dropna: bool, sort: bool):
+    """Empty GeoDataFrame with the columns and dtypes of the eager result."""
+    import geopandas as gpd
+
+    _, keys = tools._groups(frame_meta, by, dropna, sort)
+    table = keys.iloc[:0].copy()
+    text = pd.Series(np.array([""], dtype=object)).dtype  # str (pandas 3) or object
+    dtypes = {
+        "alpha": "float64",
+        "radius": "float64",
+        "n_points": "int64",
+        "n_parts": "int32",
+        "area_m2": "float64",
+        "crs_used": text,
+        "method": text,
+    }
+    for name, dtype in dtypes.items():
+        table[name] = pd.Series(dtype=dtype)
+    return gpd.GeoDataFrame(
+        table, geometry=gpd.GeoSeries([], crs=frame_meta.crs), crs=frame_meta.crs
+    )
+
+
+def _for_shuffle(part, geometry: str, partition_info=None) -> pd.DataFrame:
+    """Plain rows for the shuffle: geometries as WKB, plus the row position.
+
+    WKB keeps every coordinate exactly and is a plain binary column, which
+    every shuffle method moves cheaply (no geometry objects to pickle, no
+    arrow extension type to register on the workers). The row position is the
+    partition number, then the row in the partition.
+    """
+    number = partition_info["number"] if partition_info else 0
+    first = np.int64(number) << np.int64(_ROW_BITS)
+    out = pd.DataFrame(part, copy=False)
+    out[geometry] = shapely.to_wkb(np.asarray(part[geometry].array, dtype=object))
+    out[_ROW] = first + np.arange(len(part), dtype=np.int64)
+    return out
+
+
+def _hull_partition(part, by, crs, meta, geometry, source_crs, kwargs):
+    import geopandas as gpd
+
+    if len(part) == 0:
+        return meta
+    if _ROW in part.columns:
+        # Back to the input order within every group: the triangulation works
+        # relative to a group's first point, so its last bits depend on it.
+        part = part.sort_values(_ROW, kind="stable").drop(columns=_ROW)
+        part[geometry] = gpd.GeoSeries.from_wkb(
+            part[geometry].to_numpy(), index=part.index, crs=source_crs
+        )
+    part = gpd.GeoDataFrame(part, geometry=geometry, crs=source_crs)
+    out = tools.hull(part, by, crs=crs, progress=False, **kwargs)
+    return out.astype(dict(meta.dtypes.drop(meta.geometry.name)))
+
+
+def _sort_groups(part, keys: list):
+    if keys:
+        part = part.sort_values(keys, kind="stable", na_position="last")
+    return part.reset_index(drop=True)
+
+
+def hull(
+    ddf,
+    by=None,
+    *,
+    crs="auto",
+    dropna: bool = True,
+    sort: bool = True,
+    npartitions: int | None = None,
+    progress: bool | None = None,
+    n_jobs: int = 1,
+    **kwargs,
+):
+    """Optimal alpha hulls of the groups of a dask-geopandas frame (lazy).
+
+    The same table as :func:`geoalpha.hull` gives on the computed frame, built
+    partition by partition: the rows are first shuffled by ``by`` so that
+    every group is whole in one partition, then :func:`geoalpha.hull` runs on
+    each partition. Also available as ``ddf.alpha.hull(by=...)``.
+
+    Parameters
+    ----------
+    ddf : dask_geopandas.GeoDataFrame or dask_geopandas.GeoSeries
+        Point geometries.
+    by : str or list of str, optional
+        Column name(s) to group by (values, unlike in the eager call, are not
+        accepted: assign them as a column). None: one hull of all the points,
+        computed in one partition.
+    crs : "auto", CRS or None, default "auto"
+        As in :func:`geoalpha.hull`, with the same choice: for
+        longitude/latitude input the whole-dataset check (do all points fit
+        one UTM zone?) is made once, on the extent of all partitions, and the
+        partitions then use that zone or ``crs="auto-group"`` (each group its
+        own UTM zone or local CRS).
+    dropna, sort : bool, default True
+        As in :func:`geoalpha.hull`. ``sort=True`` gathers the result (one
+        row per group) into one partition, in key order with a fresh
+        RangeIndex, as the eager call returns it; ``sort=False`` leaves it in
+        the partitions of the shuffle (group order unspecified, index
+        restarting at 0 in every partition).
+    npartitions : int, optional
+        Partitions of the shuffle (default: as many as ``ddf`` has).
+    progress : bool, optional
+        Not used: use dask's own progress reporting
+        (``dask.diagnostics.ProgressBar`` or ``distributed.progress``).
+    n_jobs : int, default 1
+        Must be 1: dask spreads the partitions over its workers.
+    **kwargs
+        The other options of :func:`geoalpha.hull` (``alpha``, ``holes``,
+        ``components``, ``method``, ``search``, ``degenerate``, ``buffer``,
+        ``vertices``, ...), passed on to every partition.
+
+    Returns
+    -------
+    dask_geopandas.GeoDataFrame
+        Lazy; its ``.compute()`` equals ``geoalpha.hull(ddf.compute(), by,
+        ...)`` (with ``sort=True``).
+
+    Raises
+    ------
+    InvalidInputError
+        For ``by`` values that are not column names, a column that does not
+        exist, ``n_jobs != 1``, ``progress=True`` or unknown options. Errors
+        on the data themselves (non-point geometries, coordinates out of
+        range) are raised by ``.compute()``.
+
+    Notes
+    -----
+    Warnings of :func:`geoalpha.hull` (dropped rows, degenerate groups) are
+    raised where the partitions are computed: in this process with the local
+    schedulers, in the worker logs with ``distributed``.
+
+    Point the same code at a cluster by creating a ``distributed.Client``
+    before ``.compute()``; each worker then needs geoalpha installed.
+
+    .. versionadded:: 0.1.0
+
+    Examples
+    --------
+    >>> import dask_geopandas
+    >>> import geoalpha
+    >>> from geoalpha import datasets
+    >>> points = datasets.load("uk_clusters")
+    >>> ddf = dask_geopandas.from_geopandas(points, npartitions=4)
+    >>> lazy = geoalpha.hull(ddf, by="Cluster")
+    >>> hulls = lazy.compute()
+    >>> len(hulls), hulls["crs_used"].unique().tolist()
+    (691, ['EPSG:32630'])
+    >>> hulls.geom_equals_exact(points.alpha.hull(by="Cluster"), 0).all()
+    np.True_
+    """
+    if isinstance(ddf, dask_geopandas.GeoSeries):
+        ddf = ddf.to_frame(name="geometry")
+    if not isinstance(ddf, dask_geopandas.GeoDataFrame):
+        raise InvalidInputError(
+            "geoalpha.dask.hull() needs a dask_geopandas.GeoDataFrame or GeoSeries; "
+            f"got {type(ddf).__name__}"
+        )
+    if n_jobs != 1:
+        raise InvalidInputError(
+            f"n_jobs={n_jobs!r} does not apply to dask-geopandas input: dask spreads "
+            "the partitions over its workers (choose them with the scheduler or a "
+            "distributed.Client)"
+        )
+    if progress:
+        raise InvalidInputError(
+            "progress=True does not apply to dask-geopandas input; use "
+            "dask.diagnostics.ProgressBar or distributed.progress"
+        )
+    unknown = sorted(set(kwargs) - set(_HULL_PARAMETERS))
+    if unknown:
+        raise InvalidInputError(
+            f"hull() got unknown option(s) {', '.join(unknown)}; the options are "
+            f"{', '.join(list(_HULL_PARAMETERS)[2:])}"
+        )
+    names = _key_names(ddf, by)
+    kwargs = {**kwargs, "dropna": dropna, "sort": sort}
+    meta = _meta(ddf._meta, by, dropna, sort)
+    if names:  # the eager checks of the options, on the (empty) meta frame
+        tools.hull(ddf._meta, by, crs=crs, progress=False, **kwargs)
+
+    source = ddf.crs
+    if (
+        isinstance(crs, str)
+        and crs.strip().lower() == "auto"
+        and source is not None
+        and gcrs.parse_crs(source).is_geographic
+    ):
+        extents = ddf.map_partitions(
+            _extent, names, dropna, meta=pd.DataFrame(columns=_EXTENT, dtype=float)
+        )
+        crs = dask.delayed(_decide_crs)(extents, source)
+
+    if names:
+        rows = _for_shuffle(ddf._meta, ddf.geometry.name)
+        plain = ddf.map_partitions(_for_shuffle, ddf.geometry.name, meta=rows)
+        grouped = plain.shuffle(on=names, npartitions=npartitions)
+    else:
+        grouped = ddf.repartition(npartitions=1)
+    out = grouped.map_partitions(
+        _hull_partition,
+        by,
+        crs,
+        meta,
+        ddf.geometry.name,
+        source,
+        kwargs,
+        meta=meta,
+        enforce_metadata=False,
+    )
+    if sort:
+        keys = list(meta.columns[: meta.columns.get_loc("alpha")])
+        out = out.repartition(npartitions=1).map_partitions(
+            _sort_groups, keys, meta=meta, enforce_metadata=False
+        )
+    return out
+
+
+_register_accessor()

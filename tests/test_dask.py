@@ -1,0 +1,343 @@
+"""Tests of hull() on dask-geopandas frames (GitHub issue #6).
+
+The promise: ``geoalpha.hull(ddf, by).compute()`` is the GeoDataFrame that
+``geoalpha.hull(ddf.compute(), by)`` gives, even when a group's points are
+spread over many partitions and when one partition alone would pick another
+metric CRS; the result is lazy; ``import geoalpha`` does not import dask.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import textwrap
+
+import geopandas as gpd
+import numpy as np
+import pandas as pd
+import pytest
+from geopandas.testing import assert_geodataframe_equal
+
+dask_geopandas = pytest.importorskip("dask_geopandas")
+distributed = pytest.importorskip("distributed")
+
+import geoalpha  # noqa: E402
+import geoalpha.dask  # noqa: E402
+from geoalpha import datasets  # noqa: E402
+from geoalpha.errors import InvalidInputError  # noqa: E402
+
+pytestmark = pytest.mark.filterwarnings(
+    "ignore::geoalpha.errors.DegenerateGroupWarning",
+    "ignore::geoalpha.errors.DroppedRowsWarning",
+    "ignore::geoalpha.errors.AntimeridianWarning",
+)
+
+
+def spread(gdf, npartitions: int, seed: int = 6):
+    """A dask frame of ``gdf``'s rows in random order (groups span partitions)."""
+    shuffled = gdf.sample(frac=1.0, random_state=seed)
+    return dask_geopandas.from_geopandas(shuffled, npartitions=npartitions, sort=False)
+
+
+def partitions_per_group(ddf, by) -> pd.Series:
+    parts = [
+        ddf.partitions[i].compute()[by].drop_duplicates().to_frame().assign(part=i)
+        for i in range(ddf.npartitions)
+    ]
+    return pd.concat(parts).groupby(by)["part"].nunique()
+
+
+def assert_same_hulls(lazy, eager):
+    """The lazy result computes to the eager one (values, order, geometry)."""
+    got = lazy.compute()
+    # dask may store text columns as pyarrow strings: compare the values.
+    assert_geodataframe_equal(got, eager, check_dtype=False, check_index_type=False)
+    assert got.geom_equals_exact(eager, tolerance=0).all()
+    return got
+
+
+def assert_eager_hulls(ddf, by, original, **kwargs):
+    """Same as eager on ``ddf.compute()``; same CRS choice as on ``original``."""
+    got = assert_same_hulls(
+        geoalpha.hull(ddf, by=by, **kwargs), geoalpha.hull(ddf.compute(), by, **kwargs)
+    )
+    assert got["crs_used"].tolist() == original["crs_used"].tolist()
+    return got
+
+
+@pytest.fixture(scope="module")
+def airports():
+    gdf = datasets.load("us_airports")
+    return gdf[gdf["state"].notna()].reset_index(drop=True)
+
+
+@pytest.fixture(scope="module")
+def clusters():
+    return datasets.load("uk_clusters")
+
+
+def points_at(centres, per_group=40, seed=0, sigma=0.05):
+    """Lon/lat points around the given (lon, lat) group centres."""
+    rng = np.random.default_rng(seed)
+    lon = np.repeat([c[0] for c in centres], per_group)
+    lat = np.repeat([c[1] for c in centres], per_group)
+    lon = lon + rng.normal(0.0, sigma, lon.size)
+    lat = lat + rng.normal(0.0, sigma, lat.size)
+    lon = (lon + 180.0) % 360.0 - 180.0
+    group = np.repeat([f"g{i:02d}" for i in range(len(centres))], per_group)
+    return gpd.GeoDataFrame(
+        {"group": group}, geometry=gpd.points_from_xy(lon, lat), crs=4326
+    )
+
+
+# --- same hulls as the eager call ------------------------------------------------
+
+
+def test_result_is_lazy_with_a_meta_that_matches(clusters):
+    lazy = geoalpha.hull(spread(clusters, 4), by="Cluster")
+    assert isinstance(lazy, dask_geopandas.GeoDataFrame)
+    assert lazy.crs == clusters.crs
+    got = lazy.compute()
+    assert isinstance(got, gpd.GeoDataFrame)
+    assert got.dtypes.to_dict() == lazy._meta.dtypes.to_dict()
+
+
+def test_uk_clusters_spread_over_partitions(clusters):
+    ddf = spread(clusters, 5)
+    assert (partitions_per_group(ddf, "Cluster") > 1).mean() > 0.5
+    got = assert_same_hulls(
+        geoalpha.hull(ddf, by="Cluster"), geoalpha.hull(ddf.compute(), by="Cluster")
+    )
+    # The order of the rows of a group does not change a hull beyond the last
+    # bits, and neither does the partitioning: same as the original frame.
+    eager = clusters.alpha.hull(by="Cluster")
+    np.testing.assert_allclose(got["alpha"], eager["alpha"], rtol=1e-12)
+    assert got.geom_equals(eager).all()
+    assert (got["crs_used"] == "EPSG:32630").all()
+
+
+def test_us_airports_by_state(airports):
+    ddf = spread(airports, 6)
+    assert (partitions_per_group(ddf, "state") > 1).sum() > 40
+    got = assert_same_hulls(
+        ddf.alpha.hull(by="state"), geoalpha.hull(ddf.compute(), by="state")
+    )
+    assert got["crs_used"].nunique() > 10  # one metric CRS per state
+
+
+def test_accessor_and_function_agree(airports):
+    ddf = spread(airports, 3)
+    assert_geodataframe_equal(
+        ddf.alpha.hull(by="state", holes=True).compute(),
+        geoalpha.hull(ddf, "state", holes=True).compute(),
+    )
+
+
+def test_options_reach_the_partitions(clusters):
+    ddf = spread(clusters, 4)
+    kwargs = {"components": 2, "holes": True, "degenerate": "drop"}
+    assert_same_hulls(
+        geoalpha.hull(ddf, by="Cluster", **kwargs),
+        geoalpha.hull(ddf.compute(), by="Cluster", **kwargs),
+    )
+
+
+def test_two_key_columns_and_missing_keys(airports):
+    gdf = airports.assign(big=airports["name"].str.contains("Intl"))
+    gdf.loc[gdf.index[::50], "state"] = None
+    ddf = spread(gdf, 4)
+    for dropna in (True, False):
+        assert_same_hulls(
+            geoalpha.hull(ddf, by=["state", "big"], dropna=dropna),
+            geoalpha.hull(ddf.compute(), by=["state", "big"], dropna=dropna),
+        )
+
+
+def test_sort_false_keeps_the_partitions(clusters):
+    ddf = spread(clusters, 4)
+    lazy = geoalpha.dask.hull(ddf, by="Cluster", sort=False, npartitions=3)
+    assert lazy.npartitions == 3
+    got = lazy.compute().sort_values("Cluster").reset_index(drop=True)
+    assert_geodataframe_equal(got, clusters.alpha.hull(by="Cluster"), check_dtype=False)
+
+
+def test_no_by_gives_one_hull(clusters):
+    ddf = spread(clusters, 3)
+    assert_same_hulls(geoalpha.hull(ddf), geoalpha.hull(ddf.compute()))
+
+
+def test_projected_input_and_forced_crs(clusters):
+    ddf = spread(clusters.to_crs(27700), 3)
+    assert_same_hulls(
+        geoalpha.hull(ddf, by="Cluster"), geoalpha.hull(ddf.compute(), by="Cluster")
+    )
+    ddf = spread(clusters, 3)
+    assert_same_hulls(
+        geoalpha.hull(ddf, by="Cluster", crs=27700),
+        geoalpha.hull(ddf.compute(), by="Cluster", crs=27700),
+    )
+
+
+def test_dask_geoseries_gives_one_hull(clusters):
+    series = dask_geopandas.from_geopandas(clusters.geometry, npartitions=3)
+    assert_same_hulls(series.alpha.hull(), clusters.geometry.alpha.hull())
+
+
+# --- the whole-dataset CRS decision ------------------------------------------------
+
+
+def test_dataset_fits_one_zone_but_a_partition_alone_would_not():
+    # Groups from 1 degree W to 2.5 degrees E: together they fit UTM zone 31;
+    # the western groups alone fit zone 30, which "auto" would pick for a
+    # partition holding only them.
+    centres = [(-0.9, 50.0 + i / 10) for i in range(6)] + [
+        (2.3, 50.0 + i / 10) for i in range(6)
+    ]
+    gdf = points_at(centres)
+    west = gdf[gdf["group"] < "g06"]
+    assert set(west.alpha.hull(by="group")["crs_used"]) == {"EPSG:32630"}
+    eager = gdf.alpha.hull(by="group")
+    assert set(eager["crs_used"]) == {"EPSG:32631"}
+    assert_eager_hulls(spread(gdf, 6), "group", eager)
+
+
+def test_dataset_too_wide_so_every_group_decides_alone():
+    # Spain (groups in UTM zones 29 and 31) and Japan: no single zone. A
+    # partition holding only Spanish groups would fit zone 30 as a whole; each
+    # group must still get its own zone.
+    spain = [(-6.5, 40.0 + i / 3) for i in range(5)] + [
+        (1.2, 40.0 + i / 3) for i in range(5)
+    ]
+    gdf = points_at([*spain, (139.7, 35.7)])
+    only_spain = gdf[gdf["group"] != "g10"]
+    assert set(only_spain.alpha.hull(by="group")["crs_used"]) == {"EPSG:32630"}
+    eager = gdf.alpha.hull(by="group")
+    assert set(eager["crs_used"]) == {"EPSG:32629", "EPSG:32631", "EPSG:32654"}
+    for n in (1, 2, 3):
+        ddf = spread(gdf, n)
+        if n == 2:  # a partition gets groups of both zones but not Japan's
+            parts = ddf.shuffle(on="group")
+            held = [set(parts.partitions[i].compute()["group"]) for i in range(n)]
+            west = {f"g{i:02d}" for i in range(5)}
+            east = {f"g{i:02d}" for i in range(5, 10)}
+            assert any("g10" not in g and g & west and g & east for g in held)
+        assert_eager_hulls(ddf, "group", eager)
+
+
+def test_dataset_across_the_antimeridian():
+    gdf = points_at([(178.6, -17.8), (179.6, -16.6), (-179.6, -16.9), (-178.9, -18.0)])
+    eager = gdf.alpha.hull(by="group")
+    assert eager["crs_used"].nunique() == 1  # the data fit one zone across 180
+    assert_eager_hulls(spread(gdf, 4), "group", eager)
+
+
+@pytest.mark.parametrize("npartitions", [1, 2, 5])
+def test_decision_is_the_eager_one_on_many_layouts(npartitions):
+    rng = np.random.default_rng(npartitions)
+    centres = list(zip(rng.uniform(-20, 20, 8), rng.uniform(-60, 60, 8), strict=True))
+    gdf = points_at(centres, per_group=25, seed=npartitions, sigma=0.5)
+    assert_eager_hulls(spread(gdf, npartitions), "group", gdf.alpha.hull(by="group"))
+
+
+# --- errors ---------------------------------------------------------------------------
+
+
+def test_errors(clusters):
+    ddf = spread(clusters, 2)
+    with pytest.raises(InvalidInputError, match="no column 'nope'"):
+        geoalpha.hull(ddf, by="nope")
+    with pytest.raises(InvalidInputError, match="needs column names"):
+        geoalpha.hull(ddf, by=clusters["Cluster"].to_numpy())
+    with pytest.raises(InvalidInputError, match="dask spreads the partitions"):
+        geoalpha.hull(ddf, by="Cluster", n_jobs=2)
+    with pytest.raises(InvalidInputError, match="method must be one of"):
+        geoalpha.hull(ddf, by="Cluster", method="nope")
+    with pytest.raises(InvalidInputError, match="unknown option"):
+        geoalpha.dask.hull(ddf, by="Cluster", colour="red")
+
+
+def test_data_errors_are_raised_by_compute(clusters):
+    bad = clusters.copy()
+    bad.geometry = bad.to_crs(27700).buffer(10.0).to_crs(4326)
+    lazy = geoalpha.hull(spread(bad, 2), by="Cluster")
+    with pytest.raises(InvalidInputError, match="needs point geometries"):
+        lazy.compute()
+
+
+# --- a real cluster -------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def client():
+    with (
+        distributed.LocalCluster(
+            n_workers=2,
+            processes=True,
+            threads_per_worker=1,
+            dashboard_address=None,
+            silence_logs=50,
+        ) as cluster,
+        distributed.Client(cluster, set_as_default=False) as client,
+    ):
+        yield client
+
+
+def test_local_cluster_gives_the_eager_hulls(client, clusters, airports):
+    for gdf, by in ((clusters, "Cluster"), (airports, "state")):
+        ddf = spread(gdf, 4)
+        lazy = geoalpha.hull(ddf, by=by)
+        got = client.compute(lazy).result()
+        eager = geoalpha.hull(ddf.compute(), by=by)
+        assert_geodataframe_equal(got, eager, check_dtype=False)
+        assert got.geom_equals_exact(eager, tolerance=0).all()
+
+
+# --- imports --------------------------------------------------------------------------
+
+
+def run_python(code: str) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-c", textwrap.dedent(code)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+
+
+def test_import_geoalpha_does_not_import_dask():
+    done = run_python(
+        """
+        import sys
+        import geoalpha
+        assert "dask" not in sys.modules and "dask_geopandas" not in sys.modules
+        import dask_geopandas
+        assert "alpha" not in vars(dask_geopandas.GeoDataFrame)
+        import geoalpha.dask
+        assert "alpha" in vars(dask_geopandas.GeoDataFrame)
+        """
+    )
+    assert done.returncode == 0, done.stderr
+
+
+def test_accessor_registered_when_dask_geopandas_came_first():
+    done = run_python(
+        """
+        import dask_geopandas
+        import geoalpha
+        assert "alpha" in vars(dask_geopandas.GeoDataFrame)
+        assert "alpha" in vars(dask_geopandas.GeoSeries)
+        """
+    )
+    assert done.returncode == 0, done.stderr
+
+
+def test_missing_dask_says_what_to_install():
+    done = run_python(
+        """
+        import sys
+        sys.modules["dask_geopandas"] = None
+        import geoalpha.dask
+        """
+    )
+    assert done.returncode != 0
+    assert "pip install geoalpha[dask]" in done.stderr
