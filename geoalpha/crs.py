@@ -599,8 +599,6 @@ def metric_crs(
         ``"auto"`` without the whole-dataset check (for a subset of the data
         whose whole-dataset check was done elsewhere, as
         :mod:`geoalpha.dask` does for each partition).
-
-        .. versionadded:: 0.2.0 ``"auto-group"``
     source_crs : CRS, optional
         The geographic CRS of ``lon``/``lat``; default EPSG:4326 (WGS 84).
 
