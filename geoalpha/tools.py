@@ -81,8 +81,9 @@ def _as_frame(data) -> Any:
 
 def _groups(frame, by, dropna: bool, sort: bool) -> tuple[np.ndarray, pd.DataFrame]:
     """Group code per row (-1: dropped NaN key) and the key table (one row a group)."""
-    if by is None:
-        return np.zeros(len(frame), dtype=np.int64), pd.DataFrame(index=range(1))
+    if by is None:  # one group of all rows (none for an empty frame)
+        keys = pd.DataFrame(index=range(1 if len(frame) else 0))
+        return np.zeros(len(frame), dtype=np.int64), keys
     names = by if isinstance(by, list) else [by]
     for name in names:
         if isinstance(name, str | int | tuple) and not isinstance(name, bool):

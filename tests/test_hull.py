@@ -903,3 +903,12 @@ def test_no_progress_bar(small, capsys, progress):
     captured = capsys.readouterr()
     assert captured.err == ""
     assert captured.out == ""
+
+
+@pytest.mark.parametrize("by", [None, "g"])
+def test_empty_frame_gives_an_empty_table(by):
+    empty = gpd.GeoDataFrame({"g": []}, geometry=gpd.GeoSeries([], crs=4326))
+    hulls = geoalpha.hull(empty, by=by)
+    assert len(hulls) == 0
+    assert hulls.crs == empty.crs
+    assert {"alpha", "n_points", "geometry"} <= set(hulls.columns)
