@@ -213,34 +213,21 @@ def alpha_shapes(
     ['Polygon', 'Polygon']
     """
     _check_options(holes, components, search)
+    options = {
+        "alpha": alpha,
+        "holes": holes,
+        "components": components,
+        "search": search,
+        "max_iterations": max_iterations,
+        "coords": coords,
+        "n_groups": n_groups,
+        "progress": progress,
+    }
     if type(n_jobs) is not int or n_jobs != 1 or _batched(points, groups):
         from geoalpha.parallel import alpha_shapes_parallel
 
-        return alpha_shapes_parallel(
-            points,
-            groups,
-            n_jobs=n_jobs,
-            alpha=alpha,
-            holes=holes,
-            components=components,
-            search=search,
-            max_iterations=max_iterations,
-            coords=coords,
-            n_groups=n_groups,
-            progress=progress,
-        )
-    return _alpha_shapes_batch(
-        points,
-        groups,
-        alpha=alpha,
-        holes=holes,
-        components=components,
-        search=search,
-        max_iterations=max_iterations,
-        coords=coords,
-        n_groups=n_groups,
-        progress=progress,
-    )
+        return alpha_shapes_parallel(points, groups, n_jobs=n_jobs, **options)
+    return _alpha_shapes_batch(points, groups, **options)
 
 
 def _batched(points, groups) -> bool:

@@ -37,7 +37,7 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 import numpy as np
 
 from geoalpha import core
-from geoalpha.errors import InvalidInputError
+from geoalpha.errors import InvalidInputError, user_stacklevel
 
 __all__ = [
     "BATCH_POINTS",
@@ -208,16 +208,6 @@ def _with_defaults(kwargs: dict) -> dict:
     }
 
 
-def _stacklevel() -> int:
-    """Stack level that points a re-raised warning at the caller of geoalpha."""
-    frame, level = sys._getframe(1), 1
-    while frame is not None and frame.f_globals.get("__name__", "").startswith(
-        "geoalpha."
-    ):
-        frame, level = frame.f_back, level + 1
-    return level
-
-
 def alpha_shapes_parallel(
     points,
     groups=None,
@@ -347,6 +337,6 @@ def alpha_shapes_parallel(
 
     for _, caught in results:
         for category, message in caught:
-            warnings.warn(message, category, stacklevel=_stacklevel())
+            warnings.warn(message, category, stacklevel=user_stacklevel())
     fields = zip(*(res for res, _ in results), strict=True)
     return AlphaShapes(*(np.concatenate(f) for f in fields))
