@@ -118,9 +118,9 @@ def _take_in(poly, p):
         if candidate.is_valid and candidate.covers(p):
             grown = candidate
             break
-    if grown is None:  # fall back to adding the ear, slightly widened
+    if grown is None:  # fall back to adding the ear's outline, slightly widened
         k = int(np.argmin(shapely.distance(segments, p)))
-        ear = shapely.Polygon([ring[k], (p.x, p.y), ring[k + 1]])
+        ear = shapely.linestrings([ring[k], (p.x, p.y), ring[k + 1]])
         width = 1e-9 * max(np.ptp(ring, axis=0).max(), abs(p.x), abs(p.y), 1.0)
         grown = shapely.union(part, shapely.buffer(ear, width))
         grown = polygonal(np.array([grown], dtype=object))[0]

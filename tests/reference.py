@@ -18,7 +18,9 @@ outside of the convex hull through non-solid triangles.
 
 from __future__ import annotations
 
+import math
 from collections import deque
+from fractions import Fraction
 
 import numpy as np
 import shapely
@@ -27,20 +29,33 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import Delaunay
 
 
+def exact_circumradius(a, b, c) -> float:
+    """Circumradius of the triangle of float points a, b, c, correctly rounded.
+
+    R^2 = |ab|^2 |bc|^2 |ca|^2 / (2 cross)^2 is evaluated in rational
+    arithmetic on the input floats themselves, so no rounding of coordinates
+    (centring, differences) or cancellation in the cross product can creep
+    in; ``inf`` for a flat triangle.
+    """
+    (ax, ay), (bx, by), (cx, cy) = (
+        tuple(map(Fraction, map(float, v))) for v in (a, b, c)
+    )
+    cross = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
+    if cross == 0:
+        return math.inf
+    ab2 = (bx - ax) ** 2 + (by - ay) ** 2
+    bc2 = (cx - bx) ** 2 + (cy - by) ** 2
+    ca2 = (ax - cx) ** 2 + (ay - cy) ** 2
+    r2 = ab2 * bc2 * ca2 / (4 * cross * cross)
+    # float(Fraction) is correctly rounded; the square root adds < 1 ulp.
+    return math.sqrt(float(r2))
+
+
 def triangulation(points):
+    """Distinct points, Delaunay simplices and neighbours, exact circumradii."""
     pts = np.unique(np.asarray(points, dtype=float), axis=0)
-    local = pts - pts.mean(axis=0)
-    d = Delaunay(local)
-    a, b, c = (local[d.simplices[:, k]] for k in range(3))
-    # circumcentre formula
-    bx, by = b[:, 0] - a[:, 0], b[:, 1] - a[:, 1]
-    cx, cy = c[:, 0] - a[:, 0], c[:, 1] - a[:, 1]
-    den = 2 * (bx * cy - by * cx)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ux = (cy * (bx**2 + by**2) - by * (cx**2 + cy**2)) / den
-        uy = (bx * (cx**2 + cy**2) - cx * (bx**2 + by**2)) / den
-        r = np.hypot(ux, uy)
-    r[den == 0] = np.inf
+    d = Delaunay(pts - pts.mean(axis=0))
+    r = np.array([exact_circumradius(*pts[s]) for s in d.simplices], dtype=float)
     return pts, d.simplices, d.neighbors, r
 
 
