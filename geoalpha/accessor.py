@@ -57,6 +57,13 @@ def register(name: str = "alpha") -> None:
     ``dask_geopandas`` is already imported (importing :mod:`geoalpha.dask`
     registers it there in any case), so that ``import geoalpha`` does not
     import dask.
+
+    Examples
+    --------
+    >>> import geopandas as gpd
+    >>> register()
+    >>> gpd.GeoDataFrame.alpha is AlphaAccessor
+    True
     """
     import geopandas as gpd
 

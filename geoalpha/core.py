@@ -419,6 +419,12 @@ def fill_radius(tri: Triangulation) -> np.ndarray:
     -------
     ndarray of int, shape (m,)
         Rank of ``f(t)`` in ``tri.values``; ``f(t) <= r(t)``.
+
+    Examples
+    --------
+    >>> tri = triangulate([[0, 0], [2, 0], [2, 2], [0, 2], [1, 1.9]])
+    >>> bool((tri.values[fill_radius(tri)] <= tri.radius).all())
+    True
     """
     m = len(tri.triangles)
     rank = tri.rank
@@ -576,6 +582,11 @@ def radius_of_alpha(alpha) -> np.ndarray:
 
     The slack (:data:`ALPHA_RTOL`) makes ``alpha * r <= 1`` hold for the
     triangle ``r = 1 / alpha`` came from despite rounding.
+
+    Examples
+    --------
+    >>> radius_of_alpha([0.5, 0.0]).round(12).tolist()
+    [2.0, inf]
     """
     alpha = np.asarray(alpha, dtype=float)
     with np.errstate(divide="ignore"):
@@ -587,6 +598,12 @@ def piece_labels(tri: Triangulation, inside: np.ndarray) -> np.ndarray:
 
     Returns an array of shape (m,) with labels ``0 .. P-1`` numbered by group
     (pieces of group 0 first) and -1 for triangles outside the shape.
+
+    Examples
+    --------
+    >>> tri = triangulate([[0, 0], [2, 0], [2, 2], [0, 2], [1, 1]])
+    >>> piece_labels(tri, np.ones(len(tri.triangles), dtype=bool)).tolist()
+    [0, 0, 0, 0]
     """
     m = len(tri.triangles)
     a, b = tri.dual_edges()
@@ -654,6 +671,14 @@ def boundary_rings(tri: Triangulation, inside: np.ndarray, piece: np.ndarray) ->
     Returns
     -------
     Rings
+
+    Examples
+    --------
+    >>> tri = triangulate([[0, 0], [2, 0], [2, 2], [0, 2], [1, 1]])
+    >>> inside = np.ones(len(tri.triangles), dtype=bool)
+    >>> rings = boundary_rings(tri, inside, piece_labels(tri, inside))
+    >>> len(rings.vertex), rings.ring_piece.tolist(), rings.piece_group.tolist()
+    (4, [0], [0])
     """
     t = np.repeat(np.arange(len(tri.triangles)), 3)
     j = np.tile(np.arange(3), len(tri.triangles))

@@ -89,6 +89,13 @@ def cover_points(geoms, out_xy, codes) -> np.ndarray:
     same repair takes in a point that Qhull merged with a numerically
     coincident vertex (~1e-12 of the group's extent away) and that the
     shape around that vertex just misses.
+
+    Examples
+    --------
+    >>> square = shapely.box(0, 0, 1, 1)
+    >>> grown = cover_points(np.array([square]), np.array([[1.5, 0.5]]), np.array([0]))
+    >>> grown[0].covers(shapely.Point(1.5, 0.5)), grown[0].area
+    (True, 1.25)
     """
     geoms = geoms.copy()
     points = shapely.points(out_xy)
@@ -136,6 +143,14 @@ def polygonal(geoms: np.ndarray) -> np.ndarray:
     Giving a hull built in metres its lon/lat vertices can make a ring touch
     itself; ``make_valid`` then returns a MultiPolygon, sometimes with
     collapsed lines, which are dropped here.
+
+    Examples
+    --------
+    >>> mixed = shapely.GeometryCollection(
+    ...     [shapely.box(0, 0, 1, 1), shapely.LineString([(1, 1), (2, 2)])]
+    ... )
+    >>> polygonal(np.array([mixed]))[0].geom_type
+    'Polygon'
     """
     parts, which = shapely.get_parts(geoms, return_index=True)
     keep = (shapely.get_type_id(parts) == 3) & (shapely.area(parts) > 0)
