@@ -279,25 +279,21 @@ def probe_alphas(r) -> list[float]:
 
 
 def same_triangulation(p, tri) -> bool:
-    """Whether geoalpha triangulated ``p`` into the reference's triangles.
+    """Whether geoalpha's triangulation of ``p`` has the reference's spectrum.
 
     Qhull works in floating point: for nearly collinear or nearly coincident
     points its output depends on the order and origin of the coordinates, so
     geoalpha (points sorted by group, origin at a group point) and the
     reference (np.unique order, centred on the mean) may get two different
     near-Delaunay triangulations, or one may merge a point the other keeps.
-    The optimum is exact relative to a triangulation; the comparison is only
-    meaningful when both have the same one.
+    The optimum is exact relative to a triangulation, so the comparison is
+    made when both have the same circumradius spectrum (cocircular points may
+    still differ by diagonal flips, which keep every radius).
     """
     ours = core.triangulate(p)
-    if ours.degenerate[0]:
+    if ours.degenerate[0] or len(ours.radius) != len(tri[3]):
         return False
-
-    def key(coords):
-        return {tuple(sorted(map(tuple, t))) for t in coords.tolist()}
-
-    pts, simplices = tri[0], tri[1]
-    return key(ours.xy[ours.triangles]) == key(pts[simplices])
+    return bool(np.allclose(np.sort(ours.radius), np.sort(tri[3]), rtol=1e-9, atol=0))
 
 
 def well_conditioned(tri, limit: float = 1e6) -> bool:
