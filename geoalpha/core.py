@@ -144,6 +144,8 @@ class Triangulation:
 
 def _check_points(points) -> np.ndarray:
     xy = np.asarray(points, dtype=float)
+    if xy.size == 0:  # no points at all, however they were spelled ([], (0, 2))
+        return np.empty((0, 2))
     if xy.ndim != 2 or xy.shape[1] != 2:
         raise ValueError(
             f"points must be an (n, 2) array of x, y; got shape {xy.shape}"

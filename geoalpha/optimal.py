@@ -85,7 +85,12 @@ def _rank_threshold(
     """Per group: the alpha (nan if degenerate) and the largest solid rank."""
     G = tri.n_groups
     if alpha is not None:
-        a = np.broadcast_to(np.asarray(alpha, dtype=float), (G,)).copy()
+        try:
+            a = np.broadcast_to(np.asarray(alpha, dtype=float), (G,)).copy()
+        except (TypeError, ValueError) as err:
+            raise InvalidInputError(
+                f"alpha must be a number >= 0 (or one per group, {G}); got {alpha!r}"
+            ) from err
         if not np.isfinite(a).all() or (a < 0).any():
             raise InvalidInputError(f"alpha must be finite and >= 0; got {alpha!r}")
         a[tri.degenerate] = np.nan

@@ -235,3 +235,14 @@ def test_bad_options_are_checked_before_degenerate_groups():
     # A bad option must not hide behind "no alpha shape".
     with pytest.raises(InvalidInputError, match="components"):
         optimal_alpha([[0, 0]], components=0)
+
+
+def test_empty_list_is_no_points():
+    with pytest.warns(geoalpha.DegenerateGroupWarning, match="0 distinct point"):
+        assert math.isnan(geoalpha.optimal_alpha([]))
+
+
+@pytest.mark.parametrize("alpha", ["x", [1.0, 2.0, 3.0]])
+def test_alpha_that_is_not_a_number_per_group(alpha):
+    with pytest.raises(geoalpha.InvalidInputError, match="alpha must be a number"):
+        geoalpha.alpha_shape([[0, 0], [1, 0], [0, 1]], alpha=alpha)
