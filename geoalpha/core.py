@@ -459,10 +459,6 @@ def fill_radius(tri: Triangulation) -> np.ndarray:
     return val[:m]
 
 
-def _min_at(target: np.ndarray, index: np.ndarray, values: np.ndarray) -> None:
-    np.minimum.at(target, index, values)
-
-
 @dataclass(frozen=True)
 class Spectrum:
     """Validity oracle for one weight per triangle (radius or fill radius).
@@ -519,7 +515,7 @@ class Spectrum:
         # Coverage: each vertex needs one incident triangle in the shape.
         p = len(tri.xy)
         vmin = np.full(p, stride, dtype=np.int64)
-        _min_at(vmin, tri.triangles.ravel(), np.repeat(rank, 3))
+        np.minimum.at(vmin, tri.triangles.ravel(), np.repeat(rank, 3))
         is_vertex = vmin < stride
         cover = np.full(G, -1, dtype=np.int64)
         np.maximum.at(cover, tri.point_group[is_vertex], vmin[is_vertex])
@@ -620,7 +616,7 @@ def piece_labels(tri: Triangulation, inside: np.ndarray) -> np.ndarray:
     # sorted by group, so labels follow groups; make sure of it.
     first = np.full(int(used.sum()), m, dtype=np.int64)
     sel = np.flatnonzero(inside)
-    _min_at(first, label[sel], sel)
+    np.minimum.at(first, label[sel], sel)
     if len(first) and not (np.diff(first) > 0).all():  # pragma: no cover
         order = np.argsort(first, kind="stable")
         new = np.empty_like(order)
@@ -715,7 +711,7 @@ def boundary_rings(tri: Triangulation, inside: np.ndarray, piece: np.ndarray) ->
     graph = csr_array((np.ones(n_edges), (np.arange(n_edges), nxt)), (n_edges,) * 2)
     n_rings, label = connected_components(graph, directed=True, connection="weak")
     root = np.full(n_rings, n_edges, dtype=np.int64)
-    _min_at(root, label, np.arange(n_edges))
+    np.minimum.at(root, label, np.arange(n_edges))
     # List ranking: distance of each edge to the last edge before the root.
     succ = np.where(nxt == root[label], np.arange(n_edges), nxt)
     dist = (succ != np.arange(n_edges)).astype(np.int64)

@@ -236,7 +236,7 @@ def _to_input_vertices(geoms, groups, xy, out, codes) -> np.ndarray:
 
 
 def _comparison_hulls(method, proj, codes, n_groups, *, holes, ratio, k, bar):
-    """Convex hull of GEOS concave hull or KNN hull per group, in metric coords."""
+    """GEOS concave or KNN hull per group, built in metres, in output coordinates."""
     order = np.argsort(codes, kind="stable")
     xy, sc = proj.xy[order], codes[order]
     ptr = np.searchsorted(sc, np.arange(n_groups + 1))
@@ -496,7 +496,7 @@ def hull(
         warnings.warn(
             f"hull() dropped {dropped.sum()} of {len(frame)} rows: " + "; ".join(parts),
             DroppedRowsWarning,
-            stacklevel=_stacklevel(),
+            stacklevel=user_stacklevel(),
         )
     kept = np.flatnonzero(~dropped)
     coords, which = shapely.get_coordinates(geoms[kept], return_index=True)
@@ -583,9 +583,6 @@ def hull(
     return out[keep_group].reset_index(drop=True)
 
 
-_stacklevel = user_stacklevel
-
-
 def _rows_to_index(message: str, rows: np.ndarray, index: pd.Index) -> str:
     """Name rows of the input frame (by index label) in a crs error message."""
     import re
@@ -635,7 +632,7 @@ def _degenerate_groups(
         f"on a line, so no alpha shape: {listed}"
         f"{', ...' if len(groups) > 10 else ''}; {done} (degenerate={policy!r})",
         DegenerateGroupWarning,
-        stacklevel=_stacklevel(),
+        stacklevel=user_stacklevel(),
     )
     return geometry, area, keep
 
@@ -656,7 +653,7 @@ def _finish(
                 "(coordinates too close for it) and were repaired with make_valid: "
                 + _names(keys, invalid & ~wide),
                 GeoAlphaWarning,
-                stacklevel=_stacklevel(),
+                stacklevel=user_stacklevel(),
             )
     if crossing.any():
         geometry[crossing] = gcrs.split_antimeridian(geometry[crossing])
@@ -665,7 +662,7 @@ def _finish(
             f"{_names(keys, crossing)}; their hulls are MultiPolygons split at "
             "+-180 degrees (RFC 7946)",
             AntimeridianWarning,
-            stacklevel=_stacklevel(),
+            stacklevel=user_stacklevel(),
         )
     if wide.any():
         warnings.warn(
@@ -675,7 +672,7 @@ def _finish(
             "'area_m2' and 'alpha' are right, for the geometry use crs= with a "
             "projected output or split the group",
             GeoAlphaWarning,
-            stacklevel=_stacklevel(),
+            stacklevel=user_stacklevel(),
         )
     return geometry
 
