@@ -25,7 +25,7 @@ load): the floor (group the rows with one argsort, then a bare loop of
 with ``n_jobs=1`` and ``n_jobs=2``, the same hull with ``alpha_shapes`` run in
 runs of about 50,000 points in one process (a proposed change, see
 ``geoalpha.parallel.BATCH_POINTS``), and the floor loop split over two threads
-(to check that Qhull holds the GIL). Peak memory: each case once more in a
+(to check whether Qhull releases the GIL). Peak memory: each case once more in a
 fresh subprocess, ``ru_maxrss`` (the input frame included); the forked
 workers' peak is the largest of one worker (shared pages counted).
 
@@ -304,7 +304,12 @@ def stage_times(gdf) -> dict[str, float]:
     watch.wrap(core, "Delaunay", "Qhull (scipy Delaunay calls)")
     watch.wrap(core, "triangulate", "triangulate")
     watch.wrap(core, "fill_radius", "fill radii (maximum spanning tree)")
-    watch.wrap(core.Spectrum, "build", "spectrum (minimum spanning forest)", True)
+    watch.wrap(
+        core.Spectrum,
+        "build",
+        "spectrum (Euler counts; spanning forest if holes)",
+        True,
+    )
     watch.wrap(core.Spectrum, "optimum", "optimum search")
     watch.wrap(core, "piece_labels", "pieces")
     watch.wrap(core, "boundary_rings", "boundary rings")

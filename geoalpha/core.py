@@ -16,10 +16,15 @@ are the radii themselves. Both cases then share one machinery:
 
 * coverage holds from ``R_cov = max_v min_{t ni v} w(t)`` on;
 * the number of edge-connected pieces at ``R`` is
-  ``#{t : w(t) <= R} - #{MSF edges of weight <= R}`` where the minimum
-  spanning forest is taken on the dual graph weighted by ``max(w_a, w_b)``.
+  ``#{t : w(t) <= R} - #{edges of weight <= R} + #{vertices of weight <= R}``:
+  with holes kept, the edges of a minimum spanning forest of the dual graph
+  weighted by ``max(w_a, w_b)`` and no vertices; with holes filled, all dual
+  edges and the vertices inside the convex hull weighted by their largest
+  ``w`` (Euler's formula; see :class:`Spectrum`).
 
-Evaluating both at every spectrum value is ``O(m log m)`` for ``m`` triangles.
+Radii are ranked per group (each group's spectrum in its own range of
+ranks), so all these counts at every spectrum value are running sums over
+ranks: ``O(m)`` once the radii of each group are sorted, ``O(m log m)``.
 """
 
 from __future__ import annotations
@@ -94,10 +99,14 @@ class Triangulation:
         Circumradius of each triangle (``inf`` for a flat one); radii equal up
         to :data:`TIE_RTOL` are merged (see :func:`merge_ties`).
     values : ndarray of shape (K,)
-        The radius spectrum: sorted distinct radii of all groups.
+        The radius spectra of the groups: the distinct radii of each group,
+        ascending, group after group.
+    value_ptr : ndarray of shape (G + 1,)
+        The spectrum of group ``g`` is ``values[value_ptr[g]:value_ptr[g + 1]]``.
     rank : ndarray of shape (m,)
         Rank of each triangle's radius in ``values`` (``radius == values[rank]``).
-        The computations run on ranks, which are exact and sort as radii do.
+        The computations run on ranks, which are exact and, within a group,
+        sort as radii do (ranks of different groups are never compared).
     area : ndarray of shape (m,)
         Area of each triangle.
     degenerate : ndarray of shape (G,)
@@ -118,6 +127,7 @@ class Triangulation:
     tri_ptr: np.ndarray
     radius: np.ndarray
     values: np.ndarray
+    value_ptr: np.ndarray
     rank: np.ndarray
     area: np.ndarray
     degenerate: np.ndarray
@@ -139,6 +149,54 @@ class Triangulation:
             keep = b > a
             cached = (a[keep], b[keep])
             object.__setattr__(self, "_dual_edges", cached)
+        return cached
+
+    def rank_of(self, radius, group=None) -> np.ndarray:
+        """Rank of the largest value of each group's spectrum that is <= ``radius``.
+
+        Parameters
+        ----------
+        radius : array_like of float
+            Radius thresholds, one per entry of ``group`` (or broadcast).
+        group : array_like of int, optional
+            Group codes; default: every group, ``0 .. G-1``.
+
+        Returns
+        -------
+        ndarray of int
+            Ranks into ``values``; ``value_ptr[g] - 1`` where no radius of
+            group ``g`` is <= the threshold (no triangle is solid).
+
+        Examples
+        --------
+        >>> tri = triangulate([[0, 0], [2, 0], [0, 2], [2, 2.1]])
+        >>> tri.values.round(4).tolist()
+        [1.4142, 1.416]
+        >>> tri.rank_of([1.415, 1.0, 9.0], group=[0, 0, 0]).tolist()
+        [0, -1, 1]
+        """
+        group = np.arange(self.n_groups) if group is None else group
+        group = np.asarray(group, dtype=np.int64)
+        radius = np.broadcast_to(np.asarray(radius, dtype=float), group.shape)
+        cached = self.__dict__.get("_value_lookup")
+        if cached is None:
+            # Every value's index among all distinct values, offset by group:
+            # sorted, since each group's values are.
+            distinct, index = np.unique(self.values, return_inverse=True)
+            key = self.value_group() * (len(distinct) + 1) + index.ravel()
+            cached = (distinct, key)
+            object.__setattr__(self, "_value_lookup", cached)
+        distinct, key = cached
+        below = np.searchsorted(distinct, radius, side="right") - 1
+        query = group * (len(distinct) + 1) + below
+        return np.searchsorted(key, query, side="right") - 1
+
+    def value_group(self) -> np.ndarray:
+        """Return the group of each spectrum value (shape ``(K,)``), cached."""
+        cached = self.__dict__.get("_value_group")
+        if cached is None:
+            cached = np.repeat(np.arange(self.n_groups), np.diff(self.value_ptr))
+            object.__setattr__(self, "_value_group", cached)
         return cached
 
 
@@ -281,6 +339,8 @@ def triangulate(
         circumradius = np.sqrt(edges2.prod(axis=1)) / (2.0 * cross)
     circumradius[~(cross > 0)] = np.inf
     radius, rank, values = merge_ties(circumradius, tri_group)
+    value_group = np.empty(len(values), dtype=np.int64)
+    value_group[rank] = tri_group
     area = np.abs(cross) / 2.0
 
     # Points Qhull merged with a nearby vertex are represented by it.
@@ -309,6 +369,7 @@ def triangulate(
         tri_ptr=tri_ptr,
         radius=radius,
         values=values,
+        value_ptr=_offsets(value_group, n_groups),
         rank=rank,
         area=area,
         degenerate=degenerate,
@@ -361,45 +422,49 @@ def merge_ties(
     circumradius in exact arithmetic, which rounding splits by an ulp or two.
     Merging them keeps such triangles entering the shape together, as the
     definition wants. Runs of values each within ``rtol`` of the previous one
-    form one value. With ``group`` given, only radii of the same group are
-    merged, so that a group's result never depends on the other groups.
+    form one value. With ``group`` given (non-decreasing codes), only radii of
+    the same group are merged, so that a group's result never depends on the
+    other groups, and the distinct values are listed group by group.
 
     Returns
     -------
     merged : ndarray
         The merged radii, same shape as ``radius``.
     rank : ndarray of int
-        Rank of each merged radius among the distinct ones.
+        Index of each merged radius in ``values``.
     values : ndarray
-        The distinct merged radii, ascending (``merged == values[rank]``).
+        The distinct merged radii (``merged == values[rank]``): ascending, or
+        with ``group``, ascending within each group, groups in order (so that
+        ranks compare as radii within a group).
 
     Examples
     --------
     >>> merged, rank, values = merge_ties(np.array([2.0, 1.0, 1.0 + 1e-15]))
     >>> merged.tolist(), rank.tolist(), values.tolist()
     ([2.0, 1.000000000000001, 1.000000000000001], [1, 0, 0], [1.000000000000001, 2.0])
+    >>> merge_ties(np.array([2.0, 1.0, 3.0]), np.array([0, 0, 1]))[1].tolist()
+    [1, 0, 2]
     """
     if len(radius) == 0:
         return radius, np.zeros(0, dtype=np.int64), radius
-    if group is None:
-        order = np.argsort(radius)
-    else:
-        order = np.lexsort((radius, group))
+    order = np.argsort(radius)
+    if group is not None:
+        # Then stably by group: a radix sort when the codes fit 16 bits.
+        g = group[order]
+        span = int(g.max()) - int(g.min())
+        if span < 2**16:
+            g = (g - g.min()).astype(np.uint16)
+        order = order[np.argsort(g, kind="stable")]
     s = radius[order]
     start = np.ones(len(s), dtype=bool)
     start[1:] = s[1:] > s[:-1] * (1.0 + rtol)
     if group is not None:
         g = group[order]
         start[1:] |= g[1:] != g[:-1]
-    run_max = np.maximum.reduceat(s, np.flatnonzero(start))
-    merged = np.empty_like(radius)
-    merged[order] = run_max[np.cumsum(start) - 1]
-    if group is None:
-        rank = np.empty(len(radius), dtype=np.int64)
-        rank[order] = np.cumsum(start) - 1
-        return merged, rank, run_max
-    values, rank = np.unique(merged, return_inverse=True)
-    return merged, rank.reshape(radius.shape), values
+    values = np.maximum.reduceat(s, np.flatnonzero(start))
+    rank = np.empty(len(radius), dtype=np.int64)
+    rank[order] = np.cumsum(start) - 1
+    return values[rank], rank, values
 
 
 def fill_radius(tri: Triangulation) -> np.ndarray:
@@ -459,119 +524,160 @@ def fill_radius(tri: Triangulation) -> np.ndarray:
     return val[:m]
 
 
+def _offsets(group: np.ndarray, n_groups: int) -> np.ndarray:
+    """Offsets ``ptr`` (shape ``(G + 1,)``) of items sorted by ``group``."""
+    ptr = np.zeros(n_groups + 1, dtype=np.int64)
+    np.cumsum(np.bincount(group, minlength=n_groups), out=ptr[1:])
+    return ptr
+
+
 @dataclass(frozen=True)
 class Spectrum:
     """Validity oracle for one weight per triangle (radius or fill radius).
 
-    Weights are ranks into the radius spectrum ``values``. The oracle answers,
-    for any group and radius threshold ``R``, how many edge-connected pieces
-    the shape ``{t : w(t) <= R}`` has and whether it covers every point, in
-    ``O(log m)`` per query after an ``O(m log m)`` set-up.
+    Weights are ranks into the radius spectra ``tri.values``. For every rank
+    ``k`` (a value of some group's spectrum) the oracle holds the number of
+    edge-connected pieces of that group's shape ``{t : w(t) <= k}``, and for
+    every group the rank from which the shape covers every point: ``O(m)``
+    to set up, ``O(1)`` per query.
+
+    The number of pieces is counted as
+    ``#triangles - #edges + #vertices`` with weights ``<= k``:
+
+    * ``filled=False`` (any weights): the edges are those of a minimum
+      spanning forest of the dual graph (weight of a dual edge: the larger
+      weight of its two triangles), no vertices;
+    * ``filled=True`` (weights whose shapes have no holes at any ``k``, such
+      as fill radii): all dual edges, and the vertices inside the convex hull
+      with the weight of their last triangle. This is Euler's formula for the
+      plane graph of the shape's dual, whose bounded faces are exactly those
+      vertices when no triangle outside the shape is enclosed by it, so no
+      spanning forest is needed.
 
     Attributes
     ----------
-    values : ndarray
-        The radius spectrum (``Triangulation.values``).
-    tri_keys, msf_keys : ndarray
-        Sorted ``group * (K + 1) + rank`` keys of the triangles and of the
-        minimum-spanning-forest edges (``K = len(values)``).
-    tri_ptr, msf_ptr : ndarray of shape (G + 1,)
-        Group offsets into the sorted keys.
+    tri : Triangulation
+        The triangulation (its ``values``, ``value_ptr`` and ``rank_of``).
+    pieces : ndarray of shape (K,)
+        Pieces of the shape at each rank (of the rank's group).
     cover : ndarray of shape (G,)
         Smallest rank at which every point of the group is covered (``K``
         for degenerate groups).
     """
 
-    values: np.ndarray
-    tri_keys: np.ndarray
-    msf_keys: np.ndarray
-    tri_ptr: np.ndarray
-    msf_ptr: np.ndarray
+    tri: Triangulation
+    pieces: np.ndarray
     cover: np.ndarray
 
-    @property
-    def stride(self) -> int:
-        """Multiplier of the group in the keys."""
-        return len(self.values) + 1
-
     @classmethod
-    def build(cls, tri: Triangulation, rank: np.ndarray) -> Spectrum:
-        """Set up the oracle for weights ``rank`` (one per triangle of ``tri``)."""
-        m, G = len(tri.triangles), tri.n_groups
-        stride = len(tri.values) + 1
-        tri_keys = np.sort(tri.tri_group * stride + rank)
+    def build(cls, tri: Triangulation, rank: np.ndarray, *, filled=False) -> Spectrum:
+        """Set up the oracle for weights ``rank`` (one per triangle of ``tri``).
 
-        a, b = tri.dual_edges()
-        edge_rank = np.maximum(rank[a], rank[b])
-        graph = csr_array(((edge_rank + 1).astype(float), (a, b)), shape=(m, m))
-        forest = minimum_spanning_tree(graph, overwrite=True).tocoo()
-        fa = np.asarray(forest.row, dtype=np.int64)
-        f_rank = np.asarray(forest.data, dtype=np.int64) - 1
-        f_group = tri.tri_group[fa]
-        msf_keys = np.sort(f_group * stride + f_rank)
-        msf_ptr = np.zeros(G + 1, dtype=np.int64)
-        np.cumsum(np.bincount(f_group, minlength=G), out=msf_ptr[1:])
+        Parameters
+        ----------
+        tri : Triangulation
+        rank : ndarray of int, shape (m,)
+            Weight of every triangle, as a rank into ``tri.values``.
+        filled : bool, default False
+            True if no shape ``{t : rank[t] <= k}`` has a hole, i.e. every
+            triangle outside it reaches the outside of the convex hull through
+            edges of triangles outside it (true of :func:`fill_radius`);
+            the pieces are then counted with Euler's formula instead of a
+            spanning forest.
+
+        Examples
+        --------
+        >>> tri = triangulate([[0, 0], [2, 0], [2, 2], [0, 2], [1, 1]])
+        >>> spectrum = Spectrum.build(tri, fill_radius(tri), filled=True)
+        >>> spectrum.pieces.tolist(), spectrum.optimum().tolist()
+        ([1], [0])
+        """
+        m, G, K = len(tri.triangles), tri.n_groups, len(tri.values)
+        value_group = tri.value_group()
+
+        def at_or_below(weight, group, ptr=None):
+            # Items of each rank's group with weight <= the rank. Groups are
+            # rank ranges, so a running count over all ranks, minus the items
+            # of the groups before, counts them.
+            ptr = _offsets(group, G) if ptr is None else ptr
+            return np.cumsum(np.bincount(weight, minlength=K)) - ptr[value_group]
 
         # Coverage: each vertex needs one incident triangle in the shape.
         p = len(tri.xy)
-        vmin = np.full(p, stride, dtype=np.int64)
-        np.minimum.at(vmin, tri.triangles.ravel(), np.repeat(rank, 3))
-        is_vertex = vmin < stride
+        corner = tri.triangles.ravel()
+        corner_rank = np.repeat(rank, 3)
+        vmin = np.full(p, K, dtype=np.int64)
+        np.minimum.at(vmin, corner, corner_rank)
+        is_vertex = vmin < K
         cover = np.full(G, -1, dtype=np.int64)
         np.maximum.at(cover, tri.point_group[is_vertex], vmin[is_vertex])
-        cover[tri.degenerate] = stride - 1
-        return cls(tri.values, tri_keys, msf_keys, tri.tri_ptr, msf_ptr, cover)
+        cover[tri.degenerate] = K
 
-    def rank_of(self, radius) -> np.ndarray:
-        """Rank of the largest spectrum value <= ``radius`` (-1 if none)."""
-        return np.searchsorted(self.values, radius, side="right") - 1
+        pieces = at_or_below(rank, tri.tri_group, tri.tri_ptr)
+        a, b = tri.dual_edges()
+        if filled:
+            pieces -= at_or_below(np.maximum(rank[a], rank[b]), tri.tri_group[a])
+            vmax = np.full(p, -1, dtype=np.int64)
+            np.maximum.at(vmax, corner, corner_rank)
+            t, j = np.nonzero(tri.neighbors < 0)  # hull edges: not inner vertices
+            vmax[tri.triangles[t, (j + 1) % 3]] = -1
+            vmax[tri.triangles[t, (j + 2) % 3]] = -1
+            inner = np.flatnonzero(vmax >= 0)
+            pieces += at_or_below(vmax[inner], tri.point_group[inner])
+        elif m:
+            edge_rank = np.maximum(rank[a], rank[b])
+            graph = csr_array(((edge_rank + 1).astype(float), (a, b)), shape=(m, m))
+            forest = minimum_spanning_tree(graph, overwrite=True).tocoo()
+            f_rank = np.asarray(forest.data, dtype=np.int64) - 1
+            f_group = tri.tri_group[np.asarray(forest.row, dtype=np.int64)]
+            pieces -= at_or_below(f_rank, f_group)
+        return cls(tri, pieces, cover)
+
+    def rank_of(self, group, radius) -> np.ndarray:
+        """Ranks of the thresholds ``radius`` in the spectra of ``group``.
+
+        See :meth:`Triangulation.rank_of`.
+        """
+        return self.tri.rank_of(radius, group)
 
     def pieces_at_rank(self, group: np.ndarray, rank: np.ndarray) -> np.ndarray:
         """Count the pieces of each group's shape with weights of rank <= ``rank``."""
-        key = group * self.stride + rank
-        n_tri = np.searchsorted(self.tri_keys, key, side="right") - self.tri_ptr[group]
-        n_msf = np.searchsorted(self.msf_keys, key, side="right") - self.msf_ptr[group]
-        return n_tri - n_msf
+        group, rank = np.broadcast_arrays(group, rank)
+        some = rank >= self.tri.value_ptr[group]  # else no triangle is in
+        n = np.zeros(group.shape, dtype=np.int64)
+        n[some] = self.pieces[rank[some]]
+        return n
 
-    def pieces(self, group, radius) -> np.ndarray:
+    def pieces_at(self, group, radius) -> np.ndarray:
         """Count the edge-connected pieces of each group's shape at ``radius``."""
         group = np.asarray(group, dtype=np.int64)
-        return self.pieces_at_rank(group, self.rank_of(radius))
+        return self.pieces_at_rank(group, self.rank_of(group, radius))
 
     def valid(self, group, radius, components: int = 1) -> np.ndarray:
         """Test coverage and at most ``components`` pieces at ``radius``."""
         group = np.asarray(group, dtype=np.int64)
-        rank = self.rank_of(np.asarray(radius, dtype=float))
+        rank = self.rank_of(group, radius)
         n = self.pieces_at_rank(group, rank)
         return (rank >= self.cover[group]) & (n >= 1) & (n <= components)
 
     def optimum(self, components: int = 1) -> np.ndarray:
         """Smallest valid rank of every group (``K`` where there is none).
 
-        Every spectrum value of the group (each distinct key) is a candidate,
-        so the result is the true minimum even where validity is not
-        monotone. Candidates are visited in sorted order, so the look-ups
-        walk the sorted keys forward.
+        Every value of the group's spectrum is a candidate, so the result is
+        the true minimum even where validity is not monotone. (The first
+        valid rank is a weight: the shape at any rank is the shape at the
+        largest weight below it.)
         """
-        keys = self.tri_keys
-        K = self.stride - 1
-        G = len(self.cover)
-        best = np.full(G, K, dtype=np.int64)
-        if len(keys) == 0:
-            return best
-        last = np.ones(len(keys), dtype=bool)
-        last[:-1] = keys[1:] != keys[:-1]
-        end = np.flatnonzero(last)
-        key = keys[end]
-        group, rank = np.divmod(key, self.stride)
-        n = (end + 1 - self.tri_ptr[group]) - (
-            np.searchsorted(self.msf_keys, key, side="right") - self.msf_ptr[group]
+        K, G = len(self.pieces), len(self.cover)
+        group = self.tri.value_group()
+        n = self.pieces
+        ok = np.flatnonzero(
+            (np.arange(K) >= self.cover[group]) & (n >= 1) & (n <= components)
         )
-        ok = (rank >= self.cover[group]) & (n >= 1) & (n <= components)
-        g_ok, r_ok = group[ok], rank[ok]
-        first = np.ones(len(g_ok), dtype=bool)
-        first[1:] = g_ok[1:] != g_ok[:-1]
-        best[g_ok[first]] = r_ok[first]
+        first = np.ones(len(ok), dtype=bool)
+        first[1:] = group[ok[1:]] != group[ok[:-1]]
+        best = np.full(G, K, dtype=np.int64)
+        best[group[ok[first]]] = ok[first]
         return best
 
 

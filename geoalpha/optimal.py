@@ -81,8 +81,13 @@ def _rank_threshold(
     components: int,
     search_: str,
     max_iterations: int,
+    *,
+    filled: bool,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Per group: the alpha (nan if degenerate) and the largest solid rank."""
+    """Per group: the alpha (nan if degenerate) and the largest solid rank.
+
+    ``filled``: the weights are fill radii (see :meth:`core.Spectrum.build`).
+    """
     G = tri.n_groups
     if alpha is not None:
         try:
@@ -94,10 +99,10 @@ def _rank_threshold(
         if not np.isfinite(a).all() or (a < 0).any():
             raise InvalidInputError(f"alpha must be finite and >= 0; got {alpha!r}")
         a[tri.degenerate] = np.nan
-        rank = np.searchsorted(tri.values, core.radius_of_alpha(a), side="right") - 1
+        rank = tri.rank_of(core.radius_of_alpha(a))
         return a, rank
 
-    spectrum = core.Spectrum.build(tri, weight)
+    spectrum = core.Spectrum.build(tri, weight, filled=filled)
     if search_ == "exact":
         rank = spectrum.optimum(components)
         radius = np.append(tri.values, np.inf)[rank]
@@ -124,7 +129,7 @@ def _rank_threshold(
                 stacklevel=user_stacklevel(),
             )
     a[tri.degenerate] = np.nan
-    return a, spectrum.rank_of(core.radius_of_alpha(a))
+    return a, tri.rank_of(core.radius_of_alpha(a))
 
 
 def _shown(items, limit: int = 10) -> str:
@@ -261,7 +266,9 @@ def _alpha_shapes_batch(
     except ValueError as err:
         raise InvalidInputError(str(err)) from err
     weight = tri.rank if holes else core.fill_radius(tri)
-    a, top = _rank_threshold(tri, weight, alpha, components, search, max_iterations)
+    a, top = _rank_threshold(
+        tri, weight, alpha, components, search, max_iterations, filled=not holes
+    )
 
     inside = weight <= top[tri.tri_group]
     piece = core.piece_labels(tri, inside)

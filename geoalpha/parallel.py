@@ -7,15 +7,14 @@ every run is computed by :func:`~geoalpha.alpha_shapes` in a
 :class:`concurrent.futures.ProcessPoolExecutor`, and the per-group fields are
 concatenated back in group order. Each group is computed as in a single call
 (same points in the same order, same code path), so the result equals
-``n_jobs=1``. (One caveat, from :func:`geoalpha.core.merge_ties`: circumradii
-within 1e-10 of each other are merged across all the groups of a call, so a
-group's alpha can in principle move by that much with the other groups of
-its run; no such case appears in the tests and benchmarks.)
+``n_jobs=1`` (tie merging, :func:`geoalpha.core.merge_ties`, is per group).
 
-Why processes and not threads: the per-group Qhull call of
-:class:`scipy.spatial.Delaunay` holds the GIL, and so do most of the batched
-numpy/scipy steps after it; two threads run no faster than one (measured in
-``benchmarks/bench_scale.py``).
+Why processes and not threads: scipy's Qhull call releases the GIL (the bare
+Delaunay loop on two threads takes about half the time of one thread in
+``benchmarks/bench_scale.py``), but the batched numpy/scipy steps after it
+are many calls on arrays of a few hundred thousand items, much of it under
+the GIL (fancy indexing, ``ufunc.at``, scipy's spanning trees), so only
+processes run the whole pipeline on every core.
 
 Start method: on Linux the workers are forked, so they inherit the (sorted)
 input arrays without copying them through a pipe; elsewhere (macOS, Windows)

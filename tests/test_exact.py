@@ -503,3 +503,42 @@ def test_batched_equals_per_group(holes, components, data):
         assert res.geometry[g].geom_type == alone.geom_type
         assert res.n_parts[g] == parts(alone)
         assert_same_region(res.geometry[g], alone)
+
+
+def union_find_pieces(tri, inside) -> int:
+    """Edge-connected pieces of the triangles ``inside``, by plain union-find."""
+    parent = list(range(len(inside)))
+
+    def find(t):
+        while parent[t] != t:
+            parent[t] = parent[parent[t]]
+            t = parent[t]
+        return t
+
+    for t in np.flatnonzero(inside):
+        for u in tri.neighbors[t]:
+            if u >= 0 and inside[u]:
+                parent[find(t)] = find(u)
+    return len({find(t) for t in np.flatnonzero(inside)})
+
+
+@pytest.mark.parametrize("holes", [False, True])
+@examples(150)
+@given(data=st.data())
+def test_piece_counts_at_every_spectrum_value(holes, data):
+    # The oracle counts pieces without building any shape: with a spanning
+    # forest when holes are kept, by Euler's formula when they are filled.
+    # Check it at every spectrum value of every group against union-find.
+    sets = data.draw(st.lists(st.one_of(*STRATEGIES.values()), max_size=3))
+    assume(sets)
+    points = np.concatenate(sets)
+    codes = np.repeat(np.arange(len(sets)), [len(p) for p in sets])
+    tri = core.triangulate(points, codes)
+    weight = tri.rank if holes else core.fill_radius(tri)
+    spectrum = core.Spectrum.build(tri, weight, filled=not holes)
+    for g in np.flatnonzero(~tri.degenerate):
+        mine = tri.tri_group == g
+        for rank in np.unique(weight[mine]):
+            expected = union_find_pieces(tri, mine & (weight <= rank))
+            got = spectrum.pieces_at_rank(np.array([g]), np.array([rank]))[0]
+            assert got == expected, f"group {g}, radius {tri.values[rank]}"
