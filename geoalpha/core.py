@@ -330,13 +330,13 @@ def triangulate(
 
     # Orient every triangle counter-clockwise (swap vertices 1, 2 and the
     # neighbours opposite them where Qhull gave them clockwise).
-    twice_area, edges2 = _edges_and_cross(xy, triangles)
+    twice_area, edges2_product = _edges_and_cross(xy, triangles)
     cw = twice_area < 0
     triangles[cw] = triangles[cw][:, [0, 2, 1]]
     nb[cw] = nb[cw][:, [0, 2, 1]]
     cross = np.abs(twice_area)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        circumradius = np.sqrt(edges2.prod(axis=1)) / (2.0 * cross)
+        circumradius = np.sqrt(edges2_product) / (2.0 * cross)
     circumradius[~(cross > 0)] = np.inf
     radius, rank, values = merge_ties(circumradius, tri_group)
     value_group = np.empty(len(values), dtype=np.int64)
@@ -391,7 +391,7 @@ def _distinct_counts(xy, point_group, which, n_groups) -> np.ndarray:
 
 
 def _edges_and_cross(xy: np.ndarray, triangles: np.ndarray):
-    """Twice the signed area and the squared edge lengths of every triangle.
+    """Twice the signed area and the product of the squared edge lengths.
 
     Edge vectors are differences of the input coordinates (exact for nearby
     points, Sterbenz), and the cross product is taken at the vertex opposite
@@ -399,18 +399,22 @@ def _edges_and_cross(xy: np.ndarray, triangles: np.ndarray):
     the three choices, so that needle triangles (near-duplicate points) keep
     their circumradius ``|ab| |bc| |ca| / (2 |cross|)`` to a few ulps.
     """
-    p = [xy[triangles[:, k]] for k in range(3)]
-    d = [p[(k + 1) % 3] - p[k] for k in range(3)]  # edge k runs p[k] -> p[k+1]
-    edges2 = np.stack([np.square(e).sum(axis=1) for e in d], axis=1)
+    x, y = np.ascontiguousarray(xy[:, 0]), np.ascontiguousarray(xy[:, 1])
+    px = [x[triangles[:, k]] for k in range(3)]
+    py = [y[triangles[:, k]] for k in range(3)]
+    # Edge k runs from vertex k to vertex k+1 and is opposite vertex k+2.
+    dx = [px[(k + 1) % 3] - px[k] for k in range(3)]
+    dy = [py[(k + 1) % 3] - py[k] for k in range(3)]
+    e2 = [dx[k] * dx[k] + dy[k] * dy[k] for k in range(3)]
 
-    def cross(u, v):
-        return u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]
+    def cross_at(k):  # between edge k (out of vertex k) and edge k-1 reversed
+        return dy[k] * dx[k - 1] - dx[k] * dy[k - 1]
 
-    # At vertex k the edges are d[k] (out) and -d[k-1] (in, reversed); vertex k
-    # is opposite edge k+1.
-    at_vertex = np.stack([cross(d[k], -d[k - 1]) for k in range(3)], axis=1)
-    opposite = (np.argmax(edges2, axis=1) + 2) % 3
-    return np.take_along_axis(at_vertex, opposite[:, None], axis=1)[:, 0], edges2
+    # The longest edge (the first of equals) and the vertex opposite it.
+    first = (e2[0] >= e2[1]) & (e2[0] >= e2[2])
+    second = ~first & (e2[1] >= e2[2])
+    cross = np.where(first, cross_at(2), np.where(second, cross_at(0), cross_at(1)))
+    return cross, e2[0] * e2[1] * e2[2]
 
 
 def merge_ties(
@@ -643,7 +647,9 @@ class Spectrum:
     def pieces_at_rank(self, group: np.ndarray, rank: np.ndarray) -> np.ndarray:
         """Count the pieces of each group's shape with weights of rank <= ``rank``."""
         group, rank = np.broadcast_arrays(group, rank)
-        some = rank >= self.tri.value_ptr[group]  # else no triangle is in
+        ptr = self.tri.value_ptr
+        rank = np.minimum(rank, ptr[group + 1] - 1)  # K: every triangle
+        some = rank >= ptr[group]  # else no triangle is in
         n = np.zeros(group.shape, dtype=np.int64)
         n[some] = self.pieces[rank[some]]
         return n
@@ -697,11 +703,25 @@ def radius_of_alpha(alpha) -> np.ndarray:
         return np.where(alpha > 0, (1.0 / alpha) * (1.0 + ALPHA_RTOL), np.inf)
 
 
-def piece_labels(tri: Triangulation, inside: np.ndarray) -> np.ndarray:
+def piece_labels(
+    tri: Triangulation, inside: np.ndarray, n_pieces: np.ndarray | None = None
+) -> np.ndarray:
     """Label the edge-connected pieces of the triangles where ``inside`` is True.
 
-    Returns an array of shape (m,) with labels ``0 .. P-1`` numbered by group
-    (pieces of group 0 first) and -1 for triangles outside the shape.
+    Parameters
+    ----------
+    tri : Triangulation
+    inside : ndarray of bool, shape (m,)
+    n_pieces : ndarray of shape (G,), optional
+        Number of pieces of each group if known (from a :class:`Spectrum`):
+        where every group has at most one, the pieces are the groups and no
+        graph search is needed.
+
+    Returns
+    -------
+    ndarray of shape (m,)
+        Labels ``0 .. P-1`` numbered by group (pieces of group 0 first) and
+        -1 for triangles outside the shape.
 
     Examples
     --------
@@ -709,6 +729,11 @@ def piece_labels(tri: Triangulation, inside: np.ndarray) -> np.ndarray:
     >>> piece_labels(tri, np.ones(len(tri.triangles), dtype=bool)).tolist()
     [0, 0, 0, 0]
     """
+    if n_pieces is not None and (n_pieces <= 1).all():
+        label = np.full(len(inside), -1, dtype=np.int64)
+        first = np.cumsum(n_pieces) - n_pieces
+        label[inside] = first[tri.tri_group[inside]]
+        return label
     m = len(tri.triangles)
     a, b = tri.dual_edges()
     keep = inside[a] & inside[b]

@@ -83,10 +83,12 @@ def _rank_threshold(
     max_iterations: int,
     *,
     filled: bool,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Per group: the alpha (nan if degenerate) and the largest solid rank.
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """Per group: the alpha, the largest solid rank and the number of pieces.
 
-    ``filled``: the weights are fill radii (see :meth:`core.Spectrum.build`).
+    The alpha is nan for degenerate groups; the pieces are None if not
+    counted (for a given alpha). ``filled``: the weights are fill radii
+    (see :meth:`core.Spectrum.build`).
     """
     G = tri.n_groups
     if alpha is not None:
@@ -99,8 +101,7 @@ def _rank_threshold(
         if not np.isfinite(a).all() or (a < 0).any():
             raise InvalidInputError(f"alpha must be finite and >= 0; got {alpha!r}")
         a[tri.degenerate] = np.nan
-        rank = tri.rank_of(core.radius_of_alpha(a))
-        return a, rank
+        return a, tri.rank_of(core.radius_of_alpha(a)), None
 
     spectrum = core.Spectrum.build(tri, weight, filled=filled)
     if search_ == "exact":
@@ -109,7 +110,7 @@ def _rank_threshold(
         with np.errstate(divide="ignore"):
             a = 1.0 / radius
         a[tri.degenerate] = np.nan
-        return a, rank
+        return a, rank, spectrum.pieces_at_rank(np.arange(G), rank)
 
     def valid(groups, alphas):
         return spectrum.valid(groups, core.radius_of_alpha(alphas), components)
@@ -129,7 +130,8 @@ def _rank_threshold(
                 stacklevel=user_stacklevel(),
             )
     a[tri.degenerate] = np.nan
-    return a, tri.rank_of(core.radius_of_alpha(a))
+    rank = tri.rank_of(core.radius_of_alpha(a))
+    return a, rank, spectrum.pieces_at_rank(np.arange(G), rank)
 
 
 def _shown(items, limit: int = 10) -> str:
@@ -266,12 +268,12 @@ def _alpha_shapes_batch(
     except ValueError as err:
         raise InvalidInputError(str(err)) from err
     weight = tri.rank if holes else core.fill_radius(tri)
-    a, top = _rank_threshold(
+    a, top, n_pieces = _rank_threshold(
         tri, weight, alpha, components, search, max_iterations, filled=not holes
     )
 
     inside = weight <= top[tri.tri_group]
-    piece = core.piece_labels(tri, inside)
+    piece = core.piece_labels(tri, inside, n_pieces)
     rings = core.boundary_rings(tri, inside, piece)
     if coords is None:
         out_xy = tri.xy

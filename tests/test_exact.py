@@ -542,3 +542,11 @@ def test_piece_counts_at_every_spectrum_value(holes, data):
             expected = union_find_pieces(tri, mine & (weight <= rank))
             got = spectrum.pieces_at_rank(np.array([g]), np.array([rank]))[0]
             assert got == expected, f"group {g}, radius {tri.values[rank]}"
+    # At the optimum each group is one piece, and the labels follow from the
+    # counts alone; they must be those of the graph search.
+    top = spectrum.optimum()
+    n_pieces = spectrum.pieces_at_rank(np.arange(tri.n_groups), top)
+    assert (n_pieces == (~tri.degenerate).astype(int)).all()
+    inside = weight <= top[tri.tri_group]
+    labels = core.piece_labels(tri, inside, n_pieces)
+    assert (labels == core.piece_labels(tri, inside)).all()
