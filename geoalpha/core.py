@@ -140,7 +140,8 @@ class Triangulation:
     def dual_edges(self) -> tuple[np.ndarray, np.ndarray]:
         """Return each pair of edge-adjacent triangles once, as ``(a, b)``, a < b.
 
-        Computed once per triangulation and cached.
+        Pairs are listed by ``a`` (non-decreasing). Computed once per
+        triangulation and cached.
         """
         cached = self.__dict__.get("_dual_edges")
         if cached is None:
@@ -503,13 +504,20 @@ def fill_radius(tri: Triangulation) -> np.ndarray:
         return rank.copy()
     top = len(tri.values)  # rank of the outside: above every radius
     a, b = tri.dual_edges()
-    hull = np.flatnonzero((tri.neighbors < 0).any(axis=1))
+    nb = tri.neighbors
+    hull = np.flatnonzero((nb[:, 0] < 0) | (nb[:, 1] < 0) | (nb[:, 2] < 0))
     outside = m
-    src = np.concatenate([a, hull])
-    dst = np.concatenate([b, np.full(len(hull), outside)])
+    # The graph in CSR form: row t holds the dual edges (t, b), t < b (listed
+    # by t already), and the outside's row the triangles on the convex hull.
+    indptr = np.zeros(m + 2, dtype=np.int64)
+    np.cumsum(np.bincount(a, minlength=m + 1), out=indptr[1:])
+    indptr[-1] += len(hull)
     w = np.concatenate([np.minimum(rank[a], rank[b]), rank[hull]])
     # Maximum spanning tree = minimum spanning tree on reversed ranks (> 0).
-    graph = csr_array(((top - w).astype(float), (src, dst)), shape=(m + 1, m + 1))
+    graph = csr_array(
+        ((top - w).astype(float), np.concatenate([b, hull]), indptr),
+        shape=(m + 1, m + 1),
+    )
     tree = minimum_spanning_tree(graph, overwrite=True)
     _, parent = breadth_first_order(
         tree, outside, directed=False, return_predecessors=True
