@@ -22,8 +22,8 @@ every partition and the shuffle by group does real work.
 repeat runs every case once, so that the ratios compare runs under the same
 load): the floor (group the rows with one argsort, then a bare loop of
 ``scipy.spatial.Delaunay`` over the groups), ``gdf.alpha.hull(by="group")``
-with ``n_jobs=1`` and ``n_jobs=2``, the same hull with ``alpha_shapes`` run in
-runs of about 50,000 points in one process (a proposed change, see
+with ``n_jobs=1`` and ``n_jobs=2``, the same hull with all groups in one pass
+of the batched steps instead of runs of about 50,000 points (to check
 ``geoalpha.parallel.BATCH_POINTS``), and the floor loop split over two threads
 (to check whether Qhull releases the GIL). Peak memory: each case once more in a
 fresh subprocess, ``ru_maxrss`` (the input frame included); the forked
@@ -175,20 +175,14 @@ def floor_loop(x, y, g, n_groups: int, threads: int = 1) -> None:
         list(pool.map(run, np.array_split(np.arange(n_groups), threads)))
 
 
-def batched_alpha_shapes(*args, **kwargs):
-    """``alpha_shapes`` in runs of about ``BATCH_POINTS`` points, one process."""
-    kwargs["n_jobs"] = 1
-    return parallel.alpha_shapes_parallel(*args, **kwargs)
-
-
-def hull_batched(gdf):
-    """``hull`` with the proposed in-process batching of ``alpha_shapes``."""
-    saved = tools.alpha_shapes
-    tools.alpha_shapes = batched_alpha_shapes
+def hull_one_pass(gdf):
+    """``hull`` with all groups in one pass of the batched steps (no runs)."""
+    saved = parallel.BATCH_POINTS
+    parallel.BATCH_POINTS = 10**12
     try:
         return gdf.alpha.hull(by="group")
     finally:
-        tools.alpha_shapes = saved
+        parallel.BATCH_POINTS = saved
 
 
 def cases(x, y, g, gdf, n_groups: int) -> dict[str, Callable[[], object]]:
@@ -196,7 +190,7 @@ def cases(x, y, g, gdf, n_groups: int) -> dict[str, Callable[[], object]]:
         "floor": lambda: floor_loop(x, y, g, n_groups),
         "hull n_jobs=1": lambda: gdf.alpha.hull(by="group"),
         "hull n_jobs=2": lambda: gdf.alpha.hull(by="group", n_jobs=2),
-        "hull, batched in one process (proposed)": lambda: hull_batched(gdf),
+        "hull n_jobs=1, one pass (no runs)": lambda: hull_one_pass(gdf),
         "floor, 2 threads": lambda: floor_loop(x, y, g, n_groups, threads=2),
     }
 
@@ -221,7 +215,7 @@ def run_eager(n: int, n_groups: int, repeat: int, seed: int) -> dict:
 
     one = fns["hull n_jobs=1"]()
     assert_geodataframe_equal(fns["hull n_jobs=2"](), one)
-    assert_geodataframe_equal(fns["hull, batched in one process (proposed)"](), one)
+    assert_geodataframe_equal(fns["hull n_jobs=1, one pass (no runs)"](), one)
     with tempfile.TemporaryDirectory() as tmp:
         points = Path(tmp) / "points.npz"
         np.savez(points, x=x, y=y, g=g)
@@ -458,7 +452,7 @@ def report(eager: dict | None, dask_res: dict | None, command: str) -> str:
             )
         lines += [
             "",
-            "n_jobs=2 and the batched run give the same GeoDataFrame as "
+            "n_jobs=2 and the one-pass run give the same GeoDataFrame as "
             "n_jobs=1 (checked).",
             "",
             "Where the time of one `hull(n_jobs=1)` goes:",
