@@ -414,9 +414,13 @@ def test_dropna_false_keeps_a_nan_group(stats19):
 
 def test_dropna_false_on_airports_warns_about_the_wide_group(loaded):
     # The 12 stateless airports run from Thailand to Pennsylvania across the
-    # Pacific: no lon/lat polygon can hold their hull, and the user is told.
+    # Pacific: no lon/lat polygon can hold their hull, and the user is told
+    # (and that the hull is split at the antimeridian it crosses).
     airports = loaded("us_airports")
-    with pytest.warns(GeoAlphaWarning, match=r"more than 180 degrees of longitude"):
+    with (
+        pytest.warns(GeoAlphaWarning, match=r"more than 180 degrees of longitude"),
+        pytest.warns(AntimeridianWarning, match=r"1 group\(s\) cross .*: nan"),
+    ):
         hulls = geoalpha.hull(airports, by="state", dropna=False)
     assert pd.isna(hulls["state"].iloc[-1])
     assert hulls["n_points"].iloc[-1] == 12
