@@ -274,6 +274,14 @@ _progress_option = click.option(
     help="Concaveness for --method concave (0: tightest, 1: convex).",
 )
 @click.option(
+    "--k",
+    "k",
+    type=click.IntRange(min=1),
+    default=3,
+    show_default=True,
+    help="Starting number of neighbours for --method knn.",
+)
+@click.option(
     "--crs",
     metavar="auto|CRS|none",
     default="auto",
@@ -291,10 +299,40 @@ _progress_option = click.option(
     "buffer polygon, an empty geometry, or no row.",
 )
 @click.option(
+    "--buffer",
+    type=click.FloatRange(min=0, min_open=True),
+    default=1.0,
+    show_default=True,
+    help="Width of the polygon around a degenerate group with --degenerate "
+    "buffer, in metres (in the coordinate units with --crs none).",
+)
+@click.option(
+    "--vertices",
+    is_flag=True,
+    help="Accept lines and polygons in INPUT and use their vertices as points "
+    "(otherwise they are an error).",
+)
+@click.option(
     "--dropna/--no-dropna",
     default=True,
     show_default=True,
     help="Leave out rows whose --by value is missing, or make them a group.",
+)
+@click.option(
+    "--sort/--no-sort",
+    default=True,
+    show_default=True,
+    help="Write the groups sorted by --by value, or in order of first appearance.",
+)
+@click.option(
+    "-j",
+    "--jobs",
+    "n_jobs",
+    type=int,
+    default=1,
+    show_default=True,
+    help="Worker processes for the groups (-1: one per core); pays off from "
+    "about 100,000 points. The result is the same.",
 )
 @_overwrite_option
 @_engine_option
@@ -314,9 +352,14 @@ def hull(
     method: str,
     search: str,
     ratio: float,
+    k: int,
     crs: str,
     degenerate: str,
+    buffer: float,
+    vertices: bool,
     dropna: bool,
+    sort: bool,
+    n_jobs: int,
     overwrite: bool,
     engine: str | None,
     progress: bool | None,
@@ -365,8 +408,13 @@ def hull(
             method=method,
             search=search,
             ratio=ratio,
+            k=k,
             degenerate=degenerate,
+            buffer=buffer,
+            vertices=vertices,
             dropna=dropna,
+            sort=sort,
+            n_jobs=n_jobs,
             progress=progress,
         )
 

@@ -477,7 +477,8 @@ def hull(
         names = ", ".join(f"{n} {t}" for t, n in kinds.value_counts().items())
         raise InvalidInputError(
             f"hull() needs point geometries; got {names} row(s) (index "
-            f"{_labels(index, other)}); pass vertices=True to use their vertices"
+            f"{_labels(index, other)}); pass vertices=True (--vertices) to use "
+            "their vertices"
         )
     no_key = codes < 0
     dropped = missing | no_key

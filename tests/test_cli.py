@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-import importlib
+import math
 import os
 import subprocess
 import sys
@@ -23,18 +23,6 @@ from geoalpha.errors import DegenerateGroupWarning, InvalidInputError
 
 GROUP = "Local_Authority_(Highway)"
 REPO = Path(__file__).resolve().parents[1]
-
-
-def _real_hull():
-    try:
-        return importlib.import_module("geoalpha.tools").hull
-    except (ImportError, AttributeError):
-        return None
-
-
-needs_hull = pytest.mark.skipif(
-    _real_hull() is None, reason="geoalpha.tools.hull is not written yet"
-)
 
 
 def run(*args, **kwargs):
@@ -136,8 +124,9 @@ def test_options_are_passed_to_hull(fake_hull, points_csv, tmp_path):
     result = run(
         "hull", points_csv, tmp_path / "h.gpkg", "--by", f"Accident_Index,{GROUP}",
         "--alpha", "0.5", "--holes", "--components", "2", "--method", "concave",
-        "--search", "ladder", "--ratio", "0.5", "--crs", "EPSG:27700",
-        "--degenerate", "drop", "--no-dropna", "--no-progress",
+        "--search", "ladder", "--ratio", "0.5", "--k", "7", "--crs", "EPSG:27700",
+        "--degenerate", "drop", "--buffer", "2.5", "--vertices", "--no-dropna",
+        "--no-sort", "-j", "2", "--no-progress",
     )  # fmt: skip
     assert result.exit_code == 0, result.stderr
     assert fake_hull == [
@@ -150,8 +139,13 @@ def test_options_are_passed_to_hull(fake_hull, points_csv, tmp_path):
             "method": "concave",
             "search": "ladder",
             "ratio": 0.5,
+            "k": 7,
             "degenerate": "drop",
+            "buffer": 2.5,
+            "vertices": True,
             "dropna": False,
+            "sort": False,
+            "n_jobs": 2,
             "progress": False,
         }
     ]
@@ -170,8 +164,13 @@ def test_defaults_passed_to_hull(fake_hull, points_csv, tmp_path):
             "method": "alpha",
             "search": "exact",
             "ratio": 0.3,
+            "k": 3,
             "degenerate": "buffer",
+            "buffer": 1.0,
+            "vertices": False,
             "dropna": True,
+            "sort": True,
+            "n_jobs": 1,
             "progress": None,
         }
     ]
@@ -367,7 +366,6 @@ def test_demo_refuses_existing_output(tmp_path):
 # end to end, with the real computation
 
 
-@needs_hull
 @pytest.mark.parametrize(
     ("suffix", "engine", "group"),
     [(".gpkg", "pyogrio", GROUP), (".shp", "fiona", "Local_Auth")],
@@ -380,7 +378,7 @@ def test_hull_end_to_end(points_csv, tmp_path, suffix, engine, group):
         f"Wrote 4 hulls of 55 points to {out}"
     )
     with pytest.warns(DegenerateGroupWarning, match="E08000020"):
-        expected = _real_hull()(_csv_points(points_csv), by=GROUP)
+        expected = geoalpha.hull(_csv_points(points_csv), by=GROUP)
     back = gpd.read_file(out, engine=engine).sort_values(group, ignore_index=True)
     expected = expected.sort_values(GROUP, ignore_index=True)
     assert back[group].tolist() == expected[GROUP].tolist()
@@ -392,13 +390,42 @@ def test_hull_end_to_end(points_csv, tmp_path, suffix, engine, group):
     assert back.geometry.geom_equals(expected.geometry).all()
 
 
+def test_hull_of_polygon_vertices_with_more_options(points_csv, tmp_path):
+    # --buffer widens the polygon of the 1-point authority (E08000020).
+    first = tmp_path / "hulls.gpkg"
+    result = run("-q", "hull", points_csv, first, "--by", GROUP, "--buffer", "25")
+    assert result.exit_code == 0, result.stderr
+    polygons = gpd.read_file(first)
+    lonely = polygons.loc[polygons[GROUP] == "E08000020", "area_m2"]
+    assert lonely.iloc[0] == pytest.approx(math.pi * 25**2, rel=0.02)
+    # A second pass over those polygons: --vertices makes their vertices the
+    # points; without it, polygons are refused with a message.
+    out = tmp_path / "outer.geojson"
+    refused = run("hull", first, out, "--by", GROUP)
+    assert refused.exit_code == 1
+    assert refused.stderr.startswith(
+        "Error: hull() needs point geometries; got 4 Polygon row(s)"
+    )
+    assert "(--vertices)" in refused.stderr
+    args = ["hull", first, out, "--by", GROUP, "--vertices", "--no-sort", "-j", "2"]
+    result = run(*args)
+    assert result.exit_code == 0, result.stderr
+    expected = geoalpha.hull(polygons, by=GROUP, vertices=True, sort=False)
+    back = gpd.read_file(out)
+    assert back[GROUP].tolist() == polygons[GROUP].tolist()  # file order
+    assert back["n_points"].tolist() == expected["n_points"].tolist()
+    assert back.geometry.geom_equals_exact(expected.geometry, 1e-9).all()
+    jobs = run("hull", points_csv, tmp_path / "h.gpkg", "-j", "0")
+    assert jobs.exit_code == 1
+    assert "n_jobs must be a positive integer or -1" in jobs.stderr
+
+
 def _csv_points(path):
     from geoalpha.io import read_points
 
     return read_points(path)
 
 
-@needs_hull
 def test_demo_default_dataset(tmp_path):
     out = tmp_path / "uk.gpkg"
     result = run("-q", "demo", out)
@@ -409,7 +436,6 @@ def test_demo_default_dataset(tmp_path):
     assert set(hulls.geom_type) <= {"Polygon", "MultiPolygon"}
 
 
-@needs_hull
 def test_demo_stats19_warns_about_degenerate_groups(tmp_path):
     out = tmp_path / "la.shp"
     result = run("demo", out, "--dataset", "stats19")
