@@ -645,13 +645,6 @@ class Spectrum:
             pieces -= at_or_below(f_rank, f_group)
         return cls(tri, pieces, cover)
 
-    def rank_of(self, group, radius) -> np.ndarray:
-        """Ranks of the thresholds ``radius`` in the spectra of ``group``.
-
-        See :meth:`Triangulation.rank_of`.
-        """
-        return self.tri.rank_of(radius, group)
-
     def pieces_at_rank(self, group: np.ndarray, rank: np.ndarray) -> np.ndarray:
         """Count the pieces of each group's shape with weights of rank <= ``rank``."""
         group, rank = np.broadcast_arrays(group, rank)
@@ -662,15 +655,10 @@ class Spectrum:
         n[some] = self.pieces[rank[some]]
         return n
 
-    def pieces_at(self, group, radius) -> np.ndarray:
-        """Count the edge-connected pieces of each group's shape at ``radius``."""
-        group = np.asarray(group, dtype=np.int64)
-        return self.pieces_at_rank(group, self.rank_of(group, radius))
-
     def valid(self, group, radius, components: int = 1) -> np.ndarray:
         """Test coverage and at most ``components`` pieces at ``radius``."""
         group = np.asarray(group, dtype=np.int64)
-        rank = self.rank_of(group, radius)
+        rank = self.tri.rank_of(radius, group)
         n = self.pieces_at_rank(group, rank)
         return (rank >= self.cover[group]) & (n >= 1) & (n <= components)
 
