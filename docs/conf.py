@@ -68,10 +68,24 @@ html_title = f"geoalpha {release}"
 html_static_path: list[str] = []
 html_theme_options = {
     "navigation_with_keys": False,
+    "navbar_align": "left",
+    "header_links_before_dropdown": 5,
     "show_toc_level": 2,
     "footer_start": ["copyright"],
     "footer_end": ["sphinx-version"],
 }
-html_sidebars = {"index": [], "changelog": []}
+# Pages without sub-pages get no (empty) section navigation.
+html_sidebars = {
+    page: []
+    for page in (
+        "index",
+        "getting_started",
+        "cli",
+        "dask",
+        "benchmarks",
+        "development",
+        "changelog",
+    )
+}
 html_show_sourcelink = False
 html_context = {"default_mode": "light"}
