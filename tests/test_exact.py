@@ -86,7 +86,7 @@ def near_duplicates(smallest=1e-8, largest=1e-6):
     At coordinates ~100 the default moves are 1e-10..1e-8 of the extent (GPS
     jitter at the km scale is ~1e-6). Much closer (~1e-12 of the extent) is
     Qhull's own precision: it merges points there, and float64 geometry around
-    such needles is not reliable (see the README's "Limits");
+    such needles is not reliable (see docs/user_guide/limits.md);
     test_merged_points_are_covered checks what geoalpha still promises there.
     """
     magnitude = st.integers(round(smallest * 1e12), round(largest * 1e12))
