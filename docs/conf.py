@@ -89,3 +89,15 @@ html_sidebars = {
 }
 html_show_sourcelink = False
 html_context = {"default_mode": "light"}
+
+
+def _skip_namedtuple_fields(app, what, name, obj, skip, options):
+    """Leave out NamedTuple fields: the class's Attributes section has them."""
+    if (getattr(obj, "__doc__", None) or "").startswith("Alias for field number"):
+        return True
+    return None
+
+
+def setup(app):
+    """Connect the hooks above."""
+    app.connect("autodoc-skip-member", _skip_namedtuple_fields)
