@@ -201,6 +201,22 @@ def test_front_page_and_readme_agree_on_set_up():
     assert "\npython -m pytest\n" in ci  # the README's test command, as it is
 
 
+def test_readme_is_a_front_page_linking_every_docs_page():
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    assert len(readme.splitlines()) <= 150
+    links = re.findall(r"\]\(([^)#]+)(?:#[^)]*)?\)", readme)
+    local = [link for link in links if not urlsplit(link).scheme]
+    missing = [link for link in local if not (ROOT / link).exists()]
+    assert not missing, f"README links to files that do not exist: {missing}"
+    pages = [
+        path.relative_to(ROOT).as_posix()
+        for path in sorted(DOCS.glob("*.md")) + sorted(DOCS.glob("user_guide/*.md"))
+        if path.name not in ("index.md", "changelog.md", "case_study.md")
+    ]
+    unlinked = [page for page in pages if page not in local]
+    assert not unlinked, f"README does not link these docs pages: {unlinked}"
+
+
 def _render():
     spec = importlib.util.spec_from_file_location(
         "render_docs", ROOT / "scripts" / "render_docs.py"
@@ -219,12 +235,23 @@ def browser():
     return render
 
 
+CASE_STUDY = (
+    "UK road accidents: the seed paper\N{RIGHT SINGLE QUOTATION MARK}s case study, "
+    "reproduced with geoalpha"
+)
+
+
 @pytest.mark.parametrize(
     ("page", "title", "headings"),
     [
         ("index.html", "geoalpha", ["geoalpha", "Where to go next"]),
         ("api/generated/geoalpha.hull.html", "geoalpha.hull", ["geoalpha.hull"]),
         ("user_guide/crs.html", "Coordinate reference systems", None),
+        (
+            "uk_accidents_case_study.html",
+            CASE_STUDY,
+            [CASE_STUDY, "1. The data", "2. The optimal hulls on a map (paper Fig. 2)"],
+        ),
     ],
 )
 def test_pages_load_in_chromium_without_errors(browser, site, page, title, headings):
