@@ -12,7 +12,7 @@ import shapely
 
 from geoalpha.core import Rings
 
-__all__ = ["EMPTY_POLYGON", "assemble", "cover_points", "polygonal"]
+__all__ = ["EMPTY_POLYGON", "assemble", "cover_points", "enforce", "polygonal"]
 
 #: The geometry of a group with no shape (empty Polygon, so that a column of
 #: hulls keeps a single geometry type).
@@ -61,6 +61,97 @@ def assemble(coords: np.ndarray, rings: Rings, n_groups: int) -> np.ndarray:
     if multi.any():
         shapely.multipolygons(polys[multi], indices=rings.piece_group[multi], out=out)
     return out
+
+
+def enforce(geoms, out_xy, codes, check, *, cover=True, components=None):
+    """Verify the guarantee per group; repair where possible; report the rest.
+
+    Every group in ``check`` must get a valid, non-empty Polygon or
+    MultiPolygon (of at most ``components`` parts) that covers every one of
+    its points (``shapely.covers``, distance 0, in these coordinates).
+    Invalid geometries are repaired with ``make_valid`` and uncovered points
+    are taken in as vertices (:func:`cover_points`); a group that still
+    fails is reported, so that the caller declares it degenerate instead of
+    returning a polygon that misses a point.
+
+    Parameters
+    ----------
+    geoms : ndarray of shape (G,)
+        Geometry of each group.
+    out_xy : ndarray of shape (k, 2)
+        Points, in the geometries' coordinates.
+    codes : ndarray of shape (k,)
+        Group of each point.
+    check : ndarray of bool, shape (G,)
+        Groups to verify (the others are returned as they are).
+    cover : bool, default True
+        Whether every point must be covered (False: validity only, e.g. for
+        a shape at a given alpha, which need not hold every point).
+    components : int, optional
+        Largest number of parts allowed.
+
+    Returns
+    -------
+    geoms : ndarray of shape (G,)
+        The geometries, repaired where needed.
+    failed : ndarray of bool, shape (G,)
+        Groups of ``check`` that could not be made to hold the guarantee.
+
+    Examples
+    --------
+    >>> bow = shapely.Polygon([(0, 0), (2, 2), (2, 0), (0, 2)])  # self-crossing
+    >>> pts = np.array([[0, 0], [2, 2], [2, 0], [0, 2]])
+    >>> codes, check = np.zeros(4, dtype=int), np.array([True])
+    >>> fixed, failed = enforce(np.array([bow]), pts, codes, check)
+    >>> bool(fixed[0].is_valid), failed.tolist()
+    (True, [False])
+    """
+    geoms = geoms.copy()
+    failed = np.zeros(len(geoms), dtype=bool)
+    if not check.any():
+        return geoms, failed
+    sel = np.flatnonzero(check)
+    invalid = sel[~shapely.is_valid(geoms[sel])]
+    if len(invalid):
+        try:
+            geoms[invalid] = polygonal(
+                shapely.make_valid(geoms[invalid], method="structure")
+            )
+        except shapely.errors.GEOSException:  # pragma: no cover - defensive
+            failed[invalid] = True
+    if cover:
+        mine = check[codes] & ~failed[codes]
+        points = shapely.points(out_xy[mine])
+        shapely.prepare(geoms[sel])
+        outside = ~shapely.covers(geoms[codes[mine]], points)
+        repair = np.unique(codes[mine][outside])
+        if len(repair):
+            take = np.isin(codes, repair)
+            try:
+                geoms = cover_points(geoms, out_xy[take], codes[take])
+            except shapely.errors.GEOSException:
+                failed[repair] = True
+            invalid = np.unique(np.r_[invalid, repair])
+    # Whatever was repaired is verified again, from scratch.
+    again = np.zeros(len(geoms), dtype=bool)
+    again[invalid] = True
+    again &= ~failed
+    if again.any():
+        g = geoms[again]
+        bad = ~shapely.is_valid(g) | shapely.is_empty(g)
+        bad |= ~np.isin(shapely.get_type_id(g), (3, 6))
+        if components is not None:
+            bad |= shapely.get_num_geometries(g) > components
+        failed[np.flatnonzero(again)[bad]] = True
+        if cover:
+            take = again[codes] & ~failed[codes]
+            shapely.prepare(geoms[again])
+            miss = ~shapely.covers(geoms[codes[take]], shapely.points(out_xy[take]))
+            failed[codes[take][miss]] = True
+    if cover:  # an empty optimum covers nothing
+        failed[sel[shapely.is_empty(geoms[sel])]] = True
+    geoms[failed] = EMPTY_POLYGON
+    return geoms, failed
 
 
 def cover_points(geoms, out_xy, codes) -> np.ndarray:
