@@ -215,7 +215,14 @@ class Triangulation:
 
 
 def _check_points(points) -> np.ndarray:
-    xy = np.asarray(points, dtype=float)
+    raw = np.asarray(points)
+    if raw.size and not (
+        np.issubdtype(raw.dtype, np.integer) or np.issubdtype(raw.dtype, np.floating)
+    ):
+        raise ValueError(
+            f"points must be numbers (an (n, 2) array of x, y); got {raw.dtype} values"
+        )
+    xy = raw.astype(float, copy=False)
     if xy.size == 0:  # no points at all, however they were spelled ([], (0, 2))
         return np.empty((0, 2))
     if xy.ndim != 2 or xy.shape[1] != 2:
@@ -355,22 +362,29 @@ def triangulate(
     todo = np.flatnonzero(~flagged)
     simplices, nbrs, coplanar, failed = _delaunay(local, point_ptr, todo, progress)
     flagged[failed] = True
+    measures = _edges_and_cross(
+        xy, simplices, frame.scale[point_group[simplices[:, 0]]]
+    )
     # Near-duplicates: Delaunay edges shorter than the tolerance (the
     # Delaunay graph holds every nearest neighbour) and the points Qhull
     # merged. Their groups are triangulated again on one point of each set.
-    near = _near_duplicates(local, point_group, simplices, coplanar, frame.tol)
+    near = _near_duplicates(
+        local, point_group, simplices, measures[2], coplanar, frame.tol
+    )
     if len(near):
         redo = np.unique(point_group[near[:, 0]])
         vertex = _representatives(near, len(xy))
         keep = ~np.isin(point_group[simplices[:, 0]], redo)
         keep_cp = ~np.isin(point_group[coplanar[:, 0]], redo)
         simplices, nbrs = _drop_triangles(simplices, nbrs, keep)
+        measures = tuple(m[keep] for m in measures)
         coplanar = coplanar[keep_cp]
         use = vertex == np.arange(len(xy))
         s2, n2, c2, failed = _delaunay(local, point_ptr, redo, None, use=use)
         flagged[failed] = True
-        simplices, nbrs, coplanar = _merge_runs(
-            point_group, (simplices, nbrs, coplanar), (s2, n2, c2)
+        m2 = _edges_and_cross(xy, s2, frame.scale[point_group[s2[:, 0]]])
+        simplices, nbrs, coplanar, measures = _merge_runs(
+            point_group, (simplices, nbrs, coplanar, measures), (s2, n2, c2, m2)
         )
     # Points Qhull set aside as "coplanar" (numerically on an edge, e.g. on
     # a straight stretch of the convex hull) are represented by the vertex
@@ -388,17 +402,19 @@ def triangulate(
         )
         distinct[coplanar[:, 0]] = ~same
 
-    tri_group = (
-        point_group[simplices[:, 0]] if len(simplices) else np.zeros(0, np.int64)
-    )
-    twice_area, e2_product = _edges_and_cross(xy, simplices, frame.scale[tri_group])
+    tri_group = point_group[simplices[:, 0]]
+    twice_area, e2_product, _ = measures
     # Orient every triangle counter-clockwise (swap vertices 1, 2 and the
     # neighbours opposite them where Qhull gave them clockwise).
     cw = twice_area < 0
     simplices[cw] = simplices[cw][:, [0, 2, 1]]
     nbrs[cw] = nbrs[cw][:, [0, 2, 1]]
     cross = np.abs(twice_area)
-    flagged |= _not_a_triangulation(simplices, nbrs, tri_group, point_group, n_groups)
+    # Qhull's vertices: the points it neither set aside nor skipped.
+    used = vertex == np.arange(len(xy))
+    used[coplanar[:, 0]] = False
+    n_vertices = np.bincount(point_group[used], minlength=n_groups)
+    flagged |= _not_a_triangulation(nbrs, tri_group, n_vertices, n_groups)
 
     # Drop the triangles of every degenerate group, then renumber.
     keep = ~flagged[tri_group]
@@ -560,41 +576,72 @@ def collinear_groups(local, point_group, n_groups: int, tol) -> np.ndarray:
 def _delaunay(local, point_ptr, groups, progress, use=None):
     """Qhull per listed group: triangles, neighbours and coplanar pairs.
 
-    Returns global point indices. ``use`` (bool per point) restricts each
-    group to some of its points. Groups whose points Qhull finds
-    (numerically) collinear are returned in ``failed``.
+    Returns global point and triangle indices. ``use`` (bool per point)
+    restricts each group to some of its points. Groups whose points Qhull
+    finds (numerically) collinear are returned in ``failed``. The loop body
+    is Qhull alone; the index arithmetic is batched afterwards.
     """
-    simplices, neighbors, coplanar, failed = [], [], [], []
-    offset = 0
-    for i, g in enumerate(groups.tolist()):
+    simplices, neighbors, coplanar, owner, failed, done = [], [], [], [], [], []
+    starts, ends = point_ptr[groups].tolist(), point_ptr[groups + 1].tolist()
+    for i, (g, s, e) in enumerate(zip(groups.tolist(), starts, ends, strict=True)):
         if progress is not None and i % 256 == 255:
             progress.update(256)
-        s, e = point_ptr[g], point_ptr[g + 1]
-        index = np.arange(s, e) if use is None else s + np.flatnonzero(use[s:e])
-        if len(index) < 3:
-            failed.append(g)
-            continue
+        pts = local[s:e] if use is None else local[s:e][use[s:e]]
         try:
-            d = Delaunay(local[index])
+            d = Delaunay(pts)
         except (QhullError, ValueError):  # all (numerically) collinear
             failed.append(g)
             continue
-        simplices.append(index[d.simplices])
-        neighbors.append(np.where(d.neighbors >= 0, d.neighbors + offset, -1))
-        offset += len(d.simplices)
-        if len(d.coplanar):
-            cp = d.coplanar[:, [0, 2]]
-            cp = cp[(cp < len(index)).all(axis=1)]  # not Qhull's point at infinity
-            coplanar.append(index[cp])
+        done.append(g)
+        simplices.append(d.simplices)
+        neighbors.append(d.neighbors)
+        cp = d.coplanar
+        if len(cp):
+            coplanar.append(cp)
+            owner.append(len(done) - 1)
     if progress is not None:
         progress.update(len(groups) % 256)
     empty = np.empty((0, 3), dtype=np.int64)
-    return (
-        np.concatenate(simplices).astype(np.int64) if simplices else empty,
-        np.concatenate(neighbors).astype(np.int64) if neighbors else empty,
-        np.concatenate(coplanar).astype(np.int64) if coplanar else empty[:, :2],
-        np.asarray(failed, dtype=np.int64),
-    )
+    failed = np.asarray(failed, dtype=np.int64)
+    if not simplices:
+        return empty, empty, empty[:, :2], failed
+    done = np.asarray(done, dtype=np.int64)
+    ntri = np.array([len(x) for x in simplices], dtype=np.int64)
+    tri_offset = np.repeat(np.cumsum(ntri) - ntri, ntri)
+    # Local point number -> global index: the group's start, or with ``use``
+    # the group's used points in order.
+    if use is None:
+        to_global = None
+        start = np.repeat(point_ptr[done], ntri)
+    else:
+        used = np.flatnonzero(use)
+        first_used = np.searchsorted(used, point_ptr[done])
+        start = np.repeat(first_used, ntri)
+    tri = np.concatenate(simplices).astype(np.int64) + start[:, None]
+    nb = np.concatenate(neighbors).astype(np.int64)
+    nb = np.where(nb >= 0, nb + tri_offset[:, None], -1)
+    if coplanar:
+        cp = np.concatenate(coplanar).astype(np.int64)
+        cp[:, 1] = np.repeat(owner, [len(x) for x in coplanar])
+        cp = cp[:, [0, 2, 1]]  # point, vertex, ordinal of its group in done
+    else:
+        cp = empty
+    if len(cp):
+        size = (point_ptr[done + 1] - point_ptr[done])[cp[:, 2]]
+        if use is not None:
+            size = np.diff(np.searchsorted(used, point_ptr))[done][cp[:, 2]]
+        ok = (cp[:, 0] < size) & (cp[:, 1] < size)  # not Qhull's point at infinity
+        base = (
+            point_ptr[done] if use is None else np.searchsorted(used, point_ptr[done])
+        )
+        cp = cp[ok, :2] + base[cp[ok, 2]][:, None]
+    else:
+        cp = empty[:, :2]
+    if use is not None:
+        to_global = used
+        tri = to_global[tri]
+        cp = to_global[cp]
+    return tri, nb, cp, failed
 
 
 def _close(local, a, b, tol) -> np.ndarray:
@@ -602,12 +649,18 @@ def _close(local, a, b, tol) -> np.ndarray:
     return d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] < tol * tol
 
 
-def _near_duplicates(local, point_group, simplices, coplanar, tol) -> np.ndarray:
-    """Pairs of distinct points closer than their group's tolerance, ``(k, 2)``."""
+def _near_duplicates(local, point_group, simplices, e2_min, coplanar, tol):
+    """Pairs of distinct points closer than their group's tolerance, ``(k, 2)``.
+
+    ``e2_min`` is the shortest squared edge of each triangle (scaled units):
+    only triangles with an edge below the tolerance are looked at.
+    """
     if len(simplices) == 0:
         return np.empty((0, 2), dtype=np.int64)
-    a = simplices.ravel()
-    b = simplices[:, [1, 2, 0]].ravel()
+    t = tol[point_group[simplices[:, 0]]]
+    short = simplices[e2_min < t * t]
+    a = short.ravel()
+    b = short[:, [1, 2, 0]].ravel()
     pairs = np.concatenate([np.column_stack([a, b]), coplanar])
     t = tol[point_group[pairs[:, 0]]]
     short = _close(local, pairs[:, 0], pairs[:, 1], t)
@@ -629,9 +682,13 @@ def _representatives(pairs, p: int) -> np.ndarray:
 
 
 def _merge_runs(point_group, old, new):
-    """Concatenate two sets of per-group triangles, sorted by group again."""
-    s1, n1, c1 = old
-    s2, n2, c2 = new
+    """Concatenate two sets of per-group triangles, sorted by group again.
+
+    Each set is ``(simplices, neighbors, coplanar, measures)`` with
+    ``measures`` a tuple of per-triangle arrays.
+    """
+    s1, n1, c1, m1 = old
+    s2, n2, c2, m2 = new
     n2 = np.where(n2 >= 0, n2 + len(s1), -1)
     s = np.concatenate([s1, s2])
     nb = np.concatenate([n1, n2])
@@ -640,7 +697,8 @@ def _merge_runs(point_group, old, new):
     inverse = np.empty_like(order)
     inverse[order] = np.arange(len(order))
     nb = np.where(nb >= 0, inverse[np.maximum(nb, 0)], -1)[order]
-    return s[order], nb, c
+    measures = tuple(np.concatenate([a, b])[order] for a, b in zip(m1, m2, strict=True))
+    return s[order], nb, c, measures
 
 
 def _drop_triangles(simplices, nbrs, keep):
@@ -650,26 +708,19 @@ def _drop_triangles(simplices, nbrs, keep):
     return simplices[keep], np.where(nbrs >= 0, renumber[np.maximum(nbrs, 0)], -1)
 
 
-def _not_a_triangulation(simplices, nbrs, tri_group, point_group, n_groups):
+def _not_a_triangulation(nbrs, tri_group, n_vertices, n_groups) -> np.ndarray:
     """Flag the groups whose triangles are not a triangulated disk (checks Qhull).
 
-    Neighbours must be mutual and the counts must satisfy Euler's formula
-    for a triangulated disk, ``#triangles = 2 #vertices - 2 - #hull vertices``.
+    Euler's formula for a triangulated disk: ``#triangles = 2 #vertices - 2 -
+    #hull edges`` (the hull is one cycle: as many edges as vertices).
     """
     bad = np.zeros(n_groups, dtype=bool)
-    if len(simplices) == 0:
+    if len(nbrs) == 0:
         return bad
-    t, j = np.nonzero(nbrs >= 0)
-    u = nbrs[t, j]
-    mutual = (nbrs[u] == t[:, None]).any(axis=1)
-    bad[tri_group[t[~mutual]]] = True
-    vertices = np.bincount(point_group[np.unique(simplices)], minlength=n_groups)
-    ht, hj = np.nonzero(nbrs < 0)
-    hull_vertices = np.unique(simplices[ht, (hj + 1) % 3])
-    hull = np.bincount(point_group[hull_vertices], minlength=n_groups)
+    hull = np.bincount(tri_group[np.nonzero(nbrs < 0)[0]], minlength=n_groups)
     ntri = np.bincount(tri_group, minlength=n_groups)
     has = ntri > 0
-    bad[has] |= ntri[has] != 2 * vertices[has] - 2 - hull[has]
+    bad[has] = ntri[has] != 2 * n_vertices[has] - 2 - hull[has]
     return bad
 
 
@@ -712,7 +763,7 @@ def _two_diff(a, b):
 
 
 def _edges_and_cross(xy: np.ndarray, triangles: np.ndarray, scale=1.0):
-    """Twice the signed area and the product of the squared edge lengths.
+    """Twice the signed area, the product and the least of the squared edges.
 
     Both in coordinates multiplied by ``scale`` (per triangle; a power of
     two, so exact). Edge vectors are differences of the input coordinates,
@@ -752,7 +803,7 @@ def _edges_and_cross(xy: np.ndarray, triangles: np.ndarray, scale=1.0):
         e2a = ax * ax + ay * ay
         e2b = bx * bx + by * by
         e2c = cx * cx + cy * cy
-    return cross, e2a * e2b * e2c
+    return cross, e2a * e2b * e2c, np.minimum(np.minimum(e2a, e2b), e2c)
 
 
 def merge_ties(
@@ -789,24 +840,74 @@ def merge_ties(
     """
     if len(radius) == 0:
         return radius, np.zeros(0, dtype=np.int64), radius
-    order = np.argsort(radius)
+    by_value = np.argsort(radius)
+    order = by_value
     if group is not None:
         # Then stably by group: a radix sort when the codes fit 16 bits.
-        g = group[order]
+        g = group[by_value]
         span = int(g.max()) - int(g.min())
         if span < 2**16:
             g = (g - g.min()).astype(np.uint16)
-        order = order[np.argsort(g, kind="stable")]
+        order = by_value[np.argsort(g, kind="stable")]
     s = radius[order]
-    start = np.ones(len(s), dtype=bool)
-    start[1:] = s[1:] > s[:-1] * (1.0 + rtol)
-    if group is not None:
-        g = group[order]
-        start[1:] |= g[1:] != g[:-1]
+    g = group[order] if group is not None else np.zeros(len(s), dtype=np.int64)
+    # Rank of each value among all values (increasing within each group).
+    value_rank = np.empty(len(radius), dtype=np.int64)
+    value_rank[by_value] = np.arange(len(radius))
+    start = _run_starts(s, g, value_rank[order], radius[by_value], rtol)
     values = np.maximum.reduceat(s, np.flatnonzero(start))
     rank = np.empty(len(radius), dtype=np.int64)
     rank[order] = np.cumsum(start) - 1
     return values[rank], rank, values
+
+
+def _run_starts(s, g, value_rank, all_sorted, rtol: float) -> np.ndarray:
+    """Greedy runs of values sorted by group, then value: each within ``rtol``.
+
+    A run starts at each group's first value and then at the first value
+    above ``first * (1 + rtol)``, so that no chain of small steps spans more
+    than ``rtol``. Only chains of values each within ``rtol`` of the
+    previous one need work (elsewhere every value starts a run); there the
+    starts are the path ``first -> next(first) -> ...``, found by pointer
+    doubling (each round doubles the known part of the path). ``value_rank``
+    is each value's rank among all values (``all_sorted``), which makes the
+    search within groups one global search.
+    """
+    n = len(s)
+    close = np.zeros(n, dtype=bool)
+    with np.errstate(over="ignore", invalid="ignore"):
+        close[1:] = (s[1:] <= s[:-1] * (1.0 + rtol)) & (g[1:] == g[:-1])
+    start = ~close
+    if not close.any():
+        return start
+    chained = np.flatnonzero(close | np.append(close[1:], False))
+    # Each chain ends before the next start; a step past it leaves the chain.
+    bounds = np.append(np.flatnonzero(start), n)
+    chain_end = bounds[np.searchsorted(bounds, chained, side="right")]
+    gc = g[chained].astype(np.int64)
+    with np.errstate(over="ignore"):
+        above = np.searchsorted(all_sorted, s[chained] * (1.0 + rtol), side="right")
+    # Position (in group-then-value order) of the group's first value of
+    # rank >= ``above``: these keys are sorted, as ranks are within groups.
+    key = g.astype(np.int64) * (n + 1) + value_rank
+    nxt = np.searchsorted(key, gc * (n + 1) + above, side="left")
+    nxt = np.clip(nxt, chained + 1, chain_end)
+    # Pointer doubling over the chained values; k (their count) is the exit.
+    k = len(chained)
+    jump = np.searchsorted(chained, nxt)
+    jump[nxt >= chain_end] = k
+    jump = np.append(jump, k)
+    on = np.append(start[chained], False)
+    for _ in range(_doublings(k + 1)):
+        more = on.copy()
+        more[jump[on]] = True
+        more[k] = False
+        grand = jump[jump]
+        if np.array_equal(more, on) and np.array_equal(grand, jump):
+            break
+        on, jump = more, grand
+    start[chained] = on[:k]
+    return start
 
 
 def fill_radius(tri: Triangulation) -> np.ndarray:

@@ -11,6 +11,7 @@ import warnings
 from typing import Literal, NamedTuple
 
 import numpy as np
+import shapely
 
 from geoalpha import core, search, shapes
 from geoalpha.errors import (
@@ -291,6 +292,15 @@ def _alpha_shapes_batch(
     # its points, in the coordinates it is returned in (at the optimum), or
     # declared degenerate. Points merged as near-duplicates are taken in here.
     check = ~tri.degenerate & ~rings.failed
+    # Coverage needs a geometric test only where it is not certain: at the
+    # optimum every representative point is a vertex of the (checked)
+    # triangulation in the shape, so in the same coordinates it is covered;
+    # points merged into another one, and every point when the geometry is
+    # built from other coordinates (lon/lat), are tested.
+    if coords is None:
+        test = (tri.xy != tri.xy[tri.vertex]).any(axis=1)
+    else:
+        test = None
     geometry, failed = shapes.enforce(
         geometry,
         out_xy,
@@ -298,6 +308,7 @@ def _alpha_shapes_batch(
         check,
         cover=alpha is None,
         components=components if alpha is None else None,
+        test=test,
     )
     failed |= rings.failed & ~tri.degenerate
     degenerate = tri.degenerate | failed
@@ -339,12 +350,41 @@ def _output_coordinates(points, groups, coords, n_groups):
     return c, core.thin_groups(c, groups, n_groups)
 
 
+def _as_xy(points):
+    """Coordinates of shapely points (a MultiPoint, Points, a GeoSeries), else as is.
+
+    Any other geometry is an :class:`InvalidInputError` that says what to pass.
+    """
+    if isinstance(points, shapely.Geometry):
+        points = [points]
+    values = getattr(points, "values", points)  # a GeoSeries / Series
+    if not isinstance(values, np.ndarray | list | tuple):
+        values = np.asarray(values)  # e.g. a GeometryArray: its geometries
+    if isinstance(values, np.ndarray) and values.dtype != object:
+        return points
+    if not isinstance(values, np.ndarray):
+        if not (isinstance(values, list | tuple) and values):
+            return points
+        if not isinstance(values[0], shapely.Geometry):
+            return points
+    geoms = np.asarray(values, dtype=object)
+    kinds = shapely.get_type_id(geoms)
+    if not np.isin(kinds, (0, 4)).all():
+        raise InvalidInputError(
+            "points must be x, y coordinates or shapely points (Point, MultiPoint, "
+            "a GeoSeries of points); got "
+            + ", ".join(sorted({g.geom_type for g in geoms[~np.isin(kinds, (0, 4))]}))
+        )
+    return shapely.get_coordinates(geoms)
+
+
 def _one_group(points, **kwargs) -> AlphaShapes:
-    res = alpha_shapes(points, None, n_groups=1, **kwargs)
+    res = alpha_shapes(_as_xy(points), None, n_groups=1, **kwargs)
     if res.degenerate[0]:
         warnings.warn(
             f"no alpha shape: the {res.n_distinct[0]} distinct point(s) are fewer "
-            "than 3 or all collinear; alpha is nan and the shape empty",
+            "than 3 or all collinear (within 1e-9 of their extent of a line; "
+            "points closer than that are one); alpha is nan and the shape empty",
             DegenerateGroupWarning,
             stacklevel=user_stacklevel(),
         )

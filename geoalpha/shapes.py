@@ -63,7 +63,7 @@ def assemble(coords: np.ndarray, rings: Rings, n_groups: int) -> np.ndarray:
     return out
 
 
-def enforce(geoms, out_xy, codes, check, *, cover=True, components=None):
+def enforce(geoms, out_xy, codes, check, *, cover=True, components=None, test=None):
     """Verify the guarantee per group; repair where possible; report the rest.
 
     Every group in ``check`` must get a valid, non-empty Polygon or
@@ -89,6 +89,11 @@ def enforce(geoms, out_xy, codes, check, *, cover=True, components=None):
         a shape at a given alpha, which need not hold every point).
     components : int, optional
         Largest number of parts allowed.
+    test : ndarray of bool, shape (k,), optional
+        The points whose coverage must be tested geometrically (default:
+        all). A caller may leave out points whose coverage is already
+        certain, e.g. vertices of a valid triangulation of the shape in the
+        very coordinates of the geometry.
 
     Returns
     -------
@@ -121,6 +126,8 @@ def enforce(geoms, out_xy, codes, check, *, cover=True, components=None):
             failed[invalid] = True
     if cover:
         mine = check[codes] & ~failed[codes]
+        if test is not None:
+            mine &= test
         points = shapely.points(out_xy[mine])
         shapely.prepare(geoms[sel])
         outside = ~shapely.covers(geoms[codes[mine]], points)
@@ -202,24 +209,38 @@ def cover_points(geoms, out_xy, codes) -> np.ndarray:
 
 
 def _take_in(poly, p):
-    """Insert point ``p`` into one of the shell edges of ``poly`` nearest to it."""
+    """Insert point ``p`` into one of the ring edges of ``poly`` nearest to it.
+
+    The shell and the holes' rings are all candidates (a point merged with a
+    vertex of a hole lies next to the hole's ring); the first insertion that
+    gives a valid polygon covering ``p`` wins, so the vertices stay input
+    points. Failing that, the outline of the ear to the nearest edge,
+    slightly widened, is added.
+    """
     parts = list(shapely.get_parts(poly))
     i = int(np.argmin(shapely.distance(parts, p)))
     part = parts[i]
-    ring = shapely.get_coordinates(part.exterior)
-    holes = [r.coords for r in part.interiors]
-    segments = shapely.linestrings(np.stack([ring[:-1], ring[1:]], axis=1))
+    rings = [shapely.get_coordinates(part.exterior)] + [
+        shapely.get_coordinates(r) for r in part.interiors
+    ]
+    which = np.concatenate([np.full(len(r) - 1, k) for k, r in enumerate(rings)])
+    at = np.concatenate([np.arange(len(r) - 1) for r in rings])
+    starts = np.concatenate([r[:-1] for r in rings])
+    ends = np.concatenate([r[1:] for r in rings])
+    segments = shapely.linestrings(np.stack([starts, ends], axis=1))
+    nearest = np.argsort(shapely.distance(segments, p), kind="stable")
     grown = None
-    for k in np.argsort(shapely.distance(segments, p), kind="stable")[:4]:
-        shell = np.insert(ring, k + 1, [p.x, p.y], axis=0)
-        candidate = shapely.Polygon(shell, holes)
+    for e in nearest[:8]:
+        changed = list(rings)
+        changed[which[e]] = np.insert(rings[which[e]], at[e] + 1, [p.x, p.y], axis=0)
+        candidate = shapely.Polygon(changed[0], changed[1:])
         if candidate.is_valid and candidate.covers(p):
             grown = candidate
             break
     if grown is None:  # fall back to adding the ear's outline, slightly widened
-        k = int(np.argmin(shapely.distance(segments, p)))
-        ear = shapely.linestrings([ring[k], (p.x, p.y), ring[k + 1]])
-        width = 1e-9 * max(np.ptp(ring, axis=0).max(), abs(p.x), abs(p.y), 1.0)
+        e = nearest[0]
+        ear = shapely.linestrings([starts[e], (p.x, p.y), ends[e]])
+        width = 1e-9 * max(np.ptp(rings[0], axis=0).max(), abs(p.x), abs(p.y), 1.0)
         grown = shapely.union(part, shapely.buffer(ear, width))
         grown = polygonal(np.array([grown], dtype=object))[0]
     parts[i] = grown
