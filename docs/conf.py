@@ -59,6 +59,7 @@ doctest_test_doctest_blocks = ""
 doctest_global_setup = """
 import warnings
 import numpy as np
+import shapely
 import geoalpha
 """
 
