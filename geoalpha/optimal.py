@@ -12,7 +12,7 @@ from typing import Literal, NamedTuple
 
 import numpy as np
 
-from geoalpha import core, search, shapes
+from geoalpha import core, coverage, search, shapes
 from geoalpha.errors import (
     DegenerateGroupWarning,
     InvalidInputError,
@@ -48,6 +48,12 @@ class AlphaShapes(NamedTuple):
         metric coordinates), whatever ``coords`` the geometry was built from.
     degenerate : ndarray of bool
         Fewer than 3 distinct points, or all collinear: no triangle, no alpha.
+    n_outliers : ndarray of int
+        Distinct points of the group left out of the shape (``outliers=``);
+        0 without outliers.
+    outlier : ndarray of bool, shape (n,)
+        One entry per input point (not per group): True where the point was
+        left out (duplicates of a left-out point too).
     """
 
     alpha: np.ndarray
@@ -57,9 +63,11 @@ class AlphaShapes(NamedTuple):
     n_parts: np.ndarray
     area: np.ndarray
     degenerate: np.ndarray
+    n_outliers: np.ndarray | None = None
+    outlier: np.ndarray | None = None
 
 
-def _check_options(holes, components, search_: str) -> None:
+def _check_options(holes, components, search_: str, outliers=0, alpha=None) -> None:
     if not isinstance(holes, bool | np.bool_):
         raise InvalidInputError(f"holes must be True or False; got {holes!r}")
     if isinstance(components, bool) or not isinstance(components, int | np.integer):
@@ -71,6 +79,12 @@ def _check_options(holes, components, search_: str) -> None:
     if search_ not in _SEARCHES:
         raise InvalidInputError(
             f"search must be one of {', '.join(map(repr, _SEARCHES))}; got {search_!r}"
+        )
+    coverage.check_outliers(outliers)
+    if outliers and (alpha is not None or search_ != "exact"):
+        raise InvalidInputError(
+            "outliers applies to the exact optimum: use it without alpha and "
+            f"with search='exact'; got alpha={alpha!r}, search={search_!r}"
         )
 
 
@@ -153,6 +167,7 @@ def alpha_shapes(
     n_groups: int | None = None,
     progress=None,
     n_jobs: int = 1,
+    outliers: float = 0,
 ) -> AlphaShapes:
     """Optimal alpha shapes of many groups of points in one call.
 
@@ -193,12 +208,21 @@ def alpha_shapes(
     n_jobs : int, default 1
         Worker processes to spread the groups over (-1: one per core); see
         :mod:`geoalpha.parallel`. The result is the same for every value.
+    outliers : float or int, default 0
+        Points each group may leave out: a float in ``[0, 1)`` is a fraction
+        of the group's distinct points (``k = floor(outliers * n)``), an int a
+        count ``k``. The optimum is then the largest alpha at which at most
+        ``components`` pieces of the shape cover at least ``n - k`` distinct
+        points; only those pieces are kept, and the points they miss are
+        reported (``n_outliers``, ``outlier``). Groups with ``k = 0`` get the
+        result without outliers. See :mod:`geoalpha.coverage`.
 
     Returns
     -------
     AlphaShapes
         Per group: ``alpha``, ``geometry``, ``n_points``, ``n_distinct``,
-        ``n_parts``, ``area``, ``degenerate``.
+        ``n_parts``, ``area``, ``degenerate``, ``n_outliers``; per input
+        point: ``outlier``.
 
     Raises
     ------
@@ -223,8 +247,15 @@ def alpha_shapes(
     ([0.4308, 0.8], [5, 3])
     >>> [g.geom_type for g in res.geometry]
     ['Polygon', 'Polygon']
+
+    One stray point may stay out:
+
+    >>> stray = np.array([[0, 0], [4, 0], [4, 4], [0, 4], [2, 3.5], [30, 30]])
+    >>> res = alpha_shapes(stray, outliers=1)
+    >>> res.alpha.round(4).tolist(), res.n_outliers.tolist(), res.outlier.tolist()
+    ([0.4308], [1], [False, False, False, False, False, True])
     """
-    _check_options(holes, components, search)
+    _check_options(holes, components, search, outliers, alpha)
     options = {
         "alpha": alpha,
         "holes": holes,
@@ -235,6 +266,8 @@ def alpha_shapes(
         "n_groups": n_groups,
         "progress": progress,
     }
+    if outliers:  # passed on only when used, so that 0 takes today's path
+        options["outliers"] = outliers
     if type(n_jobs) is not int or n_jobs != 1 or _batched(points, groups):
         from geoalpha.parallel import alpha_shapes_parallel
 
@@ -261,6 +294,7 @@ def _alpha_shapes_batch(
     coords,
     n_groups,
     progress,
+    outliers=0,
 ) -> AlphaShapes:
     """:func:`alpha_shapes` of all groups in one pass (no runs, no workers)."""
     try:
@@ -273,6 +307,14 @@ def _alpha_shapes_batch(
     )
 
     inside = weight <= top[tri.tri_group]
+    kept = None
+    if outliers:
+        k = coverage.outlier_budget(outliers, tri.n_distinct)
+        kept = coverage.outlier_optimum(tri, weight, top, k, components)
+        used = (k > 0) & ~tri.degenerate
+        inside, n_pieces = kept.inside, np.where(used, kept.n_pieces, n_pieces)
+        with np.errstate(divide="ignore"):
+            a = np.where(used, 1.0 / np.append(tri.values, np.inf)[kept.rank], a)
     piece = core.piece_labels(tri, inside, n_pieces)
     rings = core.boundary_rings(tri, inside, piece)
     if coords is None:
@@ -314,6 +356,14 @@ def _alpha_shapes_batch(
             tri.tri_group[inside], weights=tri.area[inside], minlength=tri.n_groups
         ),
         degenerate=tri.degenerate.copy(),
+        n_outliers=np.zeros(tri.n_groups, np.int64)
+        if kept is None
+        else kept.n_outliers,
+        outlier=(
+            np.zeros(len(codes), bool)
+            if kept is None
+            else kept.outlier[tri.input_point]
+        ),
     )
 
 
@@ -336,6 +386,7 @@ def optimal_alpha(
     components: int = 1,
     search: Search = "exact",
     max_iterations: int = 10_000,
+    outliers: float = 0,
 ) -> float:
     """Largest alpha whose shape is one piece containing every point.
 
@@ -351,6 +402,9 @@ def optimal_alpha(
         See :func:`alpha_shapes`.
     max_iterations : int, default 10000
         For ``search="bisect"``.
+    outliers : float or int, default 0
+        Points that may stay out: a fraction in ``[0, 1)`` of the distinct
+        points or a count; see :func:`alpha_shapes`.
 
     Returns
     -------
@@ -369,6 +423,9 @@ def optimal_alpha(
     --------
     >>> round(optimal_alpha([[0, 0], [4, 0], [4, 4], [0, 4], [2, 3.5]]), 6)
     0.430769
+    >>> stray = [[0, 0], [4, 0], [4, 4], [0, 4], [2, 3.5], [30, 30]]
+    >>> round(optimal_alpha(stray), 6), round(optimal_alpha(stray, outliers=1), 6)
+    (0.035355, 0.430769)
     """
     return float(
         _one_group(
@@ -377,6 +434,7 @@ def optimal_alpha(
             components=components,
             search=search,
             max_iterations=max_iterations,
+            outliers=outliers,
         ).alpha[0]
     )
 
@@ -388,6 +446,7 @@ def alpha_shape(
     holes: bool = False,
     components: int = 1,
     search: Search = "exact",
+    outliers: float = 0,
 ):
     """Alpha shape of a point set, at the optimal alpha by default.
 
@@ -403,6 +462,10 @@ def alpha_shape(
     components : int, default 1
         For the optimum: largest number of pieces allowed.
     search : {"exact", "ladder", "bisect"}, default "exact"
+        See :func:`alpha_shapes`.
+    outliers : float or int, default 0
+        For the optimum: points that may stay out (a fraction in ``[0, 1)`` or
+        a count); the shape then holds only the pieces that cover the others.
         See :func:`alpha_shapes`.
 
     Returns
@@ -422,5 +485,10 @@ def alpha_shape(
     16.0
     """
     return _one_group(
-        points, alpha=alpha, holes=holes, components=components, search=search
+        points,
+        alpha=alpha,
+        holes=holes,
+        components=components,
+        search=search,
+        outliers=outliers,
     ).geometry[0]
