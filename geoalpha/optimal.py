@@ -425,7 +425,7 @@ def optimal_alpha(
     0.430769
     >>> stray = [[0, 0], [4, 0], [4, 4], [0, 4], [2, 3.5], [30, 30]]
     >>> round(optimal_alpha(stray), 6), round(optimal_alpha(stray, outliers=1), 6)
-    (0.035355, 0.430769)
+    (0.035624, 0.430769)
     """
     return float(
         _one_group(
