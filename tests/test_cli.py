@@ -135,6 +135,7 @@ def test_options_are_passed_to_hull(fake_hull, points_csv, tmp_path):
             "alpha": 0.5,
             "holes": True,
             "components": 2,
+            "outliers": 0,
             "crs": "EPSG:27700",
             "method": "concave",
             "search": "ladder",

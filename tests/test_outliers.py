@@ -13,12 +13,15 @@ import math
 import re
 import warnings
 
+import geopandas as gpd
 import numpy as np
+import pandas as pd
 import pytest
 import reference
 import shapely
 from hypothesis import event, given, note
 from hypothesis import strategies as st
+from test_cli import run as run_cli
 from test_exact import (
     COORD,
     STRATEGIES,
@@ -31,7 +34,16 @@ from test_exact import (
 )
 from test_real_groups import EXPECTED_GROUPS, real_dataset
 
-from geoalpha import InvalidInputError, alpha_shape, alpha_shapes, core, optimal_alpha
+import geoalpha
+from geoalpha import (
+    InvalidInputError,
+    OutlierWarning,
+    alpha_shape,
+    alpha_shapes,
+    core,
+    datasets,
+    optimal_alpha,
+)
 from geoalpha.coverage import best_coverage, outlier_budget
 
 # --------------------------------------------------------------------------
@@ -347,3 +359,114 @@ def test_outliers_need_the_exact_optimum():
         alpha_shapes(SQUARE_AND_STRAY, outliers=1, alpha=0.5)
     with pytest.raises(InvalidInputError, match="search='exact'"):
         alpha_shapes(SQUARE_AND_STRAY, outliers=1, search="ladder")
+
+
+# --------------------------------------------------------------------------
+# hull(), outlier_rows() and the command line
+# --------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def airports():
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return datasets.load("us_airports")
+
+
+def quiet_hull(points, **kwargs):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        hulls = geoalpha.hull(points, **kwargs)
+    return hulls, [w for w in caught if w.category is OutlierWarning]
+
+
+@pytest.mark.parametrize("outliers", [0.02, 3])
+def test_hull_leaves_out_the_rows_it_reports(airports, outliers):
+    hulls, told = quiet_hull(airports, by="state", outliers=outliers)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # dropped rows, degenerate groups
+        rows = geoalpha.outlier_rows(airports, by="state", outliers=outliers)
+    assert rows.index.equals(airports.index) and rows.dtype == bool
+    per_state = rows.groupby(airports["state"]).sum()
+    table = hulls.set_index("state")["n_outliers"]
+    assert table.to_dict() == per_state.reindex(table.index).to_dict()
+    assert table.sum() > 0
+    # The warning counts them per group, e.g. "'CA' (4 rows)".
+    (warning,) = told
+    message = str(warning.message)
+    assert (
+        f"hull() left {table.sum()} row(s) of {(table > 0).sum()} group(s)" in message
+    )
+    first = table[table > 0].index[0]
+    assert f"'{first}' ({table[first]} row" in message
+    # Every kept row is inside its hull, every left-out row outside (lon/lat).
+    shapes = hulls.set_index("state").geometry
+    kept = airports[airports["state"].notna()]
+    inside = shapely.covers(
+        shapes.loc[kept["state"]].to_numpy(), kept.geometry.to_numpy()
+    )
+    assert (inside == ~rows[kept.index].to_numpy()).all()
+    # Tighter than without outliers: a larger alpha wherever a row is left
+    # out (a smaller shape of the same triangulation), never a larger area.
+    plain = quiet_hull(airports, by="state")[0].set_index("state")
+    some = table > 0
+    assert (hulls.set_index("state")["alpha"][some] > plain["alpha"][some]).all()
+    assert (hulls.set_index("state")["area_m2"] <= plain["area_m2"]).all()
+
+
+def test_hull_without_outliers_is_unchanged(airports):
+    plain, told = quiet_hull(airports, by="state")
+    zero, _ = quiet_hull(airports, by="state", outliers=0.0)
+    assert not told and (plain["n_outliers"] == 0).all()
+    assert plain.drop(columns="geometry").equals(zero.drop(columns="geometry"))
+    assert plain.geom_equals_exact(zero, 0).all()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # dropped rows, degenerate groups
+        assert not geoalpha.outlier_rows(airports, by="state").any()
+
+
+def test_hull_n_jobs_and_dask_agree(airports):
+    eager, _ = quiet_hull(airports, by="state", outliers=0.02)
+    jobs, _ = quiet_hull(airports, by="state", outliers=0.02, n_jobs=2)
+    pd.testing.assert_frame_equal(
+        eager.drop(columns="geometry"), jobs.drop(columns="geometry")
+    )
+    dask_geopandas = pytest.importorskip("dask_geopandas")
+    lazy = geoalpha.hull(
+        dask_geopandas.from_geopandas(airports, npartitions=3),
+        by="state",
+        outliers=0.02,
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        computed = lazy.compute()
+    assert computed["n_outliers"].tolist() == eager["n_outliers"].tolist()
+    assert computed.geom_equals_exact(eager, 0).all()
+
+
+def test_hull_outliers_need_method_alpha(airports):
+    with pytest.raises(InvalidInputError, match="method='alpha'; got method='convex'"):
+        geoalpha.hull(airports, by="state", method="convex", outliers=1)
+    with pytest.raises(InvalidInputError, match="outliers must be a fraction"):
+        geoalpha.hull(airports, by="state", outliers=2.0)
+
+
+def test_cli_outliers(tmp_path):
+    out = tmp_path / "h.gpkg"
+    result = run_cli("demo", out, "--dataset", "us_airports")
+    assert result.exit_code == 0
+    plain = gpd.read_file(out)
+    csv = tmp_path / "airports.csv"
+    frame = datasets.load("us_airports")
+    pd.DataFrame(frame.drop(columns="geometry")).to_csv(csv, index=False)
+    for value, expected in (("0.02", 0.02), ("3", 3)):
+        out = tmp_path / f"h{value}.gpkg"
+        result = run_cli("hull", csv, out, "--by", "state", "--outliers", value)
+        assert result.exit_code == 0, result.stderr
+        assert "left" in result.stderr and "outside their hulls" in result.stderr
+        back = gpd.read_file(out)
+        hulls, _ = quiet_hull(frame, by="state", outliers=expected)
+        assert back["n_outliers"].tolist() == hulls["n_outliers"].tolist()
+        assert (back["alpha"] >= plain["alpha"].fillna(0) - 1e-12).sum() > 40
+    result = run_cli("hull", csv, tmp_path / "x.gpkg", "--outliers", "1.5")
+    assert result.exit_code != 0 and "a fraction must be in [0, 1)" in result.stderr
