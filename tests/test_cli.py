@@ -161,6 +161,7 @@ def test_defaults_passed_to_hull(fake_hull, points_csv, tmp_path):
             "alpha": None,
             "holes": False,
             "components": 1,
+            "outliers": 0,
             "crs": "auto",
             "method": "alpha",
             "search": "exact",
