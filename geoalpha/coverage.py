@@ -181,37 +181,108 @@ def _coverage_rank(tri, weight, point_weight_, need) -> np.ndarray:
     return rank
 
 
-def _best_cover(tri, weight, rank, active, point_weight_, components, need):
+@dataclass(frozen=True)
+class _Corners:
+    """Triangle corners sorted by vertex, for counting the points of pieces."""
+
+    tri: np.ndarray  # triangle of each corner
+    vertex: np.ndarray  # its vertex (non-decreasing)
+    start: np.ndarray  # first corner of each vertex
+    segment: np.ndarray  # vertex number (0 ..) of each corner
+    heavy: np.ndarray  # corners of vertices that stand for several points
+    filled: bool  # weights are fill radii: every piece is a disk
+
+    @classmethod
+    def build(cls, tri: Triangulation, point_weight_, filled: bool) -> _Corners:
+        flat = tri.triangles.ravel()
+        order = np.argsort(flat, kind="stable")
+        vertex = flat[order]
+        new = np.r_[True, vertex[1:] != vertex[:-1]] if len(flat) else np.zeros(0, bool)
+        return cls(
+            tri=order // 3,
+            vertex=vertex,
+            start=np.flatnonzero(new),
+            segment=np.cumsum(new) - 1,
+            heavy=np.flatnonzero(point_weight_[vertex] > 1),
+            filled=filled,
+        )
+
+
+def _pairs(lab, corners, p, which=None):
+    """Distinct (piece, vertex) pairs of the corners ``which`` (default: all)."""
+    which = np.flatnonzero(lab >= 0) if which is None else which[lab[which] >= 0]
+    key = np.unique(lab[which] * p + corners.vertex[which])
+    return key // p, key % p
+
+
+def _best_cover(tri, weight, rank, active, point_weight_, components, need, corners):
     """Best coverage of the shapes at ``rank`` (one per group) of active groups.
 
     With ``need`` (per group) the exact search where chosen pieces overlap is
     only made where it decides ``coverage >= need``; with None, everywhere.
+    ``corners`` is :class:`_Corners` of ``tri``.
 
     Returns the coverage per group (0 for inactive groups), and the triangles
     ``sel`` of the shapes with the piece ``label`` of each and ``chosen``, the
     pieces of the best set.
     """
-    G, p = tri.n_groups, len(tri.xy)
+    G, p, m = tri.n_groups, len(tri.xy), len(tri.triangles)
     inside = active[tri.tri_group] & (weight <= rank[tri.tri_group])
     sel = np.flatnonzero(inside)
     a, b = tri.dual_edges()
     both = inside[a] & inside[b]
-    position = np.full(len(inside), -1, dtype=np.int64)
+    position = np.full(m, -1, dtype=np.int64)
     position[sel] = np.arange(len(sel))
+    # CSR directly: dual edges are listed by their first triangle.
+    head = position[a[both]]
+    indptr = np.zeros(len(sel) + 1, dtype=np.int64)
+    np.cumsum(np.bincount(head, minlength=len(sel)), out=indptr[1:])
     graph = csr_array(
-        (np.ones(int(both.sum())), (position[a[both]], position[b[both]])),
-        shape=(len(sel), len(sel)),
+        (np.ones(len(head)), position[b[both]], indptr), shape=(len(sel), len(sel))
     )
     n_pieces, label = connected_components(graph, directed=False)
     piece_group = np.zeros(n_pieces, dtype=np.int64)
     piece_group[label] = tri.tri_group[sel]
 
-    # Distinct (piece, vertex) pairs and the points each piece covers.
-    key = np.unique(np.repeat(label, 3) * p + tri.triangles[sel].ravel())
-    pair_piece, pair_vertex = key // p, key % p
-    count = np.bincount(
-        pair_piece, weights=point_weight_[pair_vertex], minlength=n_pieces
-    ).astype(np.int64)
+    piece_of = np.full(m, -1, dtype=np.int64)
+    piece_of[sel] = label
+    if corners.filled and components == 1:
+        # Every piece of a filled shape is a disk (a hole or a vertex where
+        # a piece touches itself would enclose triangles, which are filled),
+        # so by Euler's formula it has 1 + 2 F - E distinct vertices (F
+        # triangles, E inner edges); vertices standing for several points
+        # add the others.
+        count = (
+            1
+            + 2 * np.bincount(label, minlength=n_pieces)
+            - np.bincount(label[head], minlength=n_pieces)
+        )
+        if len(corners.heavy):
+            pair_piece, pair_vertex = _pairs(
+                piece_of[corners.tri], corners, p, corners.heavy
+            )
+            np.add.at(count, pair_piece, point_weight_[pair_vertex] - 1)
+    else:
+        # Distinct (piece, vertex) pairs: a vertex whose triangles in the
+        # shape are all in one piece gives one pair (smallest and largest
+        # label agree); the few vertices where pieces meet are sorted out.
+        lab = piece_of[corners.tri]
+        start = corners.start
+        if len(start):
+            high = np.maximum.reduceat(lab, start)
+            low = np.minimum.reduceat(np.where(lab >= 0, lab, n_pieces), start)
+        else:
+            high = low = np.zeros(0, dtype=np.int64)
+        one = (high >= 0) & (low == high)
+        pair_piece, pair_vertex = high[one], corners.vertex[start[one]]
+        many = (high >= 0) & (low < high)
+        if many.any():
+            extra = _pairs(lab, corners, p, np.flatnonzero(many[corners.segment]))
+            pair_piece = np.concatenate([pair_piece, extra[0]])
+            pair_vertex = np.concatenate([pair_vertex, extra[1]])
+        count = np.bincount(
+            pair_piece, weights=point_weight_[pair_vertex], minlength=n_pieces
+        ).astype(np.int64)
 
     # The `components` pieces that cover most points (ties: first piece).
     order = np.lexsort((np.arange(n_pieces), -count, piece_group))
@@ -294,6 +365,8 @@ def outlier_optimum(
     upper: np.ndarray,
     k: np.ndarray,
     components: int,
+    *,
+    filled: bool = False,
 ) -> Kept:
     """Outlier-tolerant optimum of every group whose budget ``k`` is > 0.
 
@@ -310,6 +383,10 @@ def outlier_optimum(
         degenerate groups) keep ``upper`` and every triangle up to it.
     components : int
         Largest number of pieces kept.
+    filled : bool, default False
+        True if ``weight`` are fill radii (``holes=False``), as for
+        :meth:`geoalpha.core.Spectrum.build`: pieces are then counted by
+        Euler's formula.
 
     Returns
     -------
@@ -322,7 +399,7 @@ def outlier_optimum(
     >>> tri = core.triangulate(square + [[9, 9]])  # one stray point
     >>> w = core.fill_radius(tri)
     >>> upper = core.Spectrum.build(tri, w, filled=True).optimum()
-    >>> kept = outlier_optimum(tri, w, upper, np.array([1]), 1)
+    >>> kept = outlier_optimum(tri, w, upper, np.array([1]), 1, filled=True)
     >>> float(tri.values[kept.rank[0]]), kept.n_outliers.tolist()
     (0.5, [1])
     >>> tri.xy[kept.outlier].tolist()
@@ -340,6 +417,7 @@ def outlier_optimum(
             outlier=np.zeros(len(tri.xy), dtype=bool),
         )
     point_weight_ = point_weight(tri)
+    corners = _Corners.build(tri, point_weight_, filled)
     need = tri.n_distinct - np.asarray(k, dtype=np.int64)
     lo = np.minimum(_coverage_rank(tri, weight, point_weight_, need), hi)
     lo = np.maximum(lo, tri.value_ptr[:-1])
@@ -348,7 +426,9 @@ def outlier_optimum(
         if not todo.any():
             break
         mid = (lo + hi) // 2
-        best, *_ = _best_cover(tri, weight, mid, todo, point_weight_, components, need)
+        best, *_ = _best_cover(
+            tri, weight, mid, todo, point_weight_, components, need, corners
+        )
         ok = best >= need
         hi = np.where(todo & ok, mid, hi)
         lo = np.where(todo & ~ok, mid + 1, lo)
@@ -356,7 +436,7 @@ def outlier_optimum(
     inside = weight <= hi[tri.tri_group]
     # At the optimum, the best set itself (not just one that is good enough).
     best, sel, label, chosen = _best_cover(
-        tri, weight, hi, active, point_weight_, components, None
+        tri, weight, hi, active, point_weight_, components, None, corners
     )
     inside[sel] = chosen[label]
     held = np.zeros(len(tri.xy), dtype=bool)
@@ -378,12 +458,18 @@ def _count_chosen(tri, sel, label, chosen, G) -> np.ndarray:
 
 
 def best_coverage(
-    tri: Triangulation, weight: np.ndarray, rank: np.ndarray, components: int
+    tri: Triangulation,
+    weight: np.ndarray,
+    rank: np.ndarray,
+    components: int,
+    *,
+    filled: bool = False,
 ) -> np.ndarray:
     """Best coverage of every group's shape at ``rank`` (one rank per group).
 
     The largest number of distinct points the union of at most
     ``components`` pieces covers (searched exactly where pieces share points).
+    ``filled``: the weights are fill radii (see :func:`outlier_optimum`).
 
     Examples
     --------
@@ -393,6 +479,14 @@ def best_coverage(
     [4]
     """
     active = ~tri.degenerate
+    point_weight_ = point_weight(tri)
     return _best_cover(
-        tri, weight, np.asarray(rank), active, point_weight(tri), components, None
+        tri,
+        weight,
+        np.asarray(rank),
+        active,
+        point_weight_,
+        components,
+        None,
+        _Corners.build(tri, point_weight_, filled),
     )[0]

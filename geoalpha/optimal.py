@@ -310,7 +310,9 @@ def _alpha_shapes_batch(
     kept = None
     if outliers:
         k = coverage.outlier_budget(outliers, tri.n_distinct)
-        kept = coverage.outlier_optimum(tri, weight, top, k, components)
+        kept = coverage.outlier_optimum(
+            tri, weight, top, k, components, filled=not holes
+        )
         used = (k > 0) & ~tri.degenerate
         inside, n_pieces = kept.inside, np.where(used, kept.n_pieces, n_pieces)
         with np.errstate(divide="ignore"):

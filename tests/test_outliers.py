@@ -158,7 +158,8 @@ def test_matches_reference(kind, holes, data):
 @examples(40)
 @given(data=st.data())
 def test_best_coverage_is_monotone(holes, data):
-    # The fast count itself, at every rank of the group's spectrum.
+    # The fast count itself, at every rank of the group's spectrum: never
+    # decreasing, and equal to the reference's direct count.
     p = data.draw(st.one_of(*KINDS.values()), label="points")
     components = data.draw(st.integers(1, 3), label="components")
     tri = core.triangulate(p)
@@ -166,9 +167,21 @@ def test_best_coverage_is_monotone(holes, data):
         return
     weight = tri.rank if holes else core.fill_radius(tri)
     ranks = np.arange(tri.value_ptr[0], tri.value_ptr[1])
-    cover = [best_coverage(tri, weight, np.array([r]), components)[0] for r in ranks]
+    cover = [
+        best_coverage(tri, weight, np.array([r]), components, filled=not holes)[0]
+        for r in ranks
+    ]
     assert (np.diff(cover) >= 0).all(), cover
     assert cover[-1] == tri.n_distinct[0]
+    ref = reference_triangulation(p)
+    if ref is not None and same_triangulation(p, ref) and well_conditioned(ref):
+        _, radii, expected = reference.coverage_curve(p, holes, (components,))
+        values = tri.values[ranks]
+        if len(radii) <= len(values) and np.allclose(
+            radii, values[: len(radii)], rtol=1e-9
+        ):
+            assert cover[: len(radii)] == expected[components].tolist()
+            event("counts compared")
 
 
 def test_pieces_that_share_a_point():
