@@ -483,3 +483,20 @@ def test_cli_outliers(tmp_path):
         assert (back["alpha"] >= plain["alpha"].fillna(0) - 1e-12).sum() > 40
     result = run_cli("hull", csv, tmp_path / "x.gpkg", "--outliers", "1.5")
     assert result.exit_code != 0 and "a fraction must be in [0, 1)" in result.stderr
+
+
+def test_outlier_rows_needs_an_eager_frame(airports):
+    dask_geopandas = pytest.importorskip("dask_geopandas")
+    lazy = dask_geopandas.from_geopandas(airports, npartitions=2)
+    with pytest.raises(InvalidInputError, match=r"call \.compute\(\) first"):
+        geoalpha.outlier_rows(lazy, by="state", outliers=1)
+
+
+def test_outlier_rows_of_a_geoseries_without_groups():
+    pts = gpd.GeoSeries(shapely.points(SQUARE_AND_STRAY), crs="EPSG:32631")
+    rows = geoalpha.outlier_rows(pts, outliers=1)
+    assert rows.tolist() == [False] * 5 + [True]
+    hulls, told = quiet_hull(pts, outliers=1)
+    assert hulls["n_outliers"].tolist() == [1]
+    assert "'all points' (1 row)" not in str(told[0].message)  # no key: plain text
+    assert "all points (1 row)" in str(told[0].message)
