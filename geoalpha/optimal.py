@@ -348,6 +348,13 @@ def _alpha_shapes_batch(
             )
     n_parts = np.bincount(rings.piece_group, minlength=tri.n_groups)
     codes = tri.point_group[tri.input_point]
+    if kept is None:
+        n_outliers, outlier = (
+            np.zeros(tri.n_groups, np.int64),
+            np.zeros(len(codes), bool),
+        )
+    else:
+        n_outliers, outlier = kept.n_outliers, kept.outlier[tri.input_point]
     return AlphaShapes(
         alpha=a,
         geometry=geometry,
@@ -358,14 +365,8 @@ def _alpha_shapes_batch(
             tri.tri_group[inside], weights=tri.area[inside], minlength=tri.n_groups
         ),
         degenerate=tri.degenerate.copy(),
-        n_outliers=np.zeros(tri.n_groups, np.int64)
-        if kept is None
-        else kept.n_outliers,
-        outlier=(
-            np.zeros(len(codes), bool)
-            if kept is None
-            else kept.outlier[tri.input_point]
-        ),
+        n_outliers=n_outliers,
+        outlier=outlier,
     )
 
 
