@@ -25,12 +25,21 @@ and the optimum without outliers (which is valid for every ``k``). It is
 found by a bisection over each group's sorted spectrum, all groups at once:
 every round is one labelling of the pieces of all active groups
 (:func:`scipy.sparse.csgraph.connected_components`) and one count of the
-distinct points per piece, ``O(m log m)``, and ``O(log m)`` rounds. The tests
-check the monotonicity on random and real groups rather than assume it, and
-compare with a brute force that tries every spectrum value.
+distinct points per piece, ``O(m)`` (Euler's formula for the pieces of filled
+shapes, which are disks; otherwise the smallest and largest piece label
+around each vertex, with the few vertices where pieces meet sorted out
+explicitly), and ``O(log m)`` rounds. The tests check the monotonicity on
+random and real groups rather than assume it, and compare with a brute force
+that tries every spectrum value.
+
+Where the ``components`` pieces that cover most points share a vertex, the
+best set is found by a branch and bound over the group's pieces (rare: only
+pieces that touch at a vertex share points).
 
 A group whose ``k`` is 0 keeps the result without outliers (at most
-``components`` pieces and every point covered), bit for bit.
+``components`` pieces and every point covered), bit for bit. (With ``k = 0``
+the definition above would also accept a shape with an extra piece all of
+whose points lie on the chosen pieces; the result without outliers does not.)
 """
 
 from __future__ import annotations
