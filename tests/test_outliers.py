@@ -198,12 +198,13 @@ def test_pieces_that_share_a_point(holes):
     ranks = np.arange(tri.value_ptr[0], tri.value_ptr[1])
     curve = reference.coverage_curve(p, holes=holes, components=(2,))
     got = [
-        best_coverage(tri, weight, np.array([r]), 2, filled=not holes)[0]
-        for r in ranks
+        best_coverage(tri, weight, np.array([r]), 2, filled=not holes)[0] for r in ranks
     ]
     assert got[: len(curve[2][2])] == curve[2][2].tolist()
     res = alpha_shapes(p, holes=holes, components=2, outliers=3)
-    alpha, left_out = reference.outlier_optimum(p, holes=holes, components=2, outliers=3)
+    alpha, left_out = reference.outlier_optimum(
+        p, holes=holes, components=2, outliers=3
+    )
     assert res.alpha[0] == pytest.approx(alpha, rel=1e-12)
     assert res.n_outliers[0] == left_out == 3
     check_result(res, p, 0, 2)
