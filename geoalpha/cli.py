@@ -170,6 +170,33 @@ def _run(
     )
 
 
+class _OutliersType(click.ParamType):
+    """``--outliers``: a fraction in [0, 1) (``0.02``) or a count (``3``)."""
+
+    name = "FRACTION|COUNT"
+
+    def convert(self, value, param, ctx):
+        if not isinstance(value, str):
+            return value
+        try:
+            number = (
+                int(value) if value.strip().lstrip("+-").isdigit() else float(value)
+            )
+        except ValueError:
+            self.fail(
+                f"{value!r} is neither a fraction (0.02) nor a count (3)", param, ctx
+            )
+        if isinstance(number, float) and not 0 <= number < 1:
+            self.fail(
+                f"{value!r}: a fraction must be in [0, 1); a count is an integer",
+                param,
+                ctx,
+            )
+        if isinstance(number, int) and number < 0:
+            self.fail(f"{value!r}: a count must be >= 0", param, ctx)
+        return number
+
+
 _engine_option = click.option(
     "--engine",
     type=click.Choice(["pyogrio", "fiona"]),
@@ -249,6 +276,15 @@ _progress_option = click.option(
     default=1,
     show_default=True,
     help="Most pieces a group's shape may have (1: one Polygon).",
+)
+@click.option(
+    "--outliers",
+    type=_OutliersType(),
+    default="0",
+    show_default=True,
+    help="Points each group may leave out: a fraction of its distinct points "
+    "(0.02) or a count (3); the hull is then the tightest shape around the "
+    "others. The output's n_outliers column counts the rows left out.",
 )
 @click.option(
     "--method",
@@ -349,6 +385,7 @@ def hull(
     alpha: float | None,
     holes: bool,
     components: int,
+    outliers: float,
     method: str,
     search: str,
     ratio: float,
@@ -373,7 +410,8 @@ def hull(
 
     OUTPUT's extension chooses its format: .gpkg, .shp, .geojson, .fgb or
     .parquet. It holds one row per group: the --by columns, alpha (1/metre),
-    radius (metres), n_points, area_m2, crs_used, method, and the polygon, in
+    radius (metres), n_points, n_outliers, area_m2, crs_used, method, and the
+    polygon, in
     INPUT's CRS. Shapefile field names are cut to 10 characters.
 
     \b
@@ -404,6 +442,7 @@ def hull(
             alpha=alpha,
             holes=holes,
             components=components,
+            outliers=outliers,
             crs=work_crs,
             method=method,
             search=search,

@@ -16,6 +16,7 @@ __all__ = [
     "GeoAlphaError",
     "GeoAlphaWarning",
     "InvalidInputError",
+    "OutlierWarning",
     "SearchWarning",
 ]
 
@@ -42,6 +43,10 @@ class DroppedRowsWarning(GeoAlphaWarning):
 
 class AntimeridianWarning(GeoAlphaWarning):
     """A group crosses the antimeridian; its hull was split at +-180 degrees."""
+
+
+class OutlierWarning(GeoAlphaWarning):
+    """Points were left out of their group's hull (``outliers=``)."""
 
 
 class SearchWarning(GeoAlphaWarning):

@@ -8,6 +8,7 @@ groups) and the comparison methods from shapely/GEOS and :mod:`geoalpha.knn`.
 
 from __future__ import annotations
 
+import contextvars
 import sys
 import warnings
 from typing import Any, Literal
@@ -18,18 +19,20 @@ import pyproj
 import shapely
 
 from geoalpha import crs as gcrs
+from geoalpha.coverage import check_outliers
 from geoalpha.errors import (
     AntimeridianWarning,
     DegenerateGroupWarning,
     DroppedRowsWarning,
     GeoAlphaWarning,
     InvalidInputError,
+    OutlierWarning,
     user_stacklevel,
 )
 from geoalpha.optimal import alpha_shapes
 from geoalpha.shapes import EMPTY_POLYGON, cover_points, polygonal
 
-__all__ = ["DEGENERATE_POLICIES", "METHODS", "RESULT_COLUMNS", "hull"]
+__all__ = ["DEGENERATE_POLICIES", "METHODS", "RESULT_COLUMNS", "hull", "outlier_rows"]
 
 #: Hull methods of :func:`hull`.
 METHODS = ("alpha", "convex", "concave", "knn")
@@ -40,6 +43,7 @@ RESULT_COLUMNS = (
     "alpha",
     "radius",
     "n_points",
+    "n_outliers",
     "n_parts",
     "area_m2",
     "crs_used",
@@ -304,6 +308,7 @@ def hull(
     sort: bool = True,
     progress: bool | None = None,
     n_jobs: int = 1,
+    outliers: float = 0,
 ):
     """Tightest single polygon around each group of points.
 
@@ -383,6 +388,14 @@ def hull(
         ``method="alpha"`` and ``"convex"``; the result is the same for every
         value. Pays off from about 100,000 points (see
         :mod:`geoalpha.parallel`).
+    outliers : float or int, default 0
+        Points each group may leave out (``method="alpha"``, exact search,
+        no fixed ``alpha``): a float in ``[0, 1)`` is a fraction of the
+        group's distinct points (``k = floor(outliers * n)``), an int a count
+        ``k``. The optimum is then the largest alpha at which at most
+        ``components`` pieces cover at least ``n - k`` distinct points; only
+        those pieces are kept. :func:`outlier_rows` tells which input rows
+        were left out.
 
     Returns
     -------
@@ -391,6 +404,7 @@ def hull(
         ``alpha`` (1/metre in the computation CRS; nan for the methods
         without one and for degenerate groups; 0 for the convex hull),
         ``radius`` (1/alpha, metres), ``n_points`` (input rows of the group),
+        ``n_outliers`` (rows of the group left out, 0 unless ``outliers``),
         ``n_parts`` (polygons in the geometry), ``area_m2`` (area in the
         computation CRS), ``crs_used`` (the computation CRS), ``method``
         and ``geometry`` (Polygon; MultiPolygon when ``components > 1``, when a
@@ -415,6 +429,8 @@ def hull(
         Groups with fewer than 3 distinct points or all collinear.
     AntimeridianWarning
         Groups across +-180 degrees, returned as split MultiPolygons.
+    OutlierWarning
+        Groups that left points out (``outliers``), with their counts.
 
     Notes
     -----
@@ -459,10 +475,16 @@ def hull(
             sort=sort,
             progress=progress,
             n_jobs=n_jobs,
+            outliers=outliers,
         )
     frame = _as_frame(gdf)
     _check_choice("method", method, METHODS)
     _check_choice("degenerate", degenerate, DEGENERATE_POLICIES)
+    check_outliers(outliers)
+    if outliers and method != "alpha":
+        raise InvalidInputError(
+            f"outliers applies to method='alpha'; got method={method!r}"
+        )
     geoms = np.asarray(frame.geometry.array, dtype=object)
     index = frame.index
 
@@ -517,6 +539,7 @@ def hull(
         raise InvalidInputError(_rows_to_index(str(err), kept[which], index)) from err
 
     bar = _progress(progress, n_groups)
+    left_out = np.zeros(len(frame), dtype=bool)
     try:
         if method in ("alpha", "convex"):
             res = alpha_shapes(
@@ -531,8 +554,10 @@ def hull(
                 n_groups=n_groups,
                 progress=bar,
                 n_jobs=n_jobs,
+                outliers=outliers,
             )
             geometry, area, is_degenerate = res.geometry, res.area, res.degenerate
+            left_out[kept[which[res.outlier]]] = True
             alphas = res.alpha
             if method == "convex":
                 convex = _convex_hulls(proj, pcodes, n_groups)
@@ -574,6 +599,7 @@ def hull(
     table["alpha"] = alphas
     table["radius"] = radius
     table["n_points"] = n_points
+    table["n_outliers"] = np.bincount(codes[left_out], minlength=n_groups)
     table["n_parts"] = np.where(
         shapely.is_empty(geometry), 0, shapely.get_num_geometries(geometry)
     )
@@ -581,7 +607,88 @@ def hull(
     table["crs_used"] = proj.names
     table["method"] = labels
     out = gpd.GeoDataFrame(table, geometry=list(geometry), crs=frame.crs)
+    if left_out.any():
+        _warn_outliers(table["n_outliers"].to_numpy(), keys, outliers)
+    rows = _OUTLIER_ROWS.get()
+    if rows is not None:
+        rows.append(pd.Series(left_out, index=index, name="outlier"))
     return out[keep_group].reset_index(drop=True)
+
+
+#: Set by :func:`outlier_rows` to receive the left-out rows of :func:`hull`.
+_OUTLIER_ROWS: contextvars.ContextVar[list | None] = contextvars.ContextVar(
+    "geoalpha_outlier_rows", default=None
+)
+
+
+def _warn_outliers(n_outliers: np.ndarray, keys: pd.DataFrame, outliers) -> None:
+    groups = np.flatnonzero(n_outliers)
+    rows = keys.iloc[groups[:10]].itertuples(index=False)
+    each = "; ".join(
+        f"{', '.join(map(repr, key)) or 'all points'} ({n} row{'s' if n != 1 else ''})"
+        for key, n in zip(rows, n_outliers[groups[:10]], strict=True)
+    )
+    more = "; ..." if len(groups) > 10 else ""
+    warnings.warn(
+        f"hull() left {n_outliers.sum()} row(s) of {len(groups)} group(s) outside "
+        f"their hulls (outliers={outliers!r}): {each}{more}; "
+        "geoalpha.outlier_rows() marks them",
+        OutlierWarning,
+        stacklevel=user_stacklevel(),
+    )
+
+
+def outlier_rows(gdf, by=None, **options) -> pd.Series:
+    """Mark the input rows that :func:`hull` leaves out with ``outliers=``.
+
+    Parameters
+    ----------
+    gdf : GeoDataFrame or GeoSeries
+        The points, as for :func:`hull`.
+    by : str, list of str, or array_like, optional
+        The groups, as for :func:`hull`.
+    **options
+        The options of :func:`hull`, ``outliers`` included.
+
+    Returns
+    -------
+    pandas.Series of bool
+        Aligned with ``gdf`` (same index): True for the rows left out of
+        their group's hull (a MultiPoint row: when one of its points is);
+        False for the others, dropped rows included.
+
+    Raises
+    ------
+    InvalidInputError
+        As :func:`hull`; also for a dask-geopandas frame (compute it first).
+
+    .. versionadded:: 0.2.0
+
+    Examples
+    --------
+    >>> import geopandas as gpd
+    >>> import shapely
+    >>> pts = [(0, 0), (4, 0), (4, 4), (0, 4), (2, 3.5), (30, 30)]
+    >>> gdf = gpd.GeoDataFrame(geometry=shapely.points(pts), crs="EPSG:32631")
+    >>> outlier_rows(gdf, outliers=1).tolist()
+    [False, False, False, False, False, True]
+    >>> gdf[~outlier_rows(gdf, outliers=1)].alpha.hull()["n_points"].item()
+    5
+    """
+    if _is_dask(gdf):
+        raise InvalidInputError(
+            "outlier_rows() needs an eager GeoDataFrame; call .compute() first "
+            "(the lazy hull() has the n_outliers column)"
+        )
+    found: list = []
+    token = _OUTLIER_ROWS.set(found)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", OutlierWarning)
+            hull(gdf, by, **options)
+    finally:
+        _OUTLIER_ROWS.reset(token)
+    return found[0]
 
 
 def _rows_to_index(message: str, rows: np.ndarray, index: pd.Index) -> str:
