@@ -11,10 +11,12 @@ import sys
 
 __all__ = [
     "AntimeridianWarning",
+    "CRSWarning",
     "DegenerateGroupWarning",
     "DroppedRowsWarning",
     "GeoAlphaError",
     "GeoAlphaWarning",
+    "GroupingWarning",
     "InvalidInputError",
     "SearchWarning",
 ]
@@ -42,6 +44,14 @@ class DroppedRowsWarning(GeoAlphaWarning):
 
 class AntimeridianWarning(GeoAlphaWarning):
     """A group crosses the antimeridian; its hull was split at +-180 degrees."""
+
+
+class CRSWarning(GeoAlphaWarning):
+    """A CRS given for the points or the computation looks wrong or distorts areas."""
+
+
+class GroupingWarning(GeoAlphaWarning):
+    """The groups look wrong: nearly as many groups as rows (a wrong ``by``?)."""
 
 
 class SearchWarning(GeoAlphaWarning):

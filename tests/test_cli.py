@@ -65,7 +65,11 @@ def fake_hull(monkeypatch):
         out = groups[[*keys, "geometry"]].copy()
         out["geometry"] = shapely.buffer(groups.geometry.convex_hull.array, 1e-4)
         out["alpha"] = 0.0
+        out["radius"] = float("inf")
         out["n_points"] = sizes
+        out["area_m2"] = 1.0
+        out["crs_used"] = "EPSG:32630"
+        out["method"] = "convex"
         return out
 
     module = types.ModuleType("geoalpha.tools")
@@ -190,6 +194,9 @@ def test_summary_warnings_and_shapefile_fields(fake_hull, points_csv, tmp_path):
     assert result.stdout == ""
     assert result.stderr.splitlines() == [
         "Warning: 1 group has fewer than 3 distinct points (buffered)",
+        f"Read 55 points of {points_csv} (columns Longitude/Latitude, EPSG:4326)",
+        "Computed in EPSG:32630: 4 groups",
+        "Median area 100% of the convex hull",
         f"Shapefile field '{GROUP}' written as 'Local_Auth'",
         f"Wrote 4 hulls of 55 points to {out}",
     ]
@@ -287,7 +294,7 @@ def _write(path: Path, text: str) -> Path:
         ),
         (
             lambda d, csv: [csv, d / "h.gpkg", "--x", "Latitude"],
-            "Error: give both x= and y= (--x and --y)",
+            "Error: give both --x and --y for {d}/accidents.csv",
         ),
     ],
     ids=[
@@ -337,7 +344,7 @@ def test_unexpected_errors_name_their_type(monkeypatch, points_csv, tmp_path):
     def broken(*args, **kwargs):
         raise ZeroDivisionError("division by zero")
 
-    monkeypatch.setattr("geoalpha.io.read_points", broken)
+    monkeypatch.setattr("geoalpha.io._read_points", broken)
     result = run("hull", points_csv, tmp_path / "h.gpkg")
     assert result.exit_code == 1
     assert result.stderr == (
@@ -358,7 +365,7 @@ def test_demo_refuses_existing_output(tmp_path):
     assert result.exit_code == 1
     assert result.stderr == (
         f"Error: output {tmp_path}/d.gpkg already exists; use --overwrite "
-        "(overwrite=True) to replace it\n"
+        "to replace it\n"
     )
 
 
@@ -406,7 +413,7 @@ def test_hull_of_polygon_vertices_with_more_options(points_csv, tmp_path):
     assert refused.stderr.startswith(
         "Error: hull() needs point geometries; got 4 Polygon row(s)"
     )
-    assert "(--vertices)" in refused.stderr
+    assert "pass --vertices to use their vertices" in refused.stderr
     args = ["hull", first, out, "--by", GROUP, "--vertices", "--no-sort", "-j", "2"]
     result = run(*args)
     assert result.exit_code == 0, result.stderr
@@ -417,7 +424,7 @@ def test_hull_of_polygon_vertices_with_more_options(points_csv, tmp_path):
     assert back.geometry.geom_equals_exact(expected.geometry, 1e-9).all()
     jobs = run("hull", points_csv, tmp_path / "h.gpkg", "-j", "0")
     assert jobs.exit_code == 1
-    assert "n_jobs must be a positive integer or -1" in jobs.stderr
+    assert "Error: --jobs must be a positive integer or -1" in jobs.stderr
 
 
 def _csv_points(path):
