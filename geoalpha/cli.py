@@ -289,7 +289,7 @@ def _planar_unit(points, work_crs) -> str | None:
     if work_crs is not None:
         return None
     if points.crs is None:
-        return "coordinate unit (no CRS)"
+        return "coordinate unit"
     info = points.crs.axis_info
     unit = info[0].unit_name if info else "unit"
     return None if unit == "metre" else unit
@@ -312,7 +312,11 @@ def _summary(points, hulls, source: str, work_crs, unit: str | None) -> list[str
     if len(used) == 2:
         shown += f" ({used[0]}, {used[1]})"
     if work_crs is None:
-        shown = f"planar coordinates ({unit or 'metre'})"
+        u = unit or "metre"
+        shown = (
+            f"the input coordinates as they are (alpha in 1/{u}, radius in {u}, "
+            f"area in square {u})"
+        )
     groups = len(hulls)
     method = hulls["method"].astype(str)
     no_shape = int((hulls["alpha"].isna() & method.eq("alpha")).sum())

@@ -82,9 +82,7 @@ def racing_hull(monkeypatch):
         out["crs_used"], out["method"] = "EPSG:32630", "alpha"
         return out
 
-    monkeypatch.setitem(
-        sys.modules, "geoalpha.tools", types.SimpleNamespace(hull=hull)
-    )
+    monkeypatch.setitem(sys.modules, "geoalpha.tools", types.SimpleNamespace(hull=hull))
     return state
 
 
@@ -360,7 +358,10 @@ def test_secrets_stay_out_of_warnings_and_summaries(tmp_path, monkeypatch):
             "https://host/a.gpkg?X-Amz-Signature=***&X-Amz-Date=1",
         ),
         (f"Driver=x;UID=me;PWD={SECRET};", "Driver=x;UID=me;PWD=***;"),
-        ("cannot read hulls.gpkg: no such file", "cannot read hulls.gpkg: no such file"),
+        (
+            "cannot read hulls.gpkg: no such file",
+            "cannot read hulls.gpkg: no such file",
+        ),
     ],
 )
 def test_redact(text, expected):

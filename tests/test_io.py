@@ -226,7 +226,7 @@ def test_failed_first_write_leaves_nothing(tmp_path, monkeypatch):
         raise RuntimeError("boom")
 
     monkeypatch.setattr(gpd.GeoDataFrame, "to_parquet", fail)
-    with pytest.raises(OSError, match="h.parquet: boom"):
+    with pytest.raises(OSError, match=r"h\.parquet: boom"):
         write_hulls(make_hulls(), tmp_path / "h.parquet")
     assert listing(tmp_path) == []
 
@@ -373,9 +373,7 @@ def test_vector_files_keep_their_crs_and_layers(tmp_path):
     gdf = read_points(tmp_path / "p.gpkg", layer="few")
     assert len(gdf) == 5
     assert gdf.crs == "EPSG:27700"
-    with pytest.raises(
-        InvalidInputError, match=r"x= and y= apply to tables"
-    ):
+    with pytest.raises(InvalidInputError, match=r"x= and y= apply to tables"):
         read_points(tmp_path / "p.gpkg", x="Easting", y="Northing")
     with pytest.raises(InvalidInputError, match="cannot read"):
         read_points(tmp_path / "p.gpkg", layer="nope")
