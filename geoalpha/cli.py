@@ -749,7 +749,7 @@ def hull(
 @click.option(
     "--dataset",
     type=click.Choice(sorted(DATASETS)),
-    default="uk_clusters",
+    default="us_airports",
     show_default=True,
     help="Bundled dataset to use.",
 )
@@ -771,20 +771,24 @@ def demo(
 ) -> None:
     """Write the optimal hulls of a bundled real dataset to OUTPUT.
 
-    A first run that needs no data of your own; open OUTPUT in QGIS.
+    A first run that needs no data of your own; open OUTPUT in QGIS. A
+    GeoPackage OUTPUT holds two layers: the hulls (named after the file) and
+    the input points ('points').
 
     \b
     Datasets (grouped by the column in brackets):
+      us_airports  3,376 US airports by state [state]: hulls the size of
+                   states, visible at once
       uk_clusters  15,255 UK road accidents 2013-2016 in 691 DBSCAN
-                   clusters [Cluster]
+                   clusters [Cluster]: hulls 50-300 m across, zoom in on
+                   a town to see them
       stats19      1,017 UK road accidents of 2014 by highway local
                    authority [Local_Authority_(Highway)]
-      us_airports  3,376 US airports by state [state]
 
     \b
     Example:
         geoalpha demo hulls.gpkg
-        geoalpha demo airports.shp --dataset us_airports
+        geoalpha demo accidents.shp --dataset uk_clusters
     """  # noqa: D301
     from geoalpha import datasets
     from geoalpha.io import check_output

@@ -433,14 +433,24 @@ def _csv_points(path):
     return read_points(path)
 
 
-def test_demo_default_dataset(tmp_path):
-    out = tmp_path / "uk.gpkg"
-    result = run("-q", "demo", out)
+def test_demo_default_dataset_is_visible_at_once(tmp_path):
+    out = tmp_path / "demo.gpkg"
+    result = run("demo", out)
     assert result.exit_code == 0, result.stderr
-    hulls = gpd.read_file(out)
-    assert len(hulls) == 691
-    assert hulls.crs == "EPSG:4326"
+    assert result.stderr.splitlines()[-1] == (
+        f"Wrote 56 hulls of 3,376 points to {out} (layer 'demo', 'points')"
+    )
+    hulls = gpd.read_file(out, layer="demo")
+    points = gpd.read_file(out, layer="points")
+    assert len(hulls) == 56
+    assert len(points) == 3376
+    assert hulls.crs == points.crs == "EPSG:4326"
     assert set(hulls.geom_type) <= {"Polygon", "MultiPolygon"}
+    # Seen at full extent (QGIS zooms to it), the median hull is at least 1 %
+    # of the map's width: some pixels, not a dot (UK clusters: 0.02 %).
+    minx, miny, maxx, maxy = points.total_bounds
+    widths = hulls.bounds["maxx"] - hulls.bounds["minx"]
+    assert widths.median() > 0.01 * (maxx - minx)
 
 
 def test_demo_stats19_warns_about_degenerate_groups(tmp_path):
