@@ -36,6 +36,7 @@ _EXPECTED = (GeoAlphaError, OSError, ImportError)
 # Python keywords in messages of the library -> the command's options.
 _CLI_TERMS: tuple[tuple[str, str], ...] = (
     (r"hull\(by=[^)]*\)", "--by"),
+    (r"\bhull\(\) ", "geoalpha "),
     (r"pass vertices=True \(--vertices\)", "pass --vertices"),
     (r"\bvertices=True\b", "--vertices"),
     (r"\bdropna=False\b", "--no-dropna"),
@@ -308,7 +309,7 @@ def _summary(points, hulls, source: str, work_crs, unit: str | None) -> list[str
     in_crs = crs_name(points.crs) if points.crs is not None else "no CRS"
     lines.append(f"Read {len(points):,} points of {source} ({where}, {in_crs})")
     used = hulls["crs_used"].astype(str).unique().tolist()
-    shown = used[0] if len(used) == 1 else f"{len(used)} CRSs, one per group"
+    shown = used[0] if len(used) == 1 else f"{len(used)} CRSs (one chosen per group)"
     if len(used) == 2:
         shown += f" ({used[0]}, {used[1]})"
     if work_crs is None:

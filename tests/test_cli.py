@@ -337,7 +337,9 @@ def test_geoalpha_errors_from_hull_are_one_line(monkeypatch, points_csv, tmp_pat
     monkeypatch.setitem(sys.modules, "geoalpha.tools", types.SimpleNamespace(hull=hull))
     result = run("hull", points_csv, tmp_path / "h.gpkg")
     assert result.exit_code == 1
-    assert result.stderr == ("Error: hull() needs point geometries; got 3 LineString\n")
+    assert result.stderr == (
+        "Error: geoalpha needs point geometries; got 3 LineString\n"
+    )
 
 
 def test_unexpected_errors_name_their_type(monkeypatch, points_csv, tmp_path):
@@ -411,7 +413,7 @@ def test_hull_of_polygon_vertices_with_more_options(points_csv, tmp_path):
     refused = run("hull", first, out, "--by", GROUP)
     assert refused.exit_code == 1
     assert refused.stderr.startswith(
-        "Error: hull() needs point geometries; got 4 Polygon row(s)"
+        "Error: geoalpha needs point geometries; got 4 Polygon row(s)"
     )
     assert "pass --vertices to use their vertices" in refused.stderr
     args = ["hull", first, out, "--by", GROUP, "--vertices", "--no-sort", "-j", "2"]
@@ -448,7 +450,7 @@ def test_demo_default_dataset_is_visible_at_once(tmp_path):
     assert set(hulls.geom_type) <= {"Polygon", "MultiPolygon"}
     # Seen at full extent (QGIS zooms to it), the median hull is at least 1 %
     # of the map's width: some pixels, not a dot (UK clusters: 0.02 %).
-    minx, miny, maxx, maxy = points.total_bounds
+    minx, _, maxx, _ = points.total_bounds
     widths = hulls.bounds["maxx"] - hulls.bounds["minx"]
     assert widths.median() > 0.01 * (maxx - minx)
 
