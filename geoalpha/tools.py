@@ -200,7 +200,8 @@ class _Projection:
             sel = self.crs_index[groups] == k
             if not sel.any() or target == self.src:
                 continue
-            back = pyproj.Transformer.from_crs(target, self.src, always_xy=True)
+            # cached, and a fast pipeline for the local LAEA CRSs
+            back = gcrs._transformer(gcrs._crs_key(target), self.src.srs)
 
             def move(c, back=back):
                 return np.column_stack(back.transform(c[:, 0], c[:, 1]))

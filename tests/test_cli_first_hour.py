@@ -10,6 +10,7 @@ from pathlib import Path
 import geopandas as gpd
 import numpy as np
 import pandas as pd
+import pyproj
 import pytest
 import shapely
 from click.testing import CliRunner
@@ -289,3 +290,61 @@ def test_bad_preview_name_is_refused_before_computing(lonlat_csv, tmp_path):
     assert result.exit_code == 1
     assert result.stderr.startswith("Error: --preview needs a .png")
     assert not (tmp_path / "h.gpkg").exists()
+
+
+# --------------------------------------------------------------------------
+# 5. many groups: one transformer per CRS, cached; a warning for a wrong --by
+
+
+def test_many_degenerate_groups_build_no_transformer_per_group(monkeypatch):
+    import pyproj
+
+    rng = np.random.default_rng(5)
+    n = 600  # 300 groups of 2 points 20 degrees apart: ~300 local LAEA CRSs
+    lon = np.repeat(rng.uniform(-170, 150, n // 2), 2) + np.tile([0, 20], n // 2)
+    lat = np.repeat(rng.uniform(-60, 60, n // 2), 2)
+    points = gpd.GeoDataFrame(
+        {"k": np.arange(n) // 2},
+        geometry=gpd.points_from_xy(lon, lat),
+        crs="EPSG:4326",
+    )
+    calls = []
+    from_crs = pyproj.Transformer.from_crs
+
+    def counting(*args, **kwargs):
+        calls.append(args)
+        return from_crs(*args, **kwargs)
+
+    monkeypatch.setattr(pyproj.Transformer, "from_crs", counting)
+    with pytest.warns(DegenerateGroupWarning):
+        hulls = geoalpha.hull(points, by="k")
+    assert hulls["crs_used"].nunique() > 250
+    assert len(calls) < 20  # was one per local CRS, each way
+    # The buffers came back to the right place: each covers its two points.
+    covered = shapely.covers(
+        np.repeat(np.asarray(hulls.geometry.array, dtype=object), 2),
+        np.asarray(points.sort_values("k").geometry.array, dtype=object),
+    )
+    assert covered.all()
+
+
+def test_laea_pipeline_back_equals_the_database_transform():
+    from geoalpha import crs as gcrs
+
+    laea = "+proj=laea +lat_0=62 +lon_0=-153 +datum=WGS84 +units=m +no_defs"
+    x = np.array([-5e5, 0.0, 3e5])
+    y = np.array([2e5, 0.0, -4e5])
+    fast = gcrs._transformer(laea, "EPSG:4326").transform(x, y)
+    slow = pyproj.Transformer.from_crs(laea, "EPSG:4326", always_xy=True).transform(
+        x, y
+    )
+    np.testing.assert_allclose(fast, slow, rtol=0, atol=1e-9)
+
+
+def test_by_with_nearly_one_group_per_row_warns(lonlat_csv, tmp_path):
+    result = run("hull", lonlat_csv, tmp_path / "h.gpkg", "--by", "Latitude")
+    assert result.exit_code == 0, result.stderr
+    assert (
+        "Warning: --by Latitude makes 47 groups of 55 rows; groups of 1-2 points "
+        "have no alpha shape, so is this the right column?"
+    ) in result.stderr.splitlines()
