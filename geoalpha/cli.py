@@ -617,6 +617,18 @@ _preview_option = click.option(
     "buffer, in metres (in the coordinate units with --crs none).",
 )
 @click.option(
+    "--grow",
+    type=click.FloatRange(min=0),
+    default=0.0,
+    show_default=True,
+    metavar="M",
+    help="Grow every hull by M metres (in coordinate units with --crs none) so "
+    "that every point is strictly inside, for QGIS 'Count points in polygon' "
+    "and within/contains joins; alpha and radius stay those of the optimal "
+    "shape, area_m2 is the grown area. 0: the exact shape, whose vertices are "
+    "input points.",
+)
+@click.option(
     "--vertices",
     is_flag=True,
     help="Accept lines and polygons in INPUT and use their vertices as points "
@@ -669,6 +681,7 @@ def hull(
     crs: str,
     degenerate: str,
     buffer: float,
+    grow: float,
     vertices: bool,
     dropna: bool,
     sort: bool,
@@ -737,6 +750,7 @@ def hull(
             k=k,
             degenerate=degenerate,
             buffer=buffer,
+            grow=grow,
             vertices=vertices,
             dropna=dropna,
             sort=sort,
@@ -754,6 +768,15 @@ def hull(
     show_default=True,
     help="Bundled dataset to use.",
 )
+@click.option(
+    "--grow",
+    type=click.FloatRange(min=0),
+    default=0.0,
+    show_default=True,
+    metavar="M",
+    help="Grow every hull by M metres so that every point is strictly inside "
+    "(see geoalpha hull --help).",
+)
 @_overwrite_option
 @_engine_option
 @_progress_option
@@ -763,6 +786,7 @@ def hull(
 def demo(
     output: str,
     dataset: str,
+    grow: float,
     overwrite: bool,
     engine: str | None,
     progress: bool | None,
@@ -812,4 +836,5 @@ def demo(
             preview=preview,
             extra_layers={"points": points} if gpkg else None,
             progress=progress,
+            grow=grow,
         )

@@ -305,6 +305,7 @@ def hull(
     sort: bool = True,
     progress: bool | None = None,
     n_jobs: int = 1,
+    grow: float = 0.0,
 ):
     """Tightest single polygon around each group of points.
 
@@ -384,6 +385,15 @@ def hull(
         ``method="alpha"`` and ``"convex"``; the result is the same for every
         value. Pays off from about 100,000 points (see
         :mod:`geoalpha.parallel`).
+    grow : float, default 0.0
+        Grow every hull (not the degenerate buffers) by this distance in
+        metres (coordinate units with ``crs=None``), with rounded corners, so
+        that every point is strictly inside: predicates such as ``within``,
+        ``contains`` or QGIS "Count points in polygon" then count the points
+        on the hull's boundary too. ``alpha`` and ``radius`` stay those of the
+        optimal shape; ``area_m2`` is the area of the grown polygon; polygon
+        vertices are then no longer input points. 0 (the default) keeps the
+        exact shape.
 
     Returns
     -------
@@ -460,6 +470,7 @@ def hull(
             sort=sort,
             progress=progress,
             n_jobs=n_jobs,
+            **({"grow": grow} if grow else {}),
         )
     frame = _as_frame(gdf)
     _check_choice("method", method, METHODS)
@@ -563,6 +574,8 @@ def hull(
             buffer,
         )
 
+    if grow:
+        geometry, area = _grow(geometry, area, ~is_degenerate, proj, pcodes, grow)
     geometry = _finish(geometry, proj.crossing, proj.wide, keys)
     if method != "alpha":  # repairs may have cut a sliver holding a point
         plain = ~proj.crossing[pcodes]
@@ -683,3 +696,34 @@ def _names(keys, mask: np.ndarray, limit: int = 10) -> str:
     rows = keys[mask].head(limit).itertuples(index=False)
     names = [", ".join(map(str, r)) or "all points" for r in rows]
     return "; ".join(names) + (", ..." if mask.sum() > limit else "")
+
+
+def _grow(geometry, area, shaped, proj, pcodes, distance):
+    """Buffer the hulls of ``shaped`` groups by ``distance`` in the metric CRS."""
+    if not (isinstance(distance, int | float) and np.isfinite(distance)) or (
+        distance < 0
+    ):
+        raise InvalidInputError(
+            f"grow must be a distance >= 0 (metres); got {distance!r}"
+        )
+    sel = np.flatnonzero(shaped & ~shapely.is_empty(geometry))
+    if not sel.size:
+        return geometry, area
+    # Hull vertices are input points: look their metric coordinates up.
+    coords, which = shapely.get_coordinates(geometry[sel], return_index=True)
+    keys = pd.MultiIndex.from_arrays([pcodes, proj.out[:, 0], proj.out[:, 1]])
+    first = ~keys.duplicated()
+    loc = keys[first].get_indexer(
+        pd.MultiIndex.from_arrays([sel[which], coords[:, 0], coords[:, 1]])
+    )
+    exact = np.ones(sel.size, dtype=bool)
+    exact[which[loc < 0]] = False  # a repaired vertex: not an input point
+    metric = shapely.set_coordinates(
+        geometry[sel].copy(), proj.xy[np.flatnonzero(first)[np.maximum(loc, 0)]]
+    )
+    grown = shapely.buffer(metric[exact], distance, quad_segs=4)
+    geometry = geometry.copy()
+    area = np.asarray(area, dtype=float).copy()
+    area[sel[exact]] = shapely.area(grown)
+    geometry[sel[exact]] = proj.to_output(grown, sel[exact])
+    return geometry, area

@@ -129,8 +129,8 @@ def test_options_are_passed_to_hull(fake_hull, points_csv, tmp_path):
         "hull", points_csv, tmp_path / "h.gpkg", "--by", f"Accident_Index,{GROUP}",
         "--alpha", "0.5", "--holes", "--components", "2", "--method", "concave",
         "--search", "ladder", "--ratio", "0.5", "--k", "7", "--crs", "EPSG:27700",
-        "--degenerate", "drop", "--buffer", "2.5", "--vertices", "--no-dropna",
-        "--no-sort", "-j", "2", "--no-progress",
+        "--degenerate", "drop", "--buffer", "2.5", "--grow", "0.5", "--vertices",
+        "--no-dropna", "--no-sort", "-j", "2", "--no-progress",
     )  # fmt: skip
     assert result.exit_code == 0, result.stderr
     assert fake_hull == [
@@ -146,6 +146,7 @@ def test_options_are_passed_to_hull(fake_hull, points_csv, tmp_path):
             "k": 7,
             "degenerate": "drop",
             "buffer": 2.5,
+            "grow": 0.5,
             "vertices": True,
             "dropna": False,
             "sort": False,
@@ -171,6 +172,7 @@ def test_defaults_passed_to_hull(fake_hull, points_csv, tmp_path):
             "k": 3,
             "degenerate": "buffer",
             "buffer": 1.0,
+            "grow": 0.0,
             "vertices": False,
             "dropna": True,
             "sort": True,

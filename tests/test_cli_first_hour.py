@@ -348,3 +348,46 @@ def test_by_with_nearly_one_group_per_row_warns(lonlat_csv, tmp_path):
         "Warning: --by Latitude makes 47 groups of 55 rows; groups of 1-2 points "
         "have no alpha shape, so is this the right column?"
     ) in result.stderr.splitlines()
+
+
+# --------------------------------------------------------------------------
+# 2. points on the boundary: --grow puts every point strictly inside
+
+
+def test_grow_puts_every_point_strictly_inside(tmp_path):
+    exact, grown = tmp_path / "exact.gpkg", tmp_path / "grown.gpkg"
+    assert run("-q", "demo", exact).exit_code == 0
+    result = run("-q", "hull", exact, grown, "--layer", "points", "--by", "state")
+    assert result.exit_code == 0, result.stderr
+    result = run(
+        "-q", "hull", exact, tmp_path / "g.gpkg", "--layer", "points", "--by", "state",
+        "--grow", "1",
+    )  # fmt: skip
+    assert result.exit_code == 0, result.stderr
+    points = gpd.read_file(exact, layer="points").dropna(subset=["state"])
+    before = gpd.read_file(grown)
+    after = gpd.read_file(tmp_path / "g.gpkg")
+
+    def strictly_inside(hulls):
+        pairs = points.merge(
+            hulls[["state", "geometry"]].rename(columns={"geometry": "hull"}),
+            on="state",
+        )
+        return shapely.contains_properly(
+            np.asarray(pairs["hull"]), np.asarray(pairs.geometry.array)
+        )
+
+    assert 0.5 < strictly_inside(before).mean() < 0.6  # vertices, edges: boundary
+    assert strictly_inside(after).all()
+    assert after["alpha"].equals(before["alpha"])  # the optimum is unchanged
+    growth = (after["area_m2"] - before["area_m2"]) / before["area_m2"]
+    shaped = before["alpha"].notna()
+    assert (growth[shaped] > 0).all()
+    assert growth[shaped].median() < 1e-4  # 1 m around states
+    assert (growth[~shaped] == 0).all()  # degenerate buffers are not grown
+
+
+def test_grow_must_be_a_distance():
+    points = datasets.load("stats19").iloc[:30]
+    with pytest.raises(InvalidInputError, match="grow must be a distance >= 0"):
+        geoalpha.hull(points, grow=-1.0)

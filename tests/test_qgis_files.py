@@ -110,3 +110,61 @@ def test_qgis_check_sees_the_version_warning_of_gdal_default(tmp_path):
     layers, messages = open_in_qgis(path)
     assert layers["h"]["valid"]
     assert "may only be partially supported" in messages
+
+
+# Count points with QGIS's own processing algorithms.
+COUNT_IN_QGIS = """
+import json, os, sys
+from qgis.core import QgsApplication
+app = QgsApplication([], False)
+app.initQgis()
+sys.path.append("/usr/share/qgis/python/plugins")
+import processing
+from processing.core.Processing import Processing
+Processing.initialize()
+path, hulls = sys.argv[1], sys.argv[2]
+polygons, points = f"{path}|layername={hulls}", f"{path}|layername=points"
+counted = processing.run(
+    "native:countpointsinpolygon",
+    {"POLYGONS": polygons, "POINTS": points, "FIELD": "N", "OUTPUT": "memory:"},
+)["OUTPUT"]
+out = {"count": int(sum(f["N"] for f in counted.getFeatures()))}
+for code, name in [(0, "intersect"), (5, "within")]:
+    joined = processing.run(
+        "native:joinattributesbylocation",
+        {"INPUT": points, "JOIN": polygons, "PREDICATE": [code], "METHOD": 1,
+         "DISCARD_NONMATCHING": True, "OUTPUT": "memory:"},
+    )["OUTPUT"]
+    out[name] = joined.featureCount()
+print(json.dumps(out), flush=True)
+os._exit(0)
+"""
+
+
+def count_in_qgis(path: Path, layer: str) -> dict:
+    env = {k: v for k, v in os.environ.items() if not k.startswith("PYTHON")}
+    env["QT_QPA_PLATFORM"] = "offscreen"
+    env["HOME"] = str(path.parent)
+    done = subprocess.run(
+        [SYSTEM_PYTHON, "-c", COUNT_IN_QGIS, str(path), layer],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=300,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def test_qgis_counts_boundary_points_only_with_grow(tmp_path):
+    # The README's QGIS section quotes these numbers.
+    exact = tmp_path / "exact.gpkg"
+    assert run("-q", "demo", exact).exit_code == 0
+    counts = count_in_qgis(exact, "exact")
+    assert counts == {"count": 1970, "intersect": 3370, "within": 1968}
+    grown = tmp_path / "grown.gpkg"
+    assert run("-q", "demo", grown, "--grow", "1").exit_code == 0
+    counts = count_in_qgis(grown, "grown")
+    assert counts["count"] >= 3364  # every grouped airport, strictly inside
+    assert counts["within"] == counts["intersect"] == 3370
