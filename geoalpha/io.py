@@ -752,7 +752,7 @@ def _make_staging(target: Path) -> Path:
 
 
 def _pid_alive(pid: int) -> bool:
-    if pid == os.getpid():
+    if pid == os.getpid() or os.name == "nt":  # Windows: os.kill would end it
         return True
     try:
         os.kill(pid, 0)

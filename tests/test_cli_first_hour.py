@@ -391,3 +391,23 @@ def test_grow_must_be_a_distance():
     points = datasets.load("stats19").iloc[:30]
     with pytest.raises(InvalidInputError, match="grow must be a distance >= 0"):
         geoalpha.hull(points, grow=-1.0)
+
+
+# --------------------------------------------------------------------------
+# 8. islands: --components splits the bridges (the README's picture)
+
+
+def test_components_split_hawaii_as_the_readme_shows(tmp_path):
+    airports = datasets.load("us_airports")
+    path = tmp_path / "hi.csv"
+    airports[airports["state"] == "HI"].drop(columns="geometry").to_csv(path)
+    areas = {}
+    for n in (1, 4):
+        out = tmp_path / f"hi{n}.gpkg"
+        result = run("-q", "hull", path, out, "--by", "state", "--components", n)
+        assert result.exit_code == 0, result.stderr
+        row = gpd.read_file(out).iloc[0]
+        assert row["n_parts"] == n
+        areas[n] = row["area_m2"] / 1e6
+    assert round(areas[1]) == 18667
+    assert round(areas[4]) == 9487  # half the area: no sea between the pieces
