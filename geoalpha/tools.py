@@ -721,6 +721,13 @@ def _grow(geometry, area, shaped, proj, pcodes, distance):
     metric = shapely.set_coordinates(
         geometry[sel].copy(), proj.xy[np.flatnonzero(first)[np.maximum(loc, 0)]]
     )
+    if not exact.all():  # pragma: no cover - hull vertices are input points
+        warnings.warn(
+            f"{(~exact).sum()} hull(s) were not grown: a vertex is not an input "
+            "point (repaired geometry)",
+            GeoAlphaWarning,
+            stacklevel=user_stacklevel(),
+        )
     grown = shapely.buffer(metric[exact], distance, quad_segs=4)
     geometry = geometry.copy()
     area = np.asarray(area, dtype=float).copy()
