@@ -178,7 +178,7 @@ def main(ctx: click.Context, verbose: int, quiet: int) -> None:
     that QGIS, ArcGIS or geopandas opens.
 
     \b
-    Try it on bundled real data (UK road accident clusters):
+    Try it on bundled real data (US airports by state):
         geoalpha demo hulls.gpkg
     then on your own points:
         geoalpha hull accidents.csv hulls.gpkg --by Local_Authority
@@ -697,13 +697,16 @@ def hull(
 
     INPUT is a GeoPackage, Shapefile, GeoJSON, FlatGeobuf, GeoParquet or
     any other vector file GDAL reads, or a CSV file with coordinate columns
-    (found by name, or named with --x/--y; lon/lat in EPSG:4326 unless
-    --crs-in says otherwise).
+    (found by name, or named with --x/--y). The CRS is never guessed: a file
+    keeps its own, columns named as longitude/latitude are EPSG:4326, and
+    anything else needs --crs-in (a CRS, or none for planar numbers).
 
     OUTPUT's extension chooses its format: .gpkg, .shp, .geojson, .fgb or
     .parquet. It holds one row per group: the --by columns, alpha (1/metre),
     radius (metres), n_points, area_m2, crs_used, method, and the polygon, in
-    INPUT's CRS. Shapefile field names are cut to 10 characters.
+    INPUT's CRS (with planar input, area and unit instead of area_m2).
+    Shapefile field names are cut to 10 characters; GeoPackages are version
+    1.2. A short summary of what was read and computed follows the run.
 
     \b
     Examples:
