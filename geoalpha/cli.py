@@ -67,8 +67,20 @@ def _in_cli_terms(text: str) -> str:
     return text
 
 
-class _RedactingFormatter(logging.Formatter):
-    """Log records without credentials."""
+class _RedactingHandler(logging.StreamHandler):
+    """Log records to the current stderr, without credentials."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.setFormatter(logging.Formatter("%(levelname)s:%(name)s:%(message)s"))
+
+    @property  # type: ignore[override]
+    def stream(self):
+        return sys.stderr  # not the one of the first run (tests swap it)
+
+    @stream.setter
+    def stream(self, value) -> None:
+        pass
 
     def format(self, record: logging.LogRecord) -> str:
         return redact(super().format(record))
@@ -76,11 +88,8 @@ class _RedactingFormatter(logging.Formatter):
 
 def _configure_logging(verbosity: int) -> None:
     root = logging.getLogger()
-    if not any(getattr(h, "_geoalpha", False) for h in root.handlers):
-        handler = logging.StreamHandler(sys.stderr)
-        handler.setFormatter(_RedactingFormatter("%(levelname)s:%(name)s:%(message)s"))
-        handler._geoalpha = True  # type: ignore[attr-defined]
-        root.addHandler(handler)
+    if not any(isinstance(h, _RedactingHandler) for h in root.handlers):
+        root.addHandler(_RedactingHandler())
     root.setLevel(max(10, 30 - 10 * verbosity))
 
 

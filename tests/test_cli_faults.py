@@ -396,3 +396,20 @@ def test_write_error_never_names_the_staging_folder(tmp_path, monkeypatch):
         "on device"
     )
     assert list(tmp_path.iterdir()) == []
+
+
+def test_log_records_are_redacted(tmp_path, monkeypatch):
+    import logging
+
+    def read(*args, **kwargs):
+        logging.getLogger("pyogrio").warning("opening %s", args[0])
+        raise OSError("cannot open it")
+
+    monkeypatch.setattr("geoalpha.io._read_points", read)
+    for _ in range(2):  # the second run logs to its own stderr too
+        result = run("hull", f"PG:dbname=gis password={SECRET}", tmp_path / "h.gpkg")
+        assert result.exit_code == 1
+        assert result.stderr.splitlines() == [
+            "WARNING:pyogrio:opening PG:dbname=gis password=***",
+            "Error: cannot open it",
+        ]
