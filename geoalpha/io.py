@@ -253,7 +253,7 @@ def _read_points(path, *, x, y, crs, layer, planar_if_missing: bool = False):
     if auto:
         if planar_if_missing:
             return gdf
-        raise _missing_crs(shown)
+        raise _missing_crs(f"the points of {shown}")
     if crs is not None:
         import shapely
 

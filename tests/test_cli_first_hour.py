@@ -70,7 +70,8 @@ def test_input_without_crs_is_an_error_naming_crs_in_none(planar_gpkg, tmp_path)
     result = run("hull", planar_gpkg, tmp_path / "h.gpkg", "--by", GROUP)
     assert result.exit_code == 1
     assert result.stderr == (
-        f"Error: {planar_gpkg} have no CRS, and geoalpha does not guess: give it "
+        f"Error: the points of {planar_gpkg} have no CRS, and geoalpha does not "
+        "guess: give it "
         "with --crs-in, e.g. --crs-in EPSG:4326 for longitude/latitude degrees or "
         "--crs-in EPSG:27700 for British National Grid metres, or --crs-in none to "
         "use the coordinates as planar numbers without a CRS (then alpha, radius "
