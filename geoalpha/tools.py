@@ -556,6 +556,8 @@ def hull(
                 method, proj, pcodes, n_groups, holes=holes, ratio=ratio, k=k, bar=bar
             )
             alphas = np.full(n_groups, np.nan)
+        if bar is not None:  # groups of 1-2 points are done too: a full bar
+            bar.update(max(0, n_groups - bar.n))
     finally:
         if bar is not None:
             bar.close()

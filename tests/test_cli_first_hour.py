@@ -412,3 +412,14 @@ def test_components_split_hawaii_as_the_readme_shows(tmp_path):
         areas[n] = row["area_m2"] / 1e6
     assert round(areas[1]) == 18667
     assert round(areas[4]) == 9487  # half the area: no sea between the pieces
+
+
+def test_progress_bar_ends_full_with_many_small_groups(lonlat_csv, tmp_path):
+    pytest.importorskip("tqdm")  # the progress extra; CI installs it
+    # 47 groups, most of 1-2 points that are never triangulated: the bar
+    # still reaches 47/47 instead of stopping at the triangulated share.
+    result = run(
+        "hull", lonlat_csv, tmp_path / "h.gpkg", "--by", "Latitude", "--progress"
+    )
+    assert result.exit_code == 0, result.stderr
+    assert "47/47" in result.stderr
