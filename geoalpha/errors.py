@@ -11,10 +11,12 @@ import sys
 
 __all__ = [
     "AntimeridianWarning",
+    "CRSWarning",
     "DegenerateGroupWarning",
     "DroppedRowsWarning",
     "GeoAlphaError",
     "GeoAlphaWarning",
+    "GroupingWarning",
     "InvalidInputError",
     "OutlierWarning",
     "SearchWarning",
@@ -47,6 +49,14 @@ class AntimeridianWarning(GeoAlphaWarning):
 
 class OutlierWarning(GeoAlphaWarning):
     """Points were left out of their group's hull (``outliers=``)."""
+
+
+class CRSWarning(GeoAlphaWarning):
+    """A CRS given for the points or the computation looks wrong or distorts areas."""
+
+
+class GroupingWarning(GeoAlphaWarning):
+    """The groups look wrong: nearly as many groups as rows (a wrong ``by``?)."""
 
 
 class SearchWarning(GeoAlphaWarning):

@@ -204,7 +204,8 @@ class _Projection:
             sel = self.crs_index[groups] == k
             if not sel.any() or target == self.src:
                 continue
-            back = pyproj.Transformer.from_crs(target, self.src, always_xy=True)
+            # cached, and a fast pipeline for the local LAEA CRSs
+            back = gcrs._transformer(gcrs._crs_key(target), self.src.srs)
 
             def move(c, back=back):
                 return np.column_stack(back.transform(c[:, 0], c[:, 1]))
@@ -309,6 +310,7 @@ def hull(
     progress: bool | None = None,
     n_jobs: int = 1,
     outliers: float = 0,
+    grow: float = 0.0,
 ):
     """Tightest single polygon around each group of points.
 
@@ -396,6 +398,15 @@ def hull(
         ``components`` pieces cover at least ``n - k`` distinct points; only
         those pieces are kept. :func:`outlier_rows` tells which input rows
         were left out.
+    grow : float, default 0.0
+        Grow every hull (not the degenerate buffers) by this distance in
+        metres (coordinate units with ``crs=None``), with rounded corners, so
+        that every point is strictly inside: predicates such as ``within``,
+        ``contains`` or QGIS "Count points in polygon" then count the points
+        on the hull's boundary too. ``alpha`` and ``radius`` stay those of the
+        optimal shape; ``area_m2`` is the area of the grown polygon; polygon
+        vertices are then no longer input points. 0 (the default) keeps the
+        exact shape.
 
     Returns
     -------
@@ -476,6 +487,7 @@ def hull(
             progress=progress,
             n_jobs=n_jobs,
             outliers=outliers,
+            **({"grow": grow} if grow else {}),
         )
     frame = _as_frame(gdf)
     _check_choice("method", method, METHODS)
@@ -569,6 +581,8 @@ def hull(
                 method, proj, pcodes, n_groups, holes=holes, ratio=ratio, k=k, bar=bar
             )
             alphas = np.full(n_groups, np.nan)
+        if bar is not None:  # groups of 1-2 points are done too: a full bar
+            bar.update(max(0, n_groups - bar.n))
     finally:
         if bar is not None:
             bar.close()
@@ -587,6 +601,8 @@ def hull(
             buffer,
         )
 
+    if grow:
+        geometry, area = _grow(geometry, area, ~is_degenerate, proj, pcodes, grow)
     geometry = _finish(geometry, proj.crossing, proj.wide, keys)
     if method != "alpha":  # repairs may have cut a sliver holding a point
         plain = ~proj.crossing[pcodes]
@@ -789,3 +805,41 @@ def _names(keys, mask: np.ndarray, limit: int = 10) -> str:
     rows = keys[mask].head(limit).itertuples(index=False)
     names = [", ".join(map(str, r)) or "all points" for r in rows]
     return "; ".join(names) + (", ..." if mask.sum() > limit else "")
+
+
+def _grow(geometry, area, shaped, proj, pcodes, distance):
+    """Buffer the hulls of ``shaped`` groups by ``distance`` in the metric CRS."""
+    if not (isinstance(distance, int | float) and np.isfinite(distance)) or (
+        distance < 0
+    ):
+        raise InvalidInputError(
+            f"grow must be a distance >= 0 (metres); got {distance!r}"
+        )
+    sel = np.flatnonzero(shaped & ~shapely.is_empty(geometry))
+    if not sel.size:
+        return geometry, area
+    # Hull vertices are input points: look their metric coordinates up.
+    coords, which = shapely.get_coordinates(geometry[sel], return_index=True)
+    keys = pd.MultiIndex.from_arrays([pcodes, proj.out[:, 0], proj.out[:, 1]])
+    first = ~keys.duplicated()
+    loc = keys[first].get_indexer(
+        pd.MultiIndex.from_arrays([sel[which], coords[:, 0], coords[:, 1]])
+    )
+    exact = np.ones(sel.size, dtype=bool)
+    exact[which[loc < 0]] = False  # a repaired vertex: not an input point
+    metric = shapely.set_coordinates(
+        geometry[sel].copy(), proj.xy[np.flatnonzero(first)[np.maximum(loc, 0)]]
+    )
+    if not exact.all():  # pragma: no cover - hull vertices are input points
+        warnings.warn(
+            f"{(~exact).sum()} hull(s) were not grown: a vertex is not an input "
+            "point (repaired geometry)",
+            GeoAlphaWarning,
+            stacklevel=user_stacklevel(),
+        )
+    grown = shapely.buffer(metric[exact], distance, quad_segs=4)
+    geometry = geometry.copy()
+    area = np.asarray(area, dtype=float).copy()
+    area[sel[exact]] = shapely.area(grown)
+    geometry[sel[exact]] = proj.to_output(grown, sel[exact])
+    return geometry, area
