@@ -349,3 +349,46 @@ def test_model_runs_the_algorithm_like_hull(pyqgis, points, qgis, installed):
 
 def test_bad_parameter_is_refused(pyqgis):
     assert "Incorrect parameter value for COMPONENTS" in pyqgis["bad"]
+
+
+@pytest.mark.parametrize(
+    ("run", "options"),
+    [
+        ("holes", {"holes": True, "components": 3, "degenerate": "empty"}),
+        ("concave", {"method": "concave", "degenerate": "drop"}),
+    ],
+)
+def test_pyqgis_options_reach_hull(pyqgis, points, run, options):
+    want = expected(points, "state", **options)
+    features = pyqgis[run]["features"]
+    assert [f["attributes"]["state"] for f in features] == want["state"].tolist()
+    for feature, geometry in zip(features, want.geometry, strict=True):
+        if geometry.is_empty:  # degenerate="empty": GeoPackage stores it empty
+            assert shapely.from_wkb(bytes.fromhex(feature["wkb"])).is_empty
+        else:
+            got = shapely.from_wkb(bytes.fromhex(feature["wkb"]))
+            assert same_geometries(got, geometry)
+    methods = [f["attributes"]["method"] for f in features]
+    assert methods == want["method"].tolist()
+    if run == "concave":
+        assert "DC" not in want["state"].tolist()
+    else:
+        assert max(f["attributes"]["n_parts"] for f in features) > 1
+
+
+def test_installer_keeps_qgis_packages_and_matches_geos(monkeypatch):
+    sys.path.insert(0, str(PLUGIN_DIR / "geoalpha_qgis"))
+    try:
+        import install_geoalpha as installer
+    finally:
+        sys.path.pop(0)
+    pins = installer.constraints()
+    assert f"numpy=={np.__version__}" in pins
+    assert all(line.split("==")[0] in installer.PINNED for line in pins)
+    monkeypatch.setattr(sys, "platform", "linux")
+    assert installer.shapely_pin((3, 11)) == (["shapely>=2.0,<2.1"], [])
+    assert installer.shapely_pin((3, 13)) == ([], [])
+    assert installer.shapely_pin((3, 12)) == ([], ["--no-binary", "shapely"])
+    assert installer.shapely_pin(None) == ([], [])
+    monkeypatch.setattr(sys, "platform", "win32")  # DLLs keep their own GEOS
+    assert installer.shapely_pin((3, 11)) == ([], [])

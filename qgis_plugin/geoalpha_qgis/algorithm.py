@@ -43,23 +43,30 @@ RESULT_FIELDS = (
 )
 _CHUNK = 1000  # features between progress reports and cancellation checks
 
-HELP = """<p>One polygon per group of points: the optimal alpha shape, the
-tightest single polygon that contains every point of the group, with alpha
-chosen exactly for each group (the <a href="https://github.com/geoalpha/geoalpha">
-geoalpha</a> library).</p>
-<p><b>Input layer</b>: points (multipoints count as their points); lines and
-polygons with <i>Use the vertices of lines and polygons</i>. Lon/lat layers are
-projected to a metric CRS for the computation; the hulls come back in the
-layer's CRS and their vertices are input points.</p>
-<p><b>Group by</b>: one hull per distinct value (several fields: per
-combination); none: one hull of all points. Features with an empty group value
-or no geometry are left out (a warning gives the count).</p>
-<p><b>Output fields</b>: the group fields, <i>alpha</i> (1/metre; empty for
-groups without an alpha shape and for concave/knn), <i>radius</i> (1/alpha,
-metres), <i>n_points</i>, <i>n_parts</i>, <i>area_m2</i>, <i>crs_used</i> (the
-metric CRS of the computation), <i>method</i>.</p>
-<p>Groups of 1-2 distinct points or with all points on a line have no alpha
-shape: see <i>Groups without an alpha shape</i>; the log names them.</p>"""
+HELP = " ".join(
+    [
+        "<p>One polygon per group of points: the optimal alpha shape, the tightest",
+        "single polygon that contains every point of the group, with alpha chosen",
+        "exactly for each group by the geoalpha library.</p>",
+        "<p><b>Input layer</b>: points (multipoints count as their points); lines",
+        "and polygons with <i>Use the vertices of lines and polygons</i>. Lon/lat",
+        "layers are projected to a metric CRS for the computation; the hulls come",
+        "back in the layer's CRS and their vertices are input points.</p>",
+        "<p><b>Group by</b>: one hull per distinct value (several fields: per",
+        "combination); none: one hull of all points. Features with an empty group",
+        "value or no geometry are left out (the log gives the count).</p>",
+        "<p><b>Method</b>: <i>alpha</i> the optimal alpha shape; <i>convex</i> the",
+        "convex hull; <i>concave</i> GEOS concave hull (ratio 0.3); <i>knn</i>",
+        "k-nearest-neighbour hull (from k=3).</p>",
+        "<p><b>Groups without an alpha shape</b> (1-2 distinct points, or all on a",
+        "line): <i>buffer</i> a 1 m buffer around the points, <i>empty</i> a null",
+        "geometry, <i>drop</i> no feature. The log names these groups.</p>",
+        "<p><b>Output fields</b>: the group fields, <i>alpha</i> (1/metre; empty",
+        "for groups without an alpha shape and for concave/knn), <i>radius</i>",
+        "(1/alpha, metres), <i>n_points</i>, <i>n_parts</i>, <i>area_m2</i>,",
+        "<i>crs_used</i> (the metric CRS of the computation), <i>method</i>.</p>",
+    ]
+)
 
 
 def _python_value(value):
@@ -162,11 +169,7 @@ class OptimalAlphaHulls(QgsProcessingAlgorithm):
         )
         self.addParameter(
             self._static(
-                QgsProcessingParameterEnum(
-                    self.METHOD,
-                    "Method (alpha: the optimal alpha shape; convex; concave: GEOS "
-                    "ratio 0.3; knn: k-nearest neighbours from k=3)",
-                ),
+                QgsProcessingParameterEnum(self.METHOD, "Method"),
                 METHODS,
             )
         )
@@ -177,8 +180,7 @@ class OptimalAlphaHulls(QgsProcessingAlgorithm):
             self._static(
                 QgsProcessingParameterEnum(
                     self.DEGENERATE,
-                    "Groups without an alpha shape (1-2 points, or on a line): "
-                    "buffer 1 m, empty geometry, or drop",
+                    "Groups without an alpha shape (1-2 points, or on a line)",
                 ),
                 DEGENERATE,
             )
@@ -191,7 +193,7 @@ class OptimalAlphaHulls(QgsProcessingAlgorithm):
 
     @staticmethod
     def _static(param, choices):
-        """Let the enum take its values by name (METHOD=convex) as well as index."""
+        """Make the enum take its values by name (METHOD=convex), as hull() does."""
         param.setOptions(list(choices))
         param.setUsesStaticStrings(True)
         param.setDefaultValue(choices[0])

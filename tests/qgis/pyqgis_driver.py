@@ -152,6 +152,22 @@ def main():
         "input_fields": layer_report(points)["fields"],
         "join": misses(points, out_dir / "by2.gpkg", keys),
     }
+    # Every option passed through.
+    for name, options in (
+        ("holes", {"HOLES": True, "COMPONENTS": 3, "DEGENERATE": "empty"}),
+        ("concave", {"METHOD": "concave", "DEGENERATE": "drop"}),
+    ):
+        target = out_dir / f"{name}.gpkg"
+        processing.run(
+            ALG,
+            {
+                "INPUT": str(points),
+                "FIELD": ["state"],
+                "OUTPUT": str(target),
+                **options,
+            },
+        )
+        report[name] = layer_report(target)
     # A memory layer output (the toolbox's default "temporary layer").
     memory = processing.run(ALG, {"INPUT": str(points), "OUTPUT": "memory:"})
     layer = memory["OUTPUT"]
