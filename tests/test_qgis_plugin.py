@@ -392,3 +392,15 @@ def test_installer_keeps_qgis_packages_and_matches_geos(monkeypatch):
     assert installer.shapely_pin(None) == ([], [])
     monkeypatch.setattr(sys, "platform", "win32")  # DLLs keep their own GEOS
     assert installer.shapely_pin((3, 11)) == ([], [])
+
+
+def test_batch_dialog_runs_one_output_per_row(pyqgis, points):
+    batch = pyqgis["batch"]
+    for field, method in (("state", "alpha"), ("region", "convex")):
+        want = expected(points, field, method=method)
+        features = batch[field]["features"]
+        assert [f["attributes"][field] for f in features] == want[field].tolist()
+        assert {f["attributes"]["method"] for f in features} == {method}
+        for feature, geometry in zip(features, want.geometry, strict=True):
+            got = shapely.from_wkb(bytes.fromhex(feature["wkb"]))
+            assert same_geometries(got, geometry)

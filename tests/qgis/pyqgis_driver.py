@@ -1,4 +1,4 @@
-"""Run the geoalpha Processing algorithm under real QGIS (PyQGIS, no display).
+"""Run the geoalpha Processing algorithm under real QGIS (PyQGIS, offscreen).
 
 Run by QGIS's own Python (``/usr/bin/python3`` on Debian), not the project's:
 ``python3 pyqgis_driver.py POINTS.gpkg OUT_DIR`` prints one JSON object with
@@ -133,6 +133,31 @@ def model(points, out):
     return {"output": str(result["hulls:hulls_out"]), "file": str(model_file)}
 
 
+def batch(points, out_dir):
+    """Two rows in the Processing batch dialog (as the user fills it), run."""
+    from processing.gui.BatchAlgorithmDialog import BatchAlgorithmDialog
+    from processing.tools import dataobjects
+
+    algorithm = QgsApplication.processingRegistry().createAlgorithmById(ALG)
+    dialog = BatchAlgorithmDialog(algorithm)
+    panel = dialog.mainWidget()
+    context = dataobjects.createContext()
+    while panel.batchRowCount() < 2:
+        panel.addRow()
+    rows = [("state", "alpha"), ("region", "convex")]
+    for row, (field, method) in enumerate(rows):
+        values = {"INPUT": str(points), "FIELD": [field], "METHOD": method}
+        for name, value in values.items():
+            column = panel.parameter_to_column[name]
+            panel.wrappers[row][column].setParameterValue(value, context)
+        column = panel.parameter_to_column["OUTPUT"]
+        panel.tblParameters.cellWidget(row + 1, column).setValue(
+            str(out_dir / f"batch_{field}.gpkg")
+        )
+    dialog.runAlgorithm()
+    return {field: layer_report(out_dir / f"batch_{field}.gpkg") for field, _ in rows}
+
+
 def main():
     points, out_dir = Path(sys.argv[1]), Path(sys.argv[2])
     report = {}
@@ -190,6 +215,7 @@ def main():
     report["cancel"]["progress"] = feedback.progress
     report["model"] = model(points, out_dir / "model.gpkg")
     report["model"]["layer"] = layer_report(out_dir / "model.gpkg")
+    report["batch"] = batch(points, out_dir)
     # Bad input: an error in the log, not a traceback.
     try:
         processing.run(
@@ -209,7 +235,7 @@ def main():
 
 if __name__ == "__main__":
     os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
-    app = QgsApplication([], False)
+    app = QgsApplication([], True)  # widgets for the batch dialog
     app.initQgis()
     sys.path.insert(0, "/usr/share/qgis/python/plugins")
     import processing
@@ -224,8 +250,9 @@ if __name__ == "__main__":
 
     plugin = geoalpha_qgis.classFactory(None)
     plugin.initProcessing()
-    try:
-        main()
-    finally:
-        plugin.unload()
-        app.exitQgis()
+    main()
+    plugin.unload()
+    # exitQgis() of a GUI application can hang at exit (seen with a fresh
+    # QGIS_CUSTOM_CONFIG_PATH offscreen); the report is out, so leave now.
+    sys.stdout.flush()
+    os._exit(0)
