@@ -404,3 +404,17 @@ def test_batch_dialog_runs_one_output_per_row(pyqgis, points):
         for feature, geometry in zip(features, want.geometry, strict=True):
             got = shapely.from_wkb(bytes.fromhex(feature["wkb"]))
             assert same_geometries(got, geometry)
+
+
+def test_plugin_warns_when_shapely_needs_a_newer_geos_than_qgis():
+    sys.path.insert(0, str(PLUGIN_DIR))
+    try:
+        from geoalpha_qgis import dependencies
+    finally:
+        sys.path.pop(0)
+    message = dependencies.geos_mismatch((3, 13, 1), "3.11.1-CAPI-1.17.1", "linux")
+    assert message.startswith("shapely was built for GEOS 3.13, but QGIS runs GEOS")
+    assert "install_geoalpha.py" in message
+    assert dependencies.geos_mismatch((3, 11, 4), "3.11.1-CAPI-1.17.1", "linux") is None
+    assert dependencies.geos_mismatch((3, 13, 1), "3.14.0-CAPI-1.20.0", "linux") is None
+    assert dependencies.geos_mismatch((3, 13, 1), "3.11.1", "darwin") is None

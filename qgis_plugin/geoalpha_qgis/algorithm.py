@@ -7,6 +7,7 @@ import time
 import warnings
 
 from qgis.core import (
+    Qgis,
     QgsFeature,
     QgsFeatureRequest,
     QgsFeatureSink,
@@ -281,6 +282,9 @@ class OptimalAlphaHulls(QgsProcessingAlgorithm):
         # 2. The hulls, in one call: 40-90 %.
         feedback.setProgress(40)
         read = time.perf_counter()
+        mismatch = dependencies.geos_mismatch(shapely.geos_version, Qgis.geosVersion())
+        if mismatch:
+            feedback.pushWarning(mismatch)
         feedback.pushInfo(
             f"geoalpha {geoalpha.__version__} (numpy {np.__version__}, shapely "
             f"{shapely.__version__}, GEOS {shapely.geos_version_string}): hulls of "

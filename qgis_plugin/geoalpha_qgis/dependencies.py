@@ -79,6 +79,36 @@ def install_message(error: BaseException | None = None) -> str:
     return "\n".join(lines)
 
 
+def geos_mismatch(
+    shapely_geos: tuple[int, ...], qgis_geos: str, platform: str = sys.platform
+) -> str | None:
+    """Say why shapely's GEOS may misbehave inside QGIS, or return None.
+
+    On Linux, the GEOS functions a shapely wheel calls resolve to the GEOS
+    QGIS has loaded; a shapely built for a newer GEOS than QGIS's then calls
+    functions that are missing or behave differently there.
+
+    Examples
+    --------
+    >>> geos_mismatch((3, 13, 1), "3.11.1-CAPI-1.17.1", "linux")[:36]
+    'shapely was built for GEOS 3.13, but'
+    >>> geos_mismatch((3, 11, 4), "3.11.1-CAPI-1.17.1", "linux") is None
+    True
+    >>> geos_mismatch((3, 13, 1), "3.11.1-CAPI-1.17.1", "win32") is None
+    True
+    """
+    if not platform.startswith("linux"):
+        return None
+    qgis = tuple(int(part) for part in qgis_geos.split("-")[0].split(".")[:2])
+    if tuple(shapely_geos[:2]) <= qgis:
+        return None
+    return (
+        f"shapely was built for GEOS {shapely_geos[0]}.{shapely_geos[1]}, but "
+        f"QGIS runs GEOS {qgis[0]}.{qgis[1]}, whose functions shapely calls here; "
+        f"reinstall with {INSTALLER}, which picks a matching shapely"
+    )
+
+
 def load():
     """Import and return the geoalpha library, or raise :class:`MissingGeoalpha`."""
     add_env_to_path()
