@@ -385,6 +385,7 @@ def test_installer_keeps_qgis_packages_and_matches_geos(monkeypatch):
     pins = installer.constraints()
     assert f"numpy=={np.__version__}" in pins
     assert all(line.split("==")[0] in installer.PINNED for line in pins)
+    assert not [p for p in installer.constraints(("NumPy",)) if p.startswith("numpy")]
     monkeypatch.setattr(sys, "platform", "linux")
     assert installer.shapely_pin((3, 11)) == (["shapely>=2.0,<2.1"], [])
     assert installer.shapely_pin((3, 13)) == ([], [])

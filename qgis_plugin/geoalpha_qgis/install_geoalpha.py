@@ -50,10 +50,12 @@ PINNED = ("numpy", "scipy", "pandas", "pyproj", "fiona", "GDAL", "matplotlib")
 DEFAULT_ENV = Path.home() / ".geoalpha-qgis"
 
 
-def constraints() -> list[str]:
+def constraints(unpin: tuple[str, ...] = ()) -> list[str]:
     """Return ``name==version`` lines for the installed packages of ``PINNED``."""
     lines = []
     for name in PINNED:
+        if name.lower() in {u.lower() for u in unpin}:
+            continue
         try:
             lines.append(f"{name}=={metadata.version(name)}")
         except metadata.PackageNotFoundError:
@@ -105,6 +107,14 @@ def main(argv: list[str] | None = None) -> int:
         help=f"environment folder (default: $GEOALPHA_QGIS_ENV or {DEFAULT_ENV})",
     )
     parser.add_argument(
+        "--unpin",
+        action="append",
+        default=[],
+        metavar="NAME",
+        help="let pip install its own NAME (e.g. fiona when QGIS's is older than "
+        "geoalpha needs); the pip copy then shadows QGIS's inside QGIS",
+    )
+    parser.add_argument(
         "--dry-run", action="store_true", help="print the commands, run nothing"
     )
     args = parser.parse_args(argv)
@@ -117,7 +127,7 @@ def main(argv: list[str] | None = None) -> int:
             file=sys.stderr,
         )
         return 1
-    pins = constraints()
+    pins = constraints(tuple(args.unpin))
     print(f"QGIS's Python: {sys.executable} ({sys.version.split()[0]})")
     print("Kept as installed: " + ", ".join(pins))
     geos = qgis_geos()
@@ -138,8 +148,15 @@ def main(argv: list[str] | None = None) -> int:
         for command in ([] if python.exists() else [create]) + [install]:
             print("$ " + " ".join(command), flush=True)
             if not args.dry_run and subprocess.call(command) != 0:
-                print("Failed; nothing in QGIS was changed.", file=sys.stderr)
+                print(
+                    "Failed; nothing in QGIS was changed. If pip found the pinned "
+                    "versions too old for geoalpha, see --unpin.",
+                    file=sys.stderr,
+                )
                 return 1
+    if args.dry_run:
+        print("Dry run: nothing was installed.")
+        return 0
     print(
         f"Installed into {args.env}. Restart QGIS; the geoalpha plugin finds it "
         "there" + ("" if args.env == DEFAULT_ENV else " through GEOALPHA_QGIS_ENV")
