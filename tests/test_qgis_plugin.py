@@ -250,7 +250,9 @@ def test_qgis_process_lines_and_polygons_need_use_vertices(qgis, by_state):
     assert same_geometries(got.geometry[0], want.geometry[0])
 
 
-def test_qgis_process_says_how_to_install_when_geoalpha_is_missing(qgis, installed):
+def test_qgis_process_says_how_to_install_when_geoalpha_is_missing(
+    qgis, installed, points
+):
     env = dict(qgis.env, PYTHONPATH="", GEOALPHA_QGIS_ENV=str(qgis.tmp / "none"))
     done = run_process(
         qgis,
@@ -269,6 +271,23 @@ def test_qgis_process_says_how_to_install_when_geoalpha_is_missing(qgis, install
     assert "OSGeo4W Shell" in text
     assert "QGIS-LTR.app/Contents/MacOS/bin/python3" in text
     assert not (qgis.tmp / "n.gpkg").exists()
+    # The dialog asks canExecute() before it runs, and shows its message.
+    done = subprocess.run(
+        [
+            qgis.python,
+            "-c",
+            "import sys; sys.path.insert(0, sys.argv[1]); "
+            "from geoalpha_qgis.algorithm import OptimalAlphaHulls; "
+            "ok, message = OptimalAlphaHulls().canExecute(); print(ok); print(message)",
+            str(PLUGIN_DIR),
+        ],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=TIMEOUT,
+    )
+    assert done.stdout.startswith("False\nThe geoalpha Python library is not installed")
+    assert "OSGeo4W Shell" in done.stdout
 
 
 def test_pyqgis_fields_keep_the_input_types(pyqgis):
