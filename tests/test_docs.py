@@ -194,7 +194,7 @@ def test_front_page_and_readme_agree_on_set_up():
     ci = (ROOT / ".ci" / "run").read_text(encoding="utf-8")
     start = (DOCS / "getting_started.md").read_text(encoding="utf-8")
     for command in (
-        "pip install . && geoalpha demo uk_accident_hulls.gpkg",
+        "pip install . && geoalpha demo hulls.gpkg",
         'pip install ".[test]" && python -m pytest',
     ):
         assert command in readme and command in start
