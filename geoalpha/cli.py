@@ -23,6 +23,7 @@ import click
 from geoalpha import __version__
 from geoalpha.datasets import DATASETS
 from geoalpha.errors import GeoAlphaError, InvalidInputError
+from geoalpha.postgis import is_postgres_url, redact
 
 __all__ = ["main"]
 
@@ -63,13 +64,13 @@ def _reporting(verbosity: int) -> Iterator[None]:
         except (click.ClickException, click.exceptions.Exit, click.Abort):
             raise
         except Exception as err:
-            if verbosity > 0:
-                click.echo(traceback.format_exc().rstrip(), err=True)
+            if verbosity > 0:  # never a database password, not even here
+                click.echo(redact(traceback.format_exc().rstrip()), err=True)
             if isinstance(err, _EXPECTED):
-                message = _one_line(err) or type(err).__name__
+                message = redact(_one_line(err)) or type(err).__name__
             else:
                 message = (
-                    f"{type(err).__name__}: {_one_line(err)} "
+                    f"{type(err).__name__}: {redact(_one_line(err))} "
                     "(rerun as 'geoalpha -v ...' for the traceback)"
                 )
             raise click.ClickException(message) from err
@@ -157,8 +158,10 @@ def _run(
         return
     for old, new in mapping.items():
         click.echo(f"Shapefile field {old!r} written as {new!r}", err=True)
-    where = output
-    if output.lower().endswith(".gpkg"):
+    where = redact(output)
+    if is_postgres_url(output):
+        where += f" (table {layer})"
+    elif output.lower().endswith(".gpkg"):
         from pathlib import Path
 
         where += f" (layer {layer or Path(output).stem or 'hulls'!r})"
@@ -224,12 +227,26 @@ _progress_option = click.option(
 @click.option(
     "--layer",
     metavar="NAME",
-    help="Layer of INPUT to read (GeoPackage etc.) [default: the first].",
+    help="Layer of INPUT to read (GeoPackage etc.) [default: the first]; "
+    "the schema.table of a postgresql:// INPUT.",
+)
+@click.option(
+    "--sql",
+    metavar="QUERY",
+    help="For a postgresql:// INPUT: read the result of this SELECT "
+    "(read-only) instead of a --layer.",
+)
+@click.option(
+    "--geometry-column",
+    metavar="COLUMN",
+    help="For a postgresql:// INPUT: the geometry column, when there is more "
+    "than one [default: the only one].",
 )
 @click.option(
     "--output-layer",
     metavar="NAME",
-    help="Layer name in a GeoPackage OUTPUT [default: OUTPUT's file name].",
+    help="Layer name in a GeoPackage OUTPUT [default: OUTPUT's file name]; "
+    "the schema.table to create for a postgresql:// OUTPUT.",
 )
 @click.option(
     "--alpha",
@@ -345,6 +362,8 @@ def hull(
     y: str | None,
     crs_in: str,
     layer: str | None,
+    sql: str | None,
+    geometry_column: str | None,
     output_layer: str | None,
     alpha: float | None,
     holes: bool,
@@ -369,33 +388,57 @@ def hull(
     INPUT is a GeoPackage, Shapefile, GeoJSON, FlatGeobuf, GeoParquet or
     any other vector file GDAL reads, or a CSV file with coordinate columns
     (found by name, or named with --x/--y; lon/lat in EPSG:4326 unless
-    --crs-in says otherwise).
+    --crs-in says otherwise), or a PostGIS database,
+    postgresql://user@host:port/dbname, with --layer schema.table or
+    --sql "SELECT ..." (the password from PGPASSWORD or ~/.pgpass).
 
     OUTPUT's extension chooses its format: .gpkg, .shp, .geojson, .fgb or
-    .parquet. It holds one row per group: the --by columns, alpha (1/metre),
-    radius (metres), n_points, area_m2, crs_used, method, and the polygon, in
-    INPUT's CRS. Shapefile field names are cut to 10 characters.
+    .parquet; a postgresql:// URL with --output-layer schema.table writes a
+    PostGIS table (in one transaction; --overwrite replaces it). It holds
+    one row per group: the --by columns, alpha (1/metre), radius (metres),
+    n_points, area_m2, crs_used, method, and the polygon, in INPUT's CRS.
+    Shapefile field names are cut to 10 characters.
 
     \b
     Examples:
         geoalpha hull accidents.csv hulls.gpkg --by Local_Authority
         geoalpha hull trees.shp hulls.shp --by species --holes
         geoalpha hull pts.csv out.fgb --x E --y N --crs-in EPSG:27700 --by zone
+        geoalpha hull postgresql://ga@localhost/gis postgresql://ga@localhost/gis
+            --layer public.trees --by species --output-layer public.tree_hulls
     """  # noqa: D301
     from geoalpha.io import check_output, read_points
 
     verbosity = _verbosity()
+    source = redact(input_path)
     with _reporting(verbosity):
         check_output(output, layer=output_layer, overwrite=overwrite)
-        points = read_points(input_path, x=x, y=y, crs=_crs_option(crs_in), layer=layer)
+        if sql is not None or geometry_column is not None:
+            if not is_postgres_url(input_path):
+                raise InvalidInputError(
+                    "--sql and --geometry-column apply to a postgresql:// INPUT"
+                )
+            from geoalpha.postgis import read_postgis
+
+            points = read_postgis(
+                input_path,
+                table=layer,
+                sql=sql,
+                geometry_column=geometry_column,
+                crs=_crs_option(crs_in),
+            )
+        else:
+            points = read_points(
+                input_path, x=x, y=y, crs=_crs_option(crs_in), layer=layer
+            )
         work_crs = _crs_option(crs)
         if points.crs is None and work_crs == "auto":
             work_crs = None  # planar input: compute in its own units
-        columns = _group_columns(by, list(points.columns), input_path)
+        columns = _group_columns(by, list(points.columns), source)
         _run(
             points,
             output,
-            source=input_path,
+            source=source,
             by=columns,
             layer=output_layer,
             overwrite=overwrite,

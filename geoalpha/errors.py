@@ -11,6 +11,7 @@ import sys
 
 __all__ = [
     "AntimeridianWarning",
+    "DatabaseError",
     "DegenerateGroupWarning",
     "DroppedRowsWarning",
     "GeoAlphaError",
@@ -26,6 +27,10 @@ class GeoAlphaError(ValueError):
 
 class InvalidInputError(GeoAlphaError):
     """Input points, groups or options that geoalpha cannot use."""
+
+
+class DatabaseError(GeoAlphaError):
+    """A PostgreSQL database could not be reached, read or written."""
 
 
 class GeoAlphaWarning(UserWarning):

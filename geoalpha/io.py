@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from geoalpha.errors import InvalidInputError
+from geoalpha.postgis import gdal_connection_error, is_gdal_connection, is_postgres_url
 
 if TYPE_CHECKING:  # pragma: no cover
     import geopandas as gpd
@@ -85,7 +86,8 @@ def read_points(
         ...), a GeoParquet file, or a CSV table (``.csv``, ``.tsv``,
         ``.txt``; the delimiter is detected) whose rows are points given by two
         coordinate columns. A ``.parquet`` file without geometry metadata is
-        read as a table too.
+        read as a table too. A ``postgresql://`` URL reads the PostGIS table
+        ``layer`` (``schema.table``) with :func:`geoalpha.postgis.read_postgis`.
     x, y : str, optional
         Names of the coordinate columns of a table. When omitted, the first
         pair found among ``longitude/latitude``, ``lon/lat``, ``lng/lat``,
@@ -124,6 +126,14 @@ def read_points(
     import pyproj
 
     source = os.fspath(path)
+    if is_gdal_connection(source):
+        raise gdal_connection_error(source)
+    if is_postgres_url(source):  # layer: schema.table
+        from geoalpha.postgis import read_postgis
+
+        if x is not None or y is not None:
+            raise InvalidInputError("x= and y= (--x, --y) apply to tables (CSV) only")
+        return read_postgis(source, table=layer, crs=crs)
     local = "://" not in source and not source.startswith("/vsi")
     if local and not Path(source).exists():
         raise FileNotFoundError(f"input file {source} does not exist")
@@ -321,10 +331,13 @@ def write_hulls(
     path : str or os.PathLike
         Output file. Its extension chooses the format: ``.gpkg``
         (GeoPackage), ``.shp`` (Shapefile), ``.geojson`` or ``.json``
-        (GeoJSON), ``.fgb`` (FlatGeobuf), ``.parquet`` (GeoParquet).
+        (GeoJSON), ``.fgb`` (FlatGeobuf), ``.parquet`` (GeoParquet). A
+        ``postgresql://`` URL writes a PostGIS table instead, with
+        :func:`geoalpha.postgis.write_postgis`.
     layer : str, optional
         GeoPackage layer name; default the file name without extension
-        (``"hulls"`` if that is empty). Only for ``.gpkg``.
+        (``"hulls"`` if that is empty). Only for ``.gpkg``, and required
+        (``schema.table``) for a ``postgresql://`` URL.
     overwrite : bool, default False
         Replace ``path`` if it exists (for a GeoPackage: the whole file,
         other layers included; for a Shapefile: all its sidecar files).
@@ -377,6 +390,11 @@ def write_hulls(
         raise InvalidInputError(
             f"write_hulls() needs a GeoDataFrame; got {type(gdf).__name__}"
         )
+    if _database(path, engine):
+        from geoalpha.postgis import write_postgis
+
+        write_postgis(gdf, os.fspath(path), layer, overwrite=overwrite)
+        return {}
     if engine not in _ENGINES:
         raise InvalidInputError(
             f"unknown engine {engine!r}; expected 'pyogrio', 'fiona' or None"
@@ -453,7 +471,23 @@ def check_output(
     ...     print(err)  # doctest: +ELLIPSIS
     cannot tell the output format of hulls.csv: its extension must be one of .gpkg, ...
     """
+    if _database(path, None):
+        from geoalpha.postgis import check_postgis_output
+
+        check_postgis_output(os.fspath(path), layer, overwrite=overwrite)
+        return
     _check_target(path, layer, overwrite)
+
+
+def _database(path, engine) -> bool:
+    """Tell whether ``path`` names a PostGIS table (``postgresql://`` URL)."""
+    if is_gdal_connection(path):
+        raise gdal_connection_error(path)
+    if not is_postgres_url(path):
+        return False
+    if engine is not None:
+        raise InvalidInputError("engine= (--engine) applies to files, not PostGIS")
+    return True
 
 
 def _check_target(path, layer, overwrite) -> tuple[Path, str, list[Path]]:

@@ -393,7 +393,9 @@ def hull(
         ``radius`` (1/alpha, metres), ``n_points`` (input rows of the group),
         ``n_parts`` (polygons in the geometry), ``area_m2`` (area in the
         computation CRS), ``crs_used`` (the computation CRS), ``method``
-        and ``geometry`` (Polygon; MultiPolygon when ``components > 1``, when a
+        and the geometry, in a column named as the input's active geometry
+        column (``geom`` from ``read_postgis`` stays ``geom``; ``geometry``
+        for a GeoSeries) (Polygon; MultiPolygon when ``components > 1``, when a
         group is split at the antimeridian, or, for ``"concave"``/``"knn"``,
         when a hull built in metres touches itself in the input CRS and is
         repaired, with a :class:`GeoAlphaWarning`). Polygon vertices are input
@@ -581,7 +583,21 @@ def hull(
     table["crs_used"] = proj.names
     table["method"] = labels
     out = gpd.GeoDataFrame(table, geometry=list(geometry), crs=frame.crs)
+    name = result_geometry_name(frame, keys)
+    if name != "geometry":
+        out = out.rename_geometry(name)
     return out[keep_group].reset_index(drop=True)
+
+
+def result_geometry_name(frame, keys) -> str:
+    """Name of the result's geometry column: the input's (``geom`` stays ``geom``).
+
+    A GeoSeries, or a name taken by a group key column, gives ``geometry``.
+    """
+    name = frame.geometry.name if frame.geometry.name is not None else "geometry"
+    if not isinstance(name, str) or name in keys.columns or name in RESULT_COLUMNS:
+        return "geometry"
+    return name
 
 
 def _rows_to_index(message: str, rows: np.ndarray, index: pd.Index) -> str:
