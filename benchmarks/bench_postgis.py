@@ -29,7 +29,8 @@ optimum (same points, same CRS; equal when the symmetric difference has area
 <= 1e-9 of the polygon's). It is counted as ``equal``, ``next spectrum
 value`` (equal to the alpha shape at the next larger circumradius of the
 group's Delaunay spectrum, CGAL's ``find_optimal_alpha`` answer), ``empty``
-(POLYGON EMPTY), ``error`` (the query failed) or ``other``.
+(POLYGON EMPTY) or ``other`` (split by whether the polygon covers every
+input point of the group).
 
 Set-up (Debian 12): ``apt-get install postgresql-15-postgis-3`` and
 ``pip install "geoalpha[postgis]"``. The benchmark starts a throwaway server
@@ -220,17 +221,15 @@ def main(argv=None) -> int:
             )
             for c in ids
         }
-        small = left_out["at most 3 points, run one by one"]
-        for c in small:
+        separate = {}  # groups without a triangle and at most 3 points
+        for c in left_out["at most 3 points, run one by one"]:
             try:
-                shape = conn.execute(QUERY, ([int(c)],)).fetchone()
-                verdicts[int(c)] = (
-                    "empty" if shapely.from_wkb(bytes(shape[1])).is_empty else "other"
-                )
+                row = conn.execute(QUERY, ([int(c)],)).fetchone()
+                separate[int(c)] = shapely.from_wkb(bytes(row[1])).wkt[:60]
             except psycopg.Error as err:
-                verdicts[int(c)] = "error"
-                print(f"cluster {c}: {str(err).splitlines()[0]}", file=sys.stderr)
+                separate[int(c)] = f"error: {str(err).splitlines()[0]}"
                 conn = psycopg.connect(url, autocommit=True)
+        left_out["at most 3 points, run one by one"] = separate
         conn.close()
 
     report(times, verdicts, left_out, pinned, versions, len(ids), len(metric), args)
@@ -255,7 +254,9 @@ def verdict(pg_shape, exact_row, points) -> str:
         shape = geoalpha.alpha_shape(xy, alpha=(1 - 1e-12) / r_next, holes=False)
         if not shape.is_empty and same(pg_shape, shapely.union_all(shape)):
             return "next spectrum value"
-    return "other"
+    if not shapely.covers(pg_shape, points.geometry.array).all():
+        return "other, misses input points"
+    return "other, covers every point"
 
 
 def same(a, b) -> bool:
@@ -309,8 +310,17 @@ def report(times, verdicts, left_out, pinned, versions, n_groups, n_points, args
     print("\nPostGIS's polygon against the exact optimum, per group:\n")
     print("| PostGIS polygon | groups |")
     print("|---|---:|")
-    for name in ("equal", "next spectrum value", "empty", "error", "other"):
+    for name in (
+        "equal",
+        "next spectrum value",
+        "empty",
+        "other, misses input points",
+        "other, covers every point",
+    ):
         print(f"| {name} | {counts.get(name, 0)} |")
+    for name in ("empty", "other, misses input points", "other, covers every point"):
+        clusters = sorted(c for c, v in verdicts.items() if v == name)
+        print(f"\n{name}: clusters {clusters}")
     for reason, clusters in left_out.items():
         print(f"\n{reason}: {len(clusters)} cluster(s) {clusters}")
     if args.json:

@@ -436,7 +436,7 @@ def _run_query(conn, query: str):
     transaction, without parameters, so psycopg parses no placeholders.
     """
     cursor = conn.connection.driver_connection.cursor()
-    cursor.execute(query)
+    cursor.execute(query, binary=True)  # geometries as EWKB bytes, not hex text
     return cursor
 
 

@@ -23,6 +23,7 @@ import pytest
 import shapely
 from click.testing import CliRunner
 
+import geoalpha
 from geoalpha import datasets
 from geoalpha.cli import main
 from geoalpha.errors import DatabaseError, InvalidInputError
@@ -35,7 +36,8 @@ import pgcluster  # noqa: E402
 pytestmark = pytest.mark.filterwarnings(
     "ignore::geoalpha.errors.DegenerateGroupWarning"  # cluster 530 is a line
 )
-WRONG = "Wr0ng-pa55word"  # must never show up in any output
+WRONG = "Wr0ng-pa55word"
+GROUP = "Local_Authority_(Highway)"  # must never show up in any output
 
 
 def run(*args, **kwargs):
@@ -145,6 +147,30 @@ def test_sql_needs_a_database_input(tmp_path):
     result = run("hull", datasets.path("stats19"), out, "--sql", "SELECT 1")
     assert result.exit_code == 1
     assert "--sql and --geometry-column apply to a postgresql:// INPUT" in result.stderr
+
+
+def test_hull_keeps_the_geometry_column_name():
+    points = datasets.load("stats19").rename_geometry("geom")
+    points = points[
+        points["Local_Authority_(Highway)"].isin(["E09000033", "E09000013"])
+    ]
+    hulls = points.alpha.hull(by=GROUP)
+    assert hulls.geometry.name == "geom"
+    assert "geometry" not in hulls.columns
+    assert hulls.alpha.hull(vertices=True).geometry.name == "geom"  # and again
+    assert points.geometry.alpha.hull().geometry.name == "geometry"  # a GeoSeries
+
+
+def test_dask_hull_keeps_the_geometry_column_name():
+    dask_geopandas = pytest.importorskip("dask_geopandas")
+    points = datasets.load("stats19").rename_geometry("geom")
+    points = points[
+        points["Local_Authority_(Highway)"].isin(["E09000033", "E09000013"])
+    ]
+    lazy = dask_geopandas.from_geopandas(points, npartitions=2)
+    hulls = geoalpha.hull(lazy, by=GROUP).compute()
+    assert hulls.geometry.name == "geom"
+    assert len(hulls) == 2
 
 
 # --------------------------------------------------------------------------
