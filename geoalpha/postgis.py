@@ -37,6 +37,8 @@ if TYPE_CHECKING:  # pragma: no cover
 
 __all__ = [
     "check_postgis_output",
+    "gdal_connection_error",
+    "is_gdal_connection",
     "is_postgres_url",
     "parse_table",
     "read_postgis",

@@ -21,6 +21,7 @@ another installation.
 
 from __future__ import annotations
 
+import atexit
 import contextlib
 import os
 import shutil
@@ -132,6 +133,7 @@ class Cluster:
 
     def _start(self) -> None:
         self.directory = Path(tempfile.mkdtemp(prefix="geoalpha-pg-"))
+        atexit.register(self.stop)  # also when the caller never reaches stop()
         if os.geteuid() == 0:  # postgres refuses to run as root
             import pwd
 
@@ -260,6 +262,7 @@ class Cluster:
         if self.directory is not None:
             shutil.rmtree(self.directory, ignore_errors=True)
             self.directory = None
+        atexit.unregister(self.stop)
 
     # -- use -------------------------------------------------------------
     def _run(self, program: str, *args: str) -> str:
