@@ -293,6 +293,14 @@ def test_command_sql_input_to_file(db, tmp_path):
     assert result.exit_code == 0, result.stderr
     hulls = gpd.read_file(out)
     assert hulls["Cluster"].tolist() == list(range(100, 110))
+    two = 'SELECT "Cluster", ST_Buffer(geom, 1) AS disc, geom FROM uk_clusters'
+    result = run("hull", db, out, "--sql", two, "--by", "Cluster", "--overwrite")
+    assert result.exit_code == 1
+    assert "choose one with --geometry-column" in result.stderr
+    result = run("hull", db, out, "--sql", two, "--by", "Cluster",
+                 "--geometry-column", "geom", "--overwrite")  # fmt: skip
+    assert result.exit_code == 0, result.stderr
+    assert len(gpd.read_file(out)) == 691
 
 
 def test_overwrite_refused_then_allowed(db, cluster):
@@ -310,6 +318,14 @@ def test_overwrite_refused_then_allowed(db, cluster):
     assert replaced.exit_code == 0, replaced.stderr
     assert _query(cluster, "SELECT count(*) FROM ow_hulls") == "691"
     assert _has_gist_index(cluster, "public.ow_hulls")
+    # a view on the table: the database refuses the drop, nothing changes
+    cluster.psql("CREATE VIEW ow_view AS SELECT * FROM ow_hulls", "gadb")
+    refused = run(*args, "--sql", 'SELECT * FROM uk_clusters WHERE "Cluster" < 2',
+                  "--overwrite")  # fmt: skip
+    _assert_one_line_without_secret(
+        refused, "cannot drop table ow_hulls because other objects depend on it"
+    )
+    assert _query(cluster, "SELECT count(*) FROM ow_view") == "691"
 
 
 def test_killed_run_leaves_no_half_table(db, cluster):
