@@ -393,7 +393,9 @@ def write_hulls(
     if _database(path, engine):
         from geoalpha.postgis import write_postgis
 
-        write_postgis(gdf, os.fspath(path), layer, overwrite=overwrite)
+        write_postgis(
+            _index_as_columns(gdf), os.fspath(path), layer, overwrite=overwrite
+        )
         return {}
     if engine not in _ENGINES:
         raise InvalidInputError(

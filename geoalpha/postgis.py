@@ -554,7 +554,9 @@ def write_postgis(
     gdf : geopandas.GeoDataFrame
         What to write, usually the result of :func:`geoalpha.hull`. The
         geometry column keeps its name; its SRID is the EPSG code of
-        ``gdf.crs``.
+        ``gdf.crs``; a mix of Polygons and MultiPolygons is written as
+        MultiPolygons (one column type, as in a GeoPackage). The index is
+        not written (``reset_index()`` first to keep it).
     url : str
         ``postgresql://user@host:port/dbname``; the password from the URL,
         ``PGPASSWORD`` or ``~/.pgpass``.
@@ -600,7 +602,7 @@ def write_postgis(
             f"PostGIS stores a CRS by SRID; {gdf.crs.to_string()[:80]} has no "
             "EPSG code: to_crs() to one that has"
         )
-    frame = gdf
+    frame = _promote_to_multi(gdf)
     geometry = frame.geometry.name
     where = _display(url)
     temporary = f"geoalpha_tmp_{uuid.uuid4().hex}"
@@ -626,6 +628,26 @@ def write_postgis(
         _rename_indexes(conn, schema, name, temporary)
         conn.exec_driver_sql(f"ANALYZE {_quote(schema, name)}")
     return f"{schema}.{name}"
+
+
+def _promote_to_multi(gdf: gpd.GeoDataFrame) -> gpd.GeoDataFrame:
+    """Make Polygons MultiPolygons when both occur (one typed column, as GPKG)."""
+    import numpy as np
+    import shapely
+
+    geoms = np.asarray(gdf.geometry.array, dtype=object)
+    kinds = shapely.get_type_id(geoms)
+    polygons = kinds == shapely.GeometryType.POLYGON
+    if not (polygons.any() and (kinds == shapely.GeometryType.MULTIPOLYGON).any()):
+        return gdf
+    geoms = geoms.copy()
+    geoms[polygons] = shapely.multipolygons(
+        geoms[polygons], indices=np.arange(polygons.sum())
+    )
+    return gdf.set_geometry(
+        gdf.geometry.__class__(geoms, index=gdf.index, crs=gdf.crs),
+        crs=gdf.crs,
+    )
 
 
 def _rename_indexes(conn, schema: str, name: str, temporary: str) -> None:

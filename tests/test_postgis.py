@@ -369,6 +369,20 @@ def test_killed_run_leaves_no_half_table(db, cluster):
     assert _query(cluster, leftovers) == "0"
 
 
+def test_mixed_polygons_and_multipolygons_become_one_column_type(db, cluster):
+    result = run("hull", db, db, "--layer", "uk_clusters", "--by", "Cluster",
+                 "--components", "2", "--output-layer", "two_parts")  # fmt: skip
+    assert result.exit_code == 0, result.stderr
+    column_type = _query(
+        cluster,
+        "SELECT type || ',' || srid FROM geometry_columns "
+        "WHERE f_table_name = 'two_parts'",
+    )
+    assert column_type == "MULTIPOLYGON,4326"
+    parts = _query(cluster, "SELECT sum(ST_NumGeometries(geom)) FROM two_parts")
+    assert parts == _query(cluster, "SELECT sum(n_parts) FROM two_parts")
+
+
 def test_python_write_and_refusal(db, cluster, uk_points):
     hulls = uk_points[uk_points["Cluster"] < 20].alpha.hull(by="Cluster")
     assert write_postgis(hulls, db, "py_hulls") == "public.py_hulls"
