@@ -439,10 +439,12 @@ def test_wrong_password(db, cluster, tmp_path, monkeypatch):
 
 def test_password_from_pgpass(db, tmp_path, monkeypatch):
     monkeypatch.delenv("PGPASSWORD")
-    pgpass = tmp_path / "pgpass"
+    with pytest.raises(DatabaseError, match="no password supplied"):
+        read_postgis(db, table="uk_clusters")
+    pgpass = tmp_path / ".pgpass"
     pgpass.write_text(f"127.0.0.1:*:*:geoalpha:{pgcluster.PASSWORD}\n")
     pgpass.chmod(0o600)
-    monkeypatch.setenv("PGPASSFILE", str(pgpass))
+    monkeypatch.setenv("HOME", str(tmp_path))  # ~/.pgpass
     assert len(read_postgis(db, table="uk_clusters")) == 15255
 
 
