@@ -324,13 +324,16 @@ def report(times, verdicts, left_out, pinned, versions, n_groups, n_points, args
         f"Python {platform.python_version()}, geoalpha {geoalpha.__version__}, "
         f"shapely {version('shapely')}, scipy {version('scipy')}\n{versions}\n"
     )
-    print("| work | median | / PostGIS | paired ratio (median of rounds) |")
-    print("|---|---:|---:|---:|")
+    print(
+        "| work | median | / PostGIS | paired ratio (median of rounds) "
+        "| best | best / best |"
+    )
+    print("|---|---:|---:|---:|---:|---:|")
     for name, t in times.items():
         paired = statistics.median(x / y for x, y in zip(t, times[base], strict=True))
         print(
             f"| {name} | {_fmt(medians[name])} | {medians[name] / medians[base]:.2f}x "
-            f"| {paired:.2f}x |"
+            f"| {paired:.2f}x | {_fmt(min(t))} | {min(t) / min(times[base]):.2f}x |"
         )
     counts: dict[str, int] = {}
     for v in verdicts.values():
