@@ -134,6 +134,7 @@ def _meta(frame_meta, by, dropna: bool, sort: bool):
         "alpha": "float64",
         "radius": "float64",
         "n_points": "int64",
+        "n_outliers": "int64",
         "n_parts": "int32",
         "area_m2": "float64",
         "crs_used": text,

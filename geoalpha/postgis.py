@@ -47,10 +47,6 @@ __all__ = [
 ]
 
 _SCHEMES = ("postgresql://", "postgres://", "postgresql+psycopg://")
-_URL_PASSWORD = re.compile(
-    r"(?P<head>postgres(?:ql)?(?:\+\w+)?://[^:/@\s]*:)(?P<secret>[^@\s/]*)(?=@)",
-    re.IGNORECASE,
-)
 _CONNECT_TIMEOUT = 15  # seconds, unless the URL says connect_timeout=...
 _LOCK_TIMEOUT = "30s"
 _IDENTIFIER_BYTES = 63  # PostgreSQL's NAMEDATALEN - 1
@@ -93,9 +89,9 @@ def gdal_connection_error(text: str) -> InvalidInputError:
 def redact(text: object) -> str:
     """Return ``text`` with every database password replaced by ``***``.
 
-    Replaces the password part of ``postgresql://user:password@host`` URLs,
+    :func:`geoalpha.redact.redact` (URL passwords, ``password=`` values), plus
     the value of ``PGPASSWORD`` and every password this module has read from a
-    URL in this process.
+    URL in this process, wherever they appear.
 
     Examples
     --------
@@ -105,14 +101,12 @@ def redact(text: object) -> str:
     >>> redact("no password here")
     'no password here'
     """
-    out = _URL_PASSWORD.sub(lambda m: m.group("head") + "***", str(text))
+    from geoalpha.redact import redact as redact_text
+
     secrets = set(_secrets)
     if os.environ.get("PGPASSWORD"):
         secrets.add(os.environ["PGPASSWORD"])
-    for secret in sorted(secrets, key=len, reverse=True):
-        if len(secret) >= 3:  # a 1-2 character secret would garble the text
-            out = out.replace(secret, "***")
-    return out
+    return redact_text(text, secrets)
 
 
 def parse_table(name: str) -> tuple[str | None, str]:
@@ -532,8 +526,7 @@ def _check_target(conn, schema, name, table, overwrite, where) -> tuple[str, boo
     exists = _scalar(conn, "SELECT to_regclass(%s)", _quote(schema, name))
     if exists is not None and not overwrite:
         raise DatabaseError(
-            f"table {table} already exists in {where}; use --overwrite "
-            "(overwrite=True) to replace it"
+            f"table {table} already exists in {where}; use overwrite=True to replace it"
         )
     return schema, exists is not None
 

@@ -311,7 +311,7 @@ def test_overwrite_refused_then_allowed(db, cluster):
     assert again.exit_code == 1
     assert again.stderr.strip() == (
         f"Error: table public.ow_hulls already exists in {db}; use --overwrite "
-        "(overwrite=True) to replace it"
+        "to replace it"
     )
     assert _query(cluster, "SELECT count(*) FROM ow_hulls") == "5"
     replaced = run(*args, "--layer", "uk_clusters", "--overwrite")
@@ -404,6 +404,39 @@ def test_readme_round_trip_keeps_the_geometry_column(db, cluster):
     engine.dispose()
     assert _srid(cluster, "public.readme_hulls") == "4326"
     assert _query(cluster, "SELECT count(*) FROM readme_hulls") == "691"
+
+
+def test_readme_postgis_examples_run(cluster, tmp_path):
+    """The README's PostGIS blocks, as written, against this server."""
+    import re
+
+    readme = (REPO / "README.md").read_text()
+    blocks = re.findall(
+        r"<!-- readme-test: with a PostGIS database[^\n]*\n```python\n(.*?)\n```",
+        readme,
+        re.S,
+    )
+    assert len(blocks) == 2
+    cluster.create_database("readme")
+    engine = _engine(cluster.url("readme", password=True))
+    points = datasets.load("uk_clusters").rename(columns={"Cluster": "cluster"})
+    points.rename_geometry("geom").to_postgis("uk_clusters", engine, index=False)
+    engine.dispose()
+    here = f"geoalpha@127.0.0.1:{cluster.port}/readme"
+    env = {**os.environ, "PYTHONPATH": str(REPO), "PGPASSWORD": pgcluster.PASSWORD}
+    for code in blocks:
+        assert "ga@127.0.0.1:5432/gadb" in code
+        done = subprocess.run(
+            [sys.executable, "-c", code.replace("ga@127.0.0.1:5432/gadb", here)],
+            cwd=tmp_path,
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=300,
+            check=False,
+        )
+        assert done.returncode == 0, done.stderr
+    assert _query(cluster, "SELECT count(*) FROM cluster_hulls", "readme") == "691"
 
 
 # --------------------------------------------------------------------------
