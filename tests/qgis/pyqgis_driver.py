@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import os
 import sys
+import time
 from pathlib import Path
 
 from qgis.core import (
@@ -155,7 +156,16 @@ def batch(points, out_dir):
             str(out_dir / f"batch_{field}.gpkg")
         )
     dialog.runAlgorithm()
-    return {field: layer_report(out_dir / f"batch_{field}.gpkg") for field, _ in rows}
+    # The dialog may finish its rows in the background: wait (bounded) until
+    # both outputs are readable layers.
+    outputs = [out_dir / f"batch_{field}.gpkg" for field, _ in rows]
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and not all(
+        p.exists() and QgsVectorLayer(str(p), "out", "ogr").isValid() for p in outputs
+    ):
+        QgsApplication.processEvents()
+        time.sleep(0.1)
+    return {field: layer_report(p) for (field, _), p in zip(rows, outputs, strict=True)}
 
 
 def main():
