@@ -84,6 +84,7 @@ html_sidebars = {
         "cli",
         "dask",
         "benchmarks",
+        "postgis",
         "development",
         "changelog",
     )

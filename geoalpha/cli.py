@@ -24,6 +24,7 @@ import click
 from geoalpha import __version__
 from geoalpha.datasets import DATASETS
 from geoalpha.errors import GeoAlphaError, InvalidInputError
+from geoalpha.postgis import is_postgres_url
 from geoalpha.redact import redact, secrets_in
 
 __all__ = ["main"]
@@ -410,8 +411,10 @@ def _run(
         click.echo(line, err=True)
     for old, new in mapping.items():
         click.echo(f"Shapefile field {old!r} written as {new!r}", err=True)
-    where = output
-    if output.lower().endswith(".gpkg"):
+    where = redact(output)
+    if is_postgres_url(output):
+        where += f" (table {layer})"
+    elif output.lower().endswith(".gpkg"):
         from pathlib import Path
 
         where += f" (layer {layer or Path(output).stem or 'hulls'!r}"
@@ -568,12 +571,26 @@ _preview_option = click.option(
 @click.option(
     "--layer",
     metavar="NAME",
-    help="Layer of INPUT to read (GeoPackage etc.) [default: the first].",
+    help="Layer of INPUT to read (GeoPackage etc.) [default: the first]; "
+    "the schema.table of a postgresql:// INPUT.",
+)
+@click.option(
+    "--sql",
+    metavar="QUERY",
+    help="For a postgresql:// INPUT: read the result of this SELECT "
+    "(read-only) instead of a --layer.",
+)
+@click.option(
+    "--geometry-column",
+    metavar="COLUMN",
+    help="For a postgresql:// INPUT: the geometry column, when there is more "
+    "than one [default: the only one].",
 )
 @click.option(
     "--output-layer",
     metavar="NAME",
-    help="Layer name in a GeoPackage OUTPUT [default: OUTPUT's file name].",
+    help="Layer name in a GeoPackage OUTPUT [default: OUTPUT's file name]; "
+    "the schema.table to create for a postgresql:// OUTPUT.",
 )
 @click.option(
     "--alpha",
@@ -715,6 +732,8 @@ def hull(
     y: str | None,
     crs_in: str,
     layer: str | None,
+    sql: str | None,
+    geometry_column: str | None,
     output_layer: str | None,
     alpha: float | None,
     holes: bool,
@@ -745,20 +764,27 @@ def hull(
     any other vector file GDAL reads, or a CSV file with coordinate columns
     (found by name, or named with --x/--y). The CRS is never guessed: a file
     keeps its own, columns named as longitude/latitude are EPSG:4326, and
-    anything else needs --crs-in (a CRS, or none for planar numbers).
+    anything else needs --crs-in (a CRS, or none for planar numbers). INPUT
+    may also be a PostGIS database, postgresql://user@host:port/dbname, with
+    --layer schema.table or --sql "SELECT ..." (the password from PGPASSWORD
+    or ~/.pgpass).
 
     OUTPUT's extension chooses its format: .gpkg, .shp, .geojson, .fgb or
-    .parquet. It holds one row per group: the --by columns, alpha (1/metre),
-    radius (metres), n_points, n_outliers, area_m2, crs_used, method, and the
-    polygon, in INPUT's CRS (with planar input, area and unit instead of
-    area_m2). Shapefile field names are cut to 10 characters; GeoPackages are
-    version 1.2. A short summary of what was read and computed follows the run.
+    .parquet; a postgresql:// URL with --output-layer schema.table writes a
+    PostGIS table (in one transaction; --overwrite replaces it). It holds one
+    row per group: the --by columns, alpha (1/metre), radius (metres),
+    n_points, n_outliers, area_m2, crs_used, method, and the polygon, in
+    INPUT's CRS (with planar input, area and unit instead of area_m2).
+    Shapefile field names are cut to 10 characters; GeoPackages are version
+    1.2. A short summary of what was read and computed follows the run.
 
     \b
     Examples:
         geoalpha hull accidents.csv hulls.gpkg --by Local_Authority
         geoalpha hull trees.shp hulls.shp --by species --holes
         geoalpha hull pts.csv out.fgb --x E --y N --crs-in EPSG:27700 --by zone
+        geoalpha hull postgresql://ga@localhost/gis postgresql://ga@localhost/gis
+            --layer public.trees --by species --output-layer public.tree_hulls
     """  # noqa: D301
     from geoalpha.io import _read_points, check_output
 
@@ -775,6 +801,8 @@ def hull(
             crs=_crs_option(crs_in),
             layer=layer,
             planar_if_missing=work_crs is None,
+            sql=sql,
+            geometry_column=geometry_column,
         )
         if points.crs is None:
             work_crs = None  # planar input: compute in its own units

@@ -142,9 +142,11 @@ def _meta(frame_meta, by, dropna: bool, sort: bool):
     }
     for name, dtype in dtypes.items():
         table[name] = pd.Series(dtype=dtype)
-    return gpd.GeoDataFrame(
+    meta = gpd.GeoDataFrame(
         table, geometry=gpd.GeoSeries([], crs=frame_meta.crs), crs=frame_meta.crs
     )
+    name = tools.result_geometry_name(frame_meta, keys)
+    return meta if name == "geometry" else meta.rename_geometry(name)
 
 
 def _for_shuffle(part, geometry: str, partition_info=None) -> pd.DataFrame:

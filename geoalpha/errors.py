@@ -12,6 +12,7 @@ import sys
 __all__ = [
     "AntimeridianWarning",
     "CRSWarning",
+    "DatabaseError",
     "DegenerateGroupWarning",
     "DroppedRowsWarning",
     "GeoAlphaError",
@@ -29,6 +30,10 @@ class GeoAlphaError(ValueError):
 
 class InvalidInputError(GeoAlphaError):
     """Input points, groups or options that geoalpha cannot use."""
+
+
+class DatabaseError(GeoAlphaError):
+    """A PostgreSQL database could not be reached, read or written."""
 
 
 class GeoAlphaWarning(UserWarning):

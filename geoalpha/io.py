@@ -30,6 +30,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from geoalpha.errors import CRSWarning, InvalidInputError
+from geoalpha.postgis import gdal_connection_error, is_gdal_connection, is_postgres_url
 from geoalpha.redact import redact, secrets_in
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -138,7 +139,8 @@ def read_points(
         ...), a GeoParquet file, or a CSV table (``.csv``, ``.tsv``,
         ``.txt``; the delimiter is detected) whose rows are points given by two
         coordinate columns. A ``.parquet`` file without geometry metadata is
-        read as a table too.
+        read as a table too. A ``postgresql://`` URL reads the PostGIS table
+        ``layer`` (``schema.table``) with :func:`geoalpha.postgis.read_postgis`.
     x, y : str, optional
         Names of the coordinate columns of a table. When omitted, the first
         pair found among ``longitude/latitude``, ``lon/lat``, ``lng/lat``,
@@ -192,12 +194,37 @@ def read_points(
     return _read_points(path, x=x, y=y, crs=crs, layer=layer)
 
 
-def _read_points(path, *, x, y, crs, layer, planar_if_missing: bool = False):
-    """:func:`read_points`; ``planar_if_missing``: no CRS means planar, no error."""
+def _read_points(
+    path,
+    *,
+    x,
+    y,
+    crs,
+    layer,
+    planar_if_missing: bool = False,
+    sql: str | None = None,
+    geometry_column: str | None = None,
+):
+    """:func:`read_points`; ``planar_if_missing``: no CRS means planar, no error.
+
+    ``sql`` and ``geometry_column`` apply to a ``postgresql://`` source (see
+    :func:`geoalpha.postgis.read_postgis`).
+    """
     import pyproj
 
     source = os.fspath(path)
     shown = _shown(source)
+    if is_gdal_connection(source):
+        raise gdal_connection_error(source)
+    if is_postgres_url(source):  # layer: schema.table, or sql=
+        return _read_database(
+            source, x, y, crs, layer, planar_if_missing, sql, geometry_column
+        )
+    if sql is not None or geometry_column is not None:
+        raise InvalidInputError(
+            f"{_term('sql= and geometry_column=', '--sql and --geometry-column')} "
+            "apply to a postgresql:// INPUT"
+        )
     local = "://" not in source and not source.startswith(("/vsi", "PG:"))
     if local and not Path(source).exists():
         raise FileNotFoundError(f"input file {shown} does not exist")
@@ -260,6 +287,27 @@ def _read_points(path, *, x, y, crs, layer, planar_if_missing: bool = False):
         xy = shapely.get_coordinates(gdf.geometry.array)
         _check_lonlat(xy[:, 0], xy[:, 1], crs, shown, "x", "y")
         gdf = gdf.set_crs(crs)
+    return gdf
+
+
+def _read_database(source, x, y, crs, layer, planar_if_missing, sql, geometry_column):
+    """Read a PostGIS table or query; the CRS rules of :func:`read_points`."""
+    from geoalpha.postgis import read_postgis
+
+    if x is not None or y is not None:
+        raise InvalidInputError(
+            f"{_term('x= and y=', '--x and --y')} apply to tables (CSV) only"
+        )
+    auto = isinstance(crs, str) and crs.strip().lower() == "auto"
+    gdf = read_postgis(
+        source,
+        table=layer,
+        sql=sql,
+        geometry_column=geometry_column,
+        crs=None if auto else crs,
+    )
+    if gdf.crs is None and auto and not planar_if_missing:
+        raise _missing_crs(f"the geometries of {_shown(source)} (SRID 0)")
     return gdf
 
 
@@ -511,10 +559,13 @@ def write_hulls(
     path : str or os.PathLike
         Output file. Its extension chooses the format: ``.gpkg``
         (GeoPackage), ``.shp`` (Shapefile), ``.geojson`` or ``.json``
-        (GeoJSON), ``.fgb`` (FlatGeobuf), ``.parquet`` (GeoParquet).
+        (GeoJSON), ``.fgb`` (FlatGeobuf), ``.parquet`` (GeoParquet). A
+        ``postgresql://`` URL writes a PostGIS table instead, with
+        :func:`geoalpha.postgis.write_postgis`.
     layer : str, optional
         GeoPackage layer name; default the file name without extension
-        (``"hulls"`` if that is empty). Only for ``.gpkg``.
+        (``"hulls"`` if that is empty). Only for ``.gpkg``, and required
+        (``schema.table``) for a ``postgresql://`` URL.
     overwrite : bool, default False
         Replace ``path`` if it exists (for a GeoPackage: the whole file,
         other layers included; for a Shapefile: all its sidecar files).
@@ -575,6 +626,17 @@ def write_hulls(
         raise InvalidInputError(
             f"write_hulls() needs a GeoDataFrame; got {type(gdf).__name__}"
         )
+    if _database(path, engine):
+        from geoalpha.postgis import write_postgis
+
+        if extra_layers:
+            raise InvalidInputError(
+                "extra layers apply to GeoPackage (.gpkg) output only, not PostGIS"
+            )
+        write_postgis(
+            _index_as_columns(gdf), os.fspath(path), layer, overwrite=overwrite
+        )
+        return {}
     if engine not in _ENGINES:
         raise InvalidInputError(
             f"unknown engine {engine!r}; expected 'pyogrio', 'fiona' or None"
@@ -680,8 +742,24 @@ def check_output(
     ...     print(err)  # doctest: +ELLIPSIS
     cannot tell the output format of hulls.csv: its extension must be one of .gpkg, ...
     """
+    if _database(path, None):
+        from geoalpha.postgis import check_postgis_output
+
+        check_postgis_output(os.fspath(path), layer, overwrite=overwrite)
+        return
     target, _, _ = _check_target(path, layer, overwrite)
     _check_writable(target)
+
+
+def _database(path, engine) -> bool:
+    """Tell whether ``path`` names a PostGIS table (``postgresql://`` URL)."""
+    if is_gdal_connection(path):
+        raise gdal_connection_error(path)
+    if not is_postgres_url(path):
+        return False
+    if engine is not None:
+        raise InvalidInputError("engine= (--engine) applies to files, not PostGIS")
+    return True
 
 
 def _check_target(path, layer, overwrite) -> tuple[Path, str, list[Path]]:

@@ -418,7 +418,9 @@ def hull(
         ``n_outliers`` (rows of the group left out, 0 unless ``outliers``),
         ``n_parts`` (polygons in the geometry), ``area_m2`` (area in the
         computation CRS), ``crs_used`` (the computation CRS), ``method``
-        and ``geometry`` (Polygon; MultiPolygon when ``components > 1``, when a
+        and the geometry, in a column named as the input's active geometry
+        column (``geom`` from ``read_postgis`` stays ``geom``; ``geometry``
+        for a GeoSeries) (Polygon; MultiPolygon when ``components > 1``, when a
         group is split at the antimeridian, or, for ``"concave"``/``"knn"``,
         when a hull built in metres touches itself in the input CRS and is
         repaired, with a :class:`GeoAlphaWarning`). Polygon vertices are input
@@ -623,12 +625,26 @@ def hull(
     table["crs_used"] = proj.names
     table["method"] = labels
     out = gpd.GeoDataFrame(table, geometry=list(geometry), crs=frame.crs)
+    name = result_geometry_name(frame, keys)
+    if name != "geometry":
+        out = out.rename_geometry(name)
     if left_out.any():
         _warn_outliers(table["n_outliers"].to_numpy(), keys, outliers)
     rows = _OUTLIER_ROWS.get()
     if rows is not None:
         rows.append(pd.Series(left_out, index=index, name="outlier"))
     return out[keep_group].reset_index(drop=True)
+
+
+def result_geometry_name(frame, keys) -> str:
+    """Name of the result's geometry column: the input's (``geom`` stays ``geom``).
+
+    A GeoSeries, or a name taken by a group key column, gives ``geometry``.
+    """
+    name = frame.geometry.name if frame.geometry.name is not None else "geometry"
+    if not isinstance(name, str) or name in keys.columns or name in RESULT_COLUMNS:
+        return "geometry"
+    return name
 
 
 #: Set by :func:`outlier_rows` to receive the left-out rows of :func:`hull`.

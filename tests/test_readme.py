@@ -27,6 +27,9 @@ PAGES = [REPO / "README.md", REPO / "docs" / "cli.md", *OTHER_PAGES]
 README = "\n\n".join(p.read_text() for p in PAGES)
 NOT_RUN = "<!-- readme-test: not run"
 WITH_PARQUET = "<!-- readme-test: with GeoParquet files of points in points/"
+# Blocks that need a PostGIS database: run by tests/test_postgis.py on its own
+# throwaway server.
+WITH_POSTGIS = "<!-- readme-test: with a PostGIS database"
 BLOCK = re.compile(r"(?P<before>[^\n]*)\n```(?P<lang>\w+)\n(?P<code>.*?)\n```", re.S)
 # Data a block says it needs, made before it runs.
 PARQUET_POINTS = """
@@ -42,7 +45,9 @@ del points
 
 def python_blocks():
     for match in BLOCK.finditer(README):
-        if match["lang"] == "python" and not match["before"].startswith(NOT_RUN):
+        if match["lang"] == "python" and not match["before"].startswith(
+            (NOT_RUN, WITH_POSTGIS)
+        ):
             line = README[: match.start("code")].count("\n") + 1
             setup = PARQUET_POINTS if match["before"].startswith(WITH_PARQUET) else ""
             yield pytest.param(setup + match["code"], id=f"line-{line}")
