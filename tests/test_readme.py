@@ -20,6 +20,8 @@ WITH_PARQUET = "<!-- readme-test: with GeoParquet files of points in points/"
 # Blocks that need a PostGIS database: run by tests/test_postgis.py on its own
 # throwaway server.
 WITH_POSTGIS = "<!-- readme-test: with a PostGIS database"
+# Blocks for QGIS's Python console: run under real QGIS by test_qgis_plugin.py.
+IN_QGIS = "<!-- readme-test: in QGIS's Python console"
 BLOCK = re.compile(r"(?P<before>[^\n]*)\n```(?P<lang>\w+)\n(?P<code>.*?)\n```", re.S)
 # Data a block says it needs, made before it runs.
 PARQUET_POINTS = """
@@ -36,7 +38,7 @@ del points
 def python_blocks():
     for match in BLOCK.finditer(README):
         if match["lang"] == "python" and not match["before"].startswith(
-            (NOT_RUN, WITH_POSTGIS)
+            (NOT_RUN, WITH_POSTGIS, IN_QGIS)
         ):
             line = README[: match.start("code")].count("\n") + 1
             setup = PARQUET_POINTS if match["before"].startswith(WITH_PARQUET) else ""
