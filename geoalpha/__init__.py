@@ -1,10 +1,18 @@
-"""geoalpha: exact optimal alpha shapes for GeoPandas."""
+"""geoalpha: exact optimal alpha shapes for GeoPandas.
+
+Importing geoalpha registers the ``.alpha`` accessor on GeoPandas frames: at
+once when geopandas is already imported, else as soon as it is. The public
+functions are loaded on first use, so that ``import geoalpha`` (and the
+``geoalpha`` command's ``--help`` and ``--version``) stay fast.
+"""
 
 from __future__ import annotations
 
+import importlib
+import sys
 from importlib.metadata import PackageNotFoundError, version
+from typing import TYPE_CHECKING
 
-from geoalpha.accessor import register as _register_accessor
 from geoalpha.errors import (
     AntimeridianWarning,
     DegenerateGroupWarning,
@@ -14,8 +22,10 @@ from geoalpha.errors import (
     InvalidInputError,
     SearchWarning,
 )
-from geoalpha.optimal import AlphaShapes, alpha_shape, alpha_shapes, optimal_alpha
-from geoalpha.tools import hull
+
+if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs
+    from geoalpha.optimal import AlphaShapes, alpha_shape, alpha_shapes, optimal_alpha
+    from geoalpha.tools import hull
 
 try:
     __version__ = version("geoalpha")
@@ -38,4 +48,58 @@ __all__ = [
     "optimal_alpha",
 ]
 
-_register_accessor()
+#: Public names loaded on first use, and the module that defines each.
+_LAZY = {
+    "AlphaShapes": "geoalpha.optimal",
+    "alpha_shape": "geoalpha.optimal",
+    "alpha_shapes": "geoalpha.optimal",
+    "optimal_alpha": "geoalpha.optimal",
+    "hull": "geoalpha.tools",
+}
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        value = getattr(importlib.import_module(_LAZY[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'geoalpha' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
+
+
+class _RegisterOnImport:
+    """Import hook: register the accessor once geopandas has been imported."""
+
+    def find_spec(self, name, path=None, target=None):
+        if name != "geopandas":
+            return None
+        sys.meta_path.remove(self)
+        from importlib.util import find_spec
+
+        spec = find_spec(name)
+        if spec is None or spec.loader is None:  # pragma: no cover - no geopandas
+            return None
+        loader = spec.loader
+        exec_module = loader.exec_module
+
+        def exec_and_register(module):
+            exec_module(module)
+            _register()
+
+        loader.exec_module = exec_and_register
+        return spec
+
+
+def _register() -> None:
+    from geoalpha.accessor import register
+
+    register()
+
+
+if "geopandas" in sys.modules:
+    _register()
+elif not any(isinstance(f, _RegisterOnImport) for f in sys.meta_path):
+    sys.meta_path.insert(0, _RegisterOnImport())

@@ -23,6 +23,7 @@ import click
 from geoalpha import __version__
 from geoalpha.datasets import DATASETS
 from geoalpha.errors import GeoAlphaError, InvalidInputError
+from geoalpha.options import FIELDS, NAMES, OptionMeta
 
 __all__ = ["main"]
 
@@ -179,11 +180,36 @@ _engine_option = click.option(
 _overwrite_option = click.option(
     "--overwrite", is_flag=True, help="Replace OUTPUT if it exists."
 )
-_progress_option = click.option(
-    "--progress/--no-progress",
-    default=None,
-    help="Show a progress bar [default: when there are many groups].",
-)
+
+
+def _click_option(name: str, default, meta: OptionMeta):
+    """Build the click option of one field of :class:`geoalpha.options.Options`."""
+    kwargs: dict = {"help": meta.help, "default": default, "metavar": meta.metavar}
+    if meta.kind == "choice":
+        kwargs["type"] = click.Choice(meta.choices)
+    elif meta.kind in ("int", "float"):
+        if meta.low is not None or meta.high is not None:
+            ranged = click.IntRange if meta.kind == "int" else click.FloatRange
+            kwargs["type"] = ranged(min=meta.low, max=meta.high, min_open=meta.low_open)
+        else:
+            kwargs["type"] = int if meta.kind == "int" else float
+    kwargs["show_default"] = default is not None and not (
+        meta.kind == "bool" and "/" not in meta.flags[0]
+    )
+    return click.option(*meta.flags, name, **kwargs)
+
+
+#: The click options of every option of ``hull()``, by name.
+_OPTIONS = {
+    f.name: _click_option(f.name, f.default, f.metadata["meta"]) for f in FIELDS
+}
+
+
+def _hull_options(func):
+    """Add the click option of every option of ``hull()`` (see Options)."""
+    for name in reversed(NAMES):
+        func = _OPTIONS[name](func)
+    return func
 
 
 @main.command(context_settings=_CONTEXT)
@@ -231,112 +257,9 @@ _progress_option = click.option(
     metavar="NAME",
     help="Layer name in a GeoPackage OUTPUT [default: OUTPUT's file name].",
 )
-@click.option(
-    "--alpha",
-    type=click.FloatRange(min=0),
-    help="Use this alpha (1/metre) instead of searching for the optimum; "
-    "0 gives convex hulls.",
-)
-@click.option(
-    "--holes/--no-holes",
-    default=False,
-    show_default=True,
-    help="Keep holes inside the shapes, or fill them.",
-)
-@click.option(
-    "--components",
-    type=click.IntRange(min=1),
-    default=1,
-    show_default=True,
-    help="Most pieces a group's shape may have (1: one Polygon).",
-)
-@click.option(
-    "--method",
-    type=click.Choice(["alpha", "convex", "concave", "knn"]),
-    default="alpha",
-    show_default=True,
-    help="Shape: optimal alpha shape, convex hull, shapely concave hull "
-    "(see --ratio) or k-nearest-neighbour concave hull.",
-)
-@click.option(
-    "--search",
-    type=click.Choice(["exact", "ladder", "bisect"]),
-    default="exact",
-    show_default=True,
-    help="How the optimal alpha is found: exactly, or (for comparison) with "
-    "the integer ladder or float bisection.",
-)
-@click.option(
-    "--ratio",
-    type=click.FloatRange(0, 1),
-    default=0.3,
-    show_default=True,
-    help="Concaveness for --method concave (0: tightest, 1: convex).",
-)
-@click.option(
-    "--k",
-    "k",
-    type=click.IntRange(min=1),
-    default=3,
-    show_default=True,
-    help="Starting number of neighbours for --method knn.",
-)
-@click.option(
-    "--crs",
-    metavar="auto|CRS|none",
-    default="auto",
-    show_default=True,
-    help="Metric CRS the shapes are computed in; 'auto' picks a UTM zone "
-    "(or a local CRS per group); 'none' uses the coordinates as they are. "
-    "The output keeps INPUT's CRS.",
-)
-@click.option(
-    "--degenerate",
-    type=click.Choice(["buffer", "empty", "drop"]),
-    default="buffer",
-    show_default=True,
-    help="Groups with fewer than 3 distinct or only collinear points: a small "
-    "buffer polygon, an empty geometry, or no row.",
-)
-@click.option(
-    "--buffer",
-    type=click.FloatRange(min=0, min_open=True),
-    default=1.0,
-    show_default=True,
-    help="Width of the polygon around a degenerate group with --degenerate "
-    "buffer, in metres (in the coordinate units with --crs none).",
-)
-@click.option(
-    "--vertices",
-    is_flag=True,
-    help="Accept lines and polygons in INPUT and use their vertices as points "
-    "(otherwise they are an error).",
-)
-@click.option(
-    "--dropna/--no-dropna",
-    default=True,
-    show_default=True,
-    help="Leave out rows whose --by value is missing, or make them a group.",
-)
-@click.option(
-    "--sort/--no-sort",
-    default=True,
-    show_default=True,
-    help="Write the groups sorted by --by value, or in order of first appearance.",
-)
-@click.option(
-    "-j",
-    "--jobs",
-    "n_jobs",
-    type=int,
-    default=1,
-    show_default=True,
-    help="Worker processes for the groups (-1: one per core); pays off from "
-    "about 100,000 points. The result is the same.",
-)
+@_hull_options
 @_overwrite_option
 @_engine_option
-@_progress_option
 def hull(
     input_path: str,
     output: str,
@@ -346,23 +269,9 @@ def hull(
     crs_in: str,
     layer: str | None,
     output_layer: str | None,
-    alpha: float | None,
-    holes: bool,
-    components: int,
-    method: str,
-    search: str,
-    ratio: float,
-    k: int,
-    crs: str,
-    degenerate: str,
-    buffer: float,
-    vertices: bool,
-    dropna: bool,
-    sort: bool,
-    n_jobs: int,
     overwrite: bool,
     engine: str | None,
-    progress: bool | None,
+    **options,
 ) -> None:
     """Write one hull per group of the points in INPUT to OUTPUT.
 
@@ -388,9 +297,10 @@ def hull(
     with _reporting(verbosity):
         check_output(output, layer=output_layer, overwrite=overwrite)
         points = read_points(input_path, x=x, y=y, crs=_crs_option(crs_in), layer=layer)
-        work_crs = _crs_option(crs)
+        work_crs = _crs_option(options["crs"])
         if points.crs is None and work_crs == "auto":
             work_crs = None  # planar input: compute in its own units
+        options["crs"] = work_crs
         columns = _group_columns(by, list(points.columns), input_path)
         _run(
             points,
@@ -401,21 +311,7 @@ def hull(
             overwrite=overwrite,
             engine=engine,
             verbosity=verbosity,
-            alpha=alpha,
-            holes=holes,
-            components=components,
-            crs=work_crs,
-            method=method,
-            search=search,
-            ratio=ratio,
-            k=k,
-            degenerate=degenerate,
-            buffer=buffer,
-            vertices=vertices,
-            dropna=dropna,
-            sort=sort,
-            n_jobs=n_jobs,
-            progress=progress,
+            **options,
         )
 
 
@@ -430,7 +326,7 @@ def hull(
 )
 @_overwrite_option
 @_engine_option
-@_progress_option
+@_OPTIONS["progress"]
 def demo(
     output: str,
     dataset: str,

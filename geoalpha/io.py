@@ -121,17 +121,13 @@ def read_points(
     >>> gdf.crs.to_epsg(), gdf.geom_type.unique().tolist()
     (4326, ['Point'])
     """
-    import pyproj
+    from geoalpha.crs import parse_crs
 
     source = os.fspath(path)
     local = "://" not in source and not source.startswith("/vsi")
     if local and not Path(source).exists():
         raise FileNotFoundError(f"input file {source} does not exist")
-    if crs is not None:
-        try:
-            crs = pyproj.CRS.from_user_input(crs)
-        except pyproj.exceptions.CRSError as err:
-            raise InvalidInputError(f"unknown CRS {crs!r}: {err}") from err
+    crs = parse_crs(crs)
 
     suffix = Path(source).suffix.lower()
     if suffix in _TABLE_SUFFIXES:

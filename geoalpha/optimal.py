@@ -12,7 +12,7 @@ from typing import Literal, NamedTuple
 
 import numpy as np
 
-from geoalpha import core, search, shapes
+from geoalpha import core, parallel, search, shapes
 from geoalpha.errors import (
     DegenerateGroupWarning,
     InvalidInputError,
@@ -236,17 +236,15 @@ def alpha_shapes(
         "progress": progress,
     }
     if type(n_jobs) is not int or n_jobs != 1 or _batched(points, groups):
-        from geoalpha.parallel import alpha_shapes_parallel
-
-        return alpha_shapes_parallel(points, groups, n_jobs=n_jobs, **options)
+        return parallel.alpha_shapes_parallel(
+            points, groups, batch=_alpha_shapes_batch, n_jobs=n_jobs, **options
+        )
     return _alpha_shapes_batch(points, groups, **options)
 
 
 def _batched(points, groups) -> bool:
     """Whether to cut the groups into runs (large inputs fit caches better)."""
-    from geoalpha.parallel import BATCH_POINTS
-
-    return groups is not None and len(points) > 2 * BATCH_POINTS
+    return groups is not None and len(points) > 2 * parallel.BATCH_POINTS
 
 
 def _alpha_shapes_batch(
