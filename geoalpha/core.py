@@ -888,3 +888,10 @@ def _turn_through_exterior(local, u, v, order, lo, hi, pinch) -> np.ndarray:
     first = np.ones(len(best), dtype=bool)
     first[1:] = edge[best][1:] != edge[best][:-1]
     return cand[best][first]
+
+
+# The input checks of triangulate(), for the callers that cut the input into
+# runs first (geoalpha.parallel): points as an (n, 2) float array (ValueError
+# naming NaN/inf rows) and group codes with their count.
+check_points = _check_points
+group_codes = _group_codes

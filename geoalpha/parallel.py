@@ -255,8 +255,8 @@ def alpha_shapes_parallel(
     """
     workers = effective_n_jobs(n_jobs)
     try:
-        xy = core._check_points(points)
-        codes, n_groups = core._group_codes(groups, len(xy), n_groups)
+        xy = core.check_points(points)
+        codes, n_groups = core.group_codes(groups, len(xy), n_groups)
     except ValueError as err:
         raise InvalidInputError(str(err)) from err
     n = len(xy)
