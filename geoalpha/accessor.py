@@ -56,7 +56,8 @@ def register(name: str = "alpha") -> None:
     import geopandas as gpd
 
     attach([gpd.GeoDataFrame, gpd.GeoSeries], name, AlphaAccessor)
-    if sys.modules.get("dask_geopandas") is not None:
+    # (hasattr: not while dask_geopandas itself is being imported)
+    if hasattr(sys.modules.get("dask_geopandas"), "GeoDataFrame"):
         from geoalpha import dask as gdask
 
         gdask.register(name)

@@ -72,6 +72,11 @@ class OptionMeta:
         ``("-j", "--jobs")``.
     metavar, help : str
         Command-line metavar and help text.
+    validate : callable, optional
+        A check of its own for a rule the fields above cannot say: takes the
+        value, returns it (normalised) or raises
+        :class:`~geoalpha.errors.InvalidInputError`; used instead of the
+        generic check.
     """
 
     kind: str
@@ -84,6 +89,7 @@ class OptionMeta:
     flags: tuple[str, ...] = ()
     metavar: str | None = None
     help: str = ""
+    validate: Callable[[Any], Any] | None = None
 
     def describe(self) -> str:
         """Say in words what values are allowed (for error messages)."""
@@ -103,6 +109,8 @@ class OptionMeta:
 
     def check(self, name: str, value: Any) -> Any:
         """Return ``value`` normalised, or raise :class:`InvalidInputError`."""
+        if self.validate is not None:
+            return self.validate(value)
         if value is None and (self.optional or self.kind == "crs"):
             return None
         if self.kind == "crs":
@@ -157,10 +165,6 @@ def _check_n_jobs(value):
             f"n_jobs must be a positive integer or -1 (all cores); got {value!r}"
         )
     return int(value)
-
-
-#: Checks beyond what :class:`OptionMeta` says, by option name.
-_EXTRA_CHECKS: dict[str, Callable[[Any], Any]] = {"n_jobs": _check_n_jobs}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -358,6 +362,7 @@ class Options:
         "points (see :mod:`geoalpha.parallel`).",
         flags=("-j", "--jobs"),
         metavar="N",
+        validate=_check_n_jobs,
         help="Worker processes for the groups (-1: one per core); pays off from "
         "about 100,000 points. The result is the same.",
     )
@@ -365,9 +370,6 @@ class Options:
     def __post_init__(self) -> None:
         for field in FIELDS:
             value = field.metadata["meta"].check(field.name, getattr(self, field.name))
-            extra = _EXTRA_CHECKS.get(field.name)
-            if extra is not None:
-                value = extra(value)
             object.__setattr__(self, field.name, value)
 
     @classmethod
