@@ -40,6 +40,8 @@ from scipy.sparse.csgraph import (
 )
 from scipy.spatial import Delaunay, QhullError
 
+from geoalpha.errors import first_n
+
 __all__ = [
     "Rings",
     "Spectrum",
@@ -211,7 +213,7 @@ def _check_points(points) -> np.ndarray:
         )
     bad = np.flatnonzero(~np.isfinite(xy).all(axis=1))
     if len(bad):
-        shown = ", ".join(map(str, bad[:10])) + (", ..." if len(bad) > 10 else "")
+        shown = first_n(bad)
         raise ValueError(
             f"points must have finite coordinates; got NaN or inf in {len(bad)} "
             f"row(s) (positions {shown})"

@@ -17,6 +17,7 @@ from geoalpha.errors import (
     DegenerateGroupWarning,
     InvalidInputError,
     SearchWarning,
+    first_n,
     user_stacklevel,
 )
 
@@ -124,7 +125,7 @@ def _rank_threshold(
             warnings.warn(
                 f"search='bisect' did not converge within max_iterations="
                 f"{max_iterations} for {gave_up.sum()} group(s) (codes "
-                f"{_shown(np.flatnonzero(gave_up))}) and returned alpha=0, the "
+                f"{first_n(np.flatnonzero(gave_up))}) and returned alpha=0, the "
                 "convex hull, as alphashape does; use search='exact'",
                 SearchWarning,
                 stacklevel=user_stacklevel(),
@@ -132,12 +133,6 @@ def _rank_threshold(
     a[tri.degenerate] = np.nan
     rank = tri.rank_of(core.radius_of_alpha(a))
     return a, rank, spectrum.pieces_at_rank(np.arange(G), rank)
-
-
-def _shown(items, limit: int = 10) -> str:
-    items = list(items)
-    text = ", ".join(map(str, items[:limit]))
-    return text + (", ..." if len(items) > limit else "")
 
 
 def alpha_shapes(

@@ -114,14 +114,17 @@ def _labels(index: pd.Index, mask: np.ndarray, limit: int = 10) -> str:
 
 def _names(keys: pd.DataFrame, groups: np.ndarray, counts=None) -> str:
     """Name groups by key for messages (with their row counts when given)."""
-    rows = keys.iloc[groups[:10]].itertuples(index=False)
-    names = [", ".join(map(str, r)) or "all points" for r in rows]
+    shown = groups[:11]  # first_n shows 10, and "..." when there is an 11th
+    names = [
+        ", ".join(map(str, r)) or "all points"
+        for r in keys.iloc[shown].itertuples(index=False)
+    ]
     if counts is not None:
         names = [
             f"{n!r} ({c} row{'s' if c != 1 else ''})"
-            for n, c in zip(names, counts[groups[:10]], strict=True)
+            for n, c in zip(names, counts[shown], strict=True)
         ]
-    return first_n(names, limit=10, sep="; ") + (", ..." if len(groups) > 10 else "")
+    return first_n(names, limit=10, sep="; ")
 
 
 def as_frame(data):
