@@ -204,3 +204,31 @@ def test_the_graph_sees_a_cycle_hidden_in_a_function():
     found = _imports("core", tree, {"tools": None})
     assert found == [("geoalpha.tools", "", 2)]
     assert RANK["core"] > RANK["tools"]
+
+
+def test_geoalpha_help_and_version_import_nothing_heavy():
+    """``geoalpha --help`` and ``--version`` stay fast: no numpy, pandas, pyproj."""
+    import os
+    import subprocess
+    import sys
+
+    code = (
+        "import sys\n"
+        "from click.testing import CliRunner\n"
+        "from geoalpha.cli import main\n"
+        "for args in (['--help'], ['--version'], ['hull', '--help']):\n"
+        "    assert CliRunner().invoke(main, args).exit_code == 0, args\n"
+        f"heavy = {sorted(HEAVY)!r}\n"
+        "loaded = [m for m in heavy if m in sys.modules]\n"
+        "assert not loaded, loaded\n"
+    )
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
+    done = subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=120,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr
