@@ -119,7 +119,7 @@ class OptionMeta:
             if isinstance(value, str) and value in self.choices:
                 return value
         elif self.kind == "bool":
-            if isinstance(value, bool) or type(value).__name__ == "bool_":
+            if _is_bool(value):
                 return bool(value)
         elif isinstance(value, numbers.Real) and not _is_bool(value):
             if self.kind == "int" and not isinstance(value, numbers.Integral):
@@ -137,7 +137,10 @@ class OptionMeta:
 
 
 def _is_bool(value) -> bool:
-    return isinstance(value, bool) or type(value).__name__ == "bool_"
+    """Tell True and False apart from numbers (numpy booleans too, without numpy)."""
+    return isinstance(value, bool) or (
+        type(value).__module__ == "numpy" and type(value).__name__ in ("bool", "bool_")
+    )
 
 
 def _check_crs(value):

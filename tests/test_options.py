@@ -203,3 +203,12 @@ def test_dask_honours_max_iterations(points):
             out = lazy.compute(scheduler="sync")
         np.testing.assert_array_equal(out["alpha"], eager["alpha"])
     assert HAS_DASK
+
+
+def test_numpy_scalars_are_accepted_and_booleans_are_not_numbers():
+    assert Options(holes=np.True_, components=np.int64(2)).components == 2
+    assert Options(alpha=np.float32(0.5)).alpha == 0.5
+    with pytest.raises(InvalidInputError, match="components must be an integer"):
+        Options(components=True)
+    with pytest.raises(InvalidInputError, match="k must be an integer >= 1"):
+        Options(k=2.5)
