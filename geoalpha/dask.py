@@ -18,7 +18,8 @@ with dask's string dtype):
    data fit one, else ``crs="auto-group"`` (each group its own metric CRS);
    a partition alone would see only its own points and could decide
    otherwise;
-3. :func:`geoalpha.hull` runs on every partition (``map_partitions``);
+3. the stages of :func:`geoalpha.hull` (:func:`geoalpha.pipeline.run`) run on
+   every partition (``map_partitions``);
 4. with ``sort=True`` the (small: one row per group) result is gathered into
    one partition sorted by key, as the eager call returns it.
 
