@@ -71,15 +71,26 @@ def __dir__() -> list[str]:
 
 
 class _RegisterOnImport:
-    """Import hook: register the accessor once geopandas has been imported."""
+    """Import hook: register the accessor once geopandas has been imported.
+
+    It only wraps the loader of geopandas (found by the other finders) and
+    leaves ``sys.meta_path`` when geopandas has been executed; a mere
+    ``importlib.util.find_spec("geopandas")`` (no import) leaves it in place.
+    """
+
+    def __init__(self) -> None:
+        self._finding = False
 
     def find_spec(self, name, path=None, target=None):
-        if name != "geopandas":
+        if name != "geopandas" or self._finding:
             return None
-        sys.meta_path.remove(self)
-        from importlib.util import find_spec
+        self._finding = True
+        try:
+            from importlib.util import find_spec
 
-        spec = find_spec(name)
+            spec = find_spec(name)
+        finally:
+            self._finding = False
         if spec is None or spec.loader is None:  # pragma: no cover - no geopandas
             return None
         loader = spec.loader
@@ -87,6 +98,8 @@ class _RegisterOnImport:
 
         def exec_and_register(module):
             exec_module(module)
+            if self in sys.meta_path:
+                sys.meta_path.remove(self)
             _register()
 
         loader.exec_module = exec_and_register

@@ -132,8 +132,11 @@ def test_register_again_does_not_warn():
         "import sys; import geoalpha; "
         "assert not {'geopandas', 'pandas', 'numpy', 'pyproj'} & set(sys.modules); "
         "import geopandas as gpd",
+        # a look-up of geopandas that does not import it changes nothing
+        "import importlib.util; import geoalpha; "
+        "importlib.util.find_spec('geopandas'); import geopandas as gpd",
     ],
-    ids=["geopandas first", "geoalpha first"],
+    ids=["geopandas first", "geoalpha first", "find_spec in between"],
 )
 def test_import_geoalpha_registers_the_accessor(code):
     check = (
