@@ -315,11 +315,9 @@ def compute(
             if method == "convex":
                 convex = convex_hulls(proj.out, points.codes, n_groups)
                 geometry = np.where(res.degenerate, geometry, convex)
-            label = (
-                method
-                if method == "convex" or options.search == "exact"
-                else (options.search)
-            )
+            # "ladder"/"bisect" name the search that gave the alpha
+            exact = method == "convex" or options.search == "exact"
+            label = method if exact else options.search
             return Shapes(
                 geometry=geometry,
                 area=res.area,
