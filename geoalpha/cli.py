@@ -182,11 +182,32 @@ _overwrite_option = click.option(
 )
 
 
+class _Number(click.ParamType):
+    """An int when the text is one (``3``), else a float (``0.05``)."""
+
+    name = "number"
+
+    def convert(self, value, param, ctx):
+        if not isinstance(value, str):
+            return value
+        for kind in (int, float):
+            try:
+                return kind(value)
+            except ValueError:
+                pass
+        self.fail(f"{value!r} is not a number", param, ctx)
+
+
+_NUMBER = _Number()
+
+
 def _click_option(name: str, default, meta: OptionMeta):
     """Build the click option of one field of :class:`geoalpha.options.Options`."""
     kwargs: dict = {"help": meta.help, "default": default, "metavar": meta.metavar}
     if meta.kind == "choice":
         kwargs["type"] = click.Choice(meta.choices)
+    elif meta.kind == "number":
+        kwargs["type"] = _NUMBER
     elif meta.kind in ("int", "float"):
         if meta.low is not None or meta.high is not None:
             ranged = click.IntRange if meta.kind == "int" else click.FloatRange

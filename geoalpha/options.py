@@ -58,7 +58,8 @@ class OptionMeta:
     Attributes
     ----------
     kind : str
-        ``"bool"``, ``"int"``, ``"float"``, ``"choice"`` or ``"crs"``.
+        ``"bool"``, ``"int"``, ``"float"``, ``"number"`` (an int stays an
+        int, anything else real becomes a float), ``"choice"`` or ``"crs"``.
     doc : str
         numpydoc text of the parameter (type line, then the description).
     choices : tuple, optional
@@ -125,7 +126,11 @@ class OptionMeta:
             if self.kind == "int" and not isinstance(value, numbers.Integral):
                 pass
             elif math.isfinite(value) and self._in_range(value):
-                return int(value) if self.kind == "int" else float(value)
+                if self.kind == "int" or (
+                    self.kind == "number" and isinstance(value, numbers.Integral)
+                ):
+                    return int(value)
+                return float(value)
         raise InvalidInputError(f"{name} must be {self.describe()}; got {value!r}")
 
     def _in_range(self, value) -> bool:

@@ -212,3 +212,27 @@ def test_numpy_scalars_are_accepted_and_booleans_are_not_numbers():
         Options(components=True)
     with pytest.raises(InvalidInputError, match="k must be an integer >= 1"):
         Options(k=2.5)
+
+
+def test_a_number_option_keeps_ints_and_floats_apart():
+    """What ``outliers=`` (a count or a fraction) will need: kind="number"."""
+    from geoalpha import cli, options
+
+    meta = options.OptionMeta(kind="number", low=0.0, doc="", flags=("--q",))
+    assert meta.check("q", 3) == 3 and isinstance(meta.check("q", 3), int)
+    assert meta.check("q", 0.25) == 0.25
+    with pytest.raises(InvalidInputError, match="q must be a finite number >= 0"):
+        meta.check("q", -1)
+    option = cli._click_option("q", 0, meta)
+
+    import click
+
+    @click.command()
+    @option
+    def command(q):
+        print(repr(q))
+
+    runner = CliRunner()
+    for text, shown in (("3", "3"), ("0.25", "0.25")):
+        assert runner.invoke(command, ["--q", text]).output.strip() == shown
+    assert runner.invoke(command, ["--q", "x"]).exit_code == 2
