@@ -20,12 +20,13 @@ from geoalpha.errors import (
     GeoAlphaError,
     GeoAlphaWarning,
     InvalidInputError,
+    OutlierWarning,
     SearchWarning,
 )
 
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs
     from geoalpha.optimal import AlphaShapes, alpha_shape, alpha_shapes, optimal_alpha
-    from geoalpha.tools import hull
+    from geoalpha.tools import hull, outlier_rows
 
 try:
     __version__ = version("geoalpha")
@@ -40,12 +41,14 @@ __all__ = [
     "GeoAlphaError",
     "GeoAlphaWarning",
     "InvalidInputError",
+    "OutlierWarning",
     "SearchWarning",
     "__version__",
     "alpha_shape",
     "alpha_shapes",
     "hull",
     "optimal_alpha",
+    "outlier_rows",
 ]
 
 #: Public names loaded on first use, and the module that defines each.
@@ -55,6 +58,7 @@ _LAZY = {
     "alpha_shapes": "geoalpha.optimal",
     "optimal_alpha": "geoalpha.optimal",
     "hull": "geoalpha.tools",
+    "outlier_rows": "geoalpha.tools",
 }
 
 

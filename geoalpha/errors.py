@@ -12,11 +12,14 @@ from collections.abc import Iterable
 
 __all__ = [
     "AntimeridianWarning",
+    "CRSWarning",
     "DegenerateGroupWarning",
     "DroppedRowsWarning",
     "GeoAlphaError",
     "GeoAlphaWarning",
+    "GroupingWarning",
     "InvalidInputError",
+    "OutlierWarning",
     "SearchWarning",
     "first_n",
 ]
@@ -44,6 +47,18 @@ class DroppedRowsWarning(GeoAlphaWarning):
 
 class AntimeridianWarning(GeoAlphaWarning):
     """A group crosses the antimeridian; its hull was split at +-180 degrees."""
+
+
+class OutlierWarning(GeoAlphaWarning):
+    """Points were left out of their group's hull (``outliers=``)."""
+
+
+class CRSWarning(GeoAlphaWarning):
+    """A CRS given for the points or the computation looks wrong or distorts areas."""
+
+
+class GroupingWarning(GeoAlphaWarning):
+    """The groups look wrong: nearly as many groups as rows (a wrong ``by``?)."""
 
 
 class SearchWarning(GeoAlphaWarning):

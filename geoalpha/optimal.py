@@ -11,8 +11,9 @@ import warnings
 from typing import Literal, NamedTuple
 
 import numpy as np
+import shapely
 
-from geoalpha import core, parallel, search, shapes
+from geoalpha import core, coverage, parallel, search, shapes
 from geoalpha.errors import (
     DegenerateGroupWarning,
     InvalidInputError,
@@ -49,6 +50,16 @@ class AlphaShapes(NamedTuple):
         metric coordinates), whatever ``coords`` the geometry was built from.
     degenerate : ndarray of bool
         Fewer than 3 distinct points, or all collinear: no triangle, no alpha.
+        Both are decided with a tolerance relative to the group's extent
+        (:data:`geoalpha.core.NEAR_RTOL`), in ``points`` and in ``coords``; a
+        group whose shape float geometry cannot make valid and covering is
+        degenerate too (never a polygon that misses a point).
+    n_outliers : ndarray of int
+        Distinct points of the group left out of the shape (``outliers=``);
+        0 without outliers.
+    outlier : ndarray of bool, shape (n,)
+        One entry per input point (not per group): True where the point was
+        left out (duplicates of a left-out point too).
     """
 
     alpha: np.ndarray
@@ -58,9 +69,11 @@ class AlphaShapes(NamedTuple):
     n_parts: np.ndarray
     area: np.ndarray
     degenerate: np.ndarray
+    n_outliers: np.ndarray | None = None
+    outlier: np.ndarray | None = None
 
 
-def _check_options(holes, components, search_: str) -> None:
+def _check_options(holes, components, search_: str, outliers=0, alpha=None) -> None:
     if not isinstance(holes, bool | np.bool_):
         raise InvalidInputError(f"holes must be True or False; got {holes!r}")
     if isinstance(components, bool) or not isinstance(components, int | np.integer):
@@ -72,6 +85,12 @@ def _check_options(holes, components, search_: str) -> None:
     if search_ not in _SEARCHES:
         raise InvalidInputError(
             f"search must be one of {', '.join(map(repr, _SEARCHES))}; got {search_!r}"
+        )
+    coverage.check_outliers(outliers)
+    if outliers and (alpha is not None or search_ != "exact"):
+        raise InvalidInputError(
+            "outliers applies to the exact optimum: use it without alpha and "
+            f"with search='exact'; got alpha={alpha!r}, search={search_!r}"
         )
 
 
@@ -148,6 +167,7 @@ def alpha_shapes(
     n_groups: int | None = None,
     progress=None,
     n_jobs: int = 1,
+    outliers: float = 0,
 ) -> AlphaShapes:
     """Optimal alpha shapes of many groups of points in one call.
 
@@ -188,12 +208,21 @@ def alpha_shapes(
     n_jobs : int, default 1
         Worker processes to spread the groups over (-1: one per core); see
         :mod:`geoalpha.parallel`. The result is the same for every value.
+    outliers : float or int, default 0
+        Points each group may leave out: a float in ``[0, 1)`` is a fraction
+        of the group's distinct points (``k = floor(outliers * n)``), an int a
+        count ``k``. The optimum is then the largest alpha at which at most
+        ``components`` pieces of the shape cover at least ``n - k`` distinct
+        points; only those pieces are kept, and the points they miss are
+        reported (``n_outliers``, ``outlier``). Groups with ``k = 0`` get the
+        result without outliers. See :mod:`geoalpha.coverage`.
 
     Returns
     -------
     AlphaShapes
         Per group: ``alpha``, ``geometry``, ``n_points``, ``n_distinct``,
-        ``n_parts``, ``area``, ``degenerate``.
+        ``n_parts``, ``area``, ``degenerate``, ``n_outliers``; per input
+        point: ``outlier``.
 
     Raises
     ------
@@ -218,8 +247,15 @@ def alpha_shapes(
     ([0.4308, 0.8], [5, 3])
     >>> [g.geom_type for g in res.geometry]
     ['Polygon', 'Polygon']
+
+    One stray point may stay out:
+
+    >>> stray = np.array([[0, 0], [4, 0], [4, 4], [0, 4], [2, 3.5], [30, 30]])
+    >>> res = alpha_shapes(stray, outliers=1)
+    >>> res.alpha.round(4).tolist(), res.n_outliers.tolist(), res.outlier.tolist()
+    ([0.4308], [1], [False, False, False, False, False, True])
     """
-    _check_options(holes, components, search)
+    _check_options(holes, components, search, outliers, alpha)
     options = {
         "alpha": alpha,
         "holes": holes,
@@ -230,6 +266,8 @@ def alpha_shapes(
         "n_groups": n_groups,
         "progress": progress,
     }
+    if outliers:  # passed on only when used, so that 0 takes today's path
+        options["outliers"] = outliers
     if type(n_jobs) is not int or n_jobs != 1 or _batched(points, groups):
         return parallel.alpha_shapes_parallel(
             points, groups, batch=_alpha_shapes_batch, n_jobs=n_jobs, **options
@@ -254,68 +292,147 @@ def _alpha_shapes_batch(
     coords,
     n_groups,
     progress,
+    outliers=0,
 ) -> AlphaShapes:
     """:func:`alpha_shapes` of all groups in one pass (no runs, no workers)."""
     try:
-        tri = core.triangulate(points, groups, n_groups=n_groups, progress=progress)
+        out_xy, thin = _output_coordinates(points, groups, coords, n_groups)
+        tri = core.triangulate(
+            points, groups, n_groups=n_groups, progress=progress, degenerate=thin
+        )
     except ValueError as err:
         raise InvalidInputError(str(err)) from err
+    if out_xy is None:
+        out_xy = tri.xy
+    else:
+        out_xy = out_xy[np.argsort(tri.input_point)]
     weight = tri.rank if holes else core.fill_radius(tri)
     a, top, n_pieces = _rank_threshold(
         tri, weight, alpha, components, search, max_iterations, filled=not holes
     )
 
     inside = weight <= top[tri.tri_group]
+    kept = None
+    if outliers:
+        k = coverage.outlier_budget(outliers, tri.n_distinct)
+        kept = coverage.outlier_optimum(
+            tri, weight, top, k, components, filled=not holes
+        )
+        used = (k > 0) & ~tri.degenerate
+        inside, n_pieces = kept.inside, np.where(used, kept.n_pieces, n_pieces)
+        with np.errstate(divide="ignore"):
+            a = np.where(used, 1.0 / np.append(tri.values, np.inf)[kept.rank], a)
     piece = core.piece_labels(tri, inside, n_pieces)
     rings = core.boundary_rings(tri, inside, piece)
-    if coords is None:
-        out_xy = tri.xy
-    else:
-        c = np.asarray(coords, dtype=float)
-        if c.shape != (len(tri.input_point), 2):
-            raise InvalidInputError(
-                f"coords must have the shape of points {(len(tri.input_point), 2)}; "
-                f"got {c.shape}"
-            )
-        out_xy = np.empty_like(tri.xy)
-        out_xy[tri.input_point] = c
     geometry = shapes.assemble(out_xy, rings, tri.n_groups)
-    # Points Qhull merged with a (numerically) coincident vertex: the shape is
-    # that of the merged set, so make sure it holds them too where it holds
-    # their vertex (a change of ~1e-12 of the group's extent).
-    merged = np.flatnonzero(tri.vertex != np.arange(len(tri.vertex)))
-    if len(merged):
-        held = np.zeros(len(tri.xy), dtype=bool)
-        held[tri.triangles[inside].ravel()] = True
-        merged = merged[
-            held[tri.vertex[merged]]
-            & (tri.xy[merged] != tri.xy[tri.vertex[merged]]).any(axis=1)
-        ]
-        if len(merged):
-            geometry = shapes.cover_points(
-                geometry, out_xy[merged], tri.point_group[merged]
-            )
+    # The guarantee: every group a valid (Multi)Polygon that covers each of
+    # its points, in the coordinates it is returned in (at the optimum), or
+    # declared degenerate. Points merged as near-duplicates are taken in here.
+    check = ~tri.degenerate & ~rings.failed
+    # Coverage needs a geometric test only where it is not certain: at the
+    # optimum every representative point is a vertex of the (checked)
+    # triangulation in the shape, so in the same coordinates it is covered;
+    # points merged into another one, and every point when the geometry is
+    # built from other coordinates (lon/lat), are tested.
+    if coords is None:
+        test = (tri.xy != tri.xy[tri.vertex]).any(axis=1)
+    else:
+        test = np.ones(len(tri.xy), dtype=bool)
+    if kept is not None:  # the points left out on purpose (outliers=)
+        test &= ~kept.outlier
+    geometry, failed = shapes.enforce(
+        geometry,
+        out_xy,
+        tri.point_group,
+        check,
+        cover=alpha is None,
+        components=components if alpha is None else None,
+        test=test,
+    )
+    failed |= rings.failed & ~tri.degenerate
+    degenerate = tri.degenerate | failed
+    a = np.where(degenerate, np.nan, a)
+    geometry[failed] = shapes.EMPTY_POLYGON
     n_parts = np.bincount(rings.piece_group, minlength=tri.n_groups)
+    n_parts[degenerate] = 0
+    area = np.bincount(
+        tri.tri_group[inside], weights=tri.area[inside], minlength=tri.n_groups
+    )
+    area[degenerate] = 0.0
     codes = tri.point_group[tri.input_point]
+    if kept is None:
+        n_outliers, outlier = (
+            np.zeros(tri.n_groups, np.int64),
+            np.zeros(len(codes), bool),
+        )
+    else:
+        n_outliers, outlier = kept.n_outliers, kept.outlier[tri.input_point]
     return AlphaShapes(
         alpha=a,
         geometry=geometry,
         n_points=np.bincount(codes, minlength=tri.n_groups),
         n_distinct=tri.n_distinct.copy(),
         n_parts=n_parts,
-        area=np.bincount(
-            tri.tri_group[inside], weights=tri.area[inside], minlength=tri.n_groups
-        ),
-        degenerate=tri.degenerate.copy(),
+        area=area,
+        degenerate=degenerate,
+        n_outliers=n_outliers,
+        outlier=outlier,
     )
 
 
+def _output_coordinates(points, groups, coords, n_groups):
+    """Return the output coordinates (None: the points) and the groups thin there.
+
+    Degeneracy is decided in the coordinates the result is returned in, too:
+    points on one meridian are collinear in longitude/latitude even where
+    their image in metres is a hair away from a line.
+    """
+    if coords is None:
+        return None, None
+    c = np.asarray(coords, dtype=float)
+    n = len(np.asarray(points))
+    if c.shape != (n, 2):
+        raise InvalidInputError(
+            f"coords must have the shape of points {(n, 2)}; got {c.shape}"
+        )
+    return c, core.thin_groups(c, groups, n_groups)
+
+
+def _as_xy(points):
+    """Coordinates of shapely points (a MultiPoint, Points, a GeoSeries), else as is.
+
+    Any other geometry is an :class:`InvalidInputError` that says what to pass.
+    """
+    if isinstance(points, shapely.Geometry):
+        points = [points]
+    values = getattr(points, "values", points)  # a GeoSeries / Series
+    if not isinstance(values, np.ndarray | list | tuple):
+        values = np.asarray(values)  # e.g. a GeometryArray: its geometries
+    if isinstance(values, np.ndarray) and values.dtype != object:
+        return points
+    if not isinstance(values, np.ndarray):
+        if not (isinstance(values, list | tuple) and values):
+            return points
+        if not isinstance(values[0], shapely.Geometry):
+            return points
+    geoms = np.asarray(values, dtype=object)
+    kinds = shapely.get_type_id(geoms)
+    if not np.isin(kinds, (0, 4)).all():
+        raise InvalidInputError(
+            "points must be x, y coordinates or shapely points (Point, MultiPoint, "
+            "a GeoSeries of points); got "
+            + ", ".join(sorted({g.geom_type for g in geoms[~np.isin(kinds, (0, 4))]}))
+        )
+    return shapely.get_coordinates(geoms)
+
+
 def _one_group(points, **kwargs) -> AlphaShapes:
-    res = alpha_shapes(points, None, n_groups=1, **kwargs)
+    res = alpha_shapes(_as_xy(points), None, n_groups=1, **kwargs)
     if res.degenerate[0]:
         warnings.warn(
             f"no alpha shape: the {res.n_distinct[0]} distinct point(s) are fewer "
-            "than 3 or all collinear; alpha is nan and the shape empty",
+            "than 3 or all collinear (within 1e-9 of their extent of a line; "
+            "points closer than that are one); alpha is nan and the shape empty",
             DegenerateGroupWarning,
             stacklevel=user_stacklevel(),
         )
@@ -329,6 +446,7 @@ def optimal_alpha(
     components: int = 1,
     search: Search = "exact",
     max_iterations: int = 10_000,
+    outliers: float = 0,
 ) -> float:
     """Largest alpha whose shape is one piece containing every point.
 
@@ -344,6 +462,9 @@ def optimal_alpha(
         See :func:`alpha_shapes`.
     max_iterations : int, default 10000
         For ``search="bisect"``.
+    outliers : float or int, default 0
+        Points that may stay out: a fraction in ``[0, 1)`` of the distinct
+        points or a count; see :func:`alpha_shapes`.
 
     Returns
     -------
@@ -362,6 +483,9 @@ def optimal_alpha(
     --------
     >>> round(optimal_alpha([[0, 0], [4, 0], [4, 4], [0, 4], [2, 3.5]]), 6)
     0.430769
+    >>> stray = [[0, 0], [4, 0], [4, 4], [0, 4], [2, 3.5], [30, 30]]
+    >>> round(optimal_alpha(stray), 6), round(optimal_alpha(stray, outliers=1), 6)
+    (0.035624, 0.430769)
     """
     return float(
         _one_group(
@@ -370,6 +494,7 @@ def optimal_alpha(
             components=components,
             search=search,
             max_iterations=max_iterations,
+            outliers=outliers,
         ).alpha[0]
     )
 
@@ -381,6 +506,7 @@ def alpha_shape(
     holes: bool = False,
     components: int = 1,
     search: Search = "exact",
+    outliers: float = 0,
 ):
     """Alpha shape of a point set, at the optimal alpha by default.
 
@@ -396,6 +522,10 @@ def alpha_shape(
     components : int, default 1
         For the optimum: largest number of pieces allowed.
     search : {"exact", "ladder", "bisect"}, default "exact"
+        See :func:`alpha_shapes`.
+    outliers : float or int, default 0
+        For the optimum: points that may stay out (a fraction in ``[0, 1)`` or
+        a count); the shape then holds only the pieces that cover the others.
         See :func:`alpha_shapes`.
 
     Returns
@@ -415,5 +545,10 @@ def alpha_shape(
     16.0
     """
     return _one_group(
-        points, alpha=alpha, holes=holes, components=components, search=search
+        points,
+        alpha=alpha,
+        holes=holes,
+        components=components,
+        search=search,
+        outliers=outliers,
     ).geometry[0]

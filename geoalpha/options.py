@@ -157,6 +157,24 @@ def _check_crs(value):
     return value
 
 
+def _check_grow(value):
+    if (
+        _is_bool(value)
+        or not isinstance(value, numbers.Real)
+        or not math.isfinite(value)
+        or value < 0
+    ):
+        raise InvalidInputError(f"grow must be a distance >= 0 (metres); got {value!r}")
+    return float(value)
+
+
+def _check_outliers(value):
+    from geoalpha.coverage import check_outliers
+
+    check_outliers(value)
+    return value
+
+
 def option(default: Any, **meta) -> Any:
     """Declare one field of :class:`Options`: its default and :class:`OptionMeta`."""
     return dataclasses.field(default=default, metadata={"meta": OptionMeta(**meta)})
@@ -331,7 +349,7 @@ class Options:
         kind="bool",
         doc="bool, default False\n    Accept non-point geometries and use their "
         "vertices as points\n    (otherwise they are an error).",
-        flags=("--vertices/--no-vertices",),
+        flags=("--vertices",),
         help="Accept lines and polygons in INPUT and use their vertices as points "
         "(otherwise they are an error).",
     )
@@ -373,6 +391,39 @@ class Options:
         validate=_check_n_jobs,
         help="Worker processes for the groups (-1: one per core); pays off from "
         "about 100,000 points. The result is the same.",
+    )
+
+    outliers: int | float = option(
+        0,
+        kind="number",
+        validate=_check_outliers,
+        doc="float or int, default 0\n"
+        '    Points each group may leave out (``method="alpha"``, exact search,\n'
+        "    no fixed ``alpha``): a float in ``[0, 1)`` is a fraction of the\n"
+        "    group's distinct points (``k = floor(outliers * n)``), an int a\n"
+        "    count ``k``. The optimum is then the largest alpha at which at\n"
+        "    most ``components`` pieces cover at least ``n - k`` distinct\n"
+        "    points; only those pieces are kept. :func:`outlier_rows` tells\n"
+        "    which input rows were left out.",
+        flags=("--outliers",),
+        metavar="Q",
+        help="Points each hull may leave out: a fraction in [0, 1) or a count.",
+    )
+    grow: float = option(
+        0.0,
+        kind="float",
+        low=0.0,
+        validate=_check_grow,
+        doc="float, default 0.0\n"
+        "    Grow every hull (not the degenerate buffers) by this distance in\n"
+        "    metres (coordinate units with ``crs=None``), with rounded\n"
+        "    corners, so that every point is strictly inside. ``alpha`` and\n"
+        "    ``radius`` stay those of the optimal shape; ``area_m2`` is the\n"
+        "    area of the grown polygon. 0 keeps the exact shape.",
+        flags=("--grow",),
+        metavar="M",
+        help="Grow every hull by this distance (metres), so that every point "
+        "is strictly inside.",
     )
 
     def __post_init__(self) -> None:

@@ -23,6 +23,7 @@
 
 from __future__ import annotations
 
+import contextvars
 import sys
 import warnings
 from typing import Any, NamedTuple
@@ -39,6 +40,7 @@ from geoalpha.errors import (
     DroppedRowsWarning,
     GeoAlphaWarning,
     InvalidInputError,
+    OutlierWarning,
     first_n,
     user_stacklevel,
 )
@@ -82,6 +84,7 @@ class Points(NamedTuple):
     codes: np.ndarray  #: group code per point
     n_points: np.ndarray  #: input rows per group
     labels: Any  #: index label per point (for messages), indexable by positions
+    rows: np.ndarray  #: row position (in the frame) of each point
 
 
 class Shapes(NamedTuple):
@@ -93,6 +96,7 @@ class Shapes(NamedTuple):
     labels: np.ndarray  #: the ``method`` column
     degenerate: np.ndarray  #: no shape (fewer than 3 distinct points, a line)
     keep: np.ndarray  #: groups that get a row
+    outlier: np.ndarray  #: per point: left out of its group's hull (outliers=)
 
 
 def run(frame, by, options: Options):
@@ -102,8 +106,11 @@ def run(frame, by, options: Options):
     proj = project(points, frame.crs, options)
     shapes = compute(points, proj, len(groups.keys), options)
     shapes = degenerate_policy(shapes, groups, points, proj, options)
+    shapes = grow(shapes, points, proj, options)
     geometry = verify_in_output_crs(shapes.geometry, groups, points, proj, options)
-    return table(groups, points, proj, shapes, geometry, frame.crs)
+    out = table(groups, points, proj, shapes, geometry, frame.crs)
+    report_outliers(shapes, groups, points, frame, options)
+    return out
 
 
 def _labels(index: pd.Index, mask: np.ndarray, limit: int = 10) -> str:
@@ -254,6 +261,7 @@ def read_points(frame, groups: Groups, options: Options) -> Points:
         codes=codes[kept][which],
         n_points=np.bincount(codes[kept], minlength=len(groups.keys)),
         labels=_RowLabels(index, kept[which]),
+        rows=kept[which],
     )
 
 
@@ -295,6 +303,10 @@ def compute(
     ``"concave"`` and ``"knn"``: :func:`geoalpha.comparison.comparison_hulls`.
     """
     method = options.method
+    if options.outliers and method != "alpha":
+        raise InvalidInputError(
+            f"outliers applies to method='alpha'; got method={method!r}"
+        )
     bar = _progress(options.progress, n_groups)
     try:
         if method in ("alpha", "convex"):
@@ -310,6 +322,7 @@ def compute(
                 n_groups=n_groups,
                 progress=bar,
                 n_jobs=options.n_jobs,
+                outliers=options.outliers,
             )
             geometry = res.geometry
             if method == "convex":
@@ -325,6 +338,7 @@ def compute(
                 labels=np.full(n_groups, label, dtype=object),
                 degenerate=res.degenerate,
                 keep=np.ones(n_groups, dtype=bool),
+                outlier=res.outlier,
             )
         hulls = comparison_hulls(
             method,
@@ -343,9 +357,11 @@ def compute(
             labels=hulls.labels,
             degenerate=hulls.degenerate,
             keep=np.ones(n_groups, dtype=bool),
+            outlier=np.zeros(len(points.codes), dtype=bool),
         )
     finally:
-        if bar is not None:
+        if bar is not None:  # groups of 1-2 points are done too: a full bar
+            bar.update(max(0, n_groups - bar.n))
             bar.close()
 
 
@@ -477,6 +493,9 @@ def table(
         "alpha": shapes.alpha,
         "radius": radius,
         "n_points": points.n_points,
+        "n_outliers": np.bincount(
+            points.codes[shapes.outlier], minlength=len(points.n_points)
+        ),
         "n_parts": np.where(
             shapely.is_empty(geometry), 0, shapely.get_num_geometries(geometry)
         ),
@@ -489,3 +508,83 @@ def table(
         geometry = geometry[keep]
     keys = groups.keys[keep] if not keep.all() else groups.keys
     return result_frame(keys, values, geometry, crs)
+
+
+def grow(
+    shapes: Shapes, points: Points, proj: gcrs.Projection, options: Options
+) -> Shapes:
+    """Buffer the hulls (not the degenerate buffers) by ``grow`` metres.
+
+    Built in the metric CRS from the metric coordinates of the hull vertices
+    (which are input points), then moved back to the output CRS.
+    """
+    distance = options.grow
+    if not distance:
+        return shapes
+    geometry = shapes.geometry
+    sel = np.flatnonzero(~shapes.degenerate & ~shapely.is_empty(geometry))
+    if not sel.size:
+        return shapes
+    coords, which = shapely.get_coordinates(geometry[sel], return_index=True)
+    keys = pd.MultiIndex.from_arrays([points.codes, proj.out[:, 0], proj.out[:, 1]])
+    first = ~keys.duplicated()
+    loc = keys[first].get_indexer(
+        pd.MultiIndex.from_arrays([sel[which], coords[:, 0], coords[:, 1]])
+    )
+    exact = np.ones(sel.size, dtype=bool)
+    exact[which[loc < 0]] = False  # a repaired vertex: not an input point
+    metric = shapely.set_coordinates(
+        geometry[sel].copy(), proj.xy[np.flatnonzero(first)[np.maximum(loc, 0)]]
+    )
+    if not exact.all():  # pragma: no cover - hull vertices are input points
+        warnings.warn(
+            f"{(~exact).sum()} hull(s) were not grown: a vertex is not an input "
+            "point (repaired geometry)",
+            GeoAlphaWarning,
+            stacklevel=user_stacklevel(),
+        )
+    grown = shapely.buffer(metric[exact], distance, quad_segs=4)
+    geometry = geometry.copy()
+    area = np.asarray(shapes.area, dtype=float).copy()
+    area[sel[exact]] = shapely.area(grown)
+    geometry[sel[exact]] = proj.to_output(grown, sel[exact])
+    return shapes._replace(geometry=geometry, area=area)
+
+
+#: Set by :func:`geoalpha.tools.outlier_rows` to receive the left-out rows.
+OUTLIER_ROWS: contextvars.ContextVar[list | None] = contextvars.ContextVar(
+    "geoalpha_outlier_rows", default=None
+)
+
+
+def report_outliers(
+    shapes: Shapes, groups: Groups, points: Points, frame, options: Options
+) -> None:
+    """Warn about the rows left out (``outliers=``); hand them to outlier_rows()."""
+    left_out = np.zeros(len(frame), dtype=bool)
+    left_out[points.rows[shapes.outlier]] = True
+    if left_out.any():
+        n_outliers = np.bincount(
+            points.codes[shapes.outlier], minlength=len(points.n_points)
+        )
+        which = np.flatnonzero(n_outliers)
+        rows = groups.keys.iloc[which[:11]].itertuples(index=False)
+        each = first_n(
+            (
+                f"{', '.join(map(repr, key)) or 'all points'} "
+                f"({n} row{'s' if n != 1 else ''})"
+                for key, n in zip(rows, n_outliers[which[:11]], strict=True)
+            ),
+            limit=10,
+            sep="; ",
+        )
+        warnings.warn(
+            f"hull() left {n_outliers.sum()} row(s) of {len(which)} group(s) "
+            f"outside their hulls (outliers={options.outliers!r}): {each}; "
+            "geoalpha.outlier_rows() marks them",
+            OutlierWarning,
+            stacklevel=user_stacklevel(),
+        )
+    found = OUTLIER_ROWS.get()
+    if found is not None:
+        found.append(pd.Series(left_out, index=frame.index, name="outlier"))

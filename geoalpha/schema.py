@@ -22,6 +22,7 @@ DTYPES: dict[str, str] = {
     "alpha": "float64",
     "radius": "float64",
     "n_points": "int64",
+    "n_outliers": "int64",
     "n_parts": "int32",
     "area_m2": "float64",
     "crs_used": "text",

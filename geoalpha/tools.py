@@ -9,13 +9,15 @@ or a dask-geopandas frame to :func:`geoalpha.dask.hull`.
 from __future__ import annotations
 
 import sys
+import warnings
 
 from geoalpha import options as _options
+from geoalpha.errors import InvalidInputError, OutlierWarning
 from geoalpha.options import DEGENERATE_POLICIES, METHODS, Options
-from geoalpha.pipeline import as_frame, run
+from geoalpha.pipeline import OUTLIER_ROWS, as_frame, run
 from geoalpha.schema import RESULT_COLUMNS
 
-__all__ = ["DEGENERATE_POLICIES", "METHODS", "RESULT_COLUMNS", "hull"]
+__all__ = ["DEGENERATE_POLICIES", "METHODS", "RESULT_COLUMNS", "hull", "outlier_rows"]
 
 
 def _is_dask(data) -> bool:
@@ -69,6 +71,8 @@ def hull(gdf, by=None, **options):
 
     Warns
     -----
+    OutlierWarning
+        Groups that left points out (``outliers``), with their counts.
     DroppedRowsWarning
         Rows with a missing or empty geometry or a missing group key.
     DegenerateGroupWarning
@@ -108,3 +112,56 @@ def hull(gdf, by=None, **options):
 
 hull.__signature__ = _options.signature(hull)
 hull.__doc__ = _options.docstring(hull.__doc__, indent="    ")
+
+
+def outlier_rows(gdf, by=None, **options):
+    """Mark the input rows that :func:`hull` leaves out with ``outliers=``.
+
+    Parameters
+    ----------
+    gdf : GeoDataFrame or GeoSeries
+        The points, as for :func:`hull`.
+    by : str, list of str, or array_like, optional
+        The groups, as for :func:`hull`.
+    **options
+        The options of :func:`hull`, ``outliers`` included.
+
+    Returns
+    -------
+    pandas.Series of bool
+        Aligned with ``gdf`` (same index): True for the rows left out of
+        their group's hull (a MultiPoint row: when one of its points is);
+        False for the others, dropped rows included.
+
+    Raises
+    ------
+    InvalidInputError
+        As :func:`hull`; also for a dask-geopandas frame (compute it first).
+
+    .. versionadded:: 0.2.0
+
+    Examples
+    --------
+    >>> import geopandas as gpd
+    >>> import shapely
+    >>> pts = [(0, 0), (4, 0), (4, 4), (0, 4), (2, 3.5), (30, 30)]
+    >>> gdf = gpd.GeoDataFrame(geometry=shapely.points(pts), crs="EPSG:32631")
+    >>> outlier_rows(gdf, outliers=1).tolist()
+    [False, False, False, False, False, True]
+    >>> gdf[~outlier_rows(gdf, outliers=1)].alpha.hull()["n_points"].item()
+    5
+    """
+    if _is_dask(gdf):
+        raise InvalidInputError(
+            "outlier_rows() needs an eager GeoDataFrame; call .compute() first "
+            "(the lazy hull() has the n_outliers column)"
+        )
+    found: list = []
+    token = OUTLIER_ROWS.set(found)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", OutlierWarning)
+            hull(gdf, by, **options)
+    finally:
+        OUTLIER_ROWS.reset(token)
+    return found[0]

@@ -32,8 +32,8 @@ LAYERS: list[tuple[str, ...]] = [
     ("optimal",),
     ("parallel",),
     ("options",),
-    ("io", "shapes", "search", "knn"),
-    ("crs", "core", "schema", "registration", "datasets"),
+    ("io", "shapes", "search", "knn", "coverage"),
+    ("crs", "core", "schema", "registration", "datasets", "distortion", "redact"),
     ("errors",),
 ]
 RANK = {name: rank for rank, names in enumerate(LAYERS) for name in names}

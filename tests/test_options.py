@@ -45,7 +45,12 @@ NON_DEFAULT = {
     "sort": False,
     "progress": False,
     "n_jobs": 2,
+    "outliers": 1,
+    "grow": 2.0,
 }
+#: Options that `geoalpha hull` has no flag for yet (its flags are written out
+#: in geoalpha/cli.py, not built from Options since the merge of #13).
+NOT_IN_CLI = {"max_iterations"}
 #: Options that reach geoalpha.parallel with n_jobs != 1.
 ARRAY_OPTIONS = ("holes", "components", "search", "max_iterations")
 
@@ -111,6 +116,20 @@ def _dask_accessor(points, name, value):
     ddf.alpha.hull("g", **{name: value}).compute(scheduler="sync")
 
 
+def _cli_flags() -> set[str]:
+    hull_command = main.commands["hull"]
+    return {opt for p in hull_command.params for opt in (*p.opts, *p.secondary_opts)}
+
+
+def test_the_cli_misses_only_the_listed_options():
+    missing = {
+        f.name
+        for f in FIELDS
+        if not set(f.metadata["meta"].flags[-1].split("/")) <= _cli_flags()
+    }
+    assert missing == NOT_IN_CLI
+
+
 def _cli(points, name, value, tmp_path):
     table = pd.DataFrame(points.drop(columns="geometry"))
     table["lon"], table["lat"] = points.geometry.x, points.geometry.y
@@ -147,6 +166,10 @@ PATHS = {
 @pytest.mark.parametrize("path", list(PATHS.values()), ids=list(PATHS))
 def test_every_option_arrives_on_every_path(points, received, tmp_path, path, name):
     value = NON_DEFAULT[name]
+    if path is _cli and name in NOT_IN_CLI:
+        with pytest.raises(AssertionError, match="No such option"):
+            path(points, name, value, tmp_path)
+        return
     dask_path = path in (_dask, _dask_accessor)
     args = (points, name, value) + ((tmp_path,) if path is _cli else ())
     with warnings.catch_warnings():
@@ -216,23 +239,10 @@ def test_numpy_scalars_are_accepted_and_booleans_are_not_numbers():
 
 def test_a_number_option_keeps_ints_and_floats_apart():
     """What ``outliers=`` (a count or a fraction) will need: kind="number"."""
-    from geoalpha import cli, options
+    from geoalpha import options
 
     meta = options.OptionMeta(kind="number", low=0.0, doc="", flags=("--q",))
     assert meta.check("q", 3) == 3 and isinstance(meta.check("q", 3), int)
     assert meta.check("q", 0.25) == 0.25
     with pytest.raises(InvalidInputError, match="q must be a finite number >= 0"):
         meta.check("q", -1)
-    option = cli._click_option("q", 0, meta)
-
-    import click
-
-    @click.command()
-    @option
-    def command(q):
-        print(repr(q))
-
-    runner = CliRunner()
-    for text, shown in (("3", "3"), ("0.25", "0.25")):
-        assert runner.invoke(command, ["--q", text]).output.strip() == shown
-    assert runner.invoke(command, ["--q", "x"]).exit_code == 2
