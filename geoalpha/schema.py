@@ -63,8 +63,9 @@ def result_frame(keys: pd.DataFrame, values: dict[str, Any], geometry, crs):
     --------
     >>> import pandas as pd, shapely
     >>> keys = pd.DataFrame({"g": ["a"]})
-    >>> values = dict(alpha=[0], radius=[float("inf")], n_points=[3], n_parts=[1],
-    ...               area_m2=[2], crs_used=["EPSG:32630"], method=["convex"])
+    >>> values = dict(alpha=[0], radius=[float("inf")], n_points=[3], n_outliers=[0],
+    ...               n_parts=[1], area_m2=[2], crs_used=["EPSG:32630"],
+    ...               method=["convex"])
     >>> out = result_frame(keys, values, [shapely.box(0, 0, 1, 2)], "EPSG:32630")
     >>> out.dtypes["area_m2"], out.columns.tolist()[-2:]
     (dtype('float64'), ['method', 'geometry'])
