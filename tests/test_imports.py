@@ -33,6 +33,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("parallel",),
     ("options",),
     ("io", "shapes", "search", "knn", "coverage"),
+    ("postgis",),
     ("crs", "core", "schema", "registration", "datasets", "distortion", "redact"),
     ("errors",),
 ]
