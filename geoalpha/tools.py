@@ -30,7 +30,7 @@ from geoalpha.errors import (
     user_stacklevel,
 )
 from geoalpha.optimal import alpha_shapes
-from geoalpha.shapes import EMPTY_POLYGON, cover_points, polygonal
+from geoalpha.shapes import EMPTY_POLYGON, cover_points, repair_invalid
 
 __all__ = ["DEGENERATE_POLICIES", "METHODS", "RESULT_COLUMNS", "hull", "outlier_rows"]
 
@@ -784,9 +784,7 @@ def _finish(
     geometry = geometry.copy()
     invalid = ~shapely.is_valid(geometry)
     if invalid.any():
-        geometry[invalid] = polygonal(
-            shapely.make_valid(geometry[invalid], method="structure")
-        )
+        geometry[invalid] = repair_invalid(geometry[invalid])
         if (invalid & ~wide).any():
             warnings.warn(
                 f"{(invalid & ~wide).sum()} hull(s) became invalid in the input CRS "
