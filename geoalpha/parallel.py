@@ -113,7 +113,7 @@ def effective_n_jobs(n_jobs) -> int:
 
 
 def split_groups(counts, n_chunks: int) -> np.ndarray:
-    """Cut groups ``0 .. G-1`` into contiguous runs of about equal point count.
+    """Cut groups ``0, ..., G-1`` into contiguous runs of about equal point count.
 
     Parameters
     ----------
