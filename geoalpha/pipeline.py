@@ -47,7 +47,7 @@ from geoalpha.errors import (
 from geoalpha.optimal import alpha_shapes
 from geoalpha.options import Options
 from geoalpha.schema import RESULT_COLUMNS, result_frame, result_geometry_name
-from geoalpha.shapes import EMPTY_POLYGON, cover_points, polygonal
+from geoalpha.shapes import EMPTY_POLYGON, cover_points, enforce, repair_invalid
 
 __all__ = [
     "PROGRESS_MIN_GROUPS",
@@ -105,6 +105,7 @@ def run(frame, by, options: Options):
     points = read_points(frame, groups, options)
     proj = project(points, frame.crs, options)
     shapes = compute(points, proj, len(groups.keys), options)
+    shapes = ensure_guarantee(shapes, groups, points, proj, options)
     shapes = degenerate_policy(shapes, groups, points, proj, options)
     shapes = grow(shapes, points, proj, options)
     geometry = verify_in_output_crs(shapes.geometry, groups, points, proj, options)
@@ -373,6 +374,58 @@ def compute(
             bar.close()
 
 
+def ensure_guarantee(
+    shapes: Shapes,
+    groups: Groups,
+    points: Points,
+    proj: gcrs.Projection,
+    options: Options,
+) -> Shapes:
+    """Check every group's polygon in the output coordinates; the rest are degenerate.
+
+    The guarantee of :func:`geoalpha.hull`: each group gets a valid Polygon or
+    MultiPolygon that covers every one of its input points
+    (``shapely.covers``, distance 0) in the coordinates it is returned in, or
+    it is declared degenerate (alpha NaN, a :class:`DegenerateGroupWarning`)
+    and goes to the ``degenerate=`` policy. Invalid polygons are repaired and
+    points left outside are taken in as vertices first
+    (:func:`geoalpha.shapes.enforce`). Every method goes through here; the
+    points left out on purpose (``outliers=``) and, at a fixed ``alpha``
+    (which need not cover every point), coverage are not checked. Groups
+    wider than 180 degrees of longitude have no faithful lon/lat polygon and
+    are only warned about (see :func:`verify_in_output_crs`).
+    """
+    check = ~shapes.degenerate & ~proj.wide
+    if not check.any():
+        return shapes
+    fixed_alpha = options.method == "alpha" and options.alpha is not None
+    components = options.components if options.method == "alpha" else None
+    geometry, failed = enforce(
+        shapes.geometry,
+        proj.out,
+        points.codes,
+        check,
+        cover=not fixed_alpha,
+        components=None if fixed_alpha else components,
+        test=~shapes.outlier,
+    )
+    if failed.any():
+        which = np.flatnonzero(failed)
+        warnings.warn(
+            f"{len(which)} group(s) got no valid polygon covering all their points "
+            f"in the output CRS (float geometry is too coarse for them there): "
+            f"{_names(groups.keys, which, points.n_points)}; they are treated as "
+            "degenerate",
+            DegenerateGroupWarning,
+            stacklevel=user_stacklevel(),
+        )
+        alpha = np.where(failed, np.nan, shapes.alpha)
+        return shapes._replace(
+            geometry=geometry, alpha=alpha, degenerate=shapes.degenerate | failed
+        )
+    return shapes._replace(geometry=geometry)
+
+
 def degenerate_policy(
     shapes: Shapes,
     groups: Groups,
@@ -448,9 +501,7 @@ def verify_in_output_crs(
     geometry = geometry.copy()
     invalid = ~shapely.is_valid(geometry)
     if invalid.any():
-        geometry[invalid] = polygonal(
-            shapely.make_valid(geometry[invalid], method="structure")
-        )
+        geometry[invalid] = repair_invalid(geometry[invalid])
         told = invalid & ~proj.wide
         if told.any():
             warnings.warn(
