@@ -21,6 +21,7 @@ import geopandas as gpd
 import numpy as np
 import pytest
 import shapely
+import shapely.affinity
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -457,3 +458,46 @@ def test_repairs_work_with_shapely_2_0(monkeypatch):
     )
     assert not failed[0] and fixed[0].is_valid
     assert shapely.covers(fixed[0], shapely.points(pts)).all()
+
+
+def spoil_first_group(monkeypatch, make):
+    """Make compute() hand a chosen geometry to the next stages for group 0."""
+    from geoalpha import pipeline
+
+    real = pipeline.compute
+
+    def spoiled(points, proj, n_groups, options):
+        shapes = real(points, proj, n_groups, options)
+        geometry = shapes.geometry.copy()
+        geometry[0] = make(geometry[0])
+        return shapes._replace(geometry=geometry)
+
+    monkeypatch.setattr(pipeline, "compute", spoiled)
+
+
+def test_hull_takes_in_a_point_its_polygon_missed(monkeypatch):
+    # A polygon that misses points (here: the group's hull shrunk) is repaired
+    # in the output CRS: the points become vertices, and all are covered.
+    spoil_first_group(monkeypatch, lambda g: shapely.affinity.scale(g, 0.9, 0.9))
+    frame = hostile_frame()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        hulls = frame.alpha.hull(by="g")
+    key = hulls["g"][0]
+    mine = frame.geometry[frame["g"] == key].to_numpy()
+    assert not np.isnan(hulls["alpha"][0])
+    assert shapely.is_valid(hulls.geometry[0])
+    assert shapely.covers(hulls.geometry[0], mine).all()
+
+
+def test_hull_declares_degenerate_what_it_cannot_repair(monkeypatch):
+    # An empty "optimum" covers nothing and cannot be repaired: the group is
+    # declared degenerate with a warning, and the default policy buffers it.
+    spoil_first_group(monkeypatch, lambda g: shapely.Polygon())
+    frame = hostile_frame()
+    with pytest.warns(DegenerateGroupWarning, match="no valid polygon covering"):
+        hulls = frame.alpha.hull(by="g")
+    key = hulls["g"][0]
+    mine = frame.geometry[frame["g"] == key].to_numpy()
+    assert np.isnan(hulls["alpha"][0])
+    assert shapely.covers(hulls.geometry[0], mine).all()
