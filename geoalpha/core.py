@@ -297,13 +297,20 @@ def triangulate(
     origin = xy[np.minimum(point_ptr[:-1], max(len(xy) - 1, 0))] if len(xy) else xy
     local = xy - origin[point_group]
 
-    # The one loop per group: Qhull. Everything else is batched below.
-    simplices, neighbors, ntri, coplanar = [], [], np.zeros(n_groups, np.int64), []
+    # GEOS triangulates all groups in one call (geoalpha.delaunay); the groups
+    # where its output is not a valid triangulation go to Qhull, one by one.
+    from geoalpha.delaunay import triangulate_groups
+
     degenerate = counts < 3
     todo = np.flatnonzero(~degenerate)
-    for i, g in enumerate(todo.tolist()):
-        if progress is not None and i % 256 == 255:
-            progress.update(256)
+    batch = triangulate_groups(local, point_ptr, todo, progress)
+    ntri = np.zeros(n_groups, np.int64)
+    ntri[todo] = batch.n_triangles
+    simplices, neighbors, block_group = [batch.triangles], [batch.neighbors], []
+    moved = np.flatnonzero(batch.vertex != np.arange(len(xy)))  # duplicates
+    coplanar = [np.column_stack([moved, batch.vertex[moved]])]
+    first = len(batch.triangles)  # neighbours index the blocks concatenated
+    for g in todo[batch.failed].tolist():
         s, e = point_ptr[g], point_ptr[g + 1]
         try:
             d = Delaunay(local[s:e])
@@ -311,23 +318,27 @@ def triangulate(
             degenerate[g] = True
             continue
         simplices.append(d.simplices + s)
-        neighbors.append(d.neighbors)
+        neighbors.append(np.where(d.neighbors >= 0, d.neighbors + first, -1))
+        block_group.append(np.full(len(d.simplices), g))
+        first += len(d.simplices)
         ntri[g] = len(d.simplices)
         if len(d.coplanar):
             coplanar.append(d.coplanar[:, [0, 2]] + s)
 
-    if progress is not None:
-        progress.update(len(todo) % 256)
     tri_ptr = np.zeros(n_groups + 1, dtype=np.int64)
     np.cumsum(ntri, out=tri_ptr[1:])
     tri_group = np.repeat(np.arange(n_groups), ntri)
-    if simplices:
-        triangles = np.concatenate(simplices).astype(np.int64)
-        nb = np.concatenate(neighbors).astype(np.int64)
-        nb = np.where(nb >= 0, nb + tri_ptr[tri_group][:, None], -1)
-    else:
-        triangles = np.empty((0, 3), dtype=np.int64)
-        nb = np.empty((0, 3), dtype=np.int64)
+    triangles = np.concatenate(simplices).astype(np.int64)
+    nb = np.concatenate(neighbors).astype(np.int64)
+    if block_group:  # put Qhull's triangles in their groups' place
+        order = np.argsort(
+            np.concatenate([np.repeat(todo, batch.n_triangles), *block_group]),
+            kind="stable",
+        )
+        new = np.empty_like(order)
+        new[order] = np.arange(len(order))
+        triangles = triangles[order]
+        nb = np.where(nb >= 0, new[np.maximum(nb, 0)], -1)[order]
 
     # Orient every triangle counter-clockwise (swap vertices 1, 2 and the
     # neighbours opposite them where Qhull gave them clockwise).
@@ -347,8 +358,8 @@ def triangulate(
     # Points Qhull merged with a nearby vertex are represented by it.
     vertex = np.arange(len(xy))
     n_distinct = counts.copy()
-    if coplanar:
-        cp = np.concatenate(coplanar)
+    cp = np.concatenate(coplanar)
+    if len(cp):
         vertex[cp[:, 0]] = cp[:, 1]
         same = (xy[cp[:, 0]] == xy[cp[:, 1]]).all(axis=1)
         n_distinct -= np.bincount(point_group[cp[same, 0]], minlength=n_groups)
