@@ -63,7 +63,7 @@ except ImportError:  # running from a source tree without installing
     sys.path.insert(0, str(HERE.parent))
     import geoalpha
 
-from geoalpha import core, parallel, shapes, tools  # noqa: E402
+from geoalpha import core, delaunay, parallel, shapes, tools  # noqa: E402
 
 SEED = 20240606
 CRS = "EPSG:32633"
@@ -294,8 +294,12 @@ class Stopwatch:
 
 def stage_times(gdf) -> dict[str, float]:
     """One ``hull(n_jobs=1)`` with its stages timed."""
+    import shapely
+
     watch = Stopwatch()
-    watch.wrap(core, "Delaunay", "Qhull (scipy Delaunay calls)")
+    watch.wrap(shapely, "delaunay_triangles", "GEOS (shapely.delaunay_triangles)")
+    watch.wrap(delaunay, "triangulate_groups", "backend")
+    watch.wrap(core, "Delaunay", "Qhull (fallback groups)")
     watch.wrap(core, "triangulate", "triangulate")
     watch.wrap(core, "fill_radius", "fill radii (maximum spanning tree)")
     watch.wrap(
@@ -316,11 +320,16 @@ def stage_times(gdf) -> dict[str, float]:
     finally:
         watch.restore()
     t = dict(watch.total)
-    qhull = t.pop("Qhull (scipy Delaunay calls)")
+    geos = t.pop("GEOS (shapely.delaunay_triangles)", 0.0)
+    backend = t.pop("backend", 0.0)
+    qhull = t.pop("Qhull (fallback groups)", 0.0)
     inner = t.pop("alpha_shapes")
     out = {
-        "Qhull (scipy Delaunay calls)": qhull,
+        "GEOS (shapely.delaunay_triangles)": geos,
+        "backend: index arrays, neighbours, checks": backend - geos,
+        "Qhull (fallback groups)": qhull,
         "triangulate: batched numpy (radii, ties, orientation)": t.pop("triangulate")
+        - backend
         - qhull,
         **t,
     }

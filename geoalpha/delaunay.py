@@ -41,7 +41,6 @@ from typing import NamedTuple
 
 import numpy as np
 import shapely
-from scipy.sparse import csr_array
 
 __all__ = ["GroupTriangles", "triangulate_groups"]
 
@@ -157,29 +156,30 @@ def triangulate_groups(local, point_ptr, groups, progress=None) -> GroupTriangle
             )
             progress.update(min(PROGRESS_GROUPS, k - s))
 
-    failed = np.array([c is None for c in collections], dtype=bool)
+    failed = shapely.is_missing(collections)  # GEOS raised
     n_tri = shapely.get_num_geometries(collections).astype(np.int64)
-    n_tri[failed] = 0
     corners = shapely.get_coordinates(collections, include_z=True)
-    tri = corners[:, 2].reshape(-1, 4)[:, :3].astype(np.int64)
-    m = len(tri)
-    tri_gi = np.repeat(np.arange(k), n_tri)  # index into groups
-    point_gi = np.repeat(np.arange(k), size)  # of the points in rows
+    # Each triangle is a closed ring of 4 corners, z the point index.
+    z = corners[:, 2].reshape(-1, 4)[:, :3]
+    tri_gi = np.repeat(np.arange(k), n_tri)  # triangle -> position in groups
+    point_gi = np.repeat(np.arange(k), size)  # row -> position in groups
+    if len(z) and not (z.min() >= 0 and z.max() < p):  # z lost: all to Qhull
+        failed[:] = True
+        return GroupTriangles(empty, empty, np.zeros(k, np.int64), vertex, failed)
+    tri = z.astype(np.int64)
 
-    # Corners must be the points their z names (GEOS copies coordinates).
-    same = (corners[:, :2].reshape(-1, 4, 2)[:, :3] == local[tri]).all(axis=(1, 2))
-    failed[tri_gi[~same]] = True
-
-    # Positive areas (GEOS emits counter-clockwise triangles), and not all
-    # nearly flat: such groups are Qhull's to triangulate or to call
+    # Positive areas (GEOS emits counter-clockwise triangles); corners that
+    # are the points their z names (GEOS copies coordinates); no needles
+    # (two vertices closer than NEEDLE_RTOL of the extent) and not nearly
+    # flat as a whole: such groups are Qhull's to triangulate or to call
     # collinear, as before.
-    area2, shortest2 = _twice_area(local, tri)
-    failed[tri_gi[~(area2 > 0)]] = True
+    area2, shortest2, same = _check_corners(local, tri, corners)
     lo = np.minimum.reduceat(xyz[:, :2], offsets[:-1], axis=0)
     hi = np.maximum.reduceat(xyz[:, :2], offsets[:-1], axis=0)
     diagonal2 = np.square(hi - lo).sum(axis=1)
+    bad = ~(area2 > 0) | ~same | (shortest2 < NEEDLE_RTOL**2 * diagonal2[tri_gi])
+    failed[tri_gi[bad]] = True
     failed |= np.bincount(tri_gi, weights=area2, minlength=k) <= FLAT_RTOL * diagonal2
-    failed[tri_gi[shortest2 < NEEDLE_RTOL**2 * diagonal2[tri_gi]]] = True
 
     # Points GEOS left out: exact duplicates of a vertex, or a failure.
     used = np.zeros(p, dtype=bool)
@@ -193,12 +193,12 @@ def triangulate_groups(local, point_ptr, groups, progress=None) -> GroupTriangle
         missing = rows[~used_row]
         vertex[missing] = np.where(twin >= 0, twin, missing)
 
-    neighbors, hull_edges = _neighbors(tri, p, tri_gi, failed)
+    neighbors, hull_edges = _neighbors(tri, p, int(size.max()), tri_gi, failed)
 
     # Euler's formula for a triangulated disk: T = 2V - 2 - H.
-    n_vertex = np.bincount(point_gi, weights=used[rows], minlength=k)
+    n_vertex = np.bincount(point_gi, weights=used_row, minlength=k).astype(np.int64)
     n_hull = np.bincount(tri_gi[hull_edges[:, 0]], minlength=k)
-    failed |= n_tri != 2 * n_vertex.astype(np.int64) - 2 - n_hull
+    failed |= n_tri != 2 * n_vertex - 2 - n_hull
     failed |= _bad_boundary(local, tri, hull_edges, tri_gi, k)
 
     if failed.any():
@@ -230,15 +230,21 @@ def _delaunay(lines: np.ndarray) -> np.ndarray:
     return out
 
 
-def _twice_area(xy: np.ndarray, tri: np.ndarray) -> np.ndarray:
-    """Twice the signed area and the shortest squared edge of each triangle.
+def _check_corners(xy, tri, corners):
+    """Twice the signed area, the shortest squared edge and the corner check.
 
     The area is the cross product at the vertex opposite the longest edge,
-    the best conditioned of the three (as in :mod:`geoalpha.core`).
+    the best conditioned of the three (as in :mod:`geoalpha.core`). The
+    check: whether the triangle's corners in GEOS's output (``corners``,
+    4 per triangle) are the points of ``xy`` its indices name.
     """
     x, y = xy[:, 0], xy[:, 1]
+    cx = corners[:, 0].reshape(-1, 4)
+    cy = corners[:, 1].reshape(-1, 4)
     px = [x[tri[:, j]] for j in range(3)]
     py = [y[tri[:, j]] for j in range(3)]
+    same = (px[0] == cx[:, 0]) & (px[1] == cx[:, 1]) & (px[2] == cx[:, 2])
+    same &= py[0] == cy[:, 0]
     dx = [px[(j + 1) % 3] - px[j] for j in range(3)]
     dy = [py[(j + 1) % 3] - py[j] for j in range(3)]
     e2 = [dx[j] * dx[j] + dy[j] * dy[j] for j in range(3)]
@@ -249,7 +255,7 @@ def _twice_area(xy: np.ndarray, tri: np.ndarray) -> np.ndarray:
     first = (e2[0] >= e2[1]) & (e2[0] >= e2[2])
     second = ~first & (e2[1] >= e2[2])
     cross = np.where(first, cross_at(2), np.where(second, cross_at(0), cross_at(1)))
-    return cross, np.minimum(np.minimum(e2[0], e2[1]), e2[2])
+    return cross, np.minimum(np.minimum(e2[0], e2[1]), e2[2]), same
 
 
 def _twins(local, rows, point_gi, used_row) -> np.ndarray:
@@ -278,54 +284,64 @@ def _twins(local, rows, point_gi, used_row) -> np.ndarray:
     return twin[is_missing]
 
 
-def _neighbors(tri, p, tri_gi, failed):
-    """Triangle across each edge, from the directed edges' reverses.
+def _neighbors(tri, p, max_size, tri_gi, failed):
+    """Triangle across each edge, by sorting the edges.
 
-    Each counter-clockwise triangle holds the directed edges ``a -> b`` of
-    its corners; the triangle across ``a -> b`` is the one holding
-    ``b -> a``. Both are found by one sparse-matrix sum: the edges as a CSR
-    matrix ``E`` (entry ``(a, b)``: the corner, plus 1), then ``E * K +
-    E.T``, whose entries hold the corner of ``a -> b`` and of ``b -> a``
-    side by side (scipy's CSR construction is a counting sort: ``O(m)``).
-
-    Returns the neighbour array and the hull edges as ``(triangle, j)``
-    pairs; groups where an edge is in two triangles in the same direction
-    are marked in ``failed``.
+    Every edge is keyed by its two point indices (smaller first); sorted,
+    the two triangles of an inner edge are neighbours in the order, and an
+    edge alone is on the hull. An edge in three or more triangles, or in two
+    in the same direction (overlapping triangles), marks its group in
+    ``failed``. Returns the neighbour array and the hull edges as
+    ``(triangle, j)`` pairs, ``j`` the vertex opposite the edge.
     """
     m = len(tri)
-    neighbors = np.full((m, 3), -1, dtype=np.int64)
+    neighbors = np.full(3 * m, -1, dtype=np.int64)
     if m == 0:
-        return neighbors, np.empty((0, 2), dtype=np.int64)
-    # Corner c = 3 t + j holds the edge from vertex j to vertex j + 1, which
-    # is opposite vertex j + 2.
-    a = tri.ravel()
-    b = tri[:, [1, 2, 0]].ravel()
-    corner = np.arange(3 * m, dtype=np.int64)
-    edges = csr_array((corner + 1, (a, b)), shape=(p, p))
-    edges.sum_duplicates()
-    if edges.nnz != 3 * m:  # a directed edge twice: overlapping triangles
-        bad = np.diff(edges.indptr) != np.bincount(a, minlength=p)
-        first = np.zeros(p, dtype=np.int64)  # a triangle of each vertex
-        first[a] = corner // 3
-        failed[tri_gi[first[bad]]] = True
-        keep = ~np.repeat(failed[tri_gi], 3)
-        edges = csr_array((corner[keep] + 1, (a[keep], b[keep])), shape=(p, p))
-        edges.sum_duplicates()
-    big = 3 * m + 2
-    both = edges * big + edges.T.tocsr()
-    data = both.data
-    mine = data >= big  # entries of an edge (a, b) of some triangle
-    c = data[mine] // big - 1
-    rev = data[mine] % big - 1
-    t, j = c // 3, c % 3
-    across = np.where(rev >= 0, rev // 3, -1)
-    neighbors[t, (j + 2) % 3] = across
-    hull = np.flatnonzero(across < 0)
-    return neighbors, np.column_stack([t[hull], (j[hull] + 2) % 3])
+        return neighbors.reshape(0, 3), np.empty((0, 2), dtype=np.int64)
+    # Slot c = 3 t + j of neighbors is the edge opposite vertex j: from
+    # vertex j + 1 to vertex j + 2.
+    a = np.roll(tri, -1, axis=1).ravel()
+    b = np.roll(tri, 1, axis=1).ravel()
+    lo = np.minimum(a, b)
+    # Both ends are in one group, so (lo, hi - lo) is unique per edge and
+    # small: a radix sort orders it. The last bit is the direction.
+    key = (lo * max_size + (np.maximum(a, b) - lo)) * 2 + (a > b)
+    order = _radix_argsort(key, (2 * p * max_size).bit_length())
+    sk = key[order]
+    pair = np.flatnonzero((sk[1:] >> 1) == (sk[:-1] >> 1))
+    c1, c2 = order[pair], order[pair + 1]
+    # Three or more in a row, or two in the same direction: not a
+    # triangulation.
+    wrong = np.zeros(len(pair), dtype=bool)
+    wrong[1:] = pair[1:] == pair[:-1] + 1
+    wrong[:-1] |= wrong[1:]
+    wrong |= (sk[pair] & 1) == (sk[pair + 1] & 1)
+    failed[tri_gi[c1[wrong] // 3]] = True
+    neighbors[c1] = c2 // 3
+    neighbors[c2] = c1 // 3
+    alone = np.ones(len(order), dtype=bool)
+    alone[pair] = False
+    alone[pair + 1] = False
+    hull = order[alone]
+    return neighbors.reshape(m, 3), np.column_stack([hull // 3, hull % 3])
+
+
+def _radix_argsort(key: np.ndarray, bits: int) -> np.ndarray:
+    """Stable argsort of non-negative integers below ``2**bits``, 16 bits a pass.
+
+    numpy's stable sort of ``uint16`` is a radix sort (``O(n)``); a least
+    significant digit first sort of 16-bit digits is several times faster
+    than ``np.argsort`` of the int64 keys.
+    """
+    order = np.argsort((key & 0xFFFF).astype(np.uint16), kind="stable")
+    for shift in range(16, min(bits, 64), 16):  # at most 3 more passes
+        digit = ((key[order] >> shift) & 0xFFFF).astype(np.uint16)
+        order = order[np.argsort(digit, kind="stable")]
+    return order
 
 
 def _bad_boundary(local, tri, hull_edges, tri_gi, k) -> np.ndarray:
-    """Groups whose hull edges do not form convex counter-clockwise cycles."""
+    """Flag the groups whose hull edges are not convex counter-clockwise cycles."""
     bad = np.zeros(k, dtype=bool)
     if len(hull_edges) == 0:
         return bad
