@@ -24,8 +24,10 @@ load): the floor (group the rows with one argsort, then a bare loop of
 ``scipy.spatial.Delaunay`` over the groups), ``gdf.alpha.hull(by="group")``
 with ``n_jobs=1`` and ``n_jobs=2``, the same hull with all groups in one pass
 of the batched steps instead of runs of about 50,000 points (to check
-``geoalpha.parallel.BATCH_POINTS``), and the floor loop split over two threads
-(to check whether Qhull releases the GIL). Peak memory: each case once more in a
+``geoalpha.parallel.BATCH_POINTS``), the floor loop split over two threads
+(to check whether Qhull releases the GIL), and one ``shapely.delaunay_triangles``
+call over all groups (GEOS's triangles alone, no indices: what geoalpha's
+triangulation backend starts from). Peak memory: each case once more in a
 fresh subprocess, ``ru_maxrss`` (the input frame included); the forked
 workers' peak is the largest of one worker (shared pages counted).
 
@@ -192,7 +194,17 @@ def cases(x, y, g, gdf, n_groups: int) -> dict[str, Callable[[], object]]:
         "hull n_jobs=2": lambda: gdf.alpha.hull(by="group", n_jobs=2),
         "hull n_jobs=1, one pass (no runs)": lambda: hull_one_pass(gdf),
         "floor, 2 threads": lambda: floor_loop(x, y, g, n_groups, threads=2),
+        "GEOS triangles only (one shapely call)": lambda: geos_only(x, y, g),
     }
+
+
+def geos_only(x, y, g) -> None:
+    """Group the rows, then one ``shapely.delaunay_triangles`` call (no indices)."""
+    import shapely
+
+    order = np.argsort(g, kind="stable")
+    lines = shapely.linestrings(np.column_stack([x, y])[order], indices=g[order])
+    shapely.delaunay_triangles(lines)
 
 
 def run_eager(n: int, n_groups: int, repeat: int, seed: int) -> dict:

@@ -1,8 +1,10 @@
 """Exact optimal alpha shapes on Delaunay triangulations, batched over groups.
 
 Pure numpy/scipy: no pandas, no shapely. Everything works on many groups at
-once; the only Python loop per group is the call to Qhull (scipy's
-:class:`~scipy.spatial.Delaunay`), which is the floor any method pays.
+once: GEOS triangulates all groups in one call (through
+:mod:`geoalpha.delaunay`, the one module here that imports shapely, loaded
+when :func:`triangulate` runs), and only the groups it cannot do go one by
+one to Qhull (scipy's :class:`~scipy.spatial.Delaunay`).
 
 Notation (see ``DESIGN.md``): a triangle ``t`` of the Delaunay triangulation
 has circumradius ``r(t)``; it is *solid* at ``alpha`` when ``alpha * r(t) <= 1``,
@@ -278,8 +280,8 @@ def triangulate(
     codes, n_groups = _group_codes(groups, n, n_groups)
 
     # Points sorted by group (a no-op when they already are). Duplicates stay:
-    # Qhull keeps one of them as the vertex and reports the others as
-    # "coplanar" points, which map to that vertex below.
+    # GEOS and Qhull keep one of them as the vertex (Qhull reports the others
+    # as "coplanar" points), and they map to that vertex below.
     if n > 1 and (codes[1:] < codes[:-1]).any():
         order = np.argsort(codes, kind="stable")
         xy, point_group = xy_in[order], codes[order]
