@@ -20,16 +20,25 @@ areas, each edge in at most two triangles and in opposite directions,
 Euler's formula ``T = 2V - 2 - H`` for ``V`` vertices and ``H`` hull edges,
 a convex boundary), and a group that fails is reported in ``failed``, for
 the caller to triangulate in another way (``core`` uses Qhull). What GEOS
-does on the inputs where that matters:
+does on the inputs where that matters (measured with GEOS 3.14 on thousands
+of generated groups, compared with Qhull):
 
 * exact duplicates: triangulated once, never an error;
 * collinear points: an empty result (a failed group);
-* near-duplicates down to ~1e-15 of the extent and nearly collinear points:
-  a triangulation with needle or sliver triangles; the rare one whose float
-  area is not positive fails the checks;
-* cocircular points (grids): one of the equally valid diagonals;
-* a ``GEOSException`` (its topology checks, rare) fails only its group: a
-  batch that raises is split in halves until the failing groups are alone.
+* nearly collinear points: thin sliver triangles, also where Qhull calls the
+  points collinear (three points 1e-12 of the extent off a line). Groups
+  flatter than :data:`FLAT_RTOL` fail, so Qhull decides them as before;
+* near-duplicates: kept as separate vertices down to the last bit, with
+  needle triangles. Below ~1e-14 of the extent the float64 steps after the
+  triangulation (rings, polygons) break on them, and Qhull merges such
+  points anyway: groups with vertices closer than :data:`NEEDLE_RTOL` fail;
+* cocircular points (grids, lattice points on a circle): one of the equally
+  valid diagonals, the same radii as Qhull's;
+* a ``GEOSException`` fails only its group: a batch that raises is split in
+  halves until the failing groups are alone (never seen in these tests).
+
+On every group of the bundled real datasets GEOS passes the checks and its
+triangles have Qhull's circumradii.
 
 This module may import shapely; :mod:`geoalpha.core` does not (it imports
 this module when it triangulates).
