@@ -43,14 +43,17 @@ from scipy.sparse.csgraph import (
 from scipy.spatial import Delaunay, QhullError
 
 __all__ = [
+    "NEAR_RTOL",
     "Rings",
     "Spectrum",
     "Triangulation",
     "boundary_rings",
+    "collinear_groups",
     "fill_radius",
     "merge_ties",
     "piece_labels",
     "radius_of_alpha",
+    "thin_groups",
     "triangulate",
 ]
 
@@ -61,6 +64,16 @@ ALPHA_RTOL = 8 * np.finfo(float).eps
 
 #: Circumradii that agree to this relative tolerance are one spectrum value.
 TIE_RTOL = 1e-10
+
+#: Near-degeneracy tolerance, relative to a group's extent (the larger side
+#: of its bounding box): points closer than this are one point, and a group
+#: whose points all lie within this distance of a line is degenerate.
+NEAR_RTOL = 1e-9
+#: Floor of that tolerance, in units in the last place of the group's
+#: largest coordinate (the resolution of its float64 coordinates).
+PRECISION_ULPS = 64
+#: Coordinates beyond this magnitude are refused (their squares overflow).
+MAX_COORDINATE = 1e100
 
 
 @dataclass(frozen=True)
@@ -204,7 +217,14 @@ class Triangulation:
 
 
 def _check_points(points) -> np.ndarray:
-    xy = np.asarray(points, dtype=float)
+    raw = np.asarray(points)
+    if raw.size and not (
+        np.issubdtype(raw.dtype, np.integer) or np.issubdtype(raw.dtype, np.floating)
+    ):
+        raise ValueError(
+            f"points must be numbers (an (n, 2) array of x, y); got {raw.dtype} values"
+        )
+    xy = raw.astype(float, copy=False)
     if xy.size == 0:  # no points at all, however they were spelled ([], (0, 2))
         return np.empty((0, 2))
     if xy.ndim != 2 or xy.shape[1] != 2:
@@ -217,6 +237,14 @@ def _check_points(points) -> np.ndarray:
         raise ValueError(
             f"points must have finite coordinates; got NaN or inf in {len(bad)} "
             f"row(s) (positions {shown})"
+        )
+    huge = np.flatnonzero((np.abs(xy) > MAX_COORDINATE).any(axis=1))
+    if len(huge):
+        shown = ", ".join(map(str, huge[:10])) + (", ..." if len(huge) > 10 else "")
+        raise ValueError(
+            f"points must have coordinates within +-{MAX_COORDINATE:g} (their "
+            f"squares would overflow); got larger values in {len(huge)} row(s) "
+            f"(positions {shown}): rescale them"
         )
     return xy
 
@@ -242,7 +270,12 @@ def _group_codes(groups, n: int, n_groups: int | None) -> tuple[np.ndarray, int]
 
 
 def triangulate(
-    points, groups=None, *, n_groups: int | None = None, progress=None
+    points,
+    groups=None,
+    *,
+    n_groups: int | None = None,
+    progress=None,
+    degenerate=None,
 ) -> Triangulation:
     """Delaunay-triangulate the distinct points of every group.
 
@@ -258,6 +291,9 @@ def triangulate(
     progress : object with an ``update(n)`` method, optional
         Told how many groups were triangulated, every 256 groups (a
         ``tqdm`` bar fits).
+    degenerate : array_like of bool, shape (G,), optional
+        Groups to treat as degenerate whatever their points (e.g. groups found
+        collinear in the coordinates the result is returned in).
 
     Returns
     -------
@@ -266,22 +302,42 @@ def triangulate(
     Raises
     ------
     ValueError
-        If coordinates are NaN/inf (the message names the rows) or the
-        shapes do not fit.
+        If coordinates are NaN/inf or beyond :data:`MAX_COORDINATE` (the
+        message names the rows) or the shapes do not fit.
+
+    Notes
+    -----
+    Near-degenerate input is decided with tolerances relative to each
+    group's extent (the larger side of its bounding box), never below
+    :data:`PRECISION_ULPS` units in the last place of its coordinates:
+
+    * points closer than :data:`NEAR_RTOL` times the extent are one
+      point (transitively; the first in input order represents them);
+    * a group whose points all lie within :data:`NEAR_RTOL` times the
+      extent of their principal axis (the least-squares line) is degenerate,
+      as are groups with fewer than 3 distinct points;
+    * a group whose float triangulation is not a triangulation of its points
+      (a check of every group) is degenerate too.
+
+    All metric quantities are computed in coordinates relative to the
+    group's first point and scaled by a power of two to an extent of about 1
+    (exact), so that neither large offsets nor extreme scales lose precision,
+    and orientations use an error-free product, so that the circumradii of
+    needle triangles are accurate to a few units in the last place.
 
     Examples
     --------
     >>> tri = triangulate([[0, 0], [1, 0], [0, 1], [1, 1], [1, 1]])
     >>> tri.n_distinct.tolist(), len(tri.triangles), tri.degenerate.tolist()
     ([4], 2, [False])
+    >>> triangulate([[0, 0], [1, 1e-12], [2, 0]]).degenerate.tolist()  # a line
+    [True]
     """
     xy_in = _check_points(points)
     n = len(xy_in)
     codes, n_groups = _group_codes(groups, n, n_groups)
 
-    # Points sorted by group (a no-op when they already are). Duplicates stay:
-    # GEOS and Qhull keep one of them as the vertex (Qhull reports the others
-    # as "coplanar" points), and they map to that vertex below.
+    # Points sorted by group (a no-op when they already are).
     if n > 1 and (codes[1:] < codes[:-1]).any():
         order = np.argsort(codes, kind="stable")
         xy, point_group = xy_in[order], codes[order]
@@ -294,80 +350,97 @@ def triangulate(
     counts = np.bincount(point_group, minlength=n_groups)
     point_ptr = np.zeros(n_groups + 1, dtype=np.int64)
     np.cumsum(counts, out=point_ptr[1:])
-    # Origin of each group: its first distinct point. Differences of nearby
-    # floats are exact (Sterbenz), so gridded data stay exactly gridded.
-    origin = xy[np.minimum(point_ptr[:-1], max(len(xy) - 1, 0))] if len(xy) else xy
-    local = xy - origin[point_group]
+    frame = _Frame.of(xy, point_group, point_ptr)
+    local = frame.local
 
-    # GEOS triangulates all groups in one call (geoalpha.delaunay); the groups
-    # where its output is not a valid triangulation go to Qhull, one by one.
-    from geoalpha.delaunay import triangulate_groups
+    flagged = np.zeros(n_groups, dtype=bool)
+    if degenerate is not None:
+        flagged |= np.asarray(degenerate, dtype=bool)
+    flagged |= counts < 3
+    flagged |= collinear_groups(local, point_group, n_groups, frame.tol)
 
-    degenerate = counts < 3
-    todo = np.flatnonzero(~degenerate)
-    batch = triangulate_groups(local, point_ptr, todo, progress)
-    ntri = np.zeros(n_groups, np.int64)
-    ntri[todo] = batch.n_triangles
-    simplices, neighbors, block_group = [batch.triangles], [batch.neighbors], []
-    moved = np.flatnonzero(batch.vertex != np.arange(len(xy)))  # duplicates
-    coplanar = [np.column_stack([moved, batch.vertex[moved]])]
-    first = len(batch.triangles)  # neighbours index the blocks concatenated
-    for g in todo[batch.failed].tolist():
-        s, e = point_ptr[g], point_ptr[g + 1]
-        try:
-            d = Delaunay(local[s:e])
-        except QhullError:  # all (numerically) collinear
-            degenerate[g] = True
-            continue
-        simplices.append(d.simplices + s)
-        neighbors.append(np.where(d.neighbors >= 0, d.neighbors + first, -1))
-        block_group.append(np.full(len(d.simplices), g))
-        first += len(d.simplices)
-        ntri[g] = len(d.simplices)
-        if len(d.coplanar):
-            coplanar.append(d.coplanar[:, [0, 2]] + s)
-
-    tri_ptr = np.zeros(n_groups + 1, dtype=np.int64)
-    np.cumsum(ntri, out=tri_ptr[1:])
-    tri_group = np.repeat(np.arange(n_groups), ntri)
-    triangles = np.concatenate(simplices).astype(np.int64)
-    nb = np.concatenate(neighbors).astype(np.int64)
-    if block_group:  # put Qhull's triangles in their groups' place
-        order = np.argsort(
-            np.concatenate([np.repeat(todo, batch.n_triangles), *block_group]),
-            kind="stable",
+    # Pass 1: Qhull on every point (it keeps one of each set of duplicates).
+    vertex = np.arange(len(xy))
+    todo = np.flatnonzero(~flagged)
+    simplices, nbrs, coplanar, failed = _delaunay(local, point_ptr, todo, progress)
+    flagged[failed] = True
+    measures = _edges_and_cross(
+        xy, simplices, frame.scale[point_group[simplices[:, 0]]]
+    )
+    # Near-duplicates: Delaunay edges shorter than the tolerance (the
+    # Delaunay graph holds every nearest neighbour) and the points Qhull
+    # merged. Their groups are triangulated again on one point of each set.
+    near = _near_duplicates(
+        local, point_group, simplices, measures[2], coplanar, frame.tol
+    )
+    if len(near):
+        redo = np.unique(point_group[near[:, 0]])
+        vertex = _representatives(near, len(xy))
+        keep = ~np.isin(point_group[simplices[:, 0]], redo)
+        keep_cp = ~np.isin(point_group[coplanar[:, 0]], redo)
+        simplices, nbrs = _drop_triangles(simplices, nbrs, keep)
+        measures = tuple(m[keep] for m in measures)
+        coplanar = coplanar[keep_cp]
+        use = vertex == np.arange(len(xy))
+        s2, n2, c2, failed = _delaunay(local, point_ptr, redo, None, use=use)
+        flagged[failed] = True
+        m2 = _edges_and_cross(xy, s2, frame.scale[point_group[s2[:, 0]]])
+        simplices, nbrs, coplanar, measures = _merge_runs(
+            point_group, (simplices, nbrs, coplanar, measures), (s2, n2, c2, m2)
         )
-        new = np.empty_like(order)
-        new[order] = np.arange(len(order))
-        triangles = triangles[order]
-        nb = np.where(nb >= 0, new[np.maximum(nb, 0)], -1)[order]
+    # Points Qhull set aside as "coplanar" (numerically on an edge, e.g. on
+    # a straight stretch of the convex hull) are represented by the vertex
+    # it names; they count as distinct points when they are not within the
+    # tolerance of it, and the shape is made to cover them (see
+    # :func:`geoalpha.shapes.enforce`).
+    distinct = vertex == np.arange(len(xy))
+    if len(coplanar):
+        vertex[coplanar[:, 0]] = vertex[coplanar[:, 1]]
+        same = _close(
+            local,
+            coplanar[:, 0],
+            coplanar[:, 1],
+            frame.tol[point_group[coplanar[:, 0]]],
+        )
+        distinct[coplanar[:, 0]] = ~same
 
+    tri_group = point_group[simplices[:, 0]]
+    twice_area, e2_product, _ = measures
     # Orient every triangle counter-clockwise (swap vertices 1, 2 and the
     # neighbours opposite them where Qhull gave them clockwise).
-    twice_area, edges2_product = _edges_and_cross(xy, triangles)
     cw = twice_area < 0
-    triangles[cw] = triangles[cw][:, [0, 2, 1]]
-    nb[cw] = nb[cw][:, [0, 2, 1]]
+    simplices[cw] = simplices[cw][:, [0, 2, 1]]
+    nbrs[cw] = nbrs[cw][:, [0, 2, 1]]
     cross = np.abs(twice_area)
+    # Qhull's vertices: the points it neither set aside nor skipped.
+    used = vertex == np.arange(len(xy))
+    used[coplanar[:, 0]] = False
+    n_vertices = np.bincount(point_group[used], minlength=n_groups)
+    flagged |= _not_a_triangulation(nbrs, tri_group, n_vertices, n_groups)
+
+    # Drop the triangles of every degenerate group, then renumber.
+    keep = ~flagged[tri_group]
+    if not keep.all():
+        simplices, nbrs = _drop_triangles(simplices, nbrs, keep)
+        tri_group = tri_group[keep]
+        cross, e2_product = cross[keep], e2_product[keep]
+    vertex[flagged[point_group]] = np.flatnonzero(flagged[point_group])
+    ntri = np.bincount(tri_group, minlength=n_groups)
+    tri_ptr = np.zeros(n_groups + 1, dtype=np.int64)
+    np.cumsum(ntri, out=tri_ptr[1:])
+
+    scale = frame.scale[tri_group]
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        circumradius = np.sqrt(edges2_product) / (2.0 * cross)
+        circumradius = np.sqrt(e2_product) / (2.0 * cross) / scale
     circumradius[~(cross > 0)] = np.inf
     radius, rank, values = merge_ties(circumradius, tri_group)
     value_group = np.empty(len(values), dtype=np.int64)
     value_group[rank] = tri_group
-    area = np.abs(cross) / 2.0
+    area = cross / 2.0 / (scale * scale)
 
-    # Points Qhull merged with a nearby vertex are represented by it.
-    vertex = np.arange(len(xy))
-    n_distinct = counts.copy()
-    cp = np.concatenate(coplanar)
-    if len(cp):
-        vertex[cp[:, 0]] = cp[:, 1]
-        same = (xy[cp[:, 0]] == xy[cp[:, 1]]).all(axis=1)
-        n_distinct -= np.bincount(point_group[cp[same, 0]], minlength=n_groups)
-    n_distinct[degenerate] = _distinct_counts(xy, point_group, degenerate, n_groups)[
-        degenerate
-    ]
+    n_distinct = np.bincount(point_group[distinct], minlength=n_groups)
+    # Degenerate groups: their exactly distinct points.
+    n_distinct[flagged] = _distinct_counts(xy, point_group, flagged, n_groups)[flagged]
 
     return Triangulation(
         xy=xy,
@@ -377,8 +450,8 @@ def triangulate(
         input_point=input_point,
         vertex=vertex,
         n_distinct=n_distinct,
-        triangles=triangles,
-        neighbors=nb,
+        triangles=simplices,
+        neighbors=nbrs,
         tri_group=tri_group,
         tri_ptr=tri_ptr,
         radius=radius,
@@ -386,8 +459,304 @@ def triangulate(
         value_ptr=_offsets(value_group, n_groups),
         rank=rank,
         area=area,
-        degenerate=degenerate,
+        degenerate=flagged,
     )
+
+
+@dataclass(frozen=True)
+class _Frame:
+    """Per-group working coordinates and tolerances (see :func:`triangulate`).
+
+    ``local`` holds each point relative to its group's first point, times
+    ``scale`` (a power of two that brings the group's extent into
+    ``[0.5, 1)``); ``tol`` is the near-degeneracy tolerance of each group in
+    those units.
+    """
+
+    local: np.ndarray
+    scale: np.ndarray
+    tol: np.ndarray
+
+    @classmethod
+    def of(cls, xy, point_group, point_ptr) -> _Frame:
+        n_groups = len(point_ptr) - 1
+        nonempty = np.flatnonzero(np.diff(point_ptr) > 0)
+        starts = point_ptr[:-1][nonempty]
+        lo = np.zeros((n_groups, 2))
+        hi = np.zeros((n_groups, 2))
+        big = np.zeros(n_groups)
+        if len(nonempty):
+            lo[nonempty] = np.minimum.reduceat(xy, starts, axis=0)
+            hi[nonempty] = np.maximum.reduceat(xy, starts, axis=0)
+            big[nonempty] = np.maximum.reduceat(np.abs(xy).max(axis=1), starts)
+        extent = (hi - lo).max(axis=1)
+        _, exponent = np.frexp(extent)  # extent = m * 2**exponent, m in [0.5, 1)
+        scale = np.where(extent > 0, np.ldexp(1.0, -exponent), 1.0)
+        origin = xy[np.minimum(point_ptr[:-1], max(len(xy) - 1, 0))] if len(xy) else xy
+        with np.errstate(over="ignore"):
+            local = (xy - origin[point_group]) * scale[point_group][:, None]
+        # The coordinates' own resolution, in the scaled units.
+        quantum = np.spacing(big) * scale
+        tol = np.maximum(NEAR_RTOL * extent * scale, PRECISION_ULPS * quantum)
+        return cls(local, scale, tol)
+
+
+def thin_groups(points, groups=None, n_groups: int | None = None) -> np.ndarray:
+    """Flag the groups that are degenerate by the tolerances of :func:`triangulate`.
+
+    A group is degenerate when it has fewer than 3 points or all its points
+    lie within :data:`NEAR_RTOL` times its extent (at least
+    :data:`PRECISION_ULPS` units in the last place) of their principal axis.
+
+    Parameters
+    ----------
+    points : array_like of shape (n, 2)
+    groups : array_like of int, shape (n,), optional
+    n_groups : int, optional
+
+    Returns
+    -------
+    ndarray of bool, shape (G,)
+
+    Examples
+    --------
+    >>> lon = np.full(4, -2.9)  # four points on one meridian
+    >>> thin_groups(np.c_[lon, [50.0, 50.001, 50.002, 50.0035]]).tolist()
+    [True]
+    """
+    xy = _check_points(points)
+    codes, n_groups = _group_codes(groups, len(xy), n_groups)
+    order = np.argsort(codes, kind="stable")
+    xy, codes = xy[order], codes[order]
+    ptr = _offsets(codes, n_groups)
+    frame = _Frame.of(xy, codes, ptr)
+    thin = collinear_groups(frame.local, codes, n_groups, frame.tol)
+    return thin | (np.diff(ptr) < 3)
+
+
+def collinear_groups(local, point_group, n_groups: int, tol) -> np.ndarray:
+    """Flag the groups whose points all lie within ``tol`` of their principal axis.
+
+    Parameters
+    ----------
+    local : ndarray of shape (p, 2)
+        Coordinates (of points sorted by group, or in any order).
+    point_group : ndarray of shape (p,)
+        Group of each point.
+    n_groups : int
+        Number of groups.
+    tol : float or ndarray of shape (G,)
+        Largest distance from the line, per group.
+
+    Returns
+    -------
+    ndarray of bool, shape (G,)
+        True for groups within ``tol`` of a line (and for empty groups).
+
+    Examples
+    --------
+    >>> xy = np.array([[0, 0], [1, 1], [2, 2.0000001], [0, 0], [1, 0], [0, 1]])
+    >>> collinear_groups(xy, np.array([0, 0, 0, 1, 1, 1]), 2, 1e-6).tolist()
+    [True, False]
+    """
+    count = np.bincount(point_group, minlength=n_groups).astype(float)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cx = np.bincount(point_group, local[:, 0], n_groups) / count
+        cy = np.bincount(point_group, local[:, 1], n_groups) / count
+    dx = local[:, 0] - cx[point_group]
+    dy = local[:, 1] - cy[point_group]
+    sxx = np.bincount(point_group, dx * dx, n_groups)
+    syy = np.bincount(point_group, dy * dy, n_groups)
+    sxy = np.bincount(point_group, dx * dy, n_groups)
+    theta = 0.5 * np.arctan2(2.0 * sxy, sxx - syy)  # direction of the axis
+    ux, uy = np.cos(theta)[point_group], np.sin(theta)[point_group]
+    width = np.zeros(n_groups)
+    np.maximum.at(width, point_group, np.abs(dx * uy - dy * ux))
+    return width <= np.broadcast_to(tol, (n_groups,))
+
+
+def _delaunay(local, point_ptr, groups, progress, use=None):
+    """GEOS for all listed groups in one call, Qhull for the groups it cannot do.
+
+    Same contract as :func:`_qhull`. GEOS (:mod:`geoalpha.delaunay`, which
+    checks its output group by group) triangulates the groups; the groups it
+    fails go to Qhull one by one, and their triangles are put back in group
+    order. Exact duplicates come back as coplanar pairs, as Qhull reports
+    them. The second pass on representatives (``use``) is Qhull's: it only
+    sees groups with near-duplicates.
+    """
+    if use is not None:
+        return _qhull(local, point_ptr, groups, progress, use)
+    from geoalpha.delaunay import triangulate_groups
+
+    batch = triangulate_groups(local, point_ptr, groups, progress)
+    moved = np.flatnonzero(batch.vertex != np.arange(len(local)))  # duplicates
+    cp = np.column_stack([moved, batch.vertex[moved]])
+    redo = groups[batch.failed]
+    if len(redo) == 0:
+        return batch.triangles, batch.neighbors, cp, np.empty(0, dtype=np.int64)
+    tri, nb, cp2, failed = _qhull(local, point_ptr, redo, None)
+    tri = np.concatenate([batch.triangles, tri])
+    nb = np.where(nb >= 0, nb + len(batch.triangles), -1)
+    nb = np.concatenate([batch.neighbors, nb])
+    order = np.argsort(
+        np.searchsorted(point_ptr, tri[:, 0], side="right"), kind="stable"
+    )
+    new = np.empty_like(order)
+    new[order] = np.arange(len(order))
+    nb = np.where(nb >= 0, new[np.maximum(nb, 0)], -1)[order]
+    return tri[order], nb, np.concatenate([cp, cp2]), failed
+
+
+def _qhull(local, point_ptr, groups, progress, use=None):
+    """Qhull per listed group: triangles, neighbours and coplanar pairs.
+
+    Returns global point and triangle indices. ``use`` (bool per point)
+    restricts each group to some of its points. Groups whose points Qhull
+    finds (numerically) collinear are returned in ``failed``. The loop body
+    is Qhull alone; the index arithmetic is batched afterwards.
+    """
+    simplices, neighbors, coplanar, owner, failed, done = [], [], [], [], [], []
+    starts, ends = point_ptr[groups].tolist(), point_ptr[groups + 1].tolist()
+    for i, (g, s, e) in enumerate(zip(groups.tolist(), starts, ends, strict=True)):
+        if progress is not None and i % 256 == 255:
+            progress.update(256)
+        pts = local[s:e] if use is None else local[s:e][use[s:e]]
+        try:
+            d = Delaunay(pts)
+        except (QhullError, ValueError):  # all (numerically) collinear
+            failed.append(g)
+            continue
+        done.append(g)
+        simplices.append(d.simplices)
+        neighbors.append(d.neighbors)
+        cp = d.coplanar
+        if len(cp):
+            coplanar.append(cp)
+            owner.append(len(done) - 1)
+    if progress is not None:
+        progress.update(len(groups) % 256)
+    empty = np.empty((0, 3), dtype=np.int64)
+    failed = np.asarray(failed, dtype=np.int64)
+    if not simplices:
+        return empty, empty, empty[:, :2], failed
+    done = np.asarray(done, dtype=np.int64)
+    ntri = np.array([len(x) for x in simplices], dtype=np.int64)
+    tri_offset = np.repeat(np.cumsum(ntri) - ntri, ntri)
+    # Local point number -> global index: the group's start, or with ``use``
+    # the group's used points in order.
+    if use is None:
+        to_global = None
+        start = np.repeat(point_ptr[done], ntri)
+    else:
+        used = np.flatnonzero(use)
+        first_used = np.searchsorted(used, point_ptr[done])
+        start = np.repeat(first_used, ntri)
+    tri = np.concatenate(simplices).astype(np.int64) + start[:, None]
+    nb = np.concatenate(neighbors).astype(np.int64)
+    nb = np.where(nb >= 0, nb + tri_offset[:, None], -1)
+    if coplanar:
+        cp = np.concatenate(coplanar).astype(np.int64)
+        cp[:, 1] = np.repeat(owner, [len(x) for x in coplanar])
+        cp = cp[:, [0, 2, 1]]  # point, vertex, ordinal of its group in done
+    else:
+        cp = empty
+    if len(cp):
+        size = (point_ptr[done + 1] - point_ptr[done])[cp[:, 2]]
+        if use is not None:
+            size = np.diff(np.searchsorted(used, point_ptr))[done][cp[:, 2]]
+        ok = (cp[:, 0] < size) & (cp[:, 1] < size)  # not Qhull's point at infinity
+        base = (
+            point_ptr[done] if use is None else np.searchsorted(used, point_ptr[done])
+        )
+        cp = cp[ok, :2] + base[cp[ok, 2]][:, None]
+    else:
+        cp = empty[:, :2]
+    if use is not None:
+        to_global = used
+        tri = to_global[tri]
+        cp = to_global[cp]
+    return tri, nb, cp, failed
+
+
+def _close(local, a, b, tol) -> np.ndarray:
+    d = local[a] - local[b]
+    return d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] < tol * tol
+
+
+def _near_duplicates(local, point_group, simplices, e2_min, coplanar, tol):
+    """Pairs of distinct points closer than their group's tolerance, ``(k, 2)``.
+
+    ``e2_min`` is the shortest squared edge of each triangle (scaled units):
+    only triangles with an edge below the tolerance are looked at.
+    """
+    if len(simplices) == 0:
+        return np.empty((0, 2), dtype=np.int64)
+    t = tol[point_group[simplices[:, 0]]]
+    short = simplices[e2_min < t * t]
+    a = short.ravel()
+    b = short[:, [1, 2, 0]].ravel()
+    pairs = np.concatenate([np.column_stack([a, b]), coplanar])
+    t = tol[point_group[pairs[:, 0]]]
+    short = _close(local, pairs[:, 0], pairs[:, 1], t)
+    pairs = pairs[short]
+    # Exact duplicates alone need no second pass: Qhull kept one of them.
+    differ = (local[pairs[:, 0]] != local[pairs[:, 1]]).any(axis=1)
+    redo = np.zeros(len(tol), dtype=bool)
+    redo[point_group[pairs[differ, 0]]] = True
+    return pairs[redo[point_group[pairs[:, 0]]]]
+
+
+def _representatives(pairs, p: int) -> np.ndarray:
+    """Smallest point index of each connected set of ``pairs`` (identity elsewhere)."""
+    graph = csr_array((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(p, p))
+    _, label = connected_components(graph, directed=False)
+    first = np.full(label.max() + 1, p, dtype=np.int64)
+    np.minimum.at(first, label, np.arange(p))
+    return first[label]
+
+
+def _merge_runs(point_group, old, new):
+    """Concatenate two sets of per-group triangles, sorted by group again.
+
+    Each set is ``(simplices, neighbors, coplanar, measures)`` with
+    ``measures`` a tuple of per-triangle arrays.
+    """
+    s1, n1, c1, m1 = old
+    s2, n2, c2, m2 = new
+    n2 = np.where(n2 >= 0, n2 + len(s1), -1)
+    s = np.concatenate([s1, s2])
+    nb = np.concatenate([n1, n2])
+    c = np.concatenate([c1, c2])
+    order = np.argsort(point_group[s[:, 0]], kind="stable")
+    inverse = np.empty_like(order)
+    inverse[order] = np.arange(len(order))
+    nb = np.where(nb >= 0, inverse[np.maximum(nb, 0)], -1)[order]
+    measures = tuple(np.concatenate([a, b])[order] for a, b in zip(m1, m2, strict=True))
+    return s[order], nb, c, measures
+
+
+def _drop_triangles(simplices, nbrs, keep):
+    """Keep whole groups' triangles, renumbering the neighbours."""
+    renumber = np.cumsum(keep) - 1
+    nbrs = nbrs[keep]
+    return simplices[keep], np.where(nbrs >= 0, renumber[np.maximum(nbrs, 0)], -1)
+
+
+def _not_a_triangulation(nbrs, tri_group, n_vertices, n_groups) -> np.ndarray:
+    """Flag the groups whose triangles are not a triangulated disk (checks Qhull).
+
+    Euler's formula for a triangulated disk: ``#triangles = 2 #vertices - 2 -
+    #hull edges`` (the hull is one cycle: as many edges as vertices).
+    """
+    bad = np.zeros(n_groups, dtype=bool)
+    if len(nbrs) == 0:
+        return bad
+    hull = np.bincount(tri_group[np.nonzero(nbrs < 0)[0]], minlength=n_groups)
+    ntri = np.bincount(tri_group, minlength=n_groups)
+    has = ntri > 0
+    bad[has] = ntri[has] != 2 * n_vertices[has] - 2 - hull[has]
+    return bad
 
 
 def _distinct_counts(xy, point_group, which, n_groups) -> np.ndarray:
@@ -404,31 +773,72 @@ def _distinct_counts(xy, point_group, which, n_groups) -> np.ndarray:
     return out
 
 
-def _edges_and_cross(xy: np.ndarray, triangles: np.ndarray):
-    """Twice the signed area and the product of the squared edge lengths.
+#: Dekker's splitter for float64 (2**27 + 1).
+_SPLIT = 134217729.0
 
-    Edge vectors are differences of the input coordinates (exact for nearby
-    points, Sterbenz), and the cross product is taken at the vertex opposite
-    the longest edge, between the two shorter edges: the best conditioned of
-    the three choices, so that needle triangles (near-duplicate points) keep
-    their circumradius ``|ab| |bc| |ca| / (2 |cross|)`` to a few ulps.
+
+def _two_product(a, b):
+    """Split ``a * b`` into ``p + e`` exactly (Dekker), elementwise."""
+    p = a * b
+    c = _SPLIT * a
+    a_hi = c - (c - a)
+    a_lo = a - a_hi
+    c = _SPLIT * b
+    b_hi = c - (c - b)
+    b_lo = b - b_hi
+    e = ((a_hi * b_hi - p) + a_hi * b_lo + a_lo * b_hi) + a_lo * b_lo
+    return p, e
+
+
+def _two_diff(a, b):
+    """Split ``a - b`` into ``d + e`` exactly (Knuth), elementwise."""
+    d = a - b
+    bv = a - d
+    return d, (a - (d + bv)) + (bv - b)
+
+
+def _edges_and_cross(xy: np.ndarray, triangles: np.ndarray, scale=1.0):
+    """Twice the signed area, the product and the least of the squared edges.
+
+    Both in coordinates multiplied by ``scale`` (per triangle; a power of
+    two, so exact). Edge vectors are differences of the input coordinates,
+    and the cross product is evaluated so that it is accurate to a few
+    units in the last place even for needle triangles (nearly collinear or
+    nearly coincident points): the products are split error-free (Dekker)
+    wherever cancellation could cost precision, and the rounding errors of
+    the differences enter to first order.
     """
     x, y = np.ascontiguousarray(xy[:, 0]), np.ascontiguousarray(xy[:, 1])
     px = [x[triangles[:, k]] for k in range(3)]
     py = [y[triangles[:, k]] for k in range(3)]
-    # Edge k runs from vertex k to vertex k+1 and is opposite vertex k+2.
-    dx = [px[(k + 1) % 3] - px[k] for k in range(3)]
-    dy = [py[(k + 1) % 3] - py[k] for k in range(3)]
-    e2 = [dx[k] * dx[k] + dy[k] * dy[k] for k in range(3)]
-
-    def cross_at(k):  # between edge k (out of vertex k) and edge k-1 reversed
-        return dy[k] * dx[k - 1] - dx[k] * dy[k - 1]
-
-    # The longest edge (the first of equals) and the vertex opposite it.
-    first = (e2[0] >= e2[1]) & (e2[0] >= e2[2])
-    second = ~first & (e2[1] >= e2[2])
-    cross = np.where(first, cross_at(2), np.where(second, cross_at(0), cross_at(1)))
-    return cross, e2[0] * e2[1] * e2[2]
+    # Edges out of vertex 0 (exact as d + e), scaled by a power of two.
+    ax, ax_e = _two_diff(px[1], px[0])
+    ay, ay_e = _two_diff(py[1], py[0])
+    bx, bx_e = _two_diff(px[2], px[0])
+    by, by_e = _two_diff(py[2], py[0])
+    with np.errstate(over="ignore", under="ignore", invalid="ignore"):
+        ax, ay, bx, by = ax * scale, ay * scale, bx * scale, by * scale
+        ax_e, ay_e, bx_e, by_e = ax_e * scale, ay_e * scale, bx_e * scale, by_e * scale
+        p1 = ax * by
+        p2 = ay * bx
+        cross = p1 - p2
+        # First-order terms of the differences' rounding errors.
+        cross_e = (ax * by_e + ax_e * by) - (ay * bx_e + ay_e * bx)
+        # Where the two products nearly cancel, recompute them error-free.
+        hard = np.abs(cross) < 0.0625 * (np.abs(p1) + np.abs(p2))
+        if hard.any():
+            q1, e1 = _two_product(ax[hard], by[hard])
+            q2, e2 = _two_product(ay[hard], bx[hard])
+            cross[hard] = (q1 - q2) + (e1 - e2)  # q1 - q2 is exact here
+        cross = cross + cross_e
+        # Each edge from its own difference (a short edge of a needle would
+        # lose its digits as a difference of two long ones).
+        cx = (px[2] - px[1]) * scale
+        cy = (py[2] - py[1]) * scale
+        e2a = ax * ax + ay * ay
+        e2b = bx * bx + by * by
+        e2c = cx * cx + cy * cy
+    return cross, e2a * e2b * e2c, np.minimum(np.minimum(e2a, e2b), e2c)
 
 
 def merge_ties(
@@ -465,24 +875,74 @@ def merge_ties(
     """
     if len(radius) == 0:
         return radius, np.zeros(0, dtype=np.int64), radius
-    order = np.argsort(radius)
+    by_value = np.argsort(radius)
+    order = by_value
     if group is not None:
         # Then stably by group: a radix sort when the codes fit 16 bits.
-        g = group[order]
+        g = group[by_value]
         span = int(g.max()) - int(g.min())
         if span < 2**16:
             g = (g - g.min()).astype(np.uint16)
-        order = order[np.argsort(g, kind="stable")]
+        order = by_value[np.argsort(g, kind="stable")]
     s = radius[order]
-    start = np.ones(len(s), dtype=bool)
-    start[1:] = s[1:] > s[:-1] * (1.0 + rtol)
-    if group is not None:
-        g = group[order]
-        start[1:] |= g[1:] != g[:-1]
+    g = group[order] if group is not None else np.zeros(len(s), dtype=np.int64)
+    # Rank of each value among all values (increasing within each group).
+    value_rank = np.empty(len(radius), dtype=np.int64)
+    value_rank[by_value] = np.arange(len(radius))
+    start = _run_starts(s, g, value_rank[order], radius[by_value], rtol)
     values = np.maximum.reduceat(s, np.flatnonzero(start))
     rank = np.empty(len(radius), dtype=np.int64)
     rank[order] = np.cumsum(start) - 1
     return values[rank], rank, values
+
+
+def _run_starts(s, g, value_rank, all_sorted, rtol: float) -> np.ndarray:
+    """Greedy runs of values sorted by group, then value: each within ``rtol``.
+
+    A run starts at each group's first value and then at the first value
+    above ``first * (1 + rtol)``, so that no chain of small steps spans more
+    than ``rtol``. Only chains of values each within ``rtol`` of the
+    previous one need work (elsewhere every value starts a run); there the
+    starts are the path ``first -> next(first) -> ...``, found by pointer
+    doubling (each round doubles the known part of the path). ``value_rank``
+    is each value's rank among all values (``all_sorted``), which makes the
+    search within groups one global search.
+    """
+    n = len(s)
+    close = np.zeros(n, dtype=bool)
+    with np.errstate(over="ignore", invalid="ignore"):
+        close[1:] = (s[1:] <= s[:-1] * (1.0 + rtol)) & (g[1:] == g[:-1])
+    start = ~close
+    if not close.any():
+        return start
+    chained = np.flatnonzero(close | np.append(close[1:], False))
+    # Each chain ends before the next start; a step past it leaves the chain.
+    bounds = np.append(np.flatnonzero(start), n)
+    chain_end = bounds[np.searchsorted(bounds, chained, side="right")]
+    gc = g[chained].astype(np.int64)
+    with np.errstate(over="ignore"):
+        above = np.searchsorted(all_sorted, s[chained] * (1.0 + rtol), side="right")
+    # Position (in group-then-value order) of the group's first value of
+    # rank >= ``above``: these keys are sorted, as ranks are within groups.
+    key = g.astype(np.int64) * (n + 1) + value_rank
+    nxt = np.searchsorted(key, gc * (n + 1) + above, side="left")
+    nxt = np.clip(nxt, chained + 1, chain_end)
+    # Pointer doubling over the chained values; k (their count) is the exit.
+    k = len(chained)
+    jump = np.searchsorted(chained, nxt)
+    jump[nxt >= chain_end] = k
+    jump = np.append(jump, k)
+    on = np.append(start[chained], False)
+    for _ in range(_doublings(k + 1)):
+        more = on.copy()
+        more[jump[on]] = True
+        more[k] = False
+        grand = jump[jump]
+        if np.array_equal(more, on) and np.array_equal(grand, jump):
+            break
+        on, jump = more, grand
+    start[chained] = on[:k]
+    return start
 
 
 def fill_radius(tri: Triangulation) -> np.ndarray:
@@ -540,13 +1000,20 @@ def fill_radius(tri: Triangulation) -> np.ndarray:
     # Edge weight towards the parent is min(rank[t], rank[parent]); the fill
     # radius is the minimum over the path to the root.
     val = np.minimum(r_ext, r_ext[parent])
-    while True:
+    for _ in range(_doublings(m + 1)):
         grand = parent[parent]
         if np.array_equal(grand, parent):
             break
         val = np.minimum(val, val[parent])
         parent = grand
+    else:  # pragma: no cover - a BFS tree has depth <= m
+        raise RuntimeError("fill_radius: the spanning tree has a cycle")
     return val[:m]
+
+
+def _doublings(n: int) -> int:
+    """Pointer-jumping rounds that settle any path of ``n`` items (a bound)."""
+    return max(int(n).bit_length(), 1) + 1
 
 
 def _offsets(group: np.ndarray, n_groups: int) -> np.ndarray:
@@ -780,12 +1247,16 @@ class Rings:
         Piece number of each ring; the shell of a piece comes before its holes.
     piece_group : ndarray of shape (P,)
         Group code of each piece, non-decreasing.
+    failed : ndarray of shape (G,), optional
+        Groups whose boundary edges do not close into rings (a triangle set
+        that float rounding made inconsistent); their rings are left out.
     """
 
     vertex: np.ndarray
     ring: np.ndarray
     ring_piece: np.ndarray
     piece_group: np.ndarray
+    failed: np.ndarray | None = None
 
 
 def boundary_rings(tri: Triangulation, inside: np.ndarray, piece: np.ndarray) -> Rings:
@@ -826,42 +1297,51 @@ def boundary_rings(tri: Triangulation, inside: np.ndarray, piece: np.ndarray) ->
     u = tri.triangles[t, (j + 1) % 3]
     v = tri.triangles[t, (j + 2) % 3]
     pc = piece[t]
-    n_edges = len(t)
     n_pieces = int(piece.max()) + 1 if len(piece) and piece.max() >= 0 else 0
     piece_group = np.zeros(n_pieces, dtype=np.int64)
     piece_group[pc] = tri.tri_group[t]
+    failed = np.zeros(tri.n_groups, dtype=bool)
+    # Every edge must be the successor of exactly one edge, and the cycles
+    # must be rings of 3 or more edges; a group where float rounding broke
+    # that (an inconsistent triangle set) is reported in ``failed`` and its
+    # edges are left out, at most once per call (groups are independent).
+    for _ in range(2):
+        nxt = _successors(tri, u, v, pc)
+        n_edges = len(t)
+        bad = nxt < 0
+        bad |= np.bincount(nxt[~bad], minlength=n_edges)[nxt.clip(0)] != 1
+        if not bad.any():
+            graph = csr_array(
+                (np.ones(n_edges), (np.arange(n_edges), nxt)), (n_edges,) * 2
+            )
+            n_rings, label = connected_components(
+                graph, directed=True, connection="weak"
+            )
+            length = np.bincount(label, minlength=n_rings)
+            bad = length[label] < 3
+        if not bad.any():
+            break
+        failed[tri.tri_group[t[bad]]] = True
+        ok = ~failed[tri.tri_group[t]]
+        t, u, v, pc = t[ok], u[ok], v[ok], pc[ok]
     if n_edges == 0:
         empty = np.empty(0, dtype=np.int64)
-        return Rings(empty, empty, empty, piece_group)
-
-    # Successor of each edge: an outgoing edge of the same piece at its head.
-    stride = len(tri.xy)
-    out_key = pc * stride + u
-    order = np.argsort(out_key, kind="stable")
-    sorted_key = out_key[order]
-    in_key = pc * stride + v
-    lo = np.searchsorted(sorted_key, in_key, side="left")
-    hi = np.searchsorted(sorted_key, in_key, side="right")
-    nxt = order[lo]
-    pinch = np.flatnonzero(hi - lo > 1)
-    if len(pinch):
-        nxt[pinch] = _turn_through_exterior(tri.local, u, v, order, lo, hi, pinch)
+        return Rings(empty, empty, empty, piece_group, failed)
 
     # Rings are the cycles of the successor permutation.
-    graph = csr_array((np.ones(n_edges), (np.arange(n_edges), nxt)), (n_edges,) * 2)
-    n_rings, label = connected_components(graph, directed=True, connection="weak")
     root = np.full(n_rings, n_edges, dtype=np.int64)
     np.minimum.at(root, label, np.arange(n_edges))
     # List ranking: distance of each edge to the last edge before the root.
     succ = np.where(nxt == root[label], np.arange(n_edges), nxt)
     dist = (succ != np.arange(n_edges)).astype(np.int64)
-    while True:
+    for _ in range(_doublings(n_edges)):
         jump = succ[succ]
         if np.array_equal(jump, succ):
             break
         dist = dist + dist[succ]
         succ = jump
-    length = np.bincount(label, minlength=n_rings)
+    else:  # pragma: no cover - nxt is a permutation (checked above)
+        raise RuntimeError("boundary_rings: the successors do not form cycles")
     position = length[label] - 1 - dist
 
     # Shell (counter-clockwise, positive area) first within each piece.
@@ -880,7 +1360,29 @@ def boundary_rings(tri: Triangulation, inside: np.ndarray, piece: np.ndarray) ->
         ring=ring[edge_order],
         ring_piece=ring_piece_raw[ring_order],
         piece_group=piece_group,
+        failed=failed,
     )
+
+
+def _successors(tri, u, v, pc) -> np.ndarray:
+    """Successor of each boundary edge: an outgoing edge of its piece at its head.
+
+    -1 where the head has no outgoing edge (an inconsistent triangle set).
+    """
+    if len(u) == 0:
+        return np.empty(0, dtype=np.int64)
+    stride = len(tri.xy)
+    out_key = pc * stride + u
+    order = np.argsort(out_key, kind="stable")
+    sorted_key = out_key[order]
+    in_key = pc * stride + v
+    lo = np.searchsorted(sorted_key, in_key, side="left")
+    hi = np.searchsorted(sorted_key, in_key, side="right")
+    nxt = np.where(hi > lo, order[np.minimum(lo, len(order) - 1)], -1)
+    pinch = np.flatnonzero(hi - lo > 1)
+    if len(pinch):
+        nxt[pinch] = _turn_through_exterior(tri.local, u, v, order, lo, hi, pinch)
+    return nxt
 
 
 def _turn_through_exterior(local, u, v, order, lo, hi, pinch) -> np.ndarray:

@@ -11,6 +11,7 @@ import warnings
 from typing import Literal, NamedTuple
 
 import numpy as np
+import shapely
 
 from geoalpha import core, search, shapes
 from geoalpha.errors import (
@@ -48,6 +49,10 @@ class AlphaShapes(NamedTuple):
         metric coordinates), whatever ``coords`` the geometry was built from.
     degenerate : ndarray of bool
         Fewer than 3 distinct points, or all collinear: no triangle, no alpha.
+        Both are decided with a tolerance relative to the group's extent
+        (:data:`geoalpha.core.NEAR_RTOL`), in ``points`` and in ``coords``; a
+        group whose shape float geometry cannot make valid and covering is
+        degenerate too (never a polygon that misses a point).
     """
 
     alpha: np.ndarray
@@ -264,9 +269,16 @@ def _alpha_shapes_batch(
 ) -> AlphaShapes:
     """:func:`alpha_shapes` of all groups in one pass (no runs, no workers)."""
     try:
-        tri = core.triangulate(points, groups, n_groups=n_groups, progress=progress)
+        out_xy, thin = _output_coordinates(points, groups, coords, n_groups)
+        tri = core.triangulate(
+            points, groups, n_groups=n_groups, progress=progress, degenerate=thin
+        )
     except ValueError as err:
         raise InvalidInputError(str(err)) from err
+    if out_xy is None:
+        out_xy = tri.xy
+    else:
+        out_xy = out_xy[np.argsort(tri.input_point)]
     weight = tri.rank if holes else core.fill_radius(tri)
     a, top, n_pieces = _rank_threshold(
         tri, weight, alpha, components, search, max_iterations, filled=not holes
@@ -275,34 +287,39 @@ def _alpha_shapes_batch(
     inside = weight <= top[tri.tri_group]
     piece = core.piece_labels(tri, inside, n_pieces)
     rings = core.boundary_rings(tri, inside, piece)
-    if coords is None:
-        out_xy = tri.xy
-    else:
-        c = np.asarray(coords, dtype=float)
-        if c.shape != (len(tri.input_point), 2):
-            raise InvalidInputError(
-                f"coords must have the shape of points {(len(tri.input_point), 2)}; "
-                f"got {c.shape}"
-            )
-        out_xy = np.empty_like(tri.xy)
-        out_xy[tri.input_point] = c
     geometry = shapes.assemble(out_xy, rings, tri.n_groups)
-    # Points Qhull merged with a (numerically) coincident vertex: the shape is
-    # that of the merged set, so make sure it holds them too where it holds
-    # their vertex (a change of ~1e-12 of the group's extent).
-    merged = np.flatnonzero(tri.vertex != np.arange(len(tri.vertex)))
-    if len(merged):
-        held = np.zeros(len(tri.xy), dtype=bool)
-        held[tri.triangles[inside].ravel()] = True
-        merged = merged[
-            held[tri.vertex[merged]]
-            & (tri.xy[merged] != tri.xy[tri.vertex[merged]]).any(axis=1)
-        ]
-        if len(merged):
-            geometry = shapes.cover_points(
-                geometry, out_xy[merged], tri.point_group[merged]
-            )
+    # The guarantee: every group a valid (Multi)Polygon that covers each of
+    # its points, in the coordinates it is returned in (at the optimum), or
+    # declared degenerate. Points merged as near-duplicates are taken in here.
+    check = ~tri.degenerate & ~rings.failed
+    # Coverage needs a geometric test only where it is not certain: at the
+    # optimum every representative point is a vertex of the (checked)
+    # triangulation in the shape, so in the same coordinates it is covered;
+    # points merged into another one, and every point when the geometry is
+    # built from other coordinates (lon/lat), are tested.
+    if coords is None:
+        test = (tri.xy != tri.xy[tri.vertex]).any(axis=1)
+    else:
+        test = None
+    geometry, failed = shapes.enforce(
+        geometry,
+        out_xy,
+        tri.point_group,
+        check,
+        cover=alpha is None,
+        components=components if alpha is None else None,
+        test=test,
+    )
+    failed |= rings.failed & ~tri.degenerate
+    degenerate = tri.degenerate | failed
+    a = np.where(degenerate, np.nan, a)
+    geometry[failed] = shapes.EMPTY_POLYGON
     n_parts = np.bincount(rings.piece_group, minlength=tri.n_groups)
+    n_parts[degenerate] = 0
+    area = np.bincount(
+        tri.tri_group[inside], weights=tri.area[inside], minlength=tri.n_groups
+    )
+    area[degenerate] = 0.0
     codes = tri.point_group[tri.input_point]
     return AlphaShapes(
         alpha=a,
@@ -310,19 +327,64 @@ def _alpha_shapes_batch(
         n_points=np.bincount(codes, minlength=tri.n_groups),
         n_distinct=tri.n_distinct.copy(),
         n_parts=n_parts,
-        area=np.bincount(
-            tri.tri_group[inside], weights=tri.area[inside], minlength=tri.n_groups
-        ),
-        degenerate=tri.degenerate.copy(),
+        area=area,
+        degenerate=degenerate,
     )
 
 
+def _output_coordinates(points, groups, coords, n_groups):
+    """Return the output coordinates (None: the points) and the groups thin there.
+
+    Degeneracy is decided in the coordinates the result is returned in, too:
+    points on one meridian are collinear in longitude/latitude even where
+    their image in metres is a hair away from a line.
+    """
+    if coords is None:
+        return None, None
+    c = np.asarray(coords, dtype=float)
+    n = len(np.asarray(points))
+    if c.shape != (n, 2):
+        raise InvalidInputError(
+            f"coords must have the shape of points {(n, 2)}; got {c.shape}"
+        )
+    return c, core.thin_groups(c, groups, n_groups)
+
+
+def _as_xy(points):
+    """Coordinates of shapely points (a MultiPoint, Points, a GeoSeries), else as is.
+
+    Any other geometry is an :class:`InvalidInputError` that says what to pass.
+    """
+    if isinstance(points, shapely.Geometry):
+        points = [points]
+    values = getattr(points, "values", points)  # a GeoSeries / Series
+    if not isinstance(values, np.ndarray | list | tuple):
+        values = np.asarray(values)  # e.g. a GeometryArray: its geometries
+    if isinstance(values, np.ndarray) and values.dtype != object:
+        return points
+    if not isinstance(values, np.ndarray):
+        if not (isinstance(values, list | tuple) and values):
+            return points
+        if not isinstance(values[0], shapely.Geometry):
+            return points
+    geoms = np.asarray(values, dtype=object)
+    kinds = shapely.get_type_id(geoms)
+    if not np.isin(kinds, (0, 4)).all():
+        raise InvalidInputError(
+            "points must be x, y coordinates or shapely points (Point, MultiPoint, "
+            "a GeoSeries of points); got "
+            + ", ".join(sorted({g.geom_type for g in geoms[~np.isin(kinds, (0, 4))]}))
+        )
+    return shapely.get_coordinates(geoms)
+
+
 def _one_group(points, **kwargs) -> AlphaShapes:
-    res = alpha_shapes(points, None, n_groups=1, **kwargs)
+    res = alpha_shapes(_as_xy(points), None, n_groups=1, **kwargs)
     if res.degenerate[0]:
         warnings.warn(
             f"no alpha shape: the {res.n_distinct[0]} distinct point(s) are fewer "
-            "than 3 or all collinear; alpha is nan and the shape empty",
+            "than 3 or all collinear (within 1e-9 of their extent of a line; "
+            "points closer than that are one); alpha is nan and the shape empty",
             DegenerateGroupWarning,
             stacklevel=user_stacklevel(),
         )

@@ -12,7 +12,7 @@ import shapely
 
 from geoalpha.core import Rings
 
-__all__ = ["EMPTY_POLYGON", "assemble", "cover_points", "polygonal"]
+__all__ = ["EMPTY_POLYGON", "assemble", "cover_points", "enforce", "polygonal"]
 
 #: The geometry of a group with no shape (empty Polygon, so that a column of
 #: hulls keeps a single geometry type).
@@ -63,6 +63,104 @@ def assemble(coords: np.ndarray, rings: Rings, n_groups: int) -> np.ndarray:
     return out
 
 
+def enforce(geoms, out_xy, codes, check, *, cover=True, components=None, test=None):
+    """Verify the guarantee per group; repair where possible; report the rest.
+
+    Every group in ``check`` must get a valid, non-empty Polygon or
+    MultiPolygon (of at most ``components`` parts) that covers every one of
+    its points (``shapely.covers``, distance 0, in these coordinates).
+    Invalid geometries are repaired with ``make_valid`` and uncovered points
+    are taken in as vertices (:func:`cover_points`); a group that still
+    fails is reported, so that the caller declares it degenerate instead of
+    returning a polygon that misses a point.
+
+    Parameters
+    ----------
+    geoms : ndarray of shape (G,)
+        Geometry of each group.
+    out_xy : ndarray of shape (k, 2)
+        Points, in the geometries' coordinates.
+    codes : ndarray of shape (k,)
+        Group of each point.
+    check : ndarray of bool, shape (G,)
+        Groups to verify (the others are returned as they are).
+    cover : bool, default True
+        Whether every point must be covered (False: validity only, e.g. for
+        a shape at a given alpha, which need not hold every point).
+    components : int, optional
+        Largest number of parts allowed.
+    test : ndarray of bool, shape (k,), optional
+        The points whose coverage must be tested geometrically (default:
+        all). A caller may leave out points whose coverage is already
+        certain, e.g. vertices of a valid triangulation of the shape in the
+        very coordinates of the geometry.
+
+    Returns
+    -------
+    geoms : ndarray of shape (G,)
+        The geometries, repaired where needed.
+    failed : ndarray of bool, shape (G,)
+        Groups of ``check`` that could not be made to hold the guarantee.
+
+    Examples
+    --------
+    >>> bow = shapely.Polygon([(0, 0), (2, 2), (2, 0), (0, 2)])  # self-crossing
+    >>> pts = np.array([[0, 0], [2, 2], [2, 0], [0, 2]])
+    >>> codes, check = np.zeros(4, dtype=int), np.array([True])
+    >>> fixed, failed = enforce(np.array([bow]), pts, codes, check)
+    >>> bool(fixed[0].is_valid), failed.tolist()
+    (True, [False])
+    """
+    geoms = geoms.copy()
+    failed = np.zeros(len(geoms), dtype=bool)
+    if not check.any():
+        return geoms, failed
+    sel = np.flatnonzero(check)
+    invalid = sel[~shapely.is_valid(geoms[sel])]
+    if len(invalid):
+        try:
+            geoms[invalid] = polygonal(
+                shapely.make_valid(geoms[invalid], method="structure")
+            )
+        except shapely.errors.GEOSException:  # pragma: no cover - defensive
+            failed[invalid] = True
+    if cover:
+        mine = check[codes] & ~failed[codes]
+        if test is not None:
+            mine &= test
+        points = shapely.points(out_xy[mine])
+        shapely.prepare(geoms[sel])
+        outside = ~shapely.covers(geoms[codes[mine]], points)
+        repair = np.unique(codes[mine][outside])
+        if len(repair):
+            take = np.isin(codes, repair)
+            try:
+                geoms = cover_points(geoms, out_xy[take], codes[take])
+            except shapely.errors.GEOSException:
+                failed[repair] = True
+            invalid = np.unique(np.r_[invalid, repair])
+    # Whatever was repaired is verified again, from scratch.
+    again = np.zeros(len(geoms), dtype=bool)
+    again[invalid] = True
+    again &= ~failed
+    if again.any():
+        g = geoms[again]
+        bad = ~shapely.is_valid(g) | shapely.is_empty(g)
+        bad |= ~np.isin(shapely.get_type_id(g), (3, 6))
+        if components is not None:
+            bad |= shapely.get_num_geometries(g) > components
+        failed[np.flatnonzero(again)[bad]] = True
+        if cover:
+            take = again[codes] & ~failed[codes]
+            shapely.prepare(geoms[again])
+            miss = ~shapely.covers(geoms[codes[take]], shapely.points(out_xy[take]))
+            failed[codes[take][miss]] = True
+    if cover:  # an empty optimum covers nothing
+        failed[sel[shapely.is_empty(geoms[sel])]] = True
+    geoms[failed] = EMPTY_POLYGON
+    return geoms, failed
+
+
 def cover_points(geoms, out_xy, codes) -> np.ndarray:
     """Make sure every point is covered by its group's geometry.
 
@@ -111,24 +209,38 @@ def cover_points(geoms, out_xy, codes) -> np.ndarray:
 
 
 def _take_in(poly, p):
-    """Insert point ``p`` into one of the shell edges of ``poly`` nearest to it."""
+    """Insert point ``p`` into one of the ring edges of ``poly`` nearest to it.
+
+    The shell and the holes' rings are all candidates (a point merged with a
+    vertex of a hole lies next to the hole's ring); the first insertion that
+    gives a valid polygon covering ``p`` wins, so the vertices stay input
+    points. Failing that, the outline of the ear to the nearest edge,
+    slightly widened, is added.
+    """
     parts = list(shapely.get_parts(poly))
     i = int(np.argmin(shapely.distance(parts, p)))
     part = parts[i]
-    ring = shapely.get_coordinates(part.exterior)
-    holes = [r.coords for r in part.interiors]
-    segments = shapely.linestrings(np.stack([ring[:-1], ring[1:]], axis=1))
+    rings = [shapely.get_coordinates(part.exterior)] + [
+        shapely.get_coordinates(r) for r in part.interiors
+    ]
+    which = np.concatenate([np.full(len(r) - 1, k) for k, r in enumerate(rings)])
+    at = np.concatenate([np.arange(len(r) - 1) for r in rings])
+    starts = np.concatenate([r[:-1] for r in rings])
+    ends = np.concatenate([r[1:] for r in rings])
+    segments = shapely.linestrings(np.stack([starts, ends], axis=1))
+    nearest = np.argsort(shapely.distance(segments, p), kind="stable")
     grown = None
-    for k in np.argsort(shapely.distance(segments, p), kind="stable")[:4]:
-        shell = np.insert(ring, k + 1, [p.x, p.y], axis=0)
-        candidate = shapely.Polygon(shell, holes)
+    for e in nearest[:8]:
+        changed = list(rings)
+        changed[which[e]] = np.insert(rings[which[e]], at[e] + 1, [p.x, p.y], axis=0)
+        candidate = shapely.Polygon(changed[0], changed[1:])
         if candidate.is_valid and candidate.covers(p):
             grown = candidate
             break
     if grown is None:  # fall back to adding the ear's outline, slightly widened
-        k = int(np.argmin(shapely.distance(segments, p)))
-        ear = shapely.linestrings([ring[k], (p.x, p.y), ring[k + 1]])
-        width = 1e-9 * max(np.ptp(ring, axis=0).max(), abs(p.x), abs(p.y), 1.0)
+        e = nearest[0]
+        ear = shapely.linestrings([starts[e], (p.x, p.y), ends[e]])
+        width = 1e-9 * max(np.ptp(rings[0], axis=0).max(), abs(p.x), abs(p.y), 1.0)
         grown = shapely.union(part, shapely.buffer(ear, width))
         grown = polygonal(np.array([grown], dtype=object))[0]
     parts[i] = grown

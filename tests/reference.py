@@ -51,9 +51,64 @@ def exact_circumradius(a, b, c) -> float:
     return math.sqrt(float(r2))
 
 
+#: The documented near-degeneracy rule (README "Near-degenerate input"),
+#: restated here rather than imported: relative to the set's extent, never
+#: below 64 units in the last place of its largest coordinate.
+NEAR_RTOL = 1e-9
+PRECISION_ULPS = 64
+
+
+def tolerance(points) -> float:
+    p = np.asarray(points, dtype=float)
+    extent = float(np.ptp(p, axis=0).max())
+    return max(NEAR_RTOL * extent, PRECISION_ULPS * float(np.spacing(np.abs(p).max())))
+
+
+def merge_near(points) -> np.ndarray:
+    """One point per set of points closer than the tolerance (transitively).
+
+    Brute force (all pairs, breadth-first search); each set is represented
+    by its first point in input order.
+    """
+    p = np.asarray(points, dtype=float)
+    tol = tolerance(p)
+    close = ((p[:, None, :] - p[None, :, :]) ** 2).sum(axis=-1) < tol * tol
+    seen = np.zeros(len(p), dtype=bool)
+    keep = []
+    for i in range(len(p)):
+        if seen[i]:
+            continue
+        keep.append(i)
+        seen[i] = True
+        queue = deque([i])
+        while queue:
+            j = queue.popleft()
+            for k in np.flatnonzero(close[j] & ~seen):
+                seen[k] = True
+                queue.append(k)
+    return p[keep]
+
+
+def is_collinear(points) -> bool:
+    """Whether every point lies within the tolerance of the principal axis."""
+    p = np.asarray(points, dtype=float)
+    if len(np.unique(p, axis=0)) < 3:
+        return True
+    centred = p - p.mean(axis=0)
+    _, _, vt = np.linalg.svd(centred, full_matrices=False)
+    normal = vt[1]
+    return float(np.abs(centred @ normal).max()) <= tolerance(p)
+
+
 def triangulation(points):
-    """Distinct points, Delaunay simplices and neighbours, exact circumradii."""
-    pts = np.unique(np.asarray(points, dtype=float), axis=0)
+    """Distinct points, Delaunay simplices and neighbours, exact circumradii.
+
+    Points closer than the tolerance are merged first; a collinear set (by
+    the same tolerance) raises ValueError, as having no triangle.
+    """
+    if is_collinear(points):
+        raise ValueError("collinear within the tolerance")
+    pts = np.unique(merge_near(points), axis=0)
     d = Delaunay(pts - pts.mean(axis=0))
     r = np.array([exact_circumradius(*pts[s]) for s in d.simplices], dtype=float)
     return pts, d.simplices, d.neighbors, r
