@@ -586,7 +586,7 @@ def _delaunay(local, point_ptr, groups, progress, use=None):
     sees groups with near-duplicates.
     """
     if use is not None:
-        return _qhull(local, point_ptr, groups, progress, use)
+        return _smallest_first(*_qhull(local, point_ptr, groups, progress, use))
     from geoalpha.delaunay import triangulate_groups
 
     batch = triangulate_groups(local, point_ptr, groups, progress)
@@ -594,7 +594,9 @@ def _delaunay(local, point_ptr, groups, progress, use=None):
     cp = np.column_stack([moved, batch.vertex[moved]])
     redo = groups[batch.failed]
     if len(redo) == 0:
-        return batch.triangles, batch.neighbors, cp, np.empty(0, dtype=np.int64)
+        return _smallest_first(
+            batch.triangles, batch.neighbors, cp, np.empty(0, dtype=np.int64)
+        )
     tri, nb, cp2, failed = _qhull(local, point_ptr, redo, None)
     tri = np.concatenate([batch.triangles, tri])
     nb = np.where(nb >= 0, nb + len(batch.triangles), -1)
@@ -605,7 +607,23 @@ def _delaunay(local, point_ptr, groups, progress, use=None):
     new = np.empty_like(order)
     new[order] = np.arange(len(order))
     nb = np.where(nb >= 0, new[np.maximum(nb, 0)], -1)[order]
-    return tri[order], nb, np.concatenate([cp, cp2]), failed
+    return _smallest_first(tri[order], nb, np.concatenate([cp, cp2]), failed)
+
+
+def _smallest_first(tri, nb, cp, failed):
+    """Rotate every triangle (and its neighbours) to start at its smallest index.
+
+    The radii are computed from vertex 0 out, so the same triangle from GEOS
+    or from Qhull gets the same radius to the last bit.
+    """
+    first = np.argmin(tri, axis=1)
+    turn = (first[:, None] + np.arange(3)) % 3
+    return (
+        np.take_along_axis(tri, turn, axis=1),
+        np.take_along_axis(nb, turn, axis=1),
+        cp,
+        failed,
+    )
 
 
 def _qhull(local, point_ptr, groups, progress, use=None):
