@@ -12,10 +12,11 @@ from geoalpha.errors import (
     GeoAlphaError,
     GeoAlphaWarning,
     InvalidInputError,
+    OutlierWarning,
     SearchWarning,
 )
 from geoalpha.optimal import AlphaShapes, alpha_shape, alpha_shapes, optimal_alpha
-from geoalpha.tools import hull
+from geoalpha.tools import hull, outlier_rows
 
 try:
     __version__ = version("geoalpha")
@@ -30,12 +31,14 @@ __all__ = [
     "GeoAlphaError",
     "GeoAlphaWarning",
     "InvalidInputError",
+    "OutlierWarning",
     "SearchWarning",
     "__version__",
     "alpha_shape",
     "alpha_shapes",
     "hull",
     "optimal_alpha",
+    "outlier_rows",
 ]
 
 _register_accessor()

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import re
 import sys
 import traceback
 import warnings
@@ -23,6 +24,8 @@ import click
 from geoalpha import __version__
 from geoalpha.datasets import DATASETS
 from geoalpha.errors import GeoAlphaError, InvalidInputError
+from geoalpha.postgis import is_postgres_url
+from geoalpha.redact import redact, secrets_in
 
 __all__ = ["main"]
 
@@ -31,31 +34,108 @@ _CONTEXT = {"help_option_names": ["-h", "--help"], "max_content_width": 88}
 # with its type and a hint to rerun with -v.
 _EXPECTED = (GeoAlphaError, OSError, ImportError)
 
+# Python keywords in messages of the library -> the command's options.
+_CLI_TERMS: tuple[tuple[str, str], ...] = (
+    (r"hull\(by=[^)]*\)", "--by"),
+    (r"\bhull\(\) ", "geoalpha "),
+    (r"pass vertices=True \(--vertices\)", "pass --vertices"),
+    (r"\bvertices=True\b", "--vertices"),
+    (r"\bdropna=False\b", "--no-dropna"),
+    (r"\bsort=False\b", "--no-sort"),
+    (r"\bholes=True\b", "--holes"),
+    (r"\(degenerate='(\w+)'\)", r"(--degenerate \1)"),
+    (r"\bdegenerate='(\w+)'", r"--degenerate \1"),
+    (
+        r"with gdf\.set_crs\(\.\.\.\) or pass crs=None",
+        "with --crs-in, or pass --crs-in none",
+    ),
+    (r"\bcrs='auto'", "--crs auto"),
+    (r"\bcrs=None\b", "--crs none"),
+    (r"\bcrs=(?=\s)", "--crs"),
+    (r"\bprogress=True\b", "--progress"),
+    (r"\bn_jobs\b", "--jobs"),
+    (r"\boverwrite=True\b", "--overwrite"),
+    (r"\bx= and y=", "--x and --y"),
+    (r"\b(alpha|components|buffer|ratio|k|method|search|layer)=(?=\S)", r"--\1 "),
+    (r"\b(alpha|components|buffer|ratio|k|method|search|layer)=", r"--\1"),
+)
+
+
+def _in_cli_terms(text: str) -> str:
+    """Word a library message in terms of the command's options."""
+    for pattern, replacement in _CLI_TERMS:
+        text = re.sub(pattern, replacement, text)
+    return text
+
+
+class _RedactingHandler(logging.StreamHandler):
+    """Log records to the current stderr, without credentials."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.setFormatter(logging.Formatter("%(levelname)s:%(name)s:%(message)s"))
+
+    @property  # type: ignore[override]
+    def stream(self):
+        return sys.stderr  # not the one of the first run (tests swap it)
+
+    @stream.setter
+    def stream(self, value) -> None:
+        pass
+
+    def format(self, record: logging.LogRecord) -> str:
+        return redact(super().format(record))
+
 
 def _configure_logging(verbosity: int) -> None:
-    logging.basicConfig(stream=sys.stderr, level=max(10, 30 - 10 * verbosity))
+    root = logging.getLogger()
+    if not any(isinstance(h, _RedactingHandler) for h in root.handlers):
+        root.addHandler(_RedactingHandler())
+    root.setLevel(max(10, 30 - 10 * verbosity))
 
 
 def _one_line(text: object) -> str:
     return " ".join(str(text).split())
 
 
+def _secrets() -> list[str]:
+    """Secret values in the command's arguments (passwords of INPUT, ...)."""
+    found: set[str] = set()
+    ctx = click.get_current_context(silent=True)
+    while ctx is not None:
+        for value in ctx.params.values():
+            for item in value if isinstance(value, tuple | list) else [value]:
+                if isinstance(item, str):
+                    found.update(secrets_in(item))
+        ctx = ctx.parent
+    return sorted(found, key=len, reverse=True)
+
+
 @contextlib.contextmanager
 def _reporting(verbosity: int) -> Iterator[None]:
-    """Show warnings as ``Warning:`` lines and turn errors into ``Error:`` lines."""
+    """Show warnings as ``Warning:`` lines and turn errors into ``Error:`` lines.
+
+    Every line is worded in the command's terms and has credentials removed.
+    """
+    from geoalpha.io import cli_terms
+
     shown: set[tuple[type, str]] = set()
+    secrets = _secrets()
+
+    def clean(text: object) -> str:
+        return redact(_in_cli_terms(_one_line(text)), secrets)
 
     def show(message, category, filename, lineno, file=None, line=None):
         if verbosity < 0:
             return
         if not issubclass(category, UserWarning) and verbosity < 1:
             return  # library deprecations and numpy noise only with -v
-        text = _one_line(message)
+        text = clean(message)
         if (category, text) not in shown:
             shown.add((category, text))
             click.echo(f"Warning: {text}", err=True)
 
-    with warnings.catch_warnings():
+    with warnings.catch_warnings(), cli_terms():
         warnings.simplefilter("always")
         warnings.showwarning = show
         try:
@@ -64,28 +144,40 @@ def _reporting(verbosity: int) -> Iterator[None]:
             raise
         except Exception as err:
             if verbosity > 0:
-                click.echo(traceback.format_exc().rstrip(), err=True)
+                click.echo(redact(traceback.format_exc().rstrip(), secrets), err=True)
             if isinstance(err, _EXPECTED):
-                message = _one_line(err) or type(err).__name__
+                message = clean(err) or type(err).__name__
             else:
                 message = (
-                    f"{type(err).__name__}: {_one_line(err)} "
+                    f"{type(err).__name__}: {clean(err)} "
                     "(rerun as 'geoalpha -v ...' for the traceback)"
                 )
-            raise click.ClickException(message) from err
+            raise click.ClickException(message) from None
 
 
-def _verbosity() -> int:
+def _verbosity(verbose: int = 0, quiet: int = 0) -> int:
+    """-v/-q of the group (before the command) plus those after it."""
     ctx = click.get_current_context()
-    return (ctx.find_root().obj or {}).get("verbosity", 0)
+    level = (ctx.find_root().obj or {}).get("verbosity", 0) + verbose - quiet
+    if verbose or quiet:
+        _configure_logging(level)
+    return level
+
+
+_verbose_option = click.option(
+    "-v", "--verbose", count=True, help="More output: tracebacks on error."
+)
+_quiet_option = click.option(
+    "-q", "--quiet", count=True, help="Less output: errors only."
+)
 
 
 @click.group(context_settings=_CONTEXT)
 @click.version_option(
     __version__, "--version", prog_name="geoalpha", message="%(prog)s %(version)s"
 )
-@click.option("-v", "--verbose", count=True, help="More output: tracebacks on error.")
-@click.option("-q", "--quiet", count=True, help="Less output: errors only.")
+@_verbose_option
+@_quiet_option
 @click.pass_context
 def main(ctx: click.Context, verbose: int, quiet: int) -> None:
     """Exact optimal alpha shapes: one tight polygon per group of points.
@@ -96,7 +188,7 @@ def main(ctx: click.Context, verbose: int, quiet: int) -> None:
     that QGIS, ArcGIS or geopandas opens.
 
     \b
-    Try it on bundled real data (UK road accident clusters):
+    Try it on bundled real data (US airports by state):
         geoalpha demo hulls.gpkg
     then on your own points:
         geoalpha hull accidents.csv hulls.gpkg --by Local_Authority
@@ -112,18 +204,161 @@ def _crs_option(value: str) -> str | None:
 
 def _group_columns(values: tuple[str, ...], columns, source: str) -> list[str]:
     """Resolve ``--by`` values (repeatable, comma-separated) to columns."""
+    from geoalpha.io import _did_you_mean
+
     by: list[str] = []
     for value in values:
         names = [value] if value in columns else value.split(",")
         by.extend(name.strip() for name in names if name.strip())
     missing = [name for name in by if name not in columns]
     if missing:
-        found = ", ".join(str(c) for c in columns if c != "geometry")
+        others = [c for c in columns if c != "geometry"]
+        hints = "".join(_did_you_mean(name, others) for name in missing)
         raise InvalidInputError(
-            f"--by column {', '.join(map(repr, missing))} not found in {source}; "
-            f"its columns are: {found}"
+            f"--by column {', '.join(map(repr, missing))} not found in {source}"
+            f"{hints}; its columns are: {', '.join(map(str, others))}"
         )
     return by
+
+
+#: Warn about --by from this share of groups per row (and at least 50 rows).
+MANY_GROUPS_SHARE = 0.5
+
+
+def _check_grouping(points, by: list[str]) -> None:
+    """Warn when --by makes nearly one group per row (a wrong column?)."""
+    from geoalpha.errors import GroupingWarning
+
+    rows = len(points)
+    if not by or rows < 50:
+        return
+    groups = points.groupby(by, dropna=True, sort=False).ngroups
+    if groups > MANY_GROUPS_SHARE * rows:
+        warnings.warn(
+            f"--by {','.join(by)} makes {groups:,} groups of {rows:,} rows; groups "
+            "of 1-2 points have no alpha shape, so is this the right column?",
+            GroupingWarning,
+            stacklevel=2,
+        )
+
+
+def _computation_crs(points, work_crs):
+    """Return the one computation CRS to check for distortion, and its origin."""
+    import pyproj
+
+    if points.crs is None or work_crs is None:
+        return None, ""
+    if isinstance(work_crs, str) and work_crs.strip().lower() == "auto":
+        if points.crs.is_projected:
+            return points.crs, "INPUT's CRS"
+        return None, ""
+    try:
+        crs = pyproj.CRS.from_user_input(work_crs)
+    except pyproj.exceptions.CRSError:
+        return None, ""  # hull() reports it
+    return (crs, "--crs") if crs.is_projected else (None, "")
+
+
+def _check_distortion(points, work_crs) -> None:
+    """Warn when the computation CRS stretches areas where the points are."""
+    import numpy as np
+    import shapely
+
+    from geoalpha.crs import crs_name
+    from geoalpha.distortion import AREA_TOLERANCE, area_scale
+    from geoalpha.errors import CRSWarning
+
+    crs, chosen_by = _computation_crs(points, work_crs)
+    if crs is None:
+        return
+    xy = shapely.get_coordinates(points.geometry.array)
+    scale = area_scale(crs, xy[:, 0], xy[:, 1], points.crs)
+    if scale.size == 0 or np.abs(scale - 1.0).max() <= AREA_TOLERANCE:
+        return
+    if chosen_by == "--crs":
+        advice = (
+            "leave out --crs (auto: a UTM zone or a local equal-area CRS per "
+            "group) for true metres"
+        )
+    else:
+        advice = "pass --crs with a UTM zone or an equal-area CRS for these points"
+        with contextlib.suppress(Exception):
+            advice += f", e.g. --crs {crs_name(points.estimate_utm_crs())}"
+    middle = float(np.median(scale))
+    warnings.warn(
+        f"the shapes are computed in {crs_name(crs)} ({chosen_by}), which "
+        f"stretches areas {middle:.3g} times (median at the points; "
+        f"{float(scale.min()):.3g}-{float(scale.max()):.3g}), so 'area_m2' and "
+        f"'radius' are not true square metres and metres: {advice}",
+        CRSWarning,
+        stacklevel=2,
+    )
+
+
+def _planar_unit(points, work_crs) -> str | None:
+    """Return the unit of a planar computation (--crs none) unless metres."""
+    if work_crs is not None:
+        return None
+    if points.crs is None:
+        return "coordinate unit"
+    info = points.crs.axis_info
+    unit = info[0].unit_name if info else "unit"
+    return None if unit == "metre" else unit
+
+
+def _summary(points, hulls, source: str, work_crs, unit: str | None) -> list[str]:
+    """Return a few lines that say what was read, computed and found."""
+    import numpy as np
+    import shapely
+
+    from geoalpha.crs import crs_name
+
+    lines = []
+    columns = points.attrs.get("geoalpha_coordinates")
+    where = f"columns {columns[0]}/{columns[1]}" if columns else "geometries"
+    in_crs = crs_name(points.crs) if points.crs is not None else "no CRS"
+    lines.append(f"Read {len(points):,} points of {source} ({where}, {in_crs})")
+    used = hulls["crs_used"].astype(str).unique().tolist()
+    shown = used[0] if len(used) == 1 else f"{len(used)} CRSs (one chosen per group)"
+    if len(used) == 2:
+        shown += f" ({used[0]}, {used[1]})"
+    if work_crs is None:
+        u = unit or "metre"
+        shown = (
+            f"the input coordinates as they are (alpha in 1/{u}, radius in {u}, "
+            f"area in square {u})"
+        )
+    groups = len(hulls)
+    method = hulls["method"].astype(str)
+    no_shape = int((hulls["alpha"].isna() & method.eq("alpha")).sum())
+    rows = int(hulls["n_points"].sum())
+    left_out = len(points) - rows
+    lines.append(
+        f"Computed in {shown}: {groups:,} group{'s' if groups != 1 else ''}"
+        + (f", {no_shape:,} without alpha shape" if no_shape else "")
+        + (f"; {left_out:,} rows left out" if left_out else "")
+    )
+    shaped = ~hulls["alpha"].isna() | ~method.eq("alpha")
+    geoms = np.asarray(hulls.geometry.array, dtype=object)[shaped.to_numpy()]
+    facts = []
+    radius = hulls.loc[shaped, "radius"].to_numpy(dtype=float)
+    radius = radius[np.isfinite(radius)]
+    if radius.size:
+        middle = float(np.median(radius))
+        if unit is None and middle >= 10_000:
+            facts.append(f"median radius {middle / 1000:,.0f} km")
+        else:
+            facts.append(f"median radius {middle:,.4g} {unit or 'm'}")
+    if geoms.size:
+        hull_area = shapely.area(shapely.convex_hull(geoms))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            share = shapely.area(geoms) / hull_area
+        share = share[np.isfinite(share)]
+        if share.size:
+            facts.append(f"median area {np.median(share):.0%} of the convex hull")
+    if facts:
+        lines.append(facts[0][0].upper() + "; ".join(facts)[1:])
+    return lines
 
 
 def _run(
@@ -136,6 +371,8 @@ def _run(
     overwrite: bool,
     engine: str | None,
     verbosity: int,
+    preview: str | None = None,
+    extra_layers: dict | None = None,
     **options,
 ) -> None:
     """Compute the hulls, write them and report what was written."""
@@ -144,30 +381,129 @@ def _run(
 
     if options.get("progress") is None and verbosity < 0:
         options["progress"] = False
+    work_crs = options.get("crs", "auto")
+    _check_grouping(points, by)
+    _check_distortion(points, work_crs)
     key = None if not by else by[0] if len(by) == 1 else by
     hulls = hull(points, by=key, **options)
     if len(hulls) == 0:
         raise InvalidInputError(
             f"no hull to write: every group of {source} was dropped"
         )
+    unit = _planar_unit(points, work_crs)
+    table = hulls
+    if unit is not None:  # say the unit instead of a wrong "m2"
+        table = hulls.rename(columns={"area_m2": "area"})
+        table.insert(list(table.columns).index("area") + 1, "unit", unit)
     mapping = write_hulls(
-        hulls, output, layer=layer, overwrite=overwrite, engine=engine
+        table,
+        output,
+        layer=layer,
+        overwrite=overwrite,
+        engine=engine,
+        extra_layers=extra_layers,
     )
+    if preview is not None:
+        _write_preview(hulls, points, preview, by)
     if verbosity < 0:
         return
+    for line in _summary(points, hulls, source, work_crs, unit):
+        click.echo(line, err=True)
     for old, new in mapping.items():
         click.echo(f"Shapefile field {old!r} written as {new!r}", err=True)
-    where = output
-    if output.lower().endswith(".gpkg"):
+    where = redact(output)
+    if is_postgres_url(output):
+        where += f" (table {layer})"
+    elif output.lower().endswith(".gpkg"):
         from pathlib import Path
 
-        where += f" (layer {layer or Path(output).stem or 'hulls'!r})"
+        where += f" (layer {layer or Path(output).stem or 'hulls'!r}"
+        if extra_layers:
+            where += "".join(f", {name!r}" for name in extra_layers)
+        where += ")"
     count = len(hulls)
     click.echo(
         f"Wrote {count:,} hull{'s' if count != 1 else ''} of {len(points):,} "
-        f"points to {where}",
+        f"points to {redact(where)}",
         err=True,
     )
+    if preview is not None:
+        click.echo(f"Wrote a preview to {preview}", err=True)
+
+
+def _check_preview(path: str | None) -> None:
+    """Check, before computing, that --preview can be written."""
+    if path is None:
+        return
+    from pathlib import Path
+
+    target = Path(path)
+    if target.suffix.lower() not in (".png", ".svg", ".pdf", ".jpg", ".jpeg"):
+        raise InvalidInputError(
+            f"--preview needs a .png, .svg, .pdf or .jpg file name; got {path}"
+        )
+    if not target.parent.is_dir():
+        raise FileNotFoundError(f"preview directory {target.parent} does not exist")
+    try:
+        import matplotlib  # noqa: F401
+    except ImportError as err:
+        raise ImportError(
+            "--preview needs matplotlib: pip install 'geoalpha[plot]'"
+        ) from err
+
+
+def _write_preview(hulls, points, path: str, by: list[str]) -> None:
+    """Draw the hulls over the points, one colour per group."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(8, 8), dpi=100)
+    try:
+        colours = plt.get_cmap("tab20")(range(len(hulls)) if len(hulls) else [])
+        hulls.plot(
+            ax=ax,
+            color=[colours[i % 20] for i in range(len(hulls))],
+            alpha=0.5,
+            edgecolor="black",
+            linewidth=0.4,
+        )
+        points.plot(ax=ax, color="black", markersize=0.2, alpha=0.6)
+        ax.set_title(
+            f"{len(hulls):,} hulls of {len(points):,} points"
+            + (f" by {', '.join(by)}" if by else "")
+        )
+        fig.savefig(path, bbox_inches="tight")
+    finally:
+        plt.close(fig)
+
+
+class _OutliersType(click.ParamType):
+    """``--outliers``: a fraction in [0, 1) (``0.02``) or a count (``3``)."""
+
+    name = "FRACTION|COUNT"
+
+    def convert(self, value, param, ctx):
+        if not isinstance(value, str):
+            return value
+        try:
+            number = (
+                int(value) if value.strip().lstrip("+-").isdigit() else float(value)
+            )
+        except ValueError:
+            self.fail(
+                f"{value!r} is neither a fraction (0.02) nor a count (3)", param, ctx
+            )
+        if isinstance(number, float) and not 0 <= number < 1:
+            self.fail(
+                f"{value!r}: a fraction must be in [0, 1); a count is an integer",
+                param,
+                ctx,
+            )
+        if isinstance(number, int) and number < 0:
+            self.fail(f"{value!r}: a count must be >= 0", param, ctx)
+        return number
 
 
 _engine_option = click.option(
@@ -184,10 +520,19 @@ _progress_option = click.option(
     default=None,
     help="Show a progress bar [default: when there are many groups].",
 )
+_preview_option = click.option(
+    "--preview",
+    metavar="IMAGE",
+    type=click.Path(dir_okay=False),
+    help="Also draw the hulls over the points to IMAGE (.png, .svg, .pdf; "
+    "needs pip install 'geoalpha[plot]').",
+)
 
 
 @main.command(context_settings=_CONTEXT)
-@click.argument("input_path", metavar="INPUT", type=click.Path(dir_okay=True))
+@click.argument(
+    "input_path", metavar="INPUT", type=click.Path(dir_okay=True, readable=False)
+)
 @click.argument("output", type=click.Path(dir_okay=False))
 @click.option(
     "--by",
@@ -214,22 +559,38 @@ _progress_option = click.option(
 @click.option(
     "--crs-in",
     "crs_in",
-    metavar="CRS",
-    default="EPSG:4326",
+    metavar="auto|CRS|none",
+    default="auto",
     show_default=True,
-    help="CRS of the CSV coordinates (or of a file that has none), "
-    "e.g. EPSG:27700 for British National Grid; 'none' for planar "
-    "coordinates without CRS (alpha is then in 1/unit).",
+    help="CRS of the coordinates of a CSV, or of a file that has none, e.g. "
+    "EPSG:27700 for British National Grid. 'auto' never guesses: CSV columns "
+    "named longitude/latitude (lon/lat, ...) are EPSG:4326, a file keeps its "
+    "own CRS, anything else without a CRS is an error. 'none': planar "
+    "coordinates without CRS (alpha, radius and area are then in their unit).",
 )
 @click.option(
     "--layer",
     metavar="NAME",
-    help="Layer of INPUT to read (GeoPackage etc.) [default: the first].",
+    help="Layer of INPUT to read (GeoPackage etc.) [default: the first]; "
+    "the schema.table of a postgresql:// INPUT.",
+)
+@click.option(
+    "--sql",
+    metavar="QUERY",
+    help="For a postgresql:// INPUT: read the result of this SELECT "
+    "(read-only) instead of a --layer.",
+)
+@click.option(
+    "--geometry-column",
+    metavar="COLUMN",
+    help="For a postgresql:// INPUT: the geometry column, when there is more "
+    "than one [default: the only one].",
 )
 @click.option(
     "--output-layer",
     metavar="NAME",
-    help="Layer name in a GeoPackage OUTPUT [default: OUTPUT's file name].",
+    help="Layer name in a GeoPackage OUTPUT [default: OUTPUT's file name]; "
+    "the schema.table to create for a postgresql:// OUTPUT.",
 )
 @click.option(
     "--alpha",
@@ -249,6 +610,15 @@ _progress_option = click.option(
     default=1,
     show_default=True,
     help="Most pieces a group's shape may have (1: one Polygon).",
+)
+@click.option(
+    "--outliers",
+    type=_OutliersType(),
+    default="0",
+    show_default=True,
+    help="Points each group may leave out: a fraction of its distinct points "
+    "(0.02) or a count (3); the hull is then the tightest shape around the "
+    "others. The output's n_outliers column counts the rows left out.",
 )
 @click.option(
     "--method",
@@ -287,8 +657,10 @@ _progress_option = click.option(
     default="auto",
     show_default=True,
     help="Metric CRS the shapes are computed in; 'auto' picks a UTM zone "
-    "(or a local CRS per group); 'none' uses the coordinates as they are. "
-    "The output keeps INPUT's CRS.",
+    "(or a local CRS per group) for lon/lat input and keeps projected input "
+    "as it is. 'none' computes in INPUT's coordinates as they are (lon/lat: "
+    "alpha in 1/degree, as in the seed paper; for input without a CRS the same "
+    "as --crs-in none). The output keeps INPUT's CRS.",
 )
 @click.option(
     "--degenerate",
@@ -305,6 +677,18 @@ _progress_option = click.option(
     show_default=True,
     help="Width of the polygon around a degenerate group with --degenerate "
     "buffer, in metres (in the coordinate units with --crs none).",
+)
+@click.option(
+    "--grow",
+    type=click.FloatRange(min=0),
+    default=0.0,
+    show_default=True,
+    metavar="M",
+    help="Grow every hull by M metres (in coordinate units with --crs none) so "
+    "that every point is strictly inside, for QGIS 'Count points in polygon' "
+    "and within/contains joins; alpha and radius stay those of the optimal "
+    "shape, area_m2 is the grown area. 0: the exact shape, whose vertices are "
+    "input points.",
 )
 @click.option(
     "--vertices",
@@ -337,6 +721,9 @@ _progress_option = click.option(
 @_overwrite_option
 @_engine_option
 @_progress_option
+@_preview_option
+@_verbose_option
+@_quiet_option
 def hull(
     input_path: str,
     output: str,
@@ -345,10 +732,13 @@ def hull(
     y: str | None,
     crs_in: str,
     layer: str | None,
+    sql: str | None,
+    geometry_column: str | None,
     output_layer: str | None,
     alpha: float | None,
     holes: bool,
     components: int,
+    outliers: float,
     method: str,
     search: str,
     ratio: float,
@@ -356,6 +746,7 @@ def hull(
     crs: str,
     degenerate: str,
     buffer: float,
+    grow: float,
     vertices: bool,
     dropna: bool,
     sort: bool,
@@ -363,47 +754,73 @@ def hull(
     overwrite: bool,
     engine: str | None,
     progress: bool | None,
+    preview: str | None,
+    verbose: int,
+    quiet: int,
 ) -> None:
     """Write one hull per group of the points in INPUT to OUTPUT.
 
     INPUT is a GeoPackage, Shapefile, GeoJSON, FlatGeobuf, GeoParquet or
     any other vector file GDAL reads, or a CSV file with coordinate columns
-    (found by name, or named with --x/--y; lon/lat in EPSG:4326 unless
-    --crs-in says otherwise).
+    (found by name, or named with --x/--y). The CRS is never guessed: a file
+    keeps its own, columns named as longitude/latitude are EPSG:4326, and
+    anything else needs --crs-in (a CRS, or none for planar numbers). INPUT
+    may also be a PostGIS database, postgresql://user@host:port/dbname, with
+    --layer schema.table or --sql "SELECT ..." (the password from PGPASSWORD
+    or ~/.pgpass).
 
     OUTPUT's extension chooses its format: .gpkg, .shp, .geojson, .fgb or
-    .parquet. It holds one row per group: the --by columns, alpha (1/metre),
-    radius (metres), n_points, area_m2, crs_used, method, and the polygon, in
-    INPUT's CRS. Shapefile field names are cut to 10 characters.
+    .parquet; a postgresql:// URL with --output-layer schema.table writes a
+    PostGIS table (in one transaction; --overwrite replaces it). It holds one
+    row per group: the --by columns, alpha (1/metre), radius (metres),
+    n_points, n_outliers, area_m2, crs_used, method, and the polygon, in
+    INPUT's CRS (with planar input, area and unit instead of area_m2).
+    Shapefile field names are cut to 10 characters; GeoPackages are version
+    1.2. A short summary of what was read and computed follows the run.
 
     \b
     Examples:
         geoalpha hull accidents.csv hulls.gpkg --by Local_Authority
         geoalpha hull trees.shp hulls.shp --by species --holes
         geoalpha hull pts.csv out.fgb --x E --y N --crs-in EPSG:27700 --by zone
+        geoalpha hull postgresql://ga@localhost/gis postgresql://ga@localhost/gis
+            --layer public.trees --by species --output-layer public.tree_hulls
     """  # noqa: D301
-    from geoalpha.io import check_output, read_points
+    from geoalpha.io import _read_points, check_output
 
-    verbosity = _verbosity()
+    verbosity = _verbosity(verbose, quiet)
     with _reporting(verbosity):
         check_output(output, layer=output_layer, overwrite=overwrite)
-        points = read_points(input_path, x=x, y=y, crs=_crs_option(crs_in), layer=layer)
+        _check_preview(preview)
         work_crs = _crs_option(crs)
-        if points.crs is None and work_crs == "auto":
+        # --crs none on input without CRS: planar, as --crs-in none would be.
+        points = _read_points(
+            input_path,
+            x=x,
+            y=y,
+            crs=_crs_option(crs_in),
+            layer=layer,
+            planar_if_missing=work_crs is None,
+            sql=sql,
+            geometry_column=geometry_column,
+        )
+        if points.crs is None:
             work_crs = None  # planar input: compute in its own units
-        columns = _group_columns(by, list(points.columns), input_path)
+        columns = _group_columns(by, list(points.columns), redact(input_path))
         _run(
             points,
             output,
-            source=input_path,
+            source=redact(input_path),
             by=columns,
             layer=output_layer,
             overwrite=overwrite,
             engine=engine,
             verbosity=verbosity,
+            preview=preview,
             alpha=alpha,
             holes=holes,
             components=components,
+            outliers=outliers,
             crs=work_crs,
             method=method,
             search=search,
@@ -411,6 +828,7 @@ def hull(
             k=k,
             degenerate=degenerate,
             buffer=buffer,
+            grow=grow,
             vertices=vertices,
             dropna=dropna,
             sort=sort,
@@ -424,44 +842,66 @@ def hull(
 @click.option(
     "--dataset",
     type=click.Choice(sorted(DATASETS)),
-    default="uk_clusters",
+    default="us_airports",
     show_default=True,
     help="Bundled dataset to use.",
+)
+@click.option(
+    "--grow",
+    type=click.FloatRange(min=0),
+    default=0.0,
+    show_default=True,
+    metavar="M",
+    help="Grow every hull by M metres so that every point is strictly inside "
+    "(see geoalpha hull --help).",
 )
 @_overwrite_option
 @_engine_option
 @_progress_option
+@_preview_option
+@_verbose_option
+@_quiet_option
 def demo(
     output: str,
     dataset: str,
+    grow: float,
     overwrite: bool,
     engine: str | None,
     progress: bool | None,
+    preview: str | None,
+    verbose: int,
+    quiet: int,
 ) -> None:
     """Write the optimal hulls of a bundled real dataset to OUTPUT.
 
-    A first run that needs no data of your own; open OUTPUT in QGIS.
+    A first run that needs no data of your own; open OUTPUT in QGIS. A
+    GeoPackage OUTPUT holds two layers: the hulls (named after the file) and
+    the input points ('points').
 
     \b
     Datasets (grouped by the column in brackets):
+      us_airports  3,376 US airports by state [state]: hulls the size of
+                   states, visible at once
       uk_clusters  15,255 UK road accidents 2013-2016 in 691 DBSCAN
-                   clusters [Cluster]
+                   clusters [Cluster]: hulls 50-300 m across, zoom in on
+                   a town to see them
       stats19      1,017 UK road accidents of 2014 by highway local
                    authority [Local_Authority_(Highway)]
-      us_airports  3,376 US airports by state [state]
 
     \b
     Example:
         geoalpha demo hulls.gpkg
-        geoalpha demo airports.shp --dataset us_airports
+        geoalpha demo accidents.shp --dataset uk_clusters
     """  # noqa: D301
     from geoalpha import datasets
     from geoalpha.io import check_output
 
-    verbosity = _verbosity()
+    verbosity = _verbosity(verbose, quiet)
     with _reporting(verbosity):
         check_output(output, overwrite=overwrite)
+        _check_preview(preview)
         points = datasets.load(dataset)
+        gpkg = output.lower().endswith(".gpkg")
         _run(
             points,
             output,
@@ -471,5 +911,8 @@ def demo(
             overwrite=overwrite,
             engine=engine,
             verbosity=verbosity,
+            preview=preview,
+            extra_layers={"points": points} if gpkg else None,
             progress=progress,
+            grow=grow,
         )

@@ -818,25 +818,43 @@ def _two_diff(a, b):
 def _edges_and_cross(xy: np.ndarray, triangles: np.ndarray, scale=1.0):
     """Twice the signed area, the product and the least of the squared edges.
 
-    Both in coordinates multiplied by ``scale`` (per triangle; a power of
-    two, so exact). Edge vectors are differences of the input coordinates,
-    and the cross product is evaluated so that it is accurate to a few
-    units in the last place even for needle triangles (nearly collinear or
-    nearly coincident points): the products are split error-free (Dekker)
-    wherever cancellation could cost precision, and the rounding errors of
-    the differences enter to first order.
+    All in coordinates multiplied by ``scale`` (per triangle; a power of two,
+    so exact). Each edge vector is a difference of input coordinates, kept
+    with its rounding error (exact as ``d + e``). The cross product is taken
+    at the vertex opposite the longest edge (so the result does not depend
+    on the order in which the triangle's vertices are listed) and is accurate
+    to a few units in the last place even for needle triangles (nearly
+    collinear or nearly coincident points): the products are split
+    error-free (Dekker) wherever they cancel, and the rounding errors of the
+    differences enter to first order.
     """
     x, y = np.ascontiguousarray(xy[:, 0]), np.ascontiguousarray(xy[:, 1])
     px = [x[triangles[:, k]] for k in range(3)]
     py = [y[triangles[:, k]] for k in range(3)]
-    # Edges out of vertex 0 (exact as d + e), scaled by a power of two.
-    ax, ax_e = _two_diff(px[1], px[0])
-    ay, ay_e = _two_diff(py[1], py[0])
-    bx, bx_e = _two_diff(px[2], px[0])
-    by, by_e = _two_diff(py[2], py[0])
     with np.errstate(over="ignore", under="ignore", invalid="ignore"):
-        ax, ay, bx, by = ax * scale, ay * scale, bx * scale, by * scale
-        ax_e, ay_e, bx_e, by_e = ax_e * scale, ay_e * scale, bx_e * scale, by_e * scale
+        # Edge k runs from vertex k to vertex k+1 (exact as d + e), scaled.
+        ex, ey, ex_e, ey_e = [], [], [], []
+        for k in range(3):
+            dx, dx_e = _two_diff(px[(k + 1) % 3], px[k])
+            dy, dy_e = _two_diff(py[(k + 1) % 3], py[k])
+            ex.append(dx * scale)
+            ey.append(dy * scale)
+            ex_e.append(dx_e * scale)
+            ey_e.append(dy_e * scale)
+        e2 = [ex[k] * ex[k] + ey[k] * ey[k] for k in range(3)]
+        # Longest edge j (the first of equals); the apex opposite it is
+        # vertex j+2, with edges a = edge j+2 out of it and b = -edge j+1.
+        first = (e2[0] >= e2[1]) & (e2[0] >= e2[2])
+        second = ~first & (e2[1] >= e2[2])
+        j = np.where(first, 0, np.where(second, 1, 2))
+
+        def pick(values, shift):
+            return np.choose((j + shift) % 3, values)
+
+        ax, ay = pick(ex, 2), pick(ey, 2)
+        ax_e, ay_e = pick(ex_e, 2), pick(ey_e, 2)
+        bx, by = -pick(ex, 1), -pick(ey, 1)
+        bx_e, by_e = -pick(ex_e, 1), -pick(ey_e, 1)
         p1 = ax * by
         p2 = ay * bx
         cross = p1 - p2
@@ -846,17 +864,10 @@ def _edges_and_cross(xy: np.ndarray, triangles: np.ndarray, scale=1.0):
         hard = np.abs(cross) < 0.0625 * (np.abs(p1) + np.abs(p2))
         if hard.any():
             q1, e1 = _two_product(ax[hard], by[hard])
-            q2, e2 = _two_product(ay[hard], bx[hard])
-            cross[hard] = (q1 - q2) + (e1 - e2)  # q1 - q2 is exact here
+            q2, e2h = _two_product(ay[hard], bx[hard])
+            cross[hard] = (q1 - q2) + (e1 - e2h)  # q1 - q2 is exact here
         cross = cross + cross_e
-        # Each edge from its own difference (a short edge of a needle would
-        # lose its digits as a difference of two long ones).
-        cx = (px[2] - px[1]) * scale
-        cy = (py[2] - py[1]) * scale
-        e2a = ax * ax + ay * ay
-        e2b = bx * bx + by * by
-        e2c = cx * cx + cy * cy
-    return cross, e2a * e2b * e2c, np.minimum(np.minimum(e2a, e2b), e2c)
+    return cross, e2[0] * e2[1] * e2[2], np.minimum(np.minimum(e2[0], e2[1]), e2[2])
 
 
 def merge_ties(

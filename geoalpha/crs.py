@@ -461,10 +461,10 @@ _OWN_LAEA = re.compile(
 def _transformer(source: str, target: str) -> pyproj.Transformer:
     """Return one cached (thread-safe) transformer per pair of CRS definitions.
 
-    From WGS 84 longitude/latitude to the local LAEA CRSs built here, the
-    operation is a plain conversion: build it as a PROJ pipeline, which is
-    about 100 times faster than searching the operation database (that
-    matters with hundreds of distinct group CRSs).
+    From WGS 84 longitude/latitude to the local LAEA CRSs built here, and
+    back, the operation is a plain conversion: build it as a PROJ pipeline,
+    which is about 100 times faster than searching the operation database
+    (that matters with thousands of distinct group CRSs).
     """
     if source == _WGS84 and _OWN_LAEA.fullmatch(target):
         params = target.replace(" +datum=WGS84", " +ellps=WGS84")
@@ -472,6 +472,13 @@ def _transformer(source: str, target: str) -> pyproj.Transformer:
         return pyproj.Transformer.from_pipeline(
             "+proj=pipeline +step +proj=unitconvert +xy_in=deg +xy_out=rad "
             f"+step {params}"
+        )
+    if target == _WGS84 and _OWN_LAEA.fullmatch(source):  # the way back
+        params = source.replace(" +datum=WGS84", " +ellps=WGS84")
+        params = params.replace(" +no_defs", "")
+        return pyproj.Transformer.from_pipeline(
+            f"+proj=pipeline +step +inv {params} "
+            "+step +proj=unitconvert +xy_in=rad +xy_out=deg"
         )
     return pyproj.Transformer.from_crs(
         pyproj.CRS.from_user_input(source),

@@ -134,6 +134,7 @@ def _meta(frame_meta, by, dropna: bool, sort: bool):
         "alpha": "float64",
         "radius": "float64",
         "n_points": "int64",
+        "n_outliers": "int64",
         "n_parts": "int32",
         "area_m2": "float64",
         "crs_used": text,
@@ -141,9 +142,11 @@ def _meta(frame_meta, by, dropna: bool, sort: bool):
     }
     for name, dtype in dtypes.items():
         table[name] = pd.Series(dtype=dtype)
-    return gpd.GeoDataFrame(
+    meta = gpd.GeoDataFrame(
         table, geometry=gpd.GeoSeries([], crs=frame_meta.crs), crs=frame_meta.crs
     )
+    name = tools.result_geometry_name(frame_meta, keys)
+    return meta if name == "geometry" else meta.rename_geometry(name)
 
 
 def _for_shuffle(part, geometry: str, partition_info=None) -> pd.DataFrame:

@@ -11,11 +11,15 @@ import sys
 
 __all__ = [
     "AntimeridianWarning",
+    "CRSWarning",
+    "DatabaseError",
     "DegenerateGroupWarning",
     "DroppedRowsWarning",
     "GeoAlphaError",
     "GeoAlphaWarning",
+    "GroupingWarning",
     "InvalidInputError",
+    "OutlierWarning",
     "SearchWarning",
 ]
 
@@ -26,6 +30,10 @@ class GeoAlphaError(ValueError):
 
 class InvalidInputError(GeoAlphaError):
     """Input points, groups or options that geoalpha cannot use."""
+
+
+class DatabaseError(GeoAlphaError):
+    """A PostgreSQL database could not be reached, read or written."""
 
 
 class GeoAlphaWarning(UserWarning):
@@ -42,6 +50,18 @@ class DroppedRowsWarning(GeoAlphaWarning):
 
 class AntimeridianWarning(GeoAlphaWarning):
     """A group crosses the antimeridian; its hull was split at +-180 degrees."""
+
+
+class OutlierWarning(GeoAlphaWarning):
+    """Points were left out of their group's hull (``outliers=``)."""
+
+
+class CRSWarning(GeoAlphaWarning):
+    """A CRS given for the points or the computation looks wrong or distorts areas."""
+
+
+class GroupingWarning(GeoAlphaWarning):
+    """The groups look wrong: nearly as many groups as rows (a wrong ``by``?)."""
 
 
 class SearchWarning(GeoAlphaWarning):

@@ -13,14 +13,25 @@ This module does pure file handling; the ``geoalpha`` command
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import csv
+import difflib
+import errno
+import hashlib
 import os
+import re
 import shutil
+import socket
 import tempfile
+import warnings
+from collections.abc import Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from geoalpha.errors import InvalidInputError
+from geoalpha.errors import CRSWarning, InvalidInputError
+from geoalpha.postgis import gdal_connection_error, is_gdal_connection, is_postgres_url
+from geoalpha.redact import redact, secrets_in
 
 if TYPE_CHECKING:  # pragma: no cover
     import geopandas as gpd
@@ -28,9 +39,12 @@ if TYPE_CHECKING:  # pragma: no cover
 
 __all__ = [
     "COORDINATE_NAMES",
+    "GPKG_VERSION",
     "WRITE_FORMATS",
     "check_output",
+    "cli_terms",
     "read_points",
+    "remove_stale_staging",
     "write_hulls",
 ]
 
@@ -60,8 +74,48 @@ _PARQUET_SUFFIXES = {".parquet", ".geoparquet"}
 _SHAPEFILE_SIDECARS = (".shx", ".dbf", ".prj", ".cpg", ".qix", ".sbn", ".sbx")
 _ENGINES = (None, "pyogrio", "fiona")
 _DBF_NAME_BYTES = 10
+#: GeoPackage version written: 1.2 opens without a warning in the QGIS LTRs in
+#: the field (QGIS 3.22 warns on GDAL's default 1.4).
+GPKG_VERSION = "1.2"
+_LONLAT_COLUMNS = COORDINATE_NAMES[:4]
 
 PathLike = str | os.PathLike
+
+# Set by the ``geoalpha`` command so that messages name its options (--crs-in)
+# instead of the Python keywords (crs=).
+_CLI_TERMS: contextvars.ContextVar[bool] = contextvars.ContextVar(
+    "geoalpha_cli_terms", default=False
+)
+
+
+@contextlib.contextmanager
+def cli_terms() -> Iterator[None]:
+    """Word messages of this module in terms of the command's options."""
+    token = _CLI_TERMS.set(True)
+    try:
+        yield
+    finally:
+        _CLI_TERMS.reset(token)
+
+
+def _term(python: str, cli: str) -> str:
+    return cli if _CLI_TERMS.get() else python
+
+
+def _shown(source: str) -> str:
+    """Return a data source as a message may show it: without credentials."""
+    return redact(source)
+
+
+def _did_you_mean(name: str, columns) -> str:
+    close = difflib.get_close_matches(
+        str(name), [str(c) for c in columns], n=1, cutoff=0.6
+    )
+    if not close:
+        lower = {str(c).lower(): str(c) for c in columns}
+        if str(name).lower() in lower:
+            close = [lower[str(name).lower()]]
+    return f" (did you mean {close[0]!r}?)" if close else ""
 
 
 # --------------------------------------------------------------------------
@@ -73,7 +127,7 @@ def read_points(
     *,
     x: str | None = None,
     y: str | None = None,
-    crs: Any = "EPSG:4326",
+    crs: Any = "auto",
     layer: str | int | None = None,
 ) -> gpd.GeoDataFrame:
     """Read a file of points into a GeoDataFrame.
@@ -85,16 +139,23 @@ def read_points(
         ...), a GeoParquet file, or a CSV table (``.csv``, ``.tsv``,
         ``.txt``; the delimiter is detected) whose rows are points given by two
         coordinate columns. A ``.parquet`` file without geometry metadata is
-        read as a table too.
+        read as a table too. A ``postgresql://`` URL reads the PostGIS table
+        ``layer`` (``schema.table``) with :func:`geoalpha.postgis.read_postgis`.
     x, y : str, optional
         Names of the coordinate columns of a table. When omitted, the first
         pair found among ``longitude/latitude``, ``lon/lat``, ``lng/lat``,
         ``long/lat``, ``x/y`` and ``easting/northing`` (any letter case) is
         used. Not allowed for files that store geometries.
-    crs : str, int, pyproj.CRS or None, default "EPSG:4326"
+    crs : "auto", str, int, pyproj.CRS or None, default "auto"
         CRS of the coordinates of a table, or of a vector file that stores
-        none (a Shapefile without ``.prj``); None leaves them without CRS
-        (planar coordinates). A file's own CRS always wins.
+        none (a Shapefile without ``.prj``). ``"auto"`` never guesses: a table
+        whose coordinate columns are named as longitude/latitude (``lon/lat``,
+        ``Longitude/Latitude``, ...) is in EPSG:4326, a file uses its own CRS,
+        and anything else without a CRS is an :class:`InvalidInputError`.
+        None leaves the coordinates without CRS (planar numbers). A file's
+        own CRS always wins (a :class:`~geoalpha.errors.CRSWarning` says when
+        it differs from ``crs``).
+
     layer : str or int, optional
         Layer to read from a multi-layer file such as a GeoPackage; the first
         layer by default.
@@ -110,8 +171,17 @@ def read_points(
     FileNotFoundError
         If ``path`` does not exist.
     geoalpha.errors.InvalidInputError
-        If the file cannot be read, the coordinate columns are not found or
-        not numeric, or lon/lat coordinates are out of range.
+        If the file cannot be read, has no CRS (with ``crs="auto"``), the
+        coordinate columns are not found or not numeric, or lon/lat
+        coordinates are out of range. Messages never show a password of
+        ``path``.
+
+    Warns
+    -----
+    geoalpha.errors.CRSWarning
+        When every coordinate lies within +-180/+-90 although ``crs`` is a
+        projected CRS (they look like longitude/latitude), or ``crs`` differs
+        from the file's own CRS.
 
     Examples
     --------
@@ -121,58 +191,177 @@ def read_points(
     >>> gdf.crs.to_epsg(), gdf.geom_type.unique().tolist()
     (4326, ['Point'])
     """
+    return _read_points(path, x=x, y=y, crs=crs, layer=layer)
+
+
+def _read_points(
+    path,
+    *,
+    x,
+    y,
+    crs,
+    layer,
+    planar_if_missing: bool = False,
+    sql: str | None = None,
+    geometry_column: str | None = None,
+):
+    """:func:`read_points`; ``planar_if_missing``: no CRS means planar, no error.
+
+    ``sql`` and ``geometry_column`` apply to a ``postgresql://`` source (see
+    :func:`geoalpha.postgis.read_postgis`).
+    """
     import pyproj
 
     source = os.fspath(path)
-    local = "://" not in source and not source.startswith("/vsi")
+    shown = _shown(source)
+    if is_gdal_connection(source):
+        raise gdal_connection_error(source)
+    if is_postgres_url(source):  # layer: schema.table, or sql=
+        return _read_database(
+            source, x, y, crs, layer, planar_if_missing, sql, geometry_column
+        )
+    if sql is not None or geometry_column is not None:
+        raise InvalidInputError(
+            f"{_term('sql= and geometry_column=', '--sql and --geometry-column')} "
+            "apply to a postgresql:// INPUT"
+        )
+    local = "://" not in source and not source.startswith(("/vsi", "PG:"))
     if local and not Path(source).exists():
-        raise FileNotFoundError(f"input file {source} does not exist")
-    if crs is not None:
+        raise FileNotFoundError(f"input file {shown} does not exist")
+    if local and Path(source).is_file() and not os.access(source, os.R_OK):
+        raise PermissionError(f"cannot read input file {shown}: permission denied")
+    auto = isinstance(crs, str) and crs.strip().lower() == "auto"
+    if crs is not None and not auto:
         try:
             crs = pyproj.CRS.from_user_input(crs)
         except pyproj.exceptions.CRSError as err:
             raise InvalidInputError(f"unknown CRS {crs!r}: {err}") from err
 
     suffix = Path(source).suffix.lower()
-    if suffix in _TABLE_SUFFIXES:
+    is_table = suffix in _TABLE_SUFFIXES
+    if suffix in _PARQUET_SUFFIXES and not _has_geo_metadata(source):
+        is_table = True
+    if is_table:
         if layer is not None:
             raise InvalidInputError(
-                f"{source} is a table; layer= (--layer) applies to multi-layer files"
+                f"{shown} is a table; {_term('layer=', '--layer')} applies to "
+                "multi-layer files"
             )
-        return _points_from_table(_read_csv(source), source, x, y, crs)
-    if suffix in _PARQUET_SUFFIXES and not _has_geo_metadata(source):
-        return _points_from_table(_read_parquet_table(source), source, x, y, crs)
+        frame = (
+            _read_csv(source)
+            if suffix in _TABLE_SUFFIXES
+            else _read_parquet_table(source)
+        )
+        x, y = _find_coordinate_columns(list(frame.columns), x, y, shown)
+        if auto:
+            if _looks_lonlat(x, y):
+                crs = pyproj.CRS.from_epsg(4326)
+            elif planar_if_missing:
+                crs = None
+            else:
+                raise _missing_crs(f"the coordinate columns {x!r}, {y!r} of {shown}")
+        return _points_from_table(frame, shown, x, y, crs)
 
     if x is not None or y is not None:
         raise InvalidInputError(
-            f"{source} stores geometries; x= and y= (--x, --y) apply to tables "
-            "(CSV) only"
+            f"{shown} stores geometries; {_term('x= and y=', '--x and --y')} "
+            "apply to tables (CSV) only"
         )
-    gdf = _read_vector(source, suffix, layer)
-    if gdf.crs is None and crs is not None:
+    gdf = _read_vector(source, shown, suffix, layer)
+    if gdf.crs is not None:
+        if crs is not None and not auto and not gdf.crs.equals(crs):
+            warnings.warn(
+                f"{shown} has its own CRS {_crs_label(gdf.crs)}, which is used; "
+                f"{_term('crs=', '--crs-in')} {_crs_label(crs)} is ignored",
+                CRSWarning,
+                stacklevel=2,
+            )
+        return gdf
+    if auto:
+        if planar_if_missing:
+            return gdf
+        raise _missing_crs(f"the points of {shown}")
+    if crs is not None:
         import shapely
 
         xy = shapely.get_coordinates(gdf.geometry.array)
-        _check_lonlat(xy[:, 0], xy[:, 1], crs, source, "x", "y")
+        _check_lonlat(xy[:, 0], xy[:, 1], crs, shown, "x", "y")
         gdf = gdf.set_crs(crs)
     return gdf
 
 
-def _read_vector(source: str, suffix: str, layer: str | int | None):
+def _read_database(source, x, y, crs, layer, planar_if_missing, sql, geometry_column):
+    """Read a PostGIS table or query; the CRS rules of :func:`read_points`."""
+    from geoalpha.postgis import read_postgis
+
+    if x is not None or y is not None:
+        raise InvalidInputError(
+            f"{_term('x= and y=', '--x and --y')} apply to tables (CSV) only"
+        )
+    auto = isinstance(crs, str) and crs.strip().lower() == "auto"
+    gdf = read_postgis(
+        source,
+        table=layer,
+        sql=sql,
+        geometry_column=geometry_column,
+        crs=None if auto else crs,
+    )
+    if gdf.crs is None and auto and not planar_if_missing:
+        raise _missing_crs(f"the geometries of {_shown(source)} (SRID 0)")
+    return gdf
+
+
+def _crs_label(crs) -> str:
+    from geoalpha.crs import crs_name
+
+    return crs_name(crs)
+
+
+def _looks_lonlat(x: str, y: str) -> bool:
+    """Tell whether column names say longitude/latitude."""
+    pair = (str(x).lower(), str(y).lower())
+    if pair in _LONLAT_COLUMNS:
+        return True
+    return ("lon" in pair[0] or "lng" in pair[0]) and "lat" in pair[1]
+
+
+def _missing_crs(what: str) -> InvalidInputError:
+    if _CLI_TERMS.get():
+        how = (
+            "give it with --crs-in, e.g. --crs-in EPSG:4326 for "
+            "longitude/latitude degrees or --crs-in EPSG:27700 for British "
+            "National Grid metres, or --crs-in none to use the coordinates as "
+            "planar numbers without a CRS (then alpha, radius and area are in "
+            "their unit)"
+        )
+    else:
+        how = (
+            "give it with crs=, e.g. crs='EPSG:4326' for longitude/latitude "
+            "degrees or crs='EPSG:27700' for British National Grid metres, or "
+            "crs=None to use the coordinates as planar numbers without a CRS"
+        )
+    return InvalidInputError(f"{what} have no CRS, and geoalpha does not guess: {how}")
+
+
+def _read_vector(source: str, shown: str, suffix: str, layer: str | int | None):
     import geopandas as gpd
 
     try:
         if suffix in _PARQUET_SUFFIXES:
             if layer is not None:
                 raise InvalidInputError(
-                    f"{source} is a GeoParquet file; it has no layers"
+                    f"{shown} is a GeoParquet file; it has no layers"
                 )
             return gpd.read_parquet(source)
         return gpd.read_file(source, layer=layer)
     except (ImportError, InvalidInputError):
         raise
     except Exception as err:  # GDAL/pyogrio/fiona/pyarrow errors vary
-        raise InvalidInputError(f"cannot read {source}: {_one_line(err)}") from err
+        message = f"cannot read {shown}: {_one_line(err)}"
+        safe = redact(message, secrets_in(source))
+        if safe != message:  # the library's own message showed a secret
+            raise InvalidInputError(safe) from None
+        raise InvalidInputError(message) from err
 
 
 def _read_csv(source: str):
@@ -188,11 +377,17 @@ def _read_csv(source: str):
         return pd.read_csv(source, sep=sep, encoding="utf-8-sig", low_memory=False)
     except UnicodeDecodeError as err:
         raise InvalidInputError(
-            f"cannot read {source}: it is not UTF-8 text ({err.reason} at byte "
+            f"cannot read {_shown(source)}: it is not UTF-8 text ({err.reason} at byte "
             f"{err.start}); save it as UTF-8 CSV"
         ) from err
+    except PermissionError as err:
+        raise PermissionError(
+            f"cannot read input file {_shown(source)}: permission denied"
+        ) from err
     except (OSError, ValueError, pd.errors.ParserError) as err:
-        raise InvalidInputError(f"cannot read {source}: {_one_line(err)}") from err
+        raise InvalidInputError(
+            f"cannot read {_shown(source)}: {_one_line(err)}"
+        ) from err
 
 
 def _has_geo_metadata(source: str) -> bool:
@@ -200,7 +395,9 @@ def _has_geo_metadata(source: str) -> bool:
     try:
         metadata = pq.read_schema(source).metadata or {}
     except Exception as err:  # pyarrow raises ArrowInvalid, OSError, ...
-        raise InvalidInputError(f"cannot read {source}: {_one_line(err)}") from err
+        raise InvalidInputError(
+            f"cannot read {_shown(source)}: {_one_line(err)}"
+        ) from err
     return b"geo" in metadata
 
 
@@ -210,7 +407,9 @@ def _read_parquet_table(source: str):
     try:
         return pd.read_parquet(source)
     except Exception as err:  # pragma: no cover - schema was readable just before
-        raise InvalidInputError(f"cannot read {source}: {_one_line(err)}") from err
+        raise InvalidInputError(
+            f"cannot read {_shown(source)}: {_one_line(err)}"
+        ) from err
 
 
 def _import_pyarrow_parquet():
@@ -228,16 +427,18 @@ def _find_coordinate_columns(
     columns: list[str], x: str | None, y: str | None, source: str
 ) -> tuple[str, str]:
     found = ", ".join(map(str, columns)) or "none"
+    names = _term("x= and y=", "--x and --y")
     if (x is None) != (y is None):
         raise InvalidInputError(
-            f"give both x= and y= (--x and --y) for {source}, or neither to detect them"
+            f"give both {names} for {source}, or neither to detect them"
         )
     if x is not None and y is not None:
         missing = [name for name in (x, y) if name not in columns]
         if missing:
+            hints = "".join(_did_you_mean(name, columns) for name in missing)
             raise InvalidInputError(
                 f"coordinate column {', '.join(map(repr, missing))} not found in "
-                f"{source}; its columns are: {found}"
+                f"{source}{hints}; its columns are: {found}"
             )
         return x, y
     lower = {str(column).lower(): column for column in reversed(columns)}
@@ -247,7 +448,7 @@ def _find_coordinate_columns(
     pairs = ", ".join(f"{a}/{b}" for a, b in COORDINATE_NAMES)
     raise InvalidInputError(
         f"no coordinate columns found in {source} (looked for {pairs}); its "
-        f"columns are: {found}; name them with x= and y= (--x and --y)"
+        f"columns are: {found}; name them with {names}"
     )
 
 
@@ -256,7 +457,6 @@ def _points_from_table(frame: pd.DataFrame, source, x, y, crs) -> gpd.GeoDataFra
     import numpy as np
     import pandas as pd
 
-    x, y = _find_coordinate_columns(list(frame.columns), x, y, source)
     values = {}
     for name in (x, y):
         raw = frame[name]
@@ -275,25 +475,57 @@ def _points_from_table(frame: pd.DataFrame, source, x, y, crs) -> gpd.GeoDataFra
     missing = np.isnan(xs) | np.isnan(ys)
     if missing.any():
         geometry[missing] = None  # missing, not POINT (NaN NaN)
-    return gpd.GeoDataFrame(frame, geometry=geometry, crs=crs)
+    gdf = gpd.GeoDataFrame(frame, geometry=geometry, crs=crs)
+    gdf.attrs["geoalpha_coordinates"] = (str(x), str(y))
+    return gdf
 
 
 def _check_lonlat(xs, ys, crs, source: str, x: str, y: str) -> None:
+    """Refuse lon/lat out of range; warn when projected values look like lon/lat."""
     import numpy as np
 
-    if crs is None or not crs.is_geographic:
+    if crs is None:
         return
     xs = np.asarray(xs, dtype=float)
     ys = np.asarray(ys, dtype=float)
+    finite = np.isfinite(xs) & np.isfinite(ys)
     with np.errstate(invalid="ignore"):
-        outside = (np.abs(xs) > 180) | (np.abs(ys) > 90)
+        inside = (np.abs(xs) <= 180) & (np.abs(ys) <= 90)
+    if not crs.is_geographic:
+        if crs.is_projected and finite.any() and inside[finite].all():
+            unit = crs.axis_info[0].unit_name if crs.axis_info else "unit"
+            warnings.warn(
+                f"every point of {source} has {x} within [-180, 180] and {y} "
+                "within [-90, 90], as longitude/latitude degrees do, but "
+                f"{_term('crs=', '--crs-in')} {_crs_label(crs)} says they are "
+                f"in {unit}s; if they are longitude/latitude, use "
+                f"{_term('crs=', '--crs-in ')}EPSG:4326",
+                CRSWarning,
+                stacklevel=4,
+            )
+        return
+    outside = finite & ~inside
     if outside.any():
-        raise InvalidInputError(
+        message = (
             f"{int(outside.sum())} points of {source} have {x}/{y} outside the "
-            f"longitude/latitude range of {crs.to_string()}; if they are "
-            "projected coordinates, give their CRS with crs= (--crs-in), "
-            "e.g. EPSG:27700"
+            f"longitude/latitude range of {crs.to_string()}"
         )
+        with np.errstate(invalid="ignore"):
+            swapped = (np.abs(xs[finite]) <= 90).all() and (
+                np.abs(ys[finite]) <= 180
+            ).all()
+        if swapped:
+            message += (
+                f"; longitude and latitude look swapped: {x} holds latitudes? "
+                f"Give the longitude column as {_term('x=', '--x')} and the "
+                f"latitude column as {_term('y=', '--y')}"
+            )
+        else:
+            message += (
+                "; if they are projected coordinates, give their CRS with "
+                f"{_term('crs=', '--crs-in')}, e.g. EPSG:27700"
+            )
+        raise InvalidInputError(message)
 
 
 # --------------------------------------------------------------------------
@@ -307,12 +539,18 @@ def write_hulls(
     layer: str | None = None,
     overwrite: bool = False,
     engine: str | None = None,
+    extra_layers: dict[str, gpd.GeoDataFrame] | None = None,
 ) -> dict[str, str]:
     """Write hulls to a file, in the format its extension names, atomically.
 
-    The file is written to a temporary directory beside ``path`` (so on the
+    The file is written to a hidden staging folder beside ``path`` (so on the
     same file system) and then moved into place, so a failure while writing
     leaves no half-written file and leaves an existing file untouched.
+    Without ``overwrite``, the move itself refuses to replace a file that
+    appeared while the hulls were computed (another run writing the same
+    file): it links the new file into place, which fails if the name is
+    taken. A staging folder left by a killed run is removed by the next
+    write into the same folder.
 
     Parameters
     ----------
@@ -321,16 +559,24 @@ def write_hulls(
     path : str or os.PathLike
         Output file. Its extension chooses the format: ``.gpkg``
         (GeoPackage), ``.shp`` (Shapefile), ``.geojson`` or ``.json``
-        (GeoJSON), ``.fgb`` (FlatGeobuf), ``.parquet`` (GeoParquet).
+        (GeoJSON), ``.fgb`` (FlatGeobuf), ``.parquet`` (GeoParquet). A
+        ``postgresql://`` URL writes a PostGIS table instead, with
+        :func:`geoalpha.postgis.write_postgis`.
     layer : str, optional
         GeoPackage layer name; default the file name without extension
-        (``"hulls"`` if that is empty). Only for ``.gpkg``.
+        (``"hulls"`` if that is empty). Only for ``.gpkg``, and required
+        (``schema.table``) for a ``postgresql://`` URL.
     overwrite : bool, default False
         Replace ``path`` if it exists (for a GeoPackage: the whole file,
         other layers included; for a Shapefile: all its sidecar files).
     engine : {None, "pyogrio", "fiona"}
         Library geopandas writes vector files with; None lets geopandas
-        choose. Not used for GeoParquet.
+        choose. Not used for GeoParquet. GeoPackages are written as version
+        1.2 with either engine (QGIS 3.22 LTR warns on GDAL's default, 1.4).
+    extra_layers : dict of str to GeoDataFrame, optional
+        More layers for a GeoPackage ``path``, by name (e.g. the points next
+        to their hulls); written into the same file before it is moved into
+        place.
 
     Returns
     -------
@@ -342,9 +588,12 @@ def write_hulls(
     Raises
     ------
     FileExistsError
-        If ``path`` exists and ``overwrite`` is False.
+        If ``path`` exists and ``overwrite`` is False, also when it appeared
+        while writing.
     FileNotFoundError
         If the directory of ``path`` does not exist.
+    PermissionError
+        If the directory of ``path`` is not writable.
     geoalpha.errors.InvalidInputError
         For an unknown extension or engine, or ``layer`` for a format without
         layers.
@@ -377,12 +626,27 @@ def write_hulls(
         raise InvalidInputError(
             f"write_hulls() needs a GeoDataFrame; got {type(gdf).__name__}"
         )
+    if _database(path, engine):
+        from geoalpha.postgis import write_postgis
+
+        if extra_layers:
+            raise InvalidInputError(
+                "extra layers apply to GeoPackage (.gpkg) output only, not PostGIS"
+            )
+        write_postgis(
+            _index_as_columns(gdf), os.fspath(path), layer, overwrite=overwrite
+        )
+        return {}
     if engine not in _ENGINES:
         raise InvalidInputError(
             f"unknown engine {engine!r}; expected 'pyogrio', 'fiona' or None"
         )
     target, suffix, targets = _check_target(path, layer, overwrite)
     parent = target.parent
+    if extra_layers and suffix != ".gpkg":
+        raise InvalidInputError(
+            f"extra layers apply to GeoPackage (.gpkg) output only, not {suffix}"
+        )
 
     frame = _index_as_columns(gdf)
     mapping: dict[str, str] = {}
@@ -393,21 +657,18 @@ def write_hulls(
         if mapping:
             frame = frame.rename(columns=mapping)
 
-    staging = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=parent))
+    staging = _make_staging(target)
     try:
         staged = staging / target.name
-        if suffix == ".parquet":
-            _import_pyarrow_parquet()
-            gdf.to_parquet(staged)
-        else:
-            kwargs: dict[str, Any] = {"driver": WRITE_FORMATS[suffix], "index": False}
-            if engine is not None:
-                kwargs["engine"] = engine
-            if suffix == ".gpkg":
-                kwargs["layer"] = layer or target.stem or "hulls"
-            if suffix == ".shp":
-                kwargs["encoding"] = "UTF-8"
-            frame.to_file(staged, **kwargs)
+        try:
+            _write_staged(frame, gdf, staged, suffix, layer, engine)
+            for name, extra in (extra_layers or {}).items():
+                _write_staged(extra, extra, staged, suffix, name, engine)
+        except (ImportError, InvalidInputError):
+            raise
+        except Exception as err:  # name the output, never the staging folder
+            text = _one_line(err).replace(str(staging), str(parent))
+            raise OSError(f"cannot write {target}: {text}") from err
         if suffix == ".shp" and frame.crs is not None:
             prj = staged.with_suffix(".prj")
             if not prj.exists():
@@ -415,10 +676,34 @@ def write_hulls(
                     f"the Shapefile writer did not write {prj.name} for CRS "
                     f"{frame.crs.to_string()}; write another format instead"
                 )
-        _move_into_place(staging, target, targets)
+        _move_into_place(staging, target, targets, overwrite)
     finally:
         shutil.rmtree(staging, ignore_errors=True)
     return mapping
+
+
+def _write_staged(frame, gdf, staged: Path, suffix: str, layer, engine) -> None:
+    """Write the table to the staging file in the format ``suffix`` names."""
+    if suffix == ".parquet":
+        _import_pyarrow_parquet()
+        gdf.to_parquet(staged)
+        return
+    kwargs: dict[str, Any] = {"driver": WRITE_FORMATS[suffix], "index": False}
+    if engine is not None:
+        kwargs["engine"] = engine
+    if suffix == ".gpkg":
+        kwargs["layer"] = layer or staged.stem or "hulls"
+        if engine == "fiona":
+            kwargs["VERSION"] = GPKG_VERSION
+        else:
+            kwargs["dataset_options"] = {"VERSION": GPKG_VERSION}
+    if suffix == ".shp":
+        kwargs["encoding"] = "UTF-8"
+    with warnings.catch_warnings():
+        # Output without CRS (planar input) is deliberate and reported by the
+        # caller; pyogrio's generic warning about it would only confuse.
+        warnings.filterwarnings("ignore", message=".*'crs' was not provided")
+        frame.to_file(staged, **kwargs)
 
 
 def check_output(
@@ -441,7 +726,11 @@ def check_output(
         If ``path`` exists (without ``overwrite``), its directory does not,
         or it is a directory.
     geoalpha.errors.InvalidInputError
-        For an unknown extension, or ``layer`` with a format without layers.
+        For an unknown extension (or an upper-case ``.SHP``), or ``layer``
+        with a format without layers.
+    PermissionError
+        If the output folder is not writable (checked by creating and
+        removing a hidden staging folder there).
 
     Examples
     --------
@@ -453,7 +742,24 @@ def check_output(
     ...     print(err)  # doctest: +ELLIPSIS
     cannot tell the output format of hulls.csv: its extension must be one of .gpkg, ...
     """
-    _check_target(path, layer, overwrite)
+    if _database(path, None):
+        from geoalpha.postgis import check_postgis_output
+
+        check_postgis_output(os.fspath(path), layer, overwrite=overwrite)
+        return
+    target, _, _ = _check_target(path, layer, overwrite)
+    _check_writable(target)
+
+
+def _database(path, engine) -> bool:
+    """Tell whether ``path`` names a PostGIS table (``postgresql://`` URL)."""
+    if is_gdal_connection(path):
+        raise gdal_connection_error(path)
+    if not is_postgres_url(path):
+        return False
+    if engine is not None:
+        raise InvalidInputError("engine= (--engine) applies to files, not PostGIS")
+    return True
 
 
 def _check_target(path, layer, overwrite) -> tuple[Path, str, list[Path]]:
@@ -463,6 +769,12 @@ def _check_target(path, layer, overwrite) -> tuple[Path, str, list[Path]]:
         raise InvalidInputError(
             f"cannot tell the output format of {target}: its extension must be "
             f"one of {', '.join(WRITE_FORMATS)}"
+        )
+    if suffix == ".shp" and target.suffix != ".shp":
+        raise InvalidInputError(
+            f"a Shapefile needs the lower-case extension .shp (GDAL writes "
+            f"{target.stem}.shp for {target.name}): use "
+            f"{target.with_suffix('.shp')}"
         )
     if layer is not None and suffix != ".gpkg":
         raise InvalidInputError(
@@ -477,11 +789,103 @@ def _check_target(path, layer, overwrite) -> tuple[Path, str, list[Path]]:
     existing = [p for p in targets if p.exists() or p.is_symlink()]
     if existing and not overwrite:
         raise FileExistsError(
-            f"output {existing[0]} already exists; use --overwrite "
-            "(overwrite=True) to replace it"
+            f"output {existing[0]} already exists; use "
+            f"{_term('overwrite=True', '--overwrite')} to replace it"
         )
-
     return target, suffix, targets
+
+
+def _check_writable(target: Path) -> None:
+    """Make sure a staging folder can be created beside ``target`` (then remove it)."""
+    shutil.rmtree(_make_staging(target), ignore_errors=True)
+
+
+# Staging folders are named ".<output name>.geoalpha-<host>-<pid>-<random>", so
+# that a later run can tell a folder left by a killed process (same host, pid
+# gone) from one another run is still writing.
+_STAGING = re.compile(r"\..+\.geoalpha-(?P<host>[0-9a-f]{8})-(?P<pid>\d+)-[^/]+")
+
+
+def _host_tag() -> str:
+    return hashlib.sha1(
+        socket.gethostname().encode(), usedforsecurity=False
+    ).hexdigest()[:8]
+
+
+def _make_staging(target: Path) -> Path:
+    """Create the staging folder beside ``target``, cleaning stale ones first."""
+    parent = target.parent
+    remove_stale_staging(parent)
+    prefix = f".{target.name}.geoalpha-{_host_tag()}-{os.getpid()}-"
+    try:
+        return Path(tempfile.mkdtemp(prefix=prefix, dir=parent))
+    except PermissionError as err:
+        raise PermissionError(
+            f"cannot write to the output folder {parent}: permission denied"
+        ) from err
+    except OSError as err:
+        raise OSError(
+            f"cannot write to the output folder {parent}: {err.strerror or err}"
+        ) from err
+
+
+def _pid_alive(pid: int) -> bool:
+    if pid == os.getpid() or os.name == "nt":  # Windows: os.kill would end it
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # another user's live process
+        return True
+    except OSError:  # pragma: no cover - e.g. Windows without that pid
+        return False
+    return True
+
+
+def remove_stale_staging(folder: PathLike) -> list[Path]:
+    """Remove staging folders that killed geoalpha runs left in ``folder``.
+
+    A staging folder belongs to a run on this host whose process id is in its
+    name; it is stale once that process is gone (a run killed with SIGKILL
+    cannot clean up after itself). Folders of live runs and of other hosts
+    are kept.
+
+    Parameters
+    ----------
+    folder : str or os.PathLike
+        The folder an output file is written to.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The folders removed.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from geoalpha.io import remove_stale_staging
+    >>> remove_stale_staging(tempfile.gettempdir())  # doctest: +SKIP
+    []
+    """
+    removed = []
+    host = _host_tag()
+    try:
+        entries = list(os.scandir(folder))
+    except OSError:
+        return removed
+    for entry in entries:
+        match = _STAGING.fullmatch(entry.name)
+        if (
+            not match
+            or match["host"] != host
+            or not entry.is_dir(follow_symlinks=False)
+        ):
+            continue
+        if not _pid_alive(int(match["pid"])):
+            shutil.rmtree(entry.path, ignore_errors=True)
+            removed.append(Path(entry.path))
+    return removed
 
 
 def _target_files(target: Path, suffix: str) -> list[Path]:
@@ -494,17 +898,62 @@ def _target_files(target: Path, suffix: str) -> list[Path]:
     ]
 
 
-def _move_into_place(staging: Path, target: Path, targets: list[Path]) -> None:
-    """Move the staged files over the targets; the main file goes last."""
+def _move_into_place(
+    staging: Path, target: Path, targets: list[Path], overwrite: bool
+) -> None:
+    """Move the staged files to the targets.
+
+    With ``overwrite``, each file replaces its target (the main file last).
+    Without, each file is hard-linked to its target name, which fails if the
+    name is taken, so a file that appeared meanwhile is never replaced; the
+    main file goes first, so that of two runs racing for one output exactly
+    one wins, and the loser removes what it linked.
+    """
     written = {p.name for p in staging.iterdir() if p.is_file()}
     if target.name not in written:
         raise OSError(f"the writer did not create {target.name}")
     sidecars = sorted(written - {target.name})
-    for name in [*sidecars, target.name]:
-        os.replace(staging / name, target.parent / name)
-    for stale in targets:  # e.g. an old .cpg the new Shapefile does not have
-        if stale.name not in written and (stale.exists() or stale.is_symlink()):
-            stale.unlink()
+    if overwrite:
+        for name in [*sidecars, target.name]:
+            os.replace(staging / name, target.parent / name)
+        for stale in targets:  # e.g. an old .cpg the new Shapefile does not have
+            if stale.name not in written and (stale.exists() or stale.is_symlink()):
+                stale.unlink()
+        return
+    placed: list[Path] = []
+    try:
+        for name in [target.name, *sidecars]:
+            _place_new(staging / name, target.parent / name)
+            placed.append(target.parent / name)
+    except FileExistsError as err:
+        for path in placed:
+            path.unlink(missing_ok=True)
+        raise FileExistsError(
+            f"output {err.filename or target} appeared while geoalpha was "
+            "computing (another run writing the same file?) and was not "
+            f"replaced; use {_term('overwrite=True', '--overwrite')} to replace it"
+        ) from None
+
+
+def _place_new(source: Path, destination: Path) -> None:
+    """Move ``source`` to ``destination``; FileExistsError if that name is taken."""
+    try:
+        os.link(source, destination)
+    except FileExistsError:
+        raise FileExistsError(errno.EEXIST, "file exists", str(destination)) from None
+    except OSError:
+        # No hard links here (some network or FAT file systems): claim the name
+        # with an exclusive create, then replace that placeholder.
+        try:
+            descriptor = os.open(destination, os.O_CREAT | os.O_EXCL | os.O_WRONLY)
+        except FileExistsError:
+            raise FileExistsError(
+                errno.EEXIST, "file exists", str(destination)
+            ) from None
+        os.close(descriptor)
+        os.replace(source, destination)
+        return
+    source.unlink()
 
 
 def _index_as_columns(gdf):

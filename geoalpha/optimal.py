@@ -13,7 +13,7 @@ from typing import Literal, NamedTuple
 import numpy as np
 import shapely
 
-from geoalpha import core, search, shapes
+from geoalpha import core, coverage, search, shapes
 from geoalpha.errors import (
     DegenerateGroupWarning,
     InvalidInputError,
@@ -53,6 +53,12 @@ class AlphaShapes(NamedTuple):
         (:data:`geoalpha.core.NEAR_RTOL`), in ``points`` and in ``coords``; a
         group whose shape float geometry cannot make valid and covering is
         degenerate too (never a polygon that misses a point).
+    n_outliers : ndarray of int
+        Distinct points of the group left out of the shape (``outliers=``);
+        0 without outliers.
+    outlier : ndarray of bool, shape (n,)
+        One entry per input point (not per group): True where the point was
+        left out (duplicates of a left-out point too).
     """
 
     alpha: np.ndarray
@@ -62,9 +68,11 @@ class AlphaShapes(NamedTuple):
     n_parts: np.ndarray
     area: np.ndarray
     degenerate: np.ndarray
+    n_outliers: np.ndarray | None = None
+    outlier: np.ndarray | None = None
 
 
-def _check_options(holes, components, search_: str) -> None:
+def _check_options(holes, components, search_: str, outliers=0, alpha=None) -> None:
     if not isinstance(holes, bool | np.bool_):
         raise InvalidInputError(f"holes must be True or False; got {holes!r}")
     if isinstance(components, bool) or not isinstance(components, int | np.integer):
@@ -76,6 +84,12 @@ def _check_options(holes, components, search_: str) -> None:
     if search_ not in _SEARCHES:
         raise InvalidInputError(
             f"search must be one of {', '.join(map(repr, _SEARCHES))}; got {search_!r}"
+        )
+    coverage.check_outliers(outliers)
+    if outliers and (alpha is not None or search_ != "exact"):
+        raise InvalidInputError(
+            "outliers applies to the exact optimum: use it without alpha and "
+            f"with search='exact'; got alpha={alpha!r}, search={search_!r}"
         )
 
 
@@ -158,6 +172,7 @@ def alpha_shapes(
     n_groups: int | None = None,
     progress=None,
     n_jobs: int = 1,
+    outliers: float = 0,
 ) -> AlphaShapes:
     """Optimal alpha shapes of many groups of points in one call.
 
@@ -198,12 +213,21 @@ def alpha_shapes(
     n_jobs : int, default 1
         Worker processes to spread the groups over (-1: one per core); see
         :mod:`geoalpha.parallel`. The result is the same for every value.
+    outliers : float or int, default 0
+        Points each group may leave out: a float in ``[0, 1)`` is a fraction
+        of the group's distinct points (``k = floor(outliers * n)``), an int a
+        count ``k``. The optimum is then the largest alpha at which at most
+        ``components`` pieces of the shape cover at least ``n - k`` distinct
+        points; only those pieces are kept, and the points they miss are
+        reported (``n_outliers``, ``outlier``). Groups with ``k = 0`` get the
+        result without outliers. See :mod:`geoalpha.coverage`.
 
     Returns
     -------
     AlphaShapes
         Per group: ``alpha``, ``geometry``, ``n_points``, ``n_distinct``,
-        ``n_parts``, ``area``, ``degenerate``.
+        ``n_parts``, ``area``, ``degenerate``, ``n_outliers``; per input
+        point: ``outlier``.
 
     Raises
     ------
@@ -228,8 +252,15 @@ def alpha_shapes(
     ([0.4308, 0.8], [5, 3])
     >>> [g.geom_type for g in res.geometry]
     ['Polygon', 'Polygon']
+
+    One stray point may stay out:
+
+    >>> stray = np.array([[0, 0], [4, 0], [4, 4], [0, 4], [2, 3.5], [30, 30]])
+    >>> res = alpha_shapes(stray, outliers=1)
+    >>> res.alpha.round(4).tolist(), res.n_outliers.tolist(), res.outlier.tolist()
+    ([0.4308], [1], [False, False, False, False, False, True])
     """
-    _check_options(holes, components, search)
+    _check_options(holes, components, search, outliers, alpha)
     options = {
         "alpha": alpha,
         "holes": holes,
@@ -240,6 +271,8 @@ def alpha_shapes(
         "n_groups": n_groups,
         "progress": progress,
     }
+    if outliers:  # passed on only when used, so that 0 takes today's path
+        options["outliers"] = outliers
     if type(n_jobs) is not int or n_jobs != 1 or _batched(points, groups):
         from geoalpha.parallel import alpha_shapes_parallel
 
@@ -266,6 +299,7 @@ def _alpha_shapes_batch(
     coords,
     n_groups,
     progress,
+    outliers=0,
 ) -> AlphaShapes:
     """:func:`alpha_shapes` of all groups in one pass (no runs, no workers)."""
     try:
@@ -285,6 +319,16 @@ def _alpha_shapes_batch(
     )
 
     inside = weight <= top[tri.tri_group]
+    kept = None
+    if outliers:
+        k = coverage.outlier_budget(outliers, tri.n_distinct)
+        kept = coverage.outlier_optimum(
+            tri, weight, top, k, components, filled=not holes
+        )
+        used = (k > 0) & ~tri.degenerate
+        inside, n_pieces = kept.inside, np.where(used, kept.n_pieces, n_pieces)
+        with np.errstate(divide="ignore"):
+            a = np.where(used, 1.0 / np.append(tri.values, np.inf)[kept.rank], a)
     piece = core.piece_labels(tri, inside, n_pieces)
     rings = core.boundary_rings(tri, inside, piece)
     geometry = shapes.assemble(out_xy, rings, tri.n_groups)
@@ -300,7 +344,9 @@ def _alpha_shapes_batch(
     if coords is None:
         test = (tri.xy != tri.xy[tri.vertex]).any(axis=1)
     else:
-        test = None
+        test = np.ones(len(tri.xy), dtype=bool)
+    if kept is not None:  # the points left out on purpose (outliers=)
+        test &= ~kept.outlier
     geometry, failed = shapes.enforce(
         geometry,
         out_xy,
@@ -321,6 +367,13 @@ def _alpha_shapes_batch(
     )
     area[degenerate] = 0.0
     codes = tri.point_group[tri.input_point]
+    if kept is None:
+        n_outliers, outlier = (
+            np.zeros(tri.n_groups, np.int64),
+            np.zeros(len(codes), bool),
+        )
+    else:
+        n_outliers, outlier = kept.n_outliers, kept.outlier[tri.input_point]
     return AlphaShapes(
         alpha=a,
         geometry=geometry,
@@ -329,6 +382,8 @@ def _alpha_shapes_batch(
         n_parts=n_parts,
         area=area,
         degenerate=degenerate,
+        n_outliers=n_outliers,
+        outlier=outlier,
     )
 
 
@@ -398,6 +453,7 @@ def optimal_alpha(
     components: int = 1,
     search: Search = "exact",
     max_iterations: int = 10_000,
+    outliers: float = 0,
 ) -> float:
     """Largest alpha whose shape is one piece containing every point.
 
@@ -413,6 +469,9 @@ def optimal_alpha(
         See :func:`alpha_shapes`.
     max_iterations : int, default 10000
         For ``search="bisect"``.
+    outliers : float or int, default 0
+        Points that may stay out: a fraction in ``[0, 1)`` of the distinct
+        points or a count; see :func:`alpha_shapes`.
 
     Returns
     -------
@@ -431,6 +490,9 @@ def optimal_alpha(
     --------
     >>> round(optimal_alpha([[0, 0], [4, 0], [4, 4], [0, 4], [2, 3.5]]), 6)
     0.430769
+    >>> stray = [[0, 0], [4, 0], [4, 4], [0, 4], [2, 3.5], [30, 30]]
+    >>> round(optimal_alpha(stray), 6), round(optimal_alpha(stray, outliers=1), 6)
+    (0.035624, 0.430769)
     """
     return float(
         _one_group(
@@ -439,6 +501,7 @@ def optimal_alpha(
             components=components,
             search=search,
             max_iterations=max_iterations,
+            outliers=outliers,
         ).alpha[0]
     )
 
@@ -450,6 +513,7 @@ def alpha_shape(
     holes: bool = False,
     components: int = 1,
     search: Search = "exact",
+    outliers: float = 0,
 ):
     """Alpha shape of a point set, at the optimal alpha by default.
 
@@ -465,6 +529,10 @@ def alpha_shape(
     components : int, default 1
         For the optimum: largest number of pieces allowed.
     search : {"exact", "ladder", "bisect"}, default "exact"
+        See :func:`alpha_shapes`.
+    outliers : float or int, default 0
+        For the optimum: points that may stay out (a fraction in ``[0, 1)`` or
+        a count); the shape then holds only the pieces that cover the others.
         See :func:`alpha_shapes`.
 
     Returns
@@ -484,5 +552,10 @@ def alpha_shape(
     16.0
     """
     return _one_group(
-        points, alpha=alpha, holes=holes, components=components, search=search
+        points,
+        alpha=alpha,
+        holes=holes,
+        components=components,
+        search=search,
+        outliers=outliers,
     ).geometry[0]

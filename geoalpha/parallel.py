@@ -192,7 +192,10 @@ def _run(task):
             progress=None,
             **_with_defaults(kwargs),
         )
-    res = type(res)(*(np.asarray(field)[g0:] for field in res))
+    # Per-group fields from this run's first group on; `outlier` is per row.
+    res = res._replace(
+        **{f: np.asarray(getattr(res, f))[g0:] for f in res._fields if f != "outlier"}
+    )
     return res, [(w.category, str(w.message)) for w in caught]
 
 
@@ -233,7 +236,7 @@ def alpha_shapes_parallel(
         Told the number of groups of each run as the run completes.
     **kwargs
         The other options of :func:`~geoalpha.alpha_shapes` (``holes``,
-        ``components``, ``search``, ``max_iterations``).
+        ``components``, ``search``, ``max_iterations``, ``outliers``).
 
     Returns
     -------
@@ -288,6 +291,7 @@ def alpha_shapes_parallel(
 
     # Rows sorted by group (stable, a no-op when they already are), so that a
     # run of groups is a slice of rows.
+    order = None
     if n > 1 and (codes[1:] < codes[:-1]).any():
         order = np.argsort(codes, kind="stable")
         xy, codes = xy[order], codes[order]
@@ -338,4 +342,9 @@ def alpha_shapes_parallel(
         for category, message in caught:
             warnings.warn(message, category, stacklevel=user_stacklevel())
     fields = zip(*(res for res, _ in results), strict=True)
-    return AlphaShapes(*(np.concatenate(f) for f in fields))
+    out = AlphaShapes(*(np.concatenate(f) for f in fields))
+    if order is not None:  # the per-row field back in input order
+        outlier = np.empty_like(out.outlier)
+        outlier[order] = out.outlier
+        out = out._replace(outlier=outlier)
+    return out

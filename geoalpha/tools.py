@@ -8,6 +8,7 @@ groups) and the comparison methods from shapely/GEOS and :mod:`geoalpha.knn`.
 
 from __future__ import annotations
 
+import contextvars
 import sys
 import warnings
 from typing import Any, Literal
@@ -18,18 +19,20 @@ import pyproj
 import shapely
 
 from geoalpha import crs as gcrs
+from geoalpha.coverage import check_outliers
 from geoalpha.errors import (
     AntimeridianWarning,
     DegenerateGroupWarning,
     DroppedRowsWarning,
     GeoAlphaWarning,
     InvalidInputError,
+    OutlierWarning,
     user_stacklevel,
 )
 from geoalpha.optimal import alpha_shapes
 from geoalpha.shapes import EMPTY_POLYGON, cover_points, polygonal
 
-__all__ = ["DEGENERATE_POLICIES", "METHODS", "RESULT_COLUMNS", "hull"]
+__all__ = ["DEGENERATE_POLICIES", "METHODS", "RESULT_COLUMNS", "hull", "outlier_rows"]
 
 #: Hull methods of :func:`hull`.
 METHODS = ("alpha", "convex", "concave", "knn")
@@ -40,6 +43,7 @@ RESULT_COLUMNS = (
     "alpha",
     "radius",
     "n_points",
+    "n_outliers",
     "n_parts",
     "area_m2",
     "crs_used",
@@ -200,7 +204,8 @@ class _Projection:
             sel = self.crs_index[groups] == k
             if not sel.any() or target == self.src:
                 continue
-            back = pyproj.Transformer.from_crs(target, self.src, always_xy=True)
+            # cached, and a fast pipeline for the local LAEA CRSs
+            back = gcrs._transformer(gcrs._crs_key(target), self.src.srs)
 
             def move(c, back=back):
                 return np.column_stack(back.transform(c[:, 0], c[:, 1]))
@@ -304,6 +309,8 @@ def hull(
     sort: bool = True,
     progress: bool | None = None,
     n_jobs: int = 1,
+    outliers: float = 0,
+    grow: float = 0.0,
 ):
     """Tightest single polygon around each group of points.
 
@@ -383,6 +390,23 @@ def hull(
         ``method="alpha"`` and ``"convex"``; the result is the same for every
         value. Pays off from about 100,000 points (see
         :mod:`geoalpha.parallel`).
+    outliers : float or int, default 0
+        Points each group may leave out (``method="alpha"``, exact search,
+        no fixed ``alpha``): a float in ``[0, 1)`` is a fraction of the
+        group's distinct points (``k = floor(outliers * n)``), an int a count
+        ``k``. The optimum is then the largest alpha at which at most
+        ``components`` pieces cover at least ``n - k`` distinct points; only
+        those pieces are kept. :func:`outlier_rows` tells which input rows
+        were left out.
+    grow : float, default 0.0
+        Grow every hull (not the degenerate buffers) by this distance in
+        metres (coordinate units with ``crs=None``), with rounded corners, so
+        that every point is strictly inside: predicates such as ``within``,
+        ``contains`` or QGIS "Count points in polygon" then count the points
+        on the hull's boundary too. ``alpha`` and ``radius`` stay those of the
+        optimal shape; ``area_m2`` is the area of the grown polygon; polygon
+        vertices are then no longer input points. 0 (the default) keeps the
+        exact shape.
 
     Returns
     -------
@@ -391,9 +415,12 @@ def hull(
         ``alpha`` (1/metre in the computation CRS; nan for the methods
         without one and for degenerate groups; 0 for the convex hull),
         ``radius`` (1/alpha, metres), ``n_points`` (input rows of the group),
+        ``n_outliers`` (rows of the group left out, 0 unless ``outliers``),
         ``n_parts`` (polygons in the geometry), ``area_m2`` (area in the
         computation CRS), ``crs_used`` (the computation CRS), ``method``
-        and ``geometry`` (Polygon; MultiPolygon when ``components > 1``, when a
+        and the geometry, in a column named as the input's active geometry
+        column (``geom`` from ``read_postgis`` stays ``geom``; ``geometry``
+        for a GeoSeries) (Polygon; MultiPolygon when ``components > 1``, when a
         group is split at the antimeridian, or, for ``"concave"``/``"knn"``,
         when a hull built in metres touches itself in the input CRS and is
         repaired, with a :class:`GeoAlphaWarning`). Polygon vertices are input
@@ -415,6 +442,8 @@ def hull(
         Groups with fewer than 3 distinct points or all collinear.
     AntimeridianWarning
         Groups across +-180 degrees, returned as split MultiPolygons.
+    OutlierWarning
+        Groups that left points out (``outliers``), with their counts.
 
     Notes
     -----
@@ -459,10 +488,17 @@ def hull(
             sort=sort,
             progress=progress,
             n_jobs=n_jobs,
+            outliers=outliers,
+            **({"grow": grow} if grow else {}),
         )
     frame = _as_frame(gdf)
     _check_choice("method", method, METHODS)
     _check_choice("degenerate", degenerate, DEGENERATE_POLICIES)
+    check_outliers(outliers)
+    if outliers and method != "alpha":
+        raise InvalidInputError(
+            f"outliers applies to method='alpha'; got method={method!r}"
+        )
     geoms = np.asarray(frame.geometry.array, dtype=object)
     index = frame.index
 
@@ -517,6 +553,7 @@ def hull(
         raise InvalidInputError(_rows_to_index(str(err), kept[which], index)) from err
 
     bar = _progress(progress, n_groups)
+    left_out = np.zeros(len(frame), dtype=bool)
     try:
         if method in ("alpha", "convex"):
             res = alpha_shapes(
@@ -531,8 +568,10 @@ def hull(
                 n_groups=n_groups,
                 progress=bar,
                 n_jobs=n_jobs,
+                outliers=outliers,
             )
             geometry, area, is_degenerate = res.geometry, res.area, res.degenerate
+            left_out[kept[which[res.outlier]]] = True
             alphas = res.alpha
             if method == "convex":
                 convex = _convex_hulls(proj, pcodes, n_groups)
@@ -544,6 +583,8 @@ def hull(
                 method, proj, pcodes, n_groups, holes=holes, ratio=ratio, k=k, bar=bar
             )
             alphas = np.full(n_groups, np.nan)
+        if bar is not None:  # groups of 1-2 points are done too: a full bar
+            bar.update(max(0, n_groups - bar.n))
     finally:
         if bar is not None:
             bar.close()
@@ -562,6 +603,8 @@ def hull(
             buffer,
         )
 
+    if grow:
+        geometry, area = _grow(geometry, area, ~is_degenerate, proj, pcodes, grow)
     geometry = _finish(geometry, proj.crossing, proj.wide, keys)
     if method != "alpha":  # repairs may have cut a sliver holding a point
         plain = ~proj.crossing[pcodes]
@@ -574,6 +617,7 @@ def hull(
     table["alpha"] = alphas
     table["radius"] = radius
     table["n_points"] = n_points
+    table["n_outliers"] = np.bincount(codes[left_out], minlength=n_groups)
     table["n_parts"] = np.where(
         shapely.is_empty(geometry), 0, shapely.get_num_geometries(geometry)
     )
@@ -581,7 +625,102 @@ def hull(
     table["crs_used"] = proj.names
     table["method"] = labels
     out = gpd.GeoDataFrame(table, geometry=list(geometry), crs=frame.crs)
+    name = result_geometry_name(frame, keys)
+    if name != "geometry":
+        out = out.rename_geometry(name)
+    if left_out.any():
+        _warn_outliers(table["n_outliers"].to_numpy(), keys, outliers)
+    rows = _OUTLIER_ROWS.get()
+    if rows is not None:
+        rows.append(pd.Series(left_out, index=index, name="outlier"))
     return out[keep_group].reset_index(drop=True)
+
+
+def result_geometry_name(frame, keys) -> str:
+    """Name of the result's geometry column: the input's (``geom`` stays ``geom``).
+
+    A GeoSeries, or a name taken by a group key column, gives ``geometry``.
+    """
+    name = frame.geometry.name if frame.geometry.name is not None else "geometry"
+    if not isinstance(name, str) or name in keys.columns or name in RESULT_COLUMNS:
+        return "geometry"
+    return name
+
+
+#: Set by :func:`outlier_rows` to receive the left-out rows of :func:`hull`.
+_OUTLIER_ROWS: contextvars.ContextVar[list | None] = contextvars.ContextVar(
+    "geoalpha_outlier_rows", default=None
+)
+
+
+def _warn_outliers(n_outliers: np.ndarray, keys: pd.DataFrame, outliers) -> None:
+    groups = np.flatnonzero(n_outliers)
+    rows = keys.iloc[groups[:10]].itertuples(index=False)
+    each = "; ".join(
+        f"{', '.join(map(repr, key)) or 'all points'} ({n} row{'s' if n != 1 else ''})"
+        for key, n in zip(rows, n_outliers[groups[:10]], strict=True)
+    )
+    more = "; ..." if len(groups) > 10 else ""
+    warnings.warn(
+        f"hull() left {n_outliers.sum()} row(s) of {len(groups)} group(s) outside "
+        f"their hulls (outliers={outliers!r}): {each}{more}; "
+        "geoalpha.outlier_rows() marks them",
+        OutlierWarning,
+        stacklevel=user_stacklevel(),
+    )
+
+
+def outlier_rows(gdf, by=None, **options) -> pd.Series:
+    """Mark the input rows that :func:`hull` leaves out with ``outliers=``.
+
+    Parameters
+    ----------
+    gdf : GeoDataFrame or GeoSeries
+        The points, as for :func:`hull`.
+    by : str, list of str, or array_like, optional
+        The groups, as for :func:`hull`.
+    **options
+        The options of :func:`hull`, ``outliers`` included.
+
+    Returns
+    -------
+    pandas.Series of bool
+        Aligned with ``gdf`` (same index): True for the rows left out of
+        their group's hull (a MultiPoint row: when one of its points is);
+        False for the others, dropped rows included.
+
+    Raises
+    ------
+    InvalidInputError
+        As :func:`hull`; also for a dask-geopandas frame (compute it first).
+
+    .. versionadded:: 0.2.0
+
+    Examples
+    --------
+    >>> import geopandas as gpd
+    >>> import shapely
+    >>> pts = [(0, 0), (4, 0), (4, 4), (0, 4), (2, 3.5), (30, 30)]
+    >>> gdf = gpd.GeoDataFrame(geometry=shapely.points(pts), crs="EPSG:32631")
+    >>> outlier_rows(gdf, outliers=1).tolist()
+    [False, False, False, False, False, True]
+    >>> gdf[~outlier_rows(gdf, outliers=1)].alpha.hull()["n_points"].item()
+    5
+    """
+    if _is_dask(gdf):
+        raise InvalidInputError(
+            "outlier_rows() needs an eager GeoDataFrame; call .compute() first "
+            "(the lazy hull() has the n_outliers column)"
+        )
+    found: list = []
+    token = _OUTLIER_ROWS.set(found)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", OutlierWarning)
+            hull(gdf, by, **options)
+    finally:
+        _OUTLIER_ROWS.reset(token)
+    return found[0]
 
 
 def _rows_to_index(message: str, rows: np.ndarray, index: pd.Index) -> str:
@@ -682,3 +821,41 @@ def _names(keys, mask: np.ndarray, limit: int = 10) -> str:
     rows = keys[mask].head(limit).itertuples(index=False)
     names = [", ".join(map(str, r)) or "all points" for r in rows]
     return "; ".join(names) + (", ..." if mask.sum() > limit else "")
+
+
+def _grow(geometry, area, shaped, proj, pcodes, distance):
+    """Buffer the hulls of ``shaped`` groups by ``distance`` in the metric CRS."""
+    if not (isinstance(distance, int | float) and np.isfinite(distance)) or (
+        distance < 0
+    ):
+        raise InvalidInputError(
+            f"grow must be a distance >= 0 (metres); got {distance!r}"
+        )
+    sel = np.flatnonzero(shaped & ~shapely.is_empty(geometry))
+    if not sel.size:
+        return geometry, area
+    # Hull vertices are input points: look their metric coordinates up.
+    coords, which = shapely.get_coordinates(geometry[sel], return_index=True)
+    keys = pd.MultiIndex.from_arrays([pcodes, proj.out[:, 0], proj.out[:, 1]])
+    first = ~keys.duplicated()
+    loc = keys[first].get_indexer(
+        pd.MultiIndex.from_arrays([sel[which], coords[:, 0], coords[:, 1]])
+    )
+    exact = np.ones(sel.size, dtype=bool)
+    exact[which[loc < 0]] = False  # a repaired vertex: not an input point
+    metric = shapely.set_coordinates(
+        geometry[sel].copy(), proj.xy[np.flatnonzero(first)[np.maximum(loc, 0)]]
+    )
+    if not exact.all():  # pragma: no cover - hull vertices are input points
+        warnings.warn(
+            f"{(~exact).sum()} hull(s) were not grown: a vertex is not an input "
+            "point (repaired geometry)",
+            GeoAlphaWarning,
+            stacklevel=user_stacklevel(),
+        )
+    grown = shapely.buffer(metric[exact], distance, quad_segs=4)
+    geometry = geometry.copy()
+    area = np.asarray(area, dtype=float).copy()
+    area[sel[exact]] = shapely.area(grown)
+    geometry[sel[exact]] = proj.to_output(grown, sel[exact])
+    return geometry, area

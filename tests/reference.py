@@ -18,6 +18,7 @@ outside of the convex hull through non-solid triangles.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections import deque
 from fractions import Fraction
@@ -191,3 +192,117 @@ def graph_optimum(points, holes=False, components=1):
         if len(np.unique(label[mask])) <= components:
             return 1.0 / R if np.isfinite(R) else 0.0
     raise AssertionError("the convex hull is always valid")
+
+
+# --------------------------------------------------------------------------
+# Outliers (issue #14): the best pieces cover n - k points
+# --------------------------------------------------------------------------
+
+
+def filled_mask(neighbors, r, R):
+    """``shape_mask(..., holes=False)`` with scipy instead of a Python BFS.
+
+    Non-solid triangles joined by their edges, plus one node for the outside
+    of the convex hull joined to the non-solid triangles on the hull; the
+    filled shape is everything not in the outside's component.
+    """
+    m = len(r)
+    solid = r <= R * (1 + TIE)
+    a = np.repeat(np.arange(m), 3)
+    b = neighbors.ravel()
+    b = np.where(b < 0, m, b)  # m: the outside
+    open_ = ~np.append(solid, False)
+    keep = open_[a] & open_[b]
+    g = csr_array((np.ones(keep.sum()), (a[keep], b[keep])), shape=(m + 1, m + 1))
+    _, label = connected_components(g, directed=False)
+    return label[:m] != label[m]
+
+
+def piece_sets(simplices, neighbors, mask):
+    """Vertex sets (frozensets of point indices) of the edge-connected pieces."""
+    m = len(mask)
+    a = np.repeat(np.arange(m), 3)
+    b = neighbors.ravel()
+    e = (b >= 0) & mask[a] & mask[np.maximum(b, 0)]
+    g = csr_array((np.ones(e.sum()), (a[e], b[e])), shape=(m, m))
+    _, label = connected_components(g, directed=False)
+    inside = np.flatnonzero(mask)
+    if len(inside) == 0:
+        return []
+    order = np.argsort(label[inside], kind="stable")
+    tris, labs = inside[order], label[inside][order]
+    cuts = np.flatnonzero(np.diff(labs)) + 1
+    return [frozenset(simplices[t].ravel().tolist()) for t in np.split(tris, cuts)]
+
+
+def best_union(sets, components):
+    """Largest union of at most ``components`` of ``sets``, by enumeration.
+
+    Only sets that can beat the union ``L`` of the ``components`` largest are
+    enumerated: a set ``X`` in a better choice has ``|X| > L - S``, ``S`` the
+    total of the ``components - 1`` largest sizes (the others add at most S).
+    """
+    if not sets:
+        return 0
+    sizes = sorted((len(s) for s in sets), reverse=True)
+    top = sorted(sets, key=len, reverse=True)[:components]
+    best = len(frozenset().union(*top))
+    floor = best - sum(sizes[: components - 1])
+    candidates = [s for s in sets if len(s) > floor]
+    for size in range(1, components + 1):
+        for choice in itertools.combinations(candidates, size):
+            best = max(best, len(frozenset().union(*choice)))
+    return best
+
+
+def coverage_curve(points, holes=False, components=(1, 2, 3)):
+    """Best coverage at every spectrum value, for several ``components``.
+
+    Returns ``(n, radii, cover)``: the distinct points, the spectrum
+    (ascending) and ``cover[c]``, the best coverage at each radius. Stops
+    once one piece covers every point (nothing changes after that for
+    outliers).
+    """
+    pts, simplices, neighbors, r = triangulation(points)
+    n = len(pts)
+    radii, cover = [], {c: [] for c in components}
+    for R in spectrum(r):
+        mask = (r <= R * (1 + TIE)) if holes else filled_mask(neighbors, r, R)
+        sets = piece_sets(simplices, neighbors, mask)
+        radii.append(R)
+        for c in components:
+            cover[c].append(best_union(sets, c))
+        if max(map(len, sets), default=0) == n:
+            break
+    return n, np.array(radii), {c: np.array(v) for c, v in cover.items()}
+
+
+def budget(outliers, n):
+    """k for a fraction (floor of q * n, rounded to 9 decimals first) or a count."""
+    if isinstance(outliers, int):
+        return outliers
+    return math.floor(round(outliers * n, 9))
+
+
+def outlier_optimum_from_curve(curve, components, k):
+    """Largest alpha whose best coverage is >= n - k: the first such radius.
+
+    The first valid radius of the whole scan, so no monotonicity is assumed.
+    Returns ``(alpha, points left out)``.
+    """
+    n, radii, cover = curve
+    ok = np.flatnonzero(cover[components] >= n - k)
+    R = radii[ok[0]]
+    return (1.0 / R if np.isfinite(R) else 0.0), int(n - cover[components][ok[0]])
+
+
+def outlier_optimum(points, holes=False, components=1, outliers=0):
+    """``(alpha, points left out)`` of the outlier-tolerant optimum.
+
+    A group whose budget k is 0 has the optimum without outliers.
+    """
+    k = budget(outliers, len(np.unique(np.asarray(points, float), axis=0)))
+    if k == 0:
+        return graph_optimum(points, holes=holes, components=components), 0
+    curve = coverage_curve(points, holes=holes, components=(components,))
+    return outlier_optimum_from_curve(curve, components, k)

@@ -65,7 +65,11 @@ def fake_hull(monkeypatch):
         out = groups[[*keys, "geometry"]].copy()
         out["geometry"] = shapely.buffer(groups.geometry.convex_hull.array, 1e-4)
         out["alpha"] = 0.0
+        out["radius"] = float("inf")
         out["n_points"] = sizes
+        out["area_m2"] = 1.0
+        out["crs_used"] = "EPSG:32630"
+        out["method"] = "convex"
         return out
 
     module = types.ModuleType("geoalpha.tools")
@@ -125,8 +129,8 @@ def test_options_are_passed_to_hull(fake_hull, points_csv, tmp_path):
         "hull", points_csv, tmp_path / "h.gpkg", "--by", f"Accident_Index,{GROUP}",
         "--alpha", "0.5", "--holes", "--components", "2", "--method", "concave",
         "--search", "ladder", "--ratio", "0.5", "--k", "7", "--crs", "EPSG:27700",
-        "--degenerate", "drop", "--buffer", "2.5", "--vertices", "--no-dropna",
-        "--no-sort", "-j", "2", "--no-progress",
+        "--degenerate", "drop", "--buffer", "2.5", "--grow", "0.5", "--vertices",
+        "--no-dropna", "--no-sort", "-j", "2", "--no-progress",
     )  # fmt: skip
     assert result.exit_code == 0, result.stderr
     assert fake_hull == [
@@ -135,6 +139,7 @@ def test_options_are_passed_to_hull(fake_hull, points_csv, tmp_path):
             "alpha": 0.5,
             "holes": True,
             "components": 2,
+            "outliers": 0,
             "crs": "EPSG:27700",
             "method": "concave",
             "search": "ladder",
@@ -142,6 +147,7 @@ def test_options_are_passed_to_hull(fake_hull, points_csv, tmp_path):
             "k": 7,
             "degenerate": "drop",
             "buffer": 2.5,
+            "grow": 0.5,
             "vertices": True,
             "dropna": False,
             "sort": False,
@@ -160,6 +166,7 @@ def test_defaults_passed_to_hull(fake_hull, points_csv, tmp_path):
             "alpha": None,
             "holes": False,
             "components": 1,
+            "outliers": 0,
             "crs": "auto",
             "method": "alpha",
             "search": "exact",
@@ -167,6 +174,7 @@ def test_defaults_passed_to_hull(fake_hull, points_csv, tmp_path):
             "k": 3,
             "degenerate": "buffer",
             "buffer": 1.0,
+            "grow": 0.0,
             "vertices": False,
             "dropna": True,
             "sort": True,
@@ -190,6 +198,9 @@ def test_summary_warnings_and_shapefile_fields(fake_hull, points_csv, tmp_path):
     assert result.stdout == ""
     assert result.stderr.splitlines() == [
         "Warning: 1 group has fewer than 3 distinct points (buffered)",
+        f"Read 55 points of {points_csv} (columns Longitude/Latitude, EPSG:4326)",
+        "Computed in EPSG:32630: 4 groups",
+        "Median area 100% of the convex hull",
         f"Shapefile field '{GROUP}' written as 'Local_Auth'",
         f"Wrote 4 hulls of 55 points to {out}",
     ]
@@ -287,7 +298,7 @@ def _write(path: Path, text: str) -> Path:
         ),
         (
             lambda d, csv: [csv, d / "h.gpkg", "--x", "Latitude"],
-            "Error: give both x= and y= (--x and --y)",
+            "Error: give both --x and --y for {d}/accidents.csv",
         ),
     ],
     ids=[
@@ -330,14 +341,16 @@ def test_geoalpha_errors_from_hull_are_one_line(monkeypatch, points_csv, tmp_pat
     monkeypatch.setitem(sys.modules, "geoalpha.tools", types.SimpleNamespace(hull=hull))
     result = run("hull", points_csv, tmp_path / "h.gpkg")
     assert result.exit_code == 1
-    assert result.stderr == ("Error: hull() needs point geometries; got 3 LineString\n")
+    assert result.stderr == (
+        "Error: geoalpha needs point geometries; got 3 LineString\n"
+    )
 
 
 def test_unexpected_errors_name_their_type(monkeypatch, points_csv, tmp_path):
     def broken(*args, **kwargs):
         raise ZeroDivisionError("division by zero")
 
-    monkeypatch.setattr("geoalpha.io.read_points", broken)
+    monkeypatch.setattr("geoalpha.io._read_points", broken)
     result = run("hull", points_csv, tmp_path / "h.gpkg")
     assert result.exit_code == 1
     assert result.stderr == (
@@ -358,7 +371,7 @@ def test_demo_refuses_existing_output(tmp_path):
     assert result.exit_code == 1
     assert result.stderr == (
         f"Error: output {tmp_path}/d.gpkg already exists; use --overwrite "
-        "(overwrite=True) to replace it\n"
+        "to replace it\n"
     )
 
 
@@ -404,9 +417,9 @@ def test_hull_of_polygon_vertices_with_more_options(points_csv, tmp_path):
     refused = run("hull", first, out, "--by", GROUP)
     assert refused.exit_code == 1
     assert refused.stderr.startswith(
-        "Error: hull() needs point geometries; got 4 Polygon row(s)"
+        "Error: geoalpha needs point geometries; got 4 Polygon row(s)"
     )
-    assert "(--vertices)" in refused.stderr
+    assert "pass --vertices to use their vertices" in refused.stderr
     args = ["hull", first, out, "--by", GROUP, "--vertices", "--no-sort", "-j", "2"]
     result = run(*args)
     assert result.exit_code == 0, result.stderr
@@ -417,7 +430,7 @@ def test_hull_of_polygon_vertices_with_more_options(points_csv, tmp_path):
     assert back.geometry.geom_equals_exact(expected.geometry, 1e-9).all()
     jobs = run("hull", points_csv, tmp_path / "h.gpkg", "-j", "0")
     assert jobs.exit_code == 1
-    assert "n_jobs must be a positive integer or -1" in jobs.stderr
+    assert "Error: --jobs must be a positive integer or -1" in jobs.stderr
 
 
 def _csv_points(path):
@@ -426,14 +439,24 @@ def _csv_points(path):
     return read_points(path)
 
 
-def test_demo_default_dataset(tmp_path):
-    out = tmp_path / "uk.gpkg"
-    result = run("-q", "demo", out)
+def test_demo_default_dataset_is_visible_at_once(tmp_path):
+    out = tmp_path / "demo.gpkg"
+    result = run("demo", out)
     assert result.exit_code == 0, result.stderr
-    hulls = gpd.read_file(out)
-    assert len(hulls) == 691
-    assert hulls.crs == "EPSG:4326"
+    assert result.stderr.splitlines()[-1] == (
+        f"Wrote 56 hulls of 3,376 points to {out} (layer 'demo', 'points')"
+    )
+    hulls = gpd.read_file(out, layer="demo")
+    points = gpd.read_file(out, layer="points")
+    assert len(hulls) == 56
+    assert len(points) == 3376
+    assert hulls.crs == points.crs == "EPSG:4326"
     assert set(hulls.geom_type) <= {"Polygon", "MultiPolygon"}
+    # Seen at full extent (QGIS zooms to it), the median hull is at least 1 %
+    # of the map's width: some pixels, not a dot (UK clusters: 0.02 %).
+    minx, _, maxx, _ = points.total_bounds
+    widths = hulls.bounds["maxx"] - hulls.bounds["minx"]
+    assert widths.median() > 0.01 * (maxx - minx)
 
 
 def test_demo_stats19_warns_about_degenerate_groups(tmp_path):

@@ -44,6 +44,7 @@ RESULT_COLUMNS = [
     "alpha",
     "radius",
     "n_points",
+    "n_outliers",
     "n_parts",
     "area_m2",
     "crs_used",

@@ -344,3 +344,74 @@ def test_many_groups_one_bad_group_keeps_the_batch():
 
 def test_geoalpha_exports_the_tolerance():
     assert geoalpha.core.NEAR_RTOL == 1e-9
+
+
+# --------------------------------------------------------------------------
+# Every path of hull(): methods, n_jobs, dask
+# --------------------------------------------------------------------------
+
+
+def hostile_frame(crs="EPSG:27700"):
+    """Groups of every family at once, around a British National Grid point."""
+    rng = np.random.default_rng(42)
+    parts, keys = [], []
+    for i, seed in enumerate([334, 0, 2, 118]):  # nearly collinear, degenerate
+        parts.append(recipe(seed) * 10)
+        keys += [f"line{i}"] * len(parts[-1])
+    for i, gap in enumerate([1e-13, 1e-10, 1e-7]):  # near-duplicate pairs
+        base = rng.random((25, 2)) * 500
+        parts.append(np.r_[base, base + rng.normal(size=base.shape) * 500 * gap])
+        keys += [f"dup{i}"] * len(parts[-1])
+    for i in range(3):  # thin but above the tolerance
+        t = rng.random(30) * 800
+        parts.append(np.c_[t, rng.normal(size=30) * 800 * 10.0 ** (-7 + i)])
+        keys += [f"strip{i}"] * len(parts[-1])
+    parts.append(rng.random((60, 2)) * 300)  # plain
+    keys += ["plain"] * 60
+    xy = np.concatenate(parts) + np.array([400_000.0, 300_000.0])
+    return gpd.GeoDataFrame(
+        {"g": keys}, geometry=gpd.points_from_xy(xy[:, 0], xy[:, 1]), crs=crs
+    )
+
+
+@pytest.mark.parametrize("method", ["alpha", "convex", "concave", "knn"])
+@pytest.mark.parametrize("holes", [False, True])
+def test_every_method_keeps_the_guarantee(method, holes):
+    frame = hostile_frame()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        hulls = frame.alpha.hull(by="g", method=method, holes=holes)
+    assert len(hulls) == frame["g"].nunique()
+    for key, geom in zip(hulls["g"], hulls.geometry, strict=True):
+        mine = frame.geometry[frame["g"] == key].to_numpy()
+        assert shapely.is_valid(geom), (key, shapely.is_valid_reason(geom))
+        assert shapely.covers(geom, mine).all(), key  # buffers cover too
+
+
+def test_n_jobs_and_dask_keep_the_guarantee(monkeypatch):
+    from geoalpha import parallel
+
+    monkeypatch.setattr(parallel, "MIN_POINTS_PER_JOB", 1)
+    monkeypatch.setattr(parallel, "START_METHOD", "fork")
+    frame = hostile_frame()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        eager = frame.alpha.hull(by="g")
+        jobs = frame.alpha.hull(by="g", n_jobs=2)
+    assert eager.drop(columns="geometry").equals(jobs.drop(columns="geometry"))
+    assert eager.geometry.geom_equals_exact(jobs.geometry, 0).all()
+    degenerate = eager.loc[eager["alpha"].isna(), "g"].tolist()
+    assert degenerate == ["line0", "line1", "line2", "line3"]
+    dask_geopandas = pytest.importorskip("dask_geopandas")
+    import geoalpha.dask  # noqa: F401
+
+    lazy = dask_geopandas.from_geopandas(frame.sample(frac=1, random_state=1), 3)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        computed = lazy.alpha.hull(by="g").compute()
+    computed = computed.sort_values("g").reset_index(drop=True)
+    assert computed["g"].tolist() == eager["g"].tolist()
+    for key, geom in zip(computed["g"], computed.geometry, strict=True):
+        mine = frame.geometry[frame["g"] == key].to_numpy()
+        assert shapely.is_valid(geom) and shapely.covers(geom, mine).all(), key
+    assert computed["alpha"].isna().tolist() == eager["alpha"].isna().tolist()

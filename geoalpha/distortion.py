@@ -1,0 +1,71 @@
+"""How much a projected CRS stretches areas where the points are.
+
+A forced computation CRS that distorts areas (Web Mercator: 2.6 times at
+London; a UTM zone far from the data) makes ``area_m2`` and ``radius`` wrong
+without any error. :func:`area_scale` measures the distortion at the points so
+that the ``geoalpha`` command can say so.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pyproj
+
+__all__ = ["AREA_TOLERANCE", "area_scale"]
+
+#: Areal scale factors further than this from 1 are reported (2 %; a UTM
+#: zone within its own width stays under 0.3 %).
+AREA_TOLERANCE = 0.02
+_SAMPLE = 1000
+
+
+def area_scale(crs: Any, x: Any, y: Any, source_crs: Any) -> np.ndarray:
+    """Return the areal scale factor of ``crs`` at some of the given points.
+
+    Parameters
+    ----------
+    crs : pyproj.CRS or anything pyproj accepts
+        A projected CRS.
+    x, y : array_like of float
+        Coordinates of the points in ``source_crs``.
+    source_crs : pyproj.CRS or anything pyproj accepts
+        CRS of ``x``/``y``.
+
+    Returns
+    -------
+    numpy.ndarray of float
+        Area on the map / true area at up to 1,000 evenly spaced points
+        (``inf`` where ``crs`` cannot represent a point); empty without
+        finite points.
+
+    Examples
+    --------
+    >>> from geoalpha.distortion import area_scale
+    >>> float(area_scale("EPSG:3857", [-0.12], [51.5], "EPSG:4326")[0])
+    ... # doctest: +ELLIPSIS
+    2.58...
+    >>> float(area_scale("EPSG:32630", [-3.0], [51.5], "EPSG:4326")[0])
+    ... # doctest: +ELLIPSIS
+    0.999...
+    """
+    crs = pyproj.CRS.from_user_input(crs)
+    source = pyproj.CRS.from_user_input(source_crs)
+    x = np.asarray(x, dtype=float).ravel()
+    y = np.asarray(y, dtype=float).ravel()
+    finite = np.isfinite(x) & np.isfinite(y)
+    x, y = x[finite], y[finite]
+    if x.size > _SAMPLE:
+        pick = np.linspace(0, x.size - 1, _SAMPLE).astype(np.intp)
+        x, y = x[pick], y[pick]
+    if x.size == 0:
+        return np.empty(0)
+    geographic = crs.geodetic_crs or pyproj.CRS.from_epsg(4326)
+    to_lonlat = pyproj.Transformer.from_crs(source, geographic, always_xy=True)
+    lon, lat = to_lonlat.transform(x, y)
+    with np.errstate(all="ignore"):
+        factors = pyproj.Proj(crs).get_factors(lon, lat, errcheck=False)
+        scale = np.asarray(factors.areal_scale, dtype=float)
+    scale[~np.isfinite(scale)] = np.inf
+    return scale

@@ -1,0 +1,121 @@
+"""Keep credentials out of messages: redact passwords and tokens in text.
+
+An input that cannot be opened is named in the error message, and a data
+source name can hold a password: a GDAL/libpq connection string
+(``PG:host=db user=me password=secret``), a URL with a user and password
+(``postgresql://me:secret@db/gis``, ``https://me:secret@host/data.gpkg``) or
+a signed URL (``...?token=...``, ``X-Amz-Signature=...``). Every message
+geoalpha shows (errors, warnings, ``-v`` tracebacks and log records) goes
+through :func:`redact` first.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Iterable
+
+__all__ = ["MASK", "redact", "secrets_in"]
+
+#: What a redacted secret is replaced with.
+MASK = "***"
+
+# Keys whose values are secrets, in key=value strings (libpq, GDAL, ODBC) and
+# in URL query strings; compared ignoring case.
+_KEYS = (
+    r"password|passwd|pwd|pass|secret|client_secret|token|access_token|"
+    r"refresh_token|id_token|auth|authorization|api_?key|access_?key|"
+    r"secret_?access_?key|aws_secret_access_key|aws_session_token|"
+    r"security_?token|sig|signature|x-amz-signature|x-amz-credential|"
+    r"x-amz-security-token|x-goog-signature|x-goog-credential|key"
+)
+# key = value: a quoted value (with backslash escapes) or a bare one up to a
+# separator.
+_KEY_VALUE = re.compile(
+    rf"(?P<key>(?<![\w-])(?:{_KEYS}))(?P<eq>\s*=\s*)"
+    r"(?P<value>'(?:[^'\\]|\\.)*'?|\"(?:[^\"\\]|\\.)*\"?|[^\s&;,'\"]+)",
+    re.IGNORECASE,
+)
+# scheme://user:password@host
+_URL_PASSWORD = re.compile(
+    r"(?P<head>[A-Za-z][A-Za-z0-9+.-]*://[^\s:/@]*:)(?P<value>[^\s@/]*)(?=@)"
+)
+_SHORT = 4
+
+
+def _unquote(value: str) -> str:
+    if len(value) >= 2 and value[0] in "'\"" and value[-1] == value[0]:
+        value = value[1:-1]
+    return re.sub(r"\\(.)", r"\1", value)
+
+
+def secrets_in(text: str) -> list[str]:
+    """Return the secret values that ``text`` holds.
+
+    Parameters
+    ----------
+    text : str
+        A data source name, URL or any other text.
+
+    Returns
+    -------
+    list of str
+        The values of password-like keys and the passwords of URLs, longest
+        first, without quotes; empty when there is none.
+
+    Examples
+    --------
+    >>> from geoalpha.redact import secrets_in
+    >>> secrets_in("PG:host=db password='s3 cret' dbname=gis")
+    ['s3 cret']
+    >>> secrets_in("postgresql://me:pw%40x@db/gis")
+    ['pw%40x']
+    """
+    found = {_unquote(m.group("value")) for m in _KEY_VALUE.finditer(text)}
+    found |= {m.group("value") for m in _URL_PASSWORD.finditer(text)}
+    found.discard("")
+    found.discard(MASK)
+    return sorted(found, key=len, reverse=True)
+
+
+def redact(text: object, secrets: Iterable[str] = ()) -> str:
+    """Replace passwords, tokens and the given secrets in ``text`` by ``***``.
+
+    Parameters
+    ----------
+    text : object
+        The message (converted with ``str``).
+    secrets : iterable of str, optional
+        Known secret values (e.g. from :func:`secrets_in` of the command's
+        arguments) to remove wherever they appear, even where a library
+        quoted them out of context (``nonnumeric port: 'secret@host'``).
+
+    Returns
+    -------
+    str
+        The text with every secret value replaced by ``***``; key names, user
+        names and host names stay, so the message still says what failed.
+
+    Examples
+    --------
+    >>> from geoalpha.redact import redact
+    >>> redact("cannot open PG:host=db user=me password=secret dbname=gis")
+    'cannot open PG:host=db user=me password=*** dbname=gis'
+    >>> redact("cannot read https://me:secret@example.com/a.gpkg?token=abc&n=1")
+    'cannot read https://me:***@example.com/a.gpkg?token=***&n=1'
+    >>> redact("nonnumeric port: 'secret@example.com'", ["secret"])
+    "nonnumeric port: '***@example.com'"
+    """
+    out = str(text)
+    known = set(secrets) | set(secrets_in(out))
+    out = _URL_PASSWORD.sub(lambda m: m.group("head") + MASK, out)
+    out = _KEY_VALUE.sub(lambda m: m.group("key") + m.group("eq") + MASK, out)
+    for secret in sorted(known, key=len, reverse=True):
+        if not secret or secret == MASK:
+            continue
+        if len(secret) >= _SHORT:
+            out = out.replace(secret, MASK)
+        else:  # a short secret: only where it stands alone, not inside words
+            out = re.sub(
+                rf"(?<![A-Za-z0-9]){re.escape(secret)}(?![A-Za-z0-9])", MASK, out
+            )
+    return out

@@ -1,0 +1,95 @@
+"""The README's examples run as written."""
+
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from geoalpha.cli import main
+
+REPO = Path(__file__).resolve().parents[1]
+README = (REPO / "README.md").read_text()
+NOT_RUN = "<!-- readme-test: not run"
+WITH_PARQUET = "<!-- readme-test: with GeoParquet files of points in points/"
+# Blocks that need a PostGIS database: run by tests/test_postgis.py on its own
+# throwaway server.
+WITH_POSTGIS = "<!-- readme-test: with a PostGIS database"
+# Blocks for QGIS's Python console: run under real QGIS by test_qgis_plugin.py.
+IN_QGIS = "<!-- readme-test: in QGIS's Python console"
+BLOCK = re.compile(r"(?P<before>[^\n]*)\n```(?P<lang>\w+)\n(?P<code>.*?)\n```", re.S)
+# Data a block says it needs, made before it runs.
+PARQUET_POINTS = """
+from pathlib import Path
+from geoalpha import datasets
+points = datasets.load("us_airports")
+Path("points").mkdir()
+points.iloc[:2000].to_parquet("points/part.0.parquet")
+points.iloc[2000:].to_parquet("points/part.1.parquet")
+del points
+"""
+
+
+def python_blocks():
+    for match in BLOCK.finditer(README):
+        if match["lang"] == "python" and not match["before"].startswith(
+            (NOT_RUN, WITH_POSTGIS, IN_QGIS)
+        ):
+            line = README[: match.start("code")].count("\n") + 1
+            setup = PARQUET_POINTS if match["before"].startswith(WITH_PARQUET) else ""
+            yield pytest.param(setup + match["code"], id=f"line-{line}")
+
+
+def test_only_the_cluster_block_is_not_run():
+    # Connecting to a dask cluster needs one; every other block runs below.
+    assert README.count(NOT_RUN) == 1
+    assert "Client(" in README[README.index(NOT_RUN) :].split("```")[1]
+
+
+@pytest.mark.parametrize("code", list(python_blocks()))
+def test_python_example_runs(code, tmp_path):
+    # A fresh interpreter, as a reader would run it (nothing imported before).
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join(
+        p for p in (str(REPO), env.get("PYTHONPATH")) if p
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code],
+        cwd=tmp_path,  # examples write files
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr
+
+
+def test_demo_output_is_what_the_readme_shows(tmp_path, monkeypatch):
+    block = README[README.index("$ geoalpha demo hulls.gpkg") :]
+    shown = block[: block.index("```")].splitlines()[1:]
+    monkeypatch.chdir(tmp_path)
+    try:
+        runner = CliRunner(mix_stderr=False)  # click < 8.2
+    except TypeError:
+        runner = CliRunner()
+    result = runner.invoke(main, ["demo", "hulls.gpkg"])
+    assert result.exit_code == 0, result.stderr
+    assert result.stderr.splitlines() == shown
+
+
+def test_cli_table_lists_every_option_of_hull():
+    table = README[README.index("| `--by COL[,COL...]`") :]
+    table = table[: table.index("\n\n")]
+    names = [
+        o for p in main.commands["hull"].params for o in [*p.opts, *p.secondary_opts]
+    ]
+    assert "--progress" in names
+    for name in names:
+        if name.startswith("--"):
+            assert f"`{name}" in table or f"/{name}`" in table, name
