@@ -867,7 +867,14 @@ def _edges_and_cross(xy: np.ndarray, triangles: np.ndarray, scale=1.0):
             q2, e2h = _two_product(ay[hard], bx[hard])
             cross[hard] = (q1 - q2) + (e1 - e2h)  # q1 - q2 is exact here
         cross = cross + cross_e
-    return cross, e2[0] * e2[1] * e2[2], np.minimum(np.minimum(e2[0], e2[1]), e2[2])
+    # The product in sorted order, so that it does not depend on the vertex
+    # order either (rounding of a * b * c does).
+    least = np.minimum(np.minimum(e2[0], e2[1]), e2[2])
+    most = np.maximum(np.maximum(e2[0], e2[1]), e2[2])
+    middle = np.maximum(
+        np.minimum(e2[0], e2[1]), np.minimum(np.maximum(e2[0], e2[1]), e2[2])
+    )
+    return cross, least * middle * most, least
 
 
 def merge_ties(
