@@ -1,10 +1,18 @@
-"""geoalpha: exact optimal alpha shapes for GeoPandas."""
+"""geoalpha: exact optimal alpha shapes for GeoPandas.
+
+Importing geoalpha registers the ``.alpha`` accessor on GeoPandas frames: at
+once when geopandas is already imported, else as soon as it is. The public
+functions are loaded on first use, so that ``import geoalpha`` (and the
+``geoalpha`` command's ``--help`` and ``--version``) stay fast.
+"""
 
 from __future__ import annotations
 
+import importlib
+import sys
 from importlib.metadata import PackageNotFoundError, version
+from typing import TYPE_CHECKING
 
-from geoalpha.accessor import register as _register_accessor
 from geoalpha.errors import (
     AntimeridianWarning,
     DegenerateGroupWarning,
@@ -15,8 +23,10 @@ from geoalpha.errors import (
     OutlierWarning,
     SearchWarning,
 )
-from geoalpha.optimal import AlphaShapes, alpha_shape, alpha_shapes, optimal_alpha
-from geoalpha.tools import hull, outlier_rows
+
+if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs
+    from geoalpha.optimal import AlphaShapes, alpha_shape, alpha_shapes, optimal_alpha
+    from geoalpha.tools import hull, outlier_rows
 
 try:
     __version__ = version("geoalpha")
@@ -41,4 +51,72 @@ __all__ = [
     "outlier_rows",
 ]
 
-_register_accessor()
+#: Public names loaded on first use, and the module that defines each.
+_LAZY = {
+    "AlphaShapes": "geoalpha.optimal",
+    "alpha_shape": "geoalpha.optimal",
+    "alpha_shapes": "geoalpha.optimal",
+    "optimal_alpha": "geoalpha.optimal",
+    "hull": "geoalpha.tools",
+    "outlier_rows": "geoalpha.tools",
+}
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        value = getattr(importlib.import_module(_LAZY[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'geoalpha' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
+
+
+class _RegisterOnImport:
+    """Import hook: register the accessor once geopandas has been imported.
+
+    It only wraps the loader of geopandas (found by the other finders) and
+    leaves ``sys.meta_path`` when geopandas has been executed; a mere
+    ``importlib.util.find_spec("geopandas")`` (no import) leaves it in place.
+    """
+
+    def __init__(self) -> None:
+        self._finding = False
+
+    def find_spec(self, name, path=None, target=None):
+        if name != "geopandas" or self._finding:
+            return None
+        self._finding = True
+        try:
+            from importlib.util import find_spec
+
+            spec = find_spec(name)
+        finally:
+            self._finding = False
+        if spec is None or spec.loader is None:  # pragma: no cover - no geopandas
+            return None
+        loader = spec.loader
+        exec_module = loader.exec_module
+
+        def exec_and_register(module):
+            exec_module(module)
+            if self in sys.meta_path:
+                sys.meta_path.remove(self)
+            _register()
+
+        loader.exec_module = exec_and_register
+        return spec
+
+
+def _register() -> None:
+    from geoalpha.accessor import register
+
+    register()
+
+
+if "geopandas" in sys.modules:
+    _register()
+elif not any(isinstance(f, _RegisterOnImport) for f in sys.meta_path):
+    sys.meta_path.insert(0, _RegisterOnImport())

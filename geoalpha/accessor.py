@@ -1,16 +1,17 @@
 """The ``.alpha`` accessor on GeoDataFrame and GeoSeries.
 
 Importing :mod:`geoalpha` registers it. It only delegates: ``gdf.alpha.hull``
-is :func:`geoalpha.hull` with ``gdf`` as its first argument.
+is :func:`geoalpha.hull` with ``gdf`` as its first argument. On
+dask-geopandas frames ``.alpha`` is :class:`geoalpha.dask.DaskAlphaAccessor`.
 """
 
 from __future__ import annotations
 
 import functools
 import sys
-import warnings
 
 from geoalpha import tools
+from geoalpha.registration import attach
 
 __all__ = ["AlphaAccessor", "register"]
 
@@ -31,21 +32,8 @@ class AlphaAccessor:
         self._obj = obj
 
     @functools.wraps(tools.hull)
-    def hull(self, by=None, **kwargs):  # noqa: D102 - documented by tools.hull
-        return tools.hull(self._obj, by, **kwargs)
-
-
-class _CachedAccessor:
-    """Descriptor that builds the accessor on attribute access (as pandas does)."""
-
-    def __init__(self, name: str, accessor: type):
-        self._name = name
-        self._accessor = accessor
-
-    def __get__(self, obj, cls):
-        if obj is None:
-            return self._accessor
-        return self._accessor(obj)
+    def hull(self, by=None, **options):  # noqa: D102 - documented by tools.hull
+        return tools.hull(self._obj, by, **options)
 
 
 def register(name: str = "alpha") -> None:
@@ -53,10 +41,10 @@ def register(name: str = "alpha") -> None:
 
     Called on ``import geoalpha``. A column of the same name is still
     reachable with ``gdf[name]``; ``gdf.<name>`` is the accessor. The
-    dask-geopandas GeoDataFrame and GeoSeries get it too when
-    ``dask_geopandas`` is already imported (importing :mod:`geoalpha.dask`
-    registers it there in any case), so that ``import geoalpha`` does not
-    import dask.
+    dask-geopandas GeoDataFrame and GeoSeries get theirs
+    (:func:`geoalpha.dask.register`) too when ``dask_geopandas`` is already
+    imported (importing :mod:`geoalpha.dask` registers it there in any case),
+    so that ``import geoalpha`` does not import dask.
 
     Examples
     --------
@@ -67,19 +55,9 @@ def register(name: str = "alpha") -> None:
     """
     import geopandas as gpd
 
-    classes = [gpd.GeoDataFrame, gpd.GeoSeries]
-    dgpd = sys.modules.get("dask_geopandas")
-    if dgpd is not None:
-        classes += [dgpd.GeoDataFrame, dgpd.GeoSeries]
-    for cls in classes:
-        existing = getattr(cls, name, None)
-        if existing is not None and not isinstance(
-            cls.__dict__.get(name), _CachedAccessor
-        ):
-            warnings.warn(
-                f"registering the geoalpha accessor {name!r} overrides an existing "
-                f"attribute of {cls.__name__}",
-                UserWarning,
-                stacklevel=2,
-            )
-        setattr(cls, name, _CachedAccessor(name, AlphaAccessor))
+    attach([gpd.GeoDataFrame, gpd.GeoSeries], name, AlphaAccessor)
+    # (hasattr: not while dask_geopandas itself is being imported)
+    if hasattr(sys.modules.get("dask_geopandas"), "GeoDataFrame"):
+        from geoalpha import dask as gdask
+
+        gdask.register(name)

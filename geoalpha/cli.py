@@ -204,7 +204,7 @@ def _crs_option(value: str) -> str | None:
 
 def _group_columns(values: tuple[str, ...], columns, source: str) -> list[str]:
     """Resolve ``--by`` values (repeatable, comma-separated) to columns."""
-    from geoalpha.io import _did_you_mean
+    from geoalpha.io import did_you_mean
 
     by: list[str] = []
     for value in values:
@@ -213,7 +213,7 @@ def _group_columns(values: tuple[str, ...], columns, source: str) -> list[str]:
     missing = [name for name in by if name not in columns]
     if missing:
         others = [c for c in columns if c != "geometry"]
-        hints = "".join(_did_you_mean(name, others) for name in missing)
+        hints = "".join(did_you_mean(name, others) for name in missing)
         raise InvalidInputError(
             f"--by column {', '.join(map(repr, missing))} not found in {source}"
             f"{hints}; its columns are: {', '.join(map(str, others))}"
@@ -786,7 +786,7 @@ def hull(
         geoalpha hull postgresql://ga@localhost/gis postgresql://ga@localhost/gis
             --layer public.trees --by species --output-layer public.tree_hulls
     """  # noqa: D301
-    from geoalpha.io import _read_points, check_output
+    from geoalpha.io import check_output, read_input_points
 
     verbosity = _verbosity(verbose, quiet)
     with _reporting(verbosity):
@@ -794,7 +794,7 @@ def hull(
         _check_preview(preview)
         work_crs = _crs_option(crs)
         # --crs none on input without CRS: planar, as --crs-in none would be.
-        points = _read_points(
+        points = read_input_points(
             input_path,
             x=x,
             y=y,

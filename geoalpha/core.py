@@ -42,6 +42,8 @@ from scipy.sparse.csgraph import (
 )
 from scipy.spatial import Delaunay, QhullError
 
+from geoalpha.errors import first_n
+
 __all__ = [
     "NEAR_RTOL",
     "Rings",
@@ -233,7 +235,7 @@ def _check_points(points) -> np.ndarray:
         )
     bad = np.flatnonzero(~np.isfinite(xy).all(axis=1))
     if len(bad):
-        shown = ", ".join(map(str, bad[:10])) + (", ..." if len(bad) > 10 else "")
+        shown = first_n(bad)
         raise ValueError(
             f"points must have finite coordinates; got NaN or inf in {len(bad)} "
             f"row(s) (positions {shown})"
@@ -1439,3 +1441,10 @@ def _turn_through_exterior(local, u, v, order, lo, hi, pinch) -> np.ndarray:
     first = np.ones(len(best), dtype=bool)
     first[1:] = edge[best][1:] != edge[best][:-1]
     return cand[best][first]
+
+
+# The input checks of triangulate(), for the callers that cut the input into
+# runs first (geoalpha.parallel): points as an (n, 2) float array (ValueError
+# naming NaN/inf rows) and group codes with their count.
+check_points = _check_points
+group_codes = _group_codes

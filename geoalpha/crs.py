@@ -29,15 +29,19 @@ import pyproj
 import shapely
 from pyproj.exceptions import CRSError
 
-from geoalpha.errors import InvalidInputError
+from geoalpha.errors import InvalidInputError, first_n
 
 __all__ = [
+    "Projection",
     "check_lonlat",
     "crosses_antimeridian",
     "crs_name",
+    "is_mercator",
     "metric_crs",
     "parse_crs",
     "split_antimeridian",
+    "target_crs",
+    "unit_factor",
     "unwrap_lon",
 ]
 
@@ -96,9 +100,9 @@ def parse_crs(crs: Any) -> pyproj.CRS | None:
         if len(shown) > 80:
             shown = shown[:77] + "..."
         raise InvalidInputError(
-            "expected a CRS: an EPSG code (e.g. 32630 or 'EPSG:32630'), WKT, a "
-            f"PROJ string or a pyproj.CRS; got {type(crs).__name__} {shown} "
-            f"({err})"
+            f"unknown CRS {shown}: expected a CRS: an EPSG code (e.g. 32630 or "
+            "'EPSG:32630'), WKT, a PROJ string or a pyproj.CRS; got "
+            f"{type(crs).__name__} ({err})"
         ) from err
 
 
@@ -139,16 +143,22 @@ def crs_name(crs: Any) -> str:
     return parsed.name
 
 
-def _positions(mask: np.ndarray) -> str:
-    """Describe the rows where ``mask`` is true: "3 rows (positions 4, 9, 12)"."""
+def _positions(mask: np.ndarray, labels: Any = None) -> str:
+    """Describe the rows where ``mask`` is true: "3 rows (positions 4, 9, 12)".
+
+    With ``labels`` (one label per row, e.g. the index labels of the frame the
+    points came from) the rows are named by label: "3 rows (index 4, 9, 12)".
+    """
     where = np.flatnonzero(mask)
     count = where.size
-    shown = ", ".join(str(int(i)) for i in where[:_MAX_POSITIONS])
-    if count > _MAX_POSITIONS:
-        shown += ", ..."
-    if count == 1:
-        return f"1 row (position {shown})"
-    return f"{count} rows (positions {shown})"
+    if labels is None:
+        kind = "position" if count == 1 else "positions"
+        names = (str(int(i)) for i in where)
+    else:
+        kind = "index"
+        names = (str(v) for v in labels[where])
+    shown = first_n(names, limit=_MAX_POSITIONS)
+    return f"{count} row{'s' if count != 1 else ''} ({kind} {shown})"
 
 
 def _as_coords(lon: Any, lat: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -162,13 +172,16 @@ def _as_coords(lon: Any, lat: Any) -> tuple[np.ndarray, np.ndarray]:
     return lon, lat
 
 
-def check_lonlat(lon: Any, lat: Any) -> None:
+def check_lonlat(lon: Any, lat: Any, labels: Any = None) -> None:
     """Check that coordinates are finite longitude/latitude degrees.
 
     Parameters
     ----------
     lon, lat : array_like of float
         Longitudes (x) and latitudes (y) of the points, in degrees.
+    labels : array_like, optional
+        A label per point to name the offending rows by (e.g. the index
+        labels of a frame); default: their positions.
 
     Raises
     ------
@@ -193,15 +206,17 @@ def check_lonlat(lon: Any, lat: Any) -> None:
     if bad.any():
         raise InvalidInputError(
             "coordinates must be finite numbers; got NaN or infinite "
-            f"longitude/latitude in {_positions(bad)}"
+            f"longitude/latitude in {_positions(bad, labels)}"
         )
     bad_lat = np.abs(lat) > 90.0
     bad_lon = np.abs(lon) > 180.0
     problems = []
     if bad_lat.any():
-        problems.append(f"latitude outside [-90, 90] in {_positions(bad_lat)}")
+        problems.append(f"latitude outside [-90, 90] in {_positions(bad_lat, labels)}")
     if bad_lon.any():
-        problems.append(f"longitude outside [-180, 180] in {_positions(bad_lon)}")
+        problems.append(
+            f"longitude outside [-180, 180] in {_positions(bad_lon, labels)}"
+        )
     if problems:
         message = (
             "points in a geographic CRS must be longitude/latitude degrees; "
@@ -551,21 +566,87 @@ def _laea_key(
     return 1_000_000 + (lat0 + 90) * 1000 + (lon0 + 180)
 
 
-def _check_metric(crs: pyproj.CRS) -> None:
-    if not crs.is_projected:
-        kind = "geographic" if crs.is_geographic else "not projected"
+def target_crs(crs: Any) -> pyproj.CRS:
+    """Check a ``crs=`` option that names a computation CRS: the one check.
+
+    Parameters
+    ----------
+    crs : anything :func:`parse_crs` accepts
+        The CRS the shapes are to be computed in.
+
+    Returns
+    -------
+    pyproj.CRS
+        The parsed CRS. It is projected; its unit may be another than the
+        metre (feet): :class:`Projection` and :func:`metric_crs` scale its
+        coordinates to metres (see :func:`unit_factor`), for every input.
+
+    Raises
+    ------
+    InvalidInputError
+        If ``crs`` is None, cannot be parsed, or is not a projected CRS.
+
+    Examples
+    --------
+    >>> from geoalpha.crs import target_crs
+    >>> target_crs("EPSG:27700").name
+    'OSGB36 / British National Grid'
+    >>> target_crs(4326)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    geoalpha.errors.InvalidInputError: crs= must be a projected (metric) CRS, \
+got EPSG:4326 (geographic); ...
+    """
+    parsed = parse_crs(crs)
+    if parsed is None:
+        raise InvalidInputError(
+            "crs= must be 'auto' or a projected (metric) CRS here, got None"
+        )
+    if not parsed.is_projected:
+        kind = "geographic" if parsed.is_geographic else "not projected"
         raise InvalidInputError(
             "crs= must be a projected (metric) CRS, got "
-            f"{crs_name(crs)} ({kind}); pass crs='auto' to let geoalpha choose "
-            "a UTM zone or a local CRS per group"
+            f"{crs_name(parsed)} ({kind}); pass crs='auto' to let geoalpha choose "
+            "a UTM zone or a local CRS per group, or crs=None to use the "
+            "coordinates as they are"
         )
-    unit = crs.axis_info[0].unit_name if crs.axis_info else "unknown"
-    factor = crs.axis_info[0].unit_conversion_factor if crs.axis_info else 0.0
-    if factor != 1.0:
-        raise InvalidInputError(
-            "crs= must be a projected CRS in metres (alpha is in 1/metre), got "
-            f"{crs_name(crs)} in {unit}"
-        )
+    return parsed
+
+
+def unit_factor(crs: Any) -> float:
+    """Return metres per coordinate unit of a projected CRS (1.0 if unknown).
+
+    Examples
+    --------
+    >>> from geoalpha.crs import unit_factor
+    >>> unit_factor("EPSG:32630"), round(unit_factor("EPSG:2263"), 7)
+    (1.0, 0.3048006)
+    """
+    parsed = parse_crs(crs)
+    if parsed is None or not parsed.axis_info:
+        return 1.0
+    return parsed.axis_info[0].unit_conversion_factor or 1.0
+
+
+def is_mercator(crs: Any) -> bool:
+    """Tell whether a CRS is a (normal aspect) Mercator projection, e.g. EPSG:3857.
+
+    Its scale grows as 1/cos(latitude) (1.6 at London), so its coordinates are
+    no metres for areas or alphas; :class:`Projection` treats such input as
+    longitude/latitude.
+
+    Examples
+    --------
+    >>> from geoalpha.crs import is_mercator
+    >>> is_mercator(3857), is_mercator(3395), is_mercator(32630)
+    (True, True, False)
+    """
+    parsed = parse_crs(crs)
+    if parsed is None or not parsed.is_projected:
+        return False
+    operation = parsed.coordinate_operation
+    method = operation.method_name.lower() if operation is not None else ""
+    return "mercator" in method and "transverse" not in method
 
 
 def metric_crs(
@@ -576,6 +657,7 @@ def metric_crs(
     *,
     crs: Any = "auto",
     source_crs: Any = None,
+    labels: Any = None,
 ) -> tuple[np.ndarray, list[pyproj.CRS], np.ndarray]:
     """Project longitude/latitude points to a metric CRS chosen per group.
 
@@ -601,18 +683,23 @@ def metric_crs(
         equal-area CRS centred on the group (centre rounded to whole degrees;
         groups around a pole are centred on the pole; antimeridian-crossing
         groups are centred with unwrapped longitudes). Anything else is
-        parsed by :func:`parse_crs` and used for every group; it must be a
-        projected CRS in metres. ``"auto-group"``: the per-group choice of
+        checked by :func:`target_crs` and used for every group; it must be
+        a projected CRS, and coordinates in another unit than the metre
+        (feet) are scaled to metres. ``"auto-group"``: the per-group choice of
         ``"auto"`` without the whole-dataset check (for a subset of the data
         whose whole-dataset check was done elsewhere, as
         :mod:`geoalpha.dask` does for each partition).
     source_crs : CRS, optional
         The geographic CRS of ``lon``/``lat``; default EPSG:4326 (WGS 84).
+    labels : array_like, optional
+        A label per point to name rows by in error messages (default: their
+        positions).
 
     Returns
     -------
     xy : numpy.ndarray of float64, shape (n, 2)
-        Metric coordinates of every point, in the CRS of its group.
+        Metric coordinates of every point, in the CRS of its group (scaled
+        to metres when that CRS is in feet).
     crs_list : list of pyproj.CRS
         The distinct CRSs used.
     crs_index : numpy.ndarray of int, shape (n_groups,)
@@ -651,7 +738,7 @@ def metric_crs(
             f"{crs_name(source)}"
         )
     source_key = _WGS84 if source is None else source.srs
-    check_lonlat(lon, lat)
+    check_lonlat(lon, lat, labels)
 
     mode = crs.strip().lower() if isinstance(crs, str) else None
     if mode in ("auto", "auto-group"):
@@ -659,12 +746,7 @@ def metric_crs(
             lon, lat, codes, n_groups, whole=mode == "auto"
         )
     else:
-        forced = parse_crs(crs)
-        if forced is None:
-            raise InvalidInputError(
-                "crs= must be 'auto' or a projected (metric) CRS, got None"
-            )
-        _check_metric(forced)
+        forced = target_crs(crs)
         crs_list, crs_index = [forced], np.zeros(n_groups, dtype=np.intp)
 
     xy = np.empty((lon.size, 2), dtype=np.float64)
@@ -683,13 +765,14 @@ def metric_crs(
     for target, rows in segments:
         transformer = _transformer(source_key, _crs_key(target))
         x, y = transformer.transform(lon[rows], lat[rows])
-        xy[rows, 0] = x
-        xy[rows, 1] = y
+        factor = unit_factor(target)
+        xy[rows, 0] = x if factor == 1.0 else np.multiply(x, factor)
+        xy[rows, 1] = y if factor == 1.0 else np.multiply(y, factor)
     failed = ~np.isfinite(xy).all(axis=1)
     if failed.any():
         names = sorted({crs_name(crs_list[k]) for k in crs_index[codes[failed]]})
         raise InvalidInputError(
-            f"could not project {_positions(failed)} to {', '.join(names)}; "
+            f"could not project {_positions(failed, labels)} to {', '.join(names)}; "
             "the points lie outside what the CRS can represent, choose a CRS "
             "that covers them or crs='auto'"
         )
@@ -731,3 +814,187 @@ def _choose_auto(
     distinct, crs_index = np.unique(keys, return_inverse=True)
     crs_list = [_crs_from_key(int(key)) for key in distinct]
     return crs_list, crs_index.astype(np.intp).ravel()
+
+
+class Projection:
+    """The whole CRS round trip of :func:`geoalpha.hull`: input -> metres -> input.
+
+    Built once per call from the points' coordinates in the input CRS and the
+    ``crs=`` option; holds the coordinates to compute in (:attr:`xy`, metres)
+    and the coordinates to build output geometries from (:attr:`out`, the
+    input coordinates), and moves metric geometries back
+    (:meth:`to_output`).
+
+    The rules, the same for every input:
+
+    - ``crs=None``: the coordinates as they are (planar; alpha in 1/unit).
+    - ``crs="auto"`` (or ``"auto-group"``, see :func:`metric_crs`):
+      geographic input goes to a UTM zone or a local equal-area CRS per
+      group; Mercator input (EPSG:3857, EPSG:3395; see :func:`is_mercator`)
+      too, through its longitude/latitude, since its own scale is off by
+      1/cos(latitude); any other projected input is used as it is.
+    - ``crs=<projected CRS>`` (checked by :func:`target_crs`): every group in
+      that CRS, whatever the input CRS.
+    - Coordinates in feet (or any unit other than the metre) are scaled to
+      metres, so alpha is in 1/metre and areas in square metres.
+
+    Parameters
+    ----------
+    coords : numpy.ndarray, shape (n, 2)
+        Point coordinates in ``source``.
+    codes : numpy.ndarray of int, shape (n,)
+        Group code of each point, ``0 .. n_groups - 1``.
+    n_groups : int
+        Number of groups.
+    source : CRS or None
+        The input CRS.
+    crs : "auto", "auto-group", CRS or None
+        The ``crs=`` option.
+    labels : array_like, optional
+        A label per point to name rows by in error messages.
+
+    Attributes
+    ----------
+    xy : numpy.ndarray, shape (n, 2)
+        Coordinates to compute in: metres (the input units with ``crs=None``).
+    out : numpy.ndarray, shape (n, 2)
+        Coordinates of the output geometries' vertices: the input coordinates
+        (longitudes of antimeridian-crossing groups unwrapped).
+    crossing, wide : numpy.ndarray of bool, shape (n_groups,)
+        Groups across +-180 degrees; groups spanning more than 180 degrees of
+        longitude (lon/lat input only).
+    names : numpy.ndarray of str, shape (n_groups,)
+        The computation CRS of each group, for the output table.
+    unit : str
+        Unit of :attr:`xy`, for messages ("m" unless ``crs=None``).
+
+    Raises
+    ------
+    InvalidInputError
+        Input without CRS (unless ``crs=None``), a bad ``crs=``, lon/lat out
+        of range or points the CRS cannot project (rows named by ``labels``).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from geoalpha.crs import Projection
+    >>> lonlat = np.array([[-0.13, 51.50], [-0.10, 51.52], [-0.12, 51.49]])
+    >>> proj = Projection(lonlat, np.zeros(3, dtype=int), 1, "EPSG:4326", "auto")
+    >>> proj.names.tolist(), proj.unit, bool((proj.out == lonlat).all())
+    (['EPSG:32630'], 'm', True)
+    >>> feet = Projection(np.array([[0.0, 0.0], [1000.0, 0.0]]), np.zeros(2, int),
+    ...                   1, "EPSG:2263", "auto")
+    >>> feet.xy[1, 0].round(3)  # 1000 US survey feet, in metres
+    np.float64(304.801)
+    """
+
+    def __init__(
+        self,
+        coords: np.ndarray,
+        codes: np.ndarray,
+        n_groups: int,
+        source: Any,
+        crs: Any,
+        labels: Any = None,
+    ) -> None:
+        src = parse_crs(source)
+        self.source = src
+        self.out = coords
+        self.crossing = np.zeros(n_groups, dtype=bool)
+        self.wide = np.zeros(n_groups, dtype=bool)
+        self._crs_list: list[pyproj.CRS] = []
+        self._crs_index = np.zeros(n_groups, dtype=np.intp)
+        if crs is None:  # planar: the coordinates as they are
+            self.xy = coords
+            self.unit = src.axis_info[0].unit_name if src and src.axis_info else "unit"
+            self.names = np.full(n_groups, crs_name(src) if src else "planar")
+            return
+        self.unit = "m"
+        if src is None:
+            raise InvalidInputError(
+                "the input has no CRS, so it cannot be projected to metres; set it "
+                "with gdf.set_crs(...) or pass crs=None to use the coordinates as "
+                "planar values"
+            )
+        auto = isinstance(crs, str) and crs.strip().lower() in ("auto", "auto-group")
+        if src.is_geographic:
+            lon, lat = coords[:, 0], coords[:, 1]
+            self.xy, self._crs_list, self._crs_index = metric_crs(
+                lon, lat, codes, n_groups, crs=crs, source_crs=src, labels=labels
+            )
+            self.crossing = crosses_antimeridian(lon, codes, n_groups)
+            if self.crossing.any():
+                self.out = coords.copy()
+                self.out[:, 0] = unwrap_lon(lon, codes, self.crossing)
+            low, high = _group_min_max(self.out[:, 0], codes, n_groups)
+            with np.errstate(invalid="ignore"):
+                self.wide = high - low > 180.0
+        elif auto and is_mercator(src):
+            geodetic = src.geodetic_crs
+            to_lonlat = _transformer(_crs_key(src), _crs_key(geodetic))
+            lon, lat = to_lonlat.transform(coords[:, 0], coords[:, 1])
+            self.xy, self._crs_list, self._crs_index = metric_crs(
+                lon, lat, codes, n_groups, crs=crs, source_crs=geodetic, labels=labels
+            )
+        elif auto:  # projected input is used as it is, in metres
+            self._crs_list = [src]
+            factor = unit_factor(src)
+            self.xy = coords * factor if factor != 1.0 else coords
+        else:
+            target = target_crs(crs)
+            forward = _transformer(_crs_key(src), _crs_key(target))
+            x, y = forward.transform(coords[:, 0], coords[:, 1])
+            self.xy = np.column_stack([x, y]) * unit_factor(target)
+            failed = ~np.isfinite(self.xy).all(axis=1)
+            if failed.any():
+                raise InvalidInputError(
+                    f"could not project {_positions(failed, labels)} to "
+                    f"{crs_name(target)}; choose a CRS that covers them or "
+                    "crs='auto'"
+                )
+            self._crs_list = [target]
+        used = [crs_name(c) for c in self._crs_list] or [crs_name(src)]  # no point
+        self.names = np.array(used, dtype=object)[self._crs_index]
+
+    def to_output(self, geoms: np.ndarray, groups: np.ndarray) -> np.ndarray:
+        """Move metric geometries of ``groups`` to the output (input) CRS.
+
+        Parameters
+        ----------
+        geoms : numpy.ndarray of shapely geometries
+            In the coordinates of :attr:`xy`.
+        groups : numpy.ndarray of int
+            The group of each geometry.
+
+        Returns
+        -------
+        numpy.ndarray of shapely geometries
+            In the input CRS (longitudes of crossing groups in [0, 360)).
+        """
+        if not self._crs_list:
+            return geoms
+        out = geoms.copy()
+        for k, target in enumerate(self._crs_list):
+            sel = self._crs_index[groups] == k
+            factor = unit_factor(target)
+            same = target == self.source
+            if not sel.any() or (same and factor == 1.0):
+                continue
+            back = (
+                None if same else _transformer(_crs_key(target), _crs_key(self.source))
+            )
+
+            def move(c, back=back, factor=factor):
+                if factor != 1.0:
+                    c = c / factor
+                if back is None:
+                    return c
+                return np.column_stack(back.transform(c[:, 0], c[:, 1]))
+
+            out[sel] = shapely.transform(geoms[sel], move)
+        wrap = self.crossing[groups]
+        if wrap.any():
+            out[wrap] = shapely.transform(
+                out[wrap], lambda c: np.column_stack([c[:, 0] % 360.0, c[:, 1]])
+            )
+        return out

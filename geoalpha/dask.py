@@ -18,7 +18,8 @@ with dask's string dtype):
    data fit one, else ``crs="auto-group"`` (each group its own metric CRS);
    a partition alone would see only its own points and could decide
    otherwise;
-3. :func:`geoalpha.hull` runs on every partition (``map_partitions``);
+3. the stages of :func:`geoalpha.hull` (:func:`geoalpha.pipeline.run`) run on
+   every partition (``map_partitions``);
 4. with ``sort=True`` the (small: one row per group) result is gathered into
    one partition sorted by key, as the eager call returns it.
 
@@ -30,16 +31,19 @@ imports dask itself.
 
 from __future__ import annotations
 
-import inspect
+import functools
 
 import numpy as np
 import pandas as pd
 import shapely
 
 from geoalpha import crs as gcrs
-from geoalpha import tools
-from geoalpha.accessor import register as _register_accessor
+from geoalpha import options as _options
 from geoalpha.errors import InvalidInputError
+from geoalpha.options import Options
+from geoalpha.pipeline import group, run
+from geoalpha.registration import attach
+from geoalpha.schema import empty_result, result_geometry_name
 
 try:
     import dask
@@ -50,14 +54,13 @@ except ImportError as err:  # pragma: no cover - the dask extra is installed in 
         "pip install geoalpha[dask]"
     ) from err
 
-__all__ = ["hull"]
+__all__ = ["DaskAlphaAccessor", "hull", "register"]
 
 _EXTENT = ["west", "east", "west360", "east360", "south", "north"]
 #: Column carrying each row's position in ``ddf.compute()`` through the shuffle.
 _ROW = "__geoalpha_row__"
 #: Row positions are ``partition << _ROW_BITS | row in partition``.
 _ROW_BITS = 40
-_HULL_PARAMETERS = inspect.signature(tools.hull).parameters
 
 
 def _key_names(frame, by) -> list:
@@ -123,30 +126,10 @@ def _decide_crs(extents: pd.DataFrame, source_crs):
     return chosen[0] if gcrs.crs_name(chosen[0]).startswith("EPSG:") else "auto-group"
 
 
-def _meta(frame_meta, by, dropna: bool, sort: bool):
+def _meta(frame_meta, by, options: Options):
     """Empty GeoDataFrame with the columns and dtypes of the eager result."""
-    import geopandas as gpd
-
-    _, keys = tools._groups(frame_meta, by, dropna, sort)
-    table = keys.iloc[:0].copy()
-    text = pd.Series(np.array([""], dtype=object)).dtype  # str (pandas 3) or object
-    dtypes = {
-        "alpha": "float64",
-        "radius": "float64",
-        "n_points": "int64",
-        "n_outliers": "int64",
-        "n_parts": "int32",
-        "area_m2": "float64",
-        "crs_used": text,
-        "method": text,
-    }
-    for name, dtype in dtypes.items():
-        table[name] = pd.Series(dtype=dtype)
-    meta = gpd.GeoDataFrame(
-        table, geometry=gpd.GeoSeries([], crs=frame_meta.crs), crs=frame_meta.crs
-    )
-    name = tools.result_geometry_name(frame_meta, keys)
-    return meta if name == "geometry" else meta.rename_geometry(name)
+    keys = group(frame_meta, by, options).keys
+    return empty_result(keys, frame_meta.crs, result_geometry_name(frame_meta, keys))
 
 
 def _for_shuffle(part, geometry: str, partition_info=None) -> pd.DataFrame:
@@ -165,7 +148,7 @@ def _for_shuffle(part, geometry: str, partition_info=None) -> pd.DataFrame:
     return out
 
 
-def _hull_partition(part, by, crs, meta, geometry, source_crs, kwargs):
+def _hull_partition(part, by, crs, meta, geometry, source_crs, options: Options):
     import geopandas as gpd
 
     if len(part) == 0:
@@ -178,7 +161,7 @@ def _hull_partition(part, by, crs, meta, geometry, source_crs, kwargs):
             part[geometry].to_numpy(), index=part.index, crs=source_crs
         )
     part = gpd.GeoDataFrame(part, geometry=geometry, crs=source_crs)
-    out = tools.hull(part, by, crs=crs, progress=False, **kwargs)
+    out = run(part, by, options.replace(crs=crs))
     return out.astype(dict(meta.dtypes.drop(meta.geometry.name)))
 
 
@@ -188,18 +171,7 @@ def _sort_groups(part, keys: list):
     return part.reset_index(drop=True)
 
 
-def hull(
-    ddf,
-    by=None,
-    *,
-    crs="auto",
-    dropna: bool = True,
-    sort: bool = True,
-    npartitions: int | None = None,
-    progress: bool | None = None,
-    n_jobs: int = 1,
-    **kwargs,
-):
+def hull(ddf, by=None, *, npartitions: int | None = None, **options):
     """Optimal alpha hulls of the groups of a dask-geopandas frame (lazy).
 
     The same table as :func:`geoalpha.hull` gives on the computed frame, built
@@ -215,29 +187,24 @@ def hull(
         Column name(s) to group by (values, unlike in the eager call, are not
         accepted: assign them as a column). None: one hull of all the points,
         computed in one partition.
-    crs : "auto", CRS or None, default "auto"
-        As in :func:`geoalpha.hull`, with the same choice: for
-        longitude/latitude input the whole-dataset check (do all points fit
-        one UTM zone?) is made once, on the extent of all partitions, and the
-        partitions then use that zone or ``crs="auto-group"`` (each group its
-        own UTM zone or local CRS).
-    dropna, sort : bool, default True
-        As in :func:`geoalpha.hull`. ``sort=True`` gathers the result (one
-        row per group) into one partition, in key order with a fresh
-        RangeIndex, as the eager call returns it; ``sort=False`` leaves it in
-        the partitions of the shuffle (group order unspecified, index
-        restarting at 0 in every partition).
     npartitions : int, optional
         Partitions of the shuffle (default: as many as ``ddf`` has).
-    progress : bool, optional
-        Not used: use dask's own progress reporting
-        (``dask.diagnostics.ProgressBar`` or ``distributed.progress``).
-    n_jobs : int, default 1
-        Must be 1: dask spreads the partitions over its workers.
-    **kwargs
-        The other options of :func:`geoalpha.hull` (``alpha``, ``holes``,
-        ``components``, ``method``, ``search``, ``degenerate``, ``buffer``,
-        ``vertices``, ...), passed on to every partition.
+    **options
+        The options of :func:`geoalpha.hull` (:class:`geoalpha.options.Options`),
+        passed on to every partition, with these differences:
+
+        - ``crs="auto"``: for longitude/latitude input the whole-dataset
+          check (do all points fit one UTM zone?) is made once, on the extent
+          of all partitions, and the partitions then use that zone or
+          ``crs="auto-group"`` (each group its own UTM zone or local CRS);
+        - ``sort=True`` gathers the result (one row per group) into one
+          partition, in key order with a fresh RangeIndex, as the eager call
+          returns it; ``sort=False`` leaves it in the partitions of the
+          shuffle (group order unspecified, index restarting at 0 in every
+          partition);
+        - ``progress`` must not be True (use dask's own progress reporting,
+          ``dask.diagnostics.ProgressBar`` or ``distributed.progress``) and
+          ``n_jobs`` must be 1: dask spreads the partitions over its workers.
 
     Returns
     -------
@@ -285,28 +252,24 @@ def hull(
             "geoalpha.dask.hull() needs a dask_geopandas.GeoDataFrame or GeoSeries; "
             f"got {type(ddf).__name__}"
         )
-    if n_jobs != 1:
+    opts = Options.from_kwargs(options)
+    if opts.n_jobs != 1:
         raise InvalidInputError(
-            f"n_jobs={n_jobs!r} does not apply to dask-geopandas input: dask spreads "
-            "the partitions over its workers (choose them with the scheduler or a "
-            "distributed.Client)"
+            f"n_jobs={opts.n_jobs!r} does not apply to dask-geopandas input: dask "
+            "spreads the partitions over its workers (choose them with the scheduler "
+            "or a distributed.Client)"
         )
-    if progress:
+    if opts.progress:
         raise InvalidInputError(
             "progress=True does not apply to dask-geopandas input; use "
             "dask.diagnostics.ProgressBar or distributed.progress"
         )
-    unknown = sorted(set(kwargs) - set(_HULL_PARAMETERS))
-    if unknown:
-        raise InvalidInputError(
-            f"hull() got unknown option(s) {', '.join(unknown)}; the options are "
-            f"{', '.join(list(_HULL_PARAMETERS)[2:])}"
-        )
+    opts = opts.replace(progress=False)
     names = _key_names(ddf, by)
-    kwargs = {**kwargs, "dropna": dropna, "sort": sort}
-    meta = _meta(ddf._meta, by, dropna, sort)
+    meta = _meta(ddf._meta, by, opts)
     if names:  # the eager checks of the options, on the (empty) meta frame
-        tools.hull(ddf._meta, by, crs=crs, progress=False, **kwargs)
+        run(ddf._meta, by, opts)
+    crs, dropna, sort = opts.crs, opts.dropna, opts.sort
 
     source = ddf.crs
     if (
@@ -333,7 +296,7 @@ def hull(
         meta,
         ddf.geometry.name,
         source,
-        kwargs,
+        opts,
         meta=meta,
         enforce_metadata=False,
     )
@@ -345,4 +308,29 @@ def hull(
     return out
 
 
-_register_accessor()
+hull.__signature__ = _options.signature(hull)
+
+
+class DaskAlphaAccessor:
+    """``ddf.alpha.hull(...)``: :func:`hull` on a dask-geopandas frame (lazy)."""
+
+    def __init__(self, obj):
+        self._obj = obj
+
+    @functools.wraps(hull)
+    def hull(self, by=None, **options):  # noqa: D102 - documented by hull
+        return hull(self._obj, by, **options)
+
+
+def register(name: str = "alpha") -> None:
+    """Register :class:`DaskAlphaAccessor` as ``name`` on dask-geopandas frames.
+
+    Called when this module is imported (and by
+    :func:`geoalpha.accessor.register` when dask-geopandas is imported).
+    """
+    attach(
+        [dask_geopandas.GeoDataFrame, dask_geopandas.GeoSeries], name, DaskAlphaAccessor
+    )
+
+
+register()

@@ -8,6 +8,7 @@ warning derives from :class:`GeoAlphaWarning`.
 from __future__ import annotations
 
 import sys
+from collections.abc import Iterable
 
 __all__ = [
     "AntimeridianWarning",
@@ -21,6 +22,7 @@ __all__ = [
     "InvalidInputError",
     "OutlierWarning",
     "SearchWarning",
+    "first_n",
 ]
 
 
@@ -80,3 +82,28 @@ def user_stacklevel() -> int:
     ):
         frame, level = frame.f_back, level + 1
     return level
+
+
+def first_n(items: Iterable, limit: int = 10, sep: str = ", ") -> str:
+    """Join the first ``limit`` items as text, with ``", ..."`` when there are more.
+
+    The one formatter of the lists in geoalpha's messages (row labels, group
+    names, option values).
+
+    Examples
+    --------
+    >>> first_n([4, 9, 12])
+    '4, 9, 12'
+    >>> first_n(range(100), limit=3)
+    '0, 1, 2, ...'
+    >>> first_n(["'DC' (1 row)", "'GU' (1 row)"], sep="; ")
+    "'DC' (1 row); 'GU' (1 row)"
+    """
+    shown = []
+    more = False
+    for i, item in enumerate(items):
+        if i == limit:
+            more = True
+            break
+        shown.append(str(item))
+    return sep.join(shown) + (", ..." if more else "")

@@ -107,7 +107,7 @@ def _shown(source: str) -> str:
     return redact(source)
 
 
-def _did_you_mean(name: str, columns) -> str:
+def did_you_mean(name: str, columns) -> str:
     close = difflib.get_close_matches(
         str(name), [str(c) for c in columns], n=1, cutoff=0.6
     )
@@ -191,10 +191,10 @@ def read_points(
     >>> gdf.crs.to_epsg(), gdf.geom_type.unique().tolist()
     (4326, ['Point'])
     """
-    return _read_points(path, x=x, y=y, crs=crs, layer=layer)
+    return read_input_points(path, x=x, y=y, crs=crs, layer=layer)
 
 
-def _read_points(
+def read_input_points(
     path,
     *,
     x,
@@ -210,7 +210,7 @@ def _read_points(
     ``sql`` and ``geometry_column`` apply to a ``postgresql://`` source (see
     :func:`geoalpha.postgis.read_postgis`).
     """
-    import pyproj
+    from geoalpha.crs import parse_crs
 
     source = os.fspath(path)
     shown = _shown(source)
@@ -232,10 +232,7 @@ def _read_points(
         raise PermissionError(f"cannot read input file {shown}: permission denied")
     auto = isinstance(crs, str) and crs.strip().lower() == "auto"
     if crs is not None and not auto:
-        try:
-            crs = pyproj.CRS.from_user_input(crs)
-        except pyproj.exceptions.CRSError as err:
-            raise InvalidInputError(f"unknown CRS {crs!r}: {err}") from err
+        crs = parse_crs(crs)
 
     suffix = Path(source).suffix.lower()
     is_table = suffix in _TABLE_SUFFIXES
@@ -255,7 +252,7 @@ def _read_points(
         x, y = _find_coordinate_columns(list(frame.columns), x, y, shown)
         if auto:
             if _looks_lonlat(x, y):
-                crs = pyproj.CRS.from_epsg(4326)
+                crs = parse_crs(4326)
             elif planar_if_missing:
                 crs = None
             else:
@@ -435,7 +432,7 @@ def _find_coordinate_columns(
     if x is not None and y is not None:
         missing = [name for name in (x, y) if name not in columns]
         if missing:
-            hints = "".join(_did_you_mean(name, columns) for name in missing)
+            hints = "".join(did_you_mean(name, columns) for name in missing)
             raise InvalidInputError(
                 f"coordinate column {', '.join(map(repr, missing))} not found in "
                 f"{source}{hints}; its columns are: {found}"

@@ -25,7 +25,7 @@ from numpy.typing import ArrayLike
 from scipy.spatial import cKDTree
 from shapely.geometry.polygon import orient
 
-from geoalpha.errors import InvalidInputError
+from geoalpha.errors import InvalidInputError, first_n
 
 __all__ = ["knn_hull"]
 
@@ -157,7 +157,7 @@ def _as_points(points: ArrayLike) -> np.ndarray:
         )
     bad = np.flatnonzero(~np.isfinite(arr).all(axis=1))
     if len(bad):
-        shown = ", ".join(map(str, bad[:5])) + (", ..." if len(bad) > 5 else "")
+        shown = first_n(bad, limit=5)
         raise InvalidInputError(
             "knn_hull() needs finite coordinates; got "
             f"{len(bad)} rows with NaN or infinity (index {shown})"

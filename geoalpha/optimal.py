@@ -13,11 +13,12 @@ from typing import Literal, NamedTuple
 import numpy as np
 import shapely
 
-from geoalpha import core, coverage, search, shapes
+from geoalpha import core, coverage, parallel, search, shapes
 from geoalpha.errors import (
     DegenerateGroupWarning,
     InvalidInputError,
     SearchWarning,
+    first_n,
     user_stacklevel,
 )
 
@@ -143,7 +144,7 @@ def _rank_threshold(
             warnings.warn(
                 f"search='bisect' did not converge within max_iterations="
                 f"{max_iterations} for {gave_up.sum()} group(s) (codes "
-                f"{_shown(np.flatnonzero(gave_up))}) and returned alpha=0, the "
+                f"{first_n(np.flatnonzero(gave_up))}) and returned alpha=0, the "
                 "convex hull, as alphashape does; use search='exact'",
                 SearchWarning,
                 stacklevel=user_stacklevel(),
@@ -151,12 +152,6 @@ def _rank_threshold(
     a[tri.degenerate] = np.nan
     rank = tri.rank_of(core.radius_of_alpha(a))
     return a, rank, spectrum.pieces_at_rank(np.arange(G), rank)
-
-
-def _shown(items, limit: int = 10) -> str:
-    items = list(items)
-    text = ", ".join(map(str, items[:limit]))
-    return text + (", ..." if len(items) > limit else "")
 
 
 def alpha_shapes(
@@ -274,17 +269,15 @@ def alpha_shapes(
     if outliers:  # passed on only when used, so that 0 takes today's path
         options["outliers"] = outliers
     if type(n_jobs) is not int or n_jobs != 1 or _batched(points, groups):
-        from geoalpha.parallel import alpha_shapes_parallel
-
-        return alpha_shapes_parallel(points, groups, n_jobs=n_jobs, **options)
+        return parallel.alpha_shapes_parallel(
+            points, groups, batch=_alpha_shapes_batch, n_jobs=n_jobs, **options
+        )
     return _alpha_shapes_batch(points, groups, **options)
 
 
 def _batched(points, groups) -> bool:
     """Whether to cut the groups into runs (large inputs fit caches better)."""
-    from geoalpha.parallel import BATCH_POINTS
-
-    return groups is not None and len(points) > 2 * BATCH_POINTS
+    return groups is not None and len(points) > 2 * parallel.BATCH_POINTS
 
 
 def _alpha_shapes_batch(

@@ -31,12 +31,14 @@ import multiprocessing
 import os
 import sys
 import warnings
+from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor, as_completed
 
 import numpy as np
 
 from geoalpha import core
 from geoalpha.errors import InvalidInputError, user_stacklevel
+from geoalpha.options import defaults
 
 __all__ = [
     "BATCH_POINTS",
@@ -113,7 +115,7 @@ def effective_n_jobs(n_jobs) -> int:
 
 
 def split_groups(counts, n_chunks: int) -> np.ndarray:
-    """Cut groups ``0 .. G-1`` into contiguous runs of about equal point count.
+    """Cut groups ``0, ..., G-1`` into contiguous runs of about equal point count.
 
     Parameters
     ----------
@@ -169,10 +171,8 @@ def _start_context():
 
 
 def _run(task):
-    """Worker: ``alpha_shapes`` of one run of groups; warnings come back too."""
-    from geoalpha.optimal import _alpha_shapes_batch
-
-    call, lo, hi, g0, g1, data, kwargs = task
+    """Worker: ``batch`` of one run of groups; warnings come back too."""
+    call, lo, hi, g0, g1, data, batch, kwargs = task
     points, codes, coords, alpha = _SHARED[call] if data is None else data
     if data is None:
         points, codes = points[lo:hi], codes[lo:hi]
@@ -183,7 +183,7 @@ def _run(task):
         warnings.simplefilter("always")
         # Codes stay global (groups before this run are empty, hence skipped),
         # so that messages name the same groups as a single call would.
-        res = _alpha_shapes_batch(
+        res = batch(
             points,
             codes,
             alpha=alpha,
@@ -201,19 +201,14 @@ def _run(task):
 
 def _with_defaults(kwargs: dict) -> dict:
     """Complete ``kwargs`` with the defaults of the options of ``alpha_shapes``."""
-    return {
-        "holes": False,
-        "components": 1,
-        "search": "exact",
-        "max_iterations": 10_000,
-        **kwargs,
-    }
+    return {**defaults("holes", "components", "search", "max_iterations"), **kwargs}
 
 
 def alpha_shapes_parallel(
     points,
     groups=None,
     *,
+    batch: Callable,
     n_jobs: int = -1,
     alpha=None,
     coords=None,
@@ -227,6 +222,12 @@ def alpha_shapes_parallel(
     ----------
     points, groups, alpha, coords, n_groups
         As in :func:`~geoalpha.alpha_shapes`.
+    batch : callable
+        Computes one run of groups in one pass: called as
+        ``batch(points, codes, alpha=, coords=, n_groups=, progress=None,
+        **kwargs)``, it returns a named tuple of per-group arrays
+        (:func:`geoalpha.alpha_shapes` passes its own one-pass function). It
+        is a module-level function, so that it reaches spawned workers.
     n_jobs : int, default -1
         Worker processes (see :func:`effective_n_jobs`). At most one per
         :data:`MIN_POINTS_PER_JOB` points is started; with one, the runs of
@@ -245,19 +246,20 @@ def alpha_shapes_parallel(
 
     Examples
     --------
+    :func:`geoalpha.alpha_shapes` with ``n_jobs`` lands here:
+
     >>> import numpy as np
+    >>> from geoalpha import alpha_shapes
     >>> pts = np.array([[0, 0], [4, 0], [4, 4], [0, 4], [2, 3.5],
     ...                 [10, 0], [12, 0], [11, 2]])
-    >>> res = alpha_shapes_parallel(pts, [0, 0, 0, 0, 0, 1, 1, 1], n_jobs=2)
+    >>> res = alpha_shapes(pts, [0, 0, 0, 0, 0, 1, 1, 1], n_jobs=2)
     >>> res.alpha.round(4).tolist()
     [0.4308, 0.8]
     """
-    from geoalpha.optimal import AlphaShapes, _alpha_shapes_batch
-
     workers = effective_n_jobs(n_jobs)
     try:
-        xy = core._check_points(points)
-        codes, n_groups = core._group_codes(groups, len(xy), n_groups)
+        xy = core.check_points(points)
+        codes, n_groups = core.group_codes(groups, len(xy), n_groups)
     except ValueError as err:
         raise InvalidInputError(str(err)) from err
     n = len(xy)
@@ -266,7 +268,7 @@ def alpha_shapes_parallel(
     if workers > 1:
         n_chunks = max(n_chunks, workers * CHUNKS_PER_JOB)
     if n_chunks <= 1:
-        return _alpha_shapes_batch(
+        return batch(
             xy,
             codes,
             alpha=alpha,
@@ -317,7 +319,7 @@ def alpha_shapes_parallel(
                 None if coords is None else coords[lo:hi],
                 alpha,
             )
-        tasks.append((call, int(lo), int(hi), int(g0), int(g1), data, kwargs))
+        tasks.append((call, int(lo), int(hi), int(g0), int(g1), data, batch, kwargs))
     results: list = [None] * len(tasks)
     try:
         if context is None:  # one process: the runs one after the other
@@ -342,7 +344,7 @@ def alpha_shapes_parallel(
         for category, message in caught:
             warnings.warn(message, category, stacklevel=user_stacklevel())
     fields = zip(*(res for res, _ in results), strict=True)
-    out = AlphaShapes(*(np.concatenate(f) for f in fields))
+    out = type(results[0][0])(*(np.concatenate(f) for f in fields))
     if order is not None:  # the per-row field back in input order
         outlier = np.empty_like(out.outlier)
         outlier[order] = out.outlier

@@ -7,16 +7,29 @@ calls for all groups at once.
 
 from __future__ import annotations
 
+import inspect
+
 import numpy as np
 import shapely
 
 from geoalpha.core import Rings
 
-__all__ = ["EMPTY_POLYGON", "assemble", "cover_points", "enforce", "polygonal"]
+__all__ = [
+    "EMPTY_POLYGON",
+    "assemble",
+    "cover_points",
+    "enforce",
+    "polygonal",
+    "repair_invalid",
+]
 
 #: The geometry of a group with no shape (empty Polygon, so that a column of
 #: hulls keeps a single geometry type).
 EMPTY_POLYGON = shapely.Polygon()
+#: Whether ``shapely.make_valid`` takes ``method=`` (shapely >= 2.1). Shapely
+#: 2.0 (still supported, and what the QGIS plugin installs to match QGIS's
+#: GEOS 3.11) rejects the keyword with a TypeError.
+_MAKE_VALID_METHOD = "method" in inspect.signature(shapely.make_valid).parameters
 
 
 def assemble(coords: np.ndarray, rings: Rings, n_groups: int) -> np.ndarray:
@@ -119,9 +132,7 @@ def enforce(geoms, out_xy, codes, check, *, cover=True, components=None, test=No
     invalid = sel[~shapely.is_valid(geoms[sel])]
     if len(invalid):
         try:
-            geoms[invalid] = polygonal(
-                shapely.make_valid(geoms[invalid], method="structure")
-            )
+            geoms[invalid] = repair_invalid(geoms[invalid])
         except shapely.errors.GEOSException:  # pragma: no cover - defensive
             failed[invalid] = True
     if cover:
@@ -247,6 +258,26 @@ def _take_in(poly, p):
     if len(parts) == 1:
         return parts[0]
     return shapely.multipolygons(shapely.get_parts(np.array(parts, dtype=object)))
+
+
+def repair_invalid(geoms: np.ndarray) -> np.ndarray:
+    """Make invalid geometries valid and keep their polygonal parts.
+
+    ``make_valid(method="structure")`` (the union of the exterior rings minus
+    the holes) where shapely has it (2.1+); on shapely 2.0, its only method
+    ("linework"), whose parts may differ where a ring overlaps itself. Either
+    way the callers check the result again (validity, parts, coverage).
+
+    Examples
+    --------
+    >>> bow = shapely.Polygon([(0, 0), (2, 2), (2, 0), (0, 2)])  # self-crossing
+    >>> fixed = repair_invalid(np.array([bow]))[0]
+    >>> bool(fixed.is_valid), fixed.geom_type, float(fixed.area)
+    (True, 'MultiPolygon', 2.0)
+    """
+    if _MAKE_VALID_METHOD:
+        return polygonal(shapely.make_valid(geoms, method="structure"))
+    return polygonal(shapely.make_valid(geoms))
 
 
 def polygonal(geoms: np.ndarray) -> np.ndarray:

@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
-import inspect
+import os
+import subprocess
+import sys
 import warnings
+from pathlib import Path
 
 import geopandas as gpd
 import numpy as np
@@ -119,9 +122,38 @@ def test_register_again_does_not_warn():
     assert gpd.GeoDataFrame.alpha is AlphaAccessor
 
 
-def test_accessor_help_is_the_hull_docstring():
-    assert AlphaAccessor.hull.__doc__ == geoalpha.hull.__doc__
-    assert "degenerate" in inspect.signature(geoalpha.hull).parameters
+@pytest.mark.parametrize(
+    "code",
+    [
+        # geopandas first: registered by import geoalpha
+        "import geopandas as gpd; import geoalpha",
+        # geoalpha first: registered when geopandas is imported, which
+        # import geoalpha alone does not do (nor numpy, pandas, pyproj)
+        "import sys; import geoalpha; "
+        "assert not {'geopandas', 'pandas', 'numpy', 'pyproj'} & set(sys.modules); "
+        "import geopandas as gpd",
+        # a look-up of geopandas that does not import it changes nothing
+        "import importlib.util; import geoalpha; "
+        "importlib.util.find_spec('geopandas'); import geopandas as gpd",
+    ],
+    ids=["geopandas first", "geoalpha first", "find_spec in between"],
+)
+def test_import_geoalpha_registers_the_accessor(code):
+    check = (
+        "; from geoalpha.accessor import AlphaAccessor; "
+        "assert gpd.GeoDataFrame.alpha is AlphaAccessor; "
+        "assert gpd.GeoSeries.alpha is AlphaAccessor"
+    )
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
+    done = subprocess.run(
+        [sys.executable, "-c", code + check],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=120,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr
 
 
 def test_accessor_passes_errors_through(stats19):

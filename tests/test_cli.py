@@ -350,7 +350,7 @@ def test_unexpected_errors_name_their_type(monkeypatch, points_csv, tmp_path):
     def broken(*args, **kwargs):
         raise ZeroDivisionError("division by zero")
 
-    monkeypatch.setattr("geoalpha.io._read_points", broken)
+    monkeypatch.setattr("geoalpha.io.read_input_points", broken)
     result = run("hull", points_csv, tmp_path / "h.gpkg")
     assert result.exit_code == 1
     assert result.stderr == (

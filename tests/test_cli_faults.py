@@ -326,7 +326,7 @@ def test_secrets_stay_out_of_warnings_and_summaries(tmp_path, monkeypatch):
         warnings.warn(f"slow server for {kwargs} {args[0]}", UserWarning, stacklevel=1)
         raise RuntimeError(f"lost connection to {args[0]}")
 
-    monkeypatch.setattr("geoalpha.io._read_points", read)
+    monkeypatch.setattr("geoalpha.io.read_input_points", read)
     source = f"PG:dbname=gis password={SECRET}"
     result = run("-v", "hull", source, tmp_path / "h.gpkg")
     assert result.exit_code == 1
@@ -405,7 +405,7 @@ def test_log_records_are_redacted(tmp_path, monkeypatch):
         logging.getLogger("pyogrio").warning("opening %s", args[0])
         raise OSError("cannot open it")
 
-    monkeypatch.setattr("geoalpha.io._read_points", read)
+    monkeypatch.setattr("geoalpha.io.read_input_points", read)
     for _ in range(2):  # the second run logs to its own stderr too
         result = run("hull", f"PG:dbname=gis password={SECRET}", tmp_path / "h.gpkg")
         assert result.exit_code == 1

@@ -365,9 +365,12 @@ def test_forced_geographic_crs_is_refused():
         metric_crs([0.0], [0.0], [0], 1, crs="EPSG:4326")
 
 
-def test_forced_crs_in_feet_is_refused():
-    with pytest.raises(InvalidInputError, match=r"in metres.*US survey foot"):
-        metric_crs([-74.0], [40.7], [0], 1, crs=2263)
+def test_forced_crs_in_feet_comes_back_in_metres():
+    lon, lat = [-74.0, -73.9], [40.7, 40.8]
+    xy, crs_list, _ = metric_crs(lon, lat, [0, 0], 1, crs=2263)
+    assert [crs_name(c) for c in crs_list] == ["EPSG:2263"]
+    feet = pyproj.Transformer.from_crs(4326, 2263, always_xy=True).transform(lon, lat)
+    np.testing.assert_allclose(xy, np.column_stack(feet) * 1200 / 3937, rtol=1e-12)
 
 
 def test_points_the_forced_crs_cannot_project_are_named():

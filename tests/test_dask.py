@@ -16,10 +16,13 @@ import geopandas as gpd
 import numpy as np
 import pandas as pd
 import pytest
+from compat import HAS_DASK, require_for_module
 from geopandas.testing import assert_geodataframe_equal
 
-dask_geopandas = pytest.importorskip("dask_geopandas")
-distributed = pytest.importorskip("distributed")
+require_for_module(HAS_DASK, "geoalpha[dask] (dask-geopandas, distributed)")
+
+import dask_geopandas  # noqa: E402
+import distributed  # noqa: E402
 
 import geoalpha  # noqa: E402
 import geoalpha.dask  # noqa: E402

@@ -86,7 +86,7 @@ def near_duplicates(smallest=1e-8, largest=1e-6):
     At coordinates ~100 the default moves are 1e-10..1e-8 of the extent (GPS
     jitter at the km scale is ~1e-6). Much closer (~1e-12 of the extent) is
     Qhull's own precision: it merges points there, and float64 geometry around
-    such needles is not reliable (see the README's "Limits");
+    such needles is not reliable (see docs/user_guide/guarantee.md);
     test_merged_points_are_covered checks what geoalpha still promises there.
     """
     magnitude = st.integers(round(smallest * 1e12), round(largest * 1e12))
@@ -415,7 +415,7 @@ def test_needle_triangle_radius():
 
 
 def test_near_duplicate_below_tolerance_is_merged():
-    # 1e-11 of the extent apart: one point (README, "Near-degenerate input").
+    # 1e-11 of the extent apart: one point (docs/user_guide/guarantee.md).
     # The optimum is that of the three other points, and the merged point is
     # still covered, as a vertex of the polygon.
     p = np.array([[0, 0], [100, 0], [30, 90], [100.000000001, 3e-10]])

@@ -15,6 +15,7 @@ import numpy as np
 import pandas as pd
 import pytest
 import shapely
+from compat import requires_fiona, requires_pyogrio, requires_tqdm
 from shapely.geometry import LineString, Point, Polygon
 
 import geoalpha
@@ -321,11 +322,16 @@ def written_hulls(loaded):
     }
 
 
-@pytest.mark.parametrize("engine", ["pyogrio", "fiona"])
+@pytest.mark.parametrize(
+    "engine",
+    [
+        pytest.param("pyogrio", marks=requires_pyogrio),
+        pytest.param("fiona", marks=requires_fiona),
+    ],
+)
 @pytest.mark.parametrize("ext", ["shp", "gpkg"])
 @pytest.mark.parametrize("case", ["us_airports", "uk_clusters_2"])
 def test_round_trip_through_files(written_hulls, tmp_path, engine, ext, case):
-    pytest.importorskip(engine)
     hulls, by = written_hulls[case]
     path = tmp_path / f"hulls.{ext}"
     hulls.to_file(path, engine=engine)
@@ -893,8 +899,8 @@ def test_not_a_geodataframe(small):
 # --- progress ------------------------------------------------------------------------
 
 
+@requires_tqdm
 def test_progress_bar_on_stderr(small, capsys):
-    pytest.importorskip("tqdm")
     geoalpha.hull(small, by="g", progress=True)
     captured = capsys.readouterr()
     assert "geoalpha hull" in captured.err

@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-import importlib.util
 import os
 
 import geopandas as gpd
 import pandas as pd
 import pytest
+from compat import requires_fiona, requires_pyarrow, requires_pyogrio
 from shapely import MultiPolygon, box
 
 from geoalpha import datasets
@@ -17,12 +17,6 @@ from geoalpha.io import check_output, read_points, write_hulls
 GROUP = "Local_Authority_(Highway)"
 
 
-def _has(module: str) -> bool:
-    return importlib.util.find_spec(module) is not None
-
-
-requires_pyarrow = pytest.mark.skipif(not _has("pyarrow"), reason="needs pyarrow")
-requires_pyogrio = pytest.mark.skipif(not _has("pyogrio"), reason="needs pyogrio")
 FORMATS = [
     ".gpkg",
     ".shp",
@@ -32,9 +26,7 @@ FORMATS = [
 ]
 ENGINES = [
     pytest.param("pyogrio", marks=requires_pyogrio),
-    pytest.param(
-        "fiona", marks=pytest.mark.skipif(not _has("fiona"), reason="needs fiona")
-    ),
+    pytest.param("fiona", marks=requires_fiona),
 ]
 
 

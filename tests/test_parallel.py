@@ -169,15 +169,15 @@ def test_small_inputs_run_in_this_process(clusters, monkeypatch):
 
 
 def test_batches_in_this_process_equal_one_call(clusters, monkeypatch):
+    xy, codes = clusters
+    one = alpha_shapes(xy, codes, holes=True)
     monkeypatch.setattr(parallel, "BATCH_POINTS", 1000)
 
     def no_pool(*args, **kwargs):
         raise AssertionError("a worker process was started")
 
     monkeypatch.setattr(parallel, "ProcessPoolExecutor", no_pool)
-    xy, codes = clusters
-    one = alpha_shapes(xy, codes, holes=True)
-    assert_same(parallel.alpha_shapes_parallel(xy, codes, n_jobs=1, holes=True), one)
+    assert_same(alpha_shapes(xy, codes, n_jobs=1, holes=True), one)
 
 
 # --- warnings, progress, errors --------------------------------------------------

@@ -393,7 +393,7 @@ def test_python_write_and_refusal(db, cluster, uk_points):
 
 
 def test_readme_round_trip_keeps_the_geometry_column(db, cluster):
-    """gpd.read_postgis -> hull -> to_postgis, as the README shows it."""
+    """gpd.read_postgis -> hull -> to_postgis, as docs/postgis.md shows it."""
     engine = _engine(db)  # password from PGPASSWORD
     points = gpd.read_postgis(
         'SELECT "Cluster", geom FROM uk_clusters', engine, geom_col="geom"
@@ -407,10 +407,10 @@ def test_readme_round_trip_keeps_the_geometry_column(db, cluster):
 
 
 def test_readme_postgis_examples_run(cluster, tmp_path):
-    """The README's PostGIS blocks, as written, against this server."""
+    """The PostGIS blocks of docs/postgis.md, as written, against this server."""
     import re
 
-    readme = (REPO / "README.md").read_text()
+    readme = (REPO / "docs" / "postgis.md").read_text()
     blocks = re.findall(
         r"<!-- readme-test: with a PostGIS database[^\n]*\n```python\n(.*?)\n```",
         readme,

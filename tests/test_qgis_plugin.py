@@ -421,6 +421,7 @@ def test_installer_keeps_qgis_packages_and_matches_geos(monkeypatch):
 
 def test_batch_dialog_runs_one_output_per_row(pyqgis, points):
     batch = pyqgis["batch"]
+    assert batch["errors"] == []  # a row that raised: its traceback
     for field, method in (("state", "alpha"), ("region", "convex")):
         want = expected(points, field, method=method)
         features = batch[field]["features"]

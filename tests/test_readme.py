@@ -1,4 +1,8 @@
-"""The README's examples run as written."""
+"""The examples of the README and of the documentation pages run as written.
+
+The README is a front page; the sections it had (command line, QGIS, outliers,
+dask, ...) are pages of ``docs/`` now, read here in the order below.
+"""
 
 from __future__ import annotations
 
@@ -14,7 +18,13 @@ from click.testing import CliRunner
 from geoalpha.cli import main
 
 REPO = Path(__file__).resolve().parents[1]
-README = (REPO / "README.md").read_text()
+OTHER_PAGES = sorted(
+    p
+    for p in (REPO / "docs").rglob("*.md")
+    if "_build" not in p.parts and p.name != "cli.md"
+)
+PAGES = [REPO / "README.md", REPO / "docs" / "cli.md", *OTHER_PAGES]
+README = "\n\n".join(p.read_text() for p in PAGES)
 NOT_RUN = "<!-- readme-test: not run"
 WITH_PARQUET = "<!-- readme-test: with GeoParquet files of points in points/"
 # Blocks that need a PostGIS database: run by tests/test_postgis.py on its own
@@ -46,7 +56,8 @@ def python_blocks():
 
 
 def test_only_the_cluster_block_is_not_run():
-    # Connecting to a dask cluster needs one; every other block runs below.
+    # Connecting to a dask cluster needs one; every other block runs below
+    # (or, marked so, under PostGIS or QGIS in their own tests).
     assert README.count(NOT_RUN) == 1
     assert "Client(" in README[README.index(NOT_RUN) :].split("```")[1]
 

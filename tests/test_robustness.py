@@ -415,3 +415,45 @@ def test_n_jobs_and_dask_keep_the_guarantee(monkeypatch):
         mine = frame.geometry[frame["g"] == key].to_numpy()
         assert shapely.is_valid(geom) and shapely.covers(geom, mine).all(), key
     assert computed["alpha"].isna().tolist() == eager["alpha"].isna().tolist()
+
+
+def test_repairs_work_with_shapely_2_0(monkeypatch):
+    """Shapely 2.0's make_valid has no method= (QGIS's env pins 2.0.x): no TypeError.
+
+    A group spanning more than 180 degrees of longitude gets an invalid
+    (self-crossing) hull on the way, which is repaired; the result is the one
+    shapely 2.1+ gives.
+    """
+    lonlat = [(-109.48, 37.58), (-64.8, 17.7), (-64.7, 17.75), (101.38, 14.08)]
+    lonlat += [(134.54, 7.37), (138.1, 9.52), (145.62, 15.0), (-80, 30), (-90, 35)]
+    xy = np.array(lonlat)
+    frame = gpd.GeoDataFrame(geometry=gpd.points_from_xy(xy[:, 0], xy[:, 1]), crs=4326)
+
+    def run():
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", geoalpha.GeoAlphaWarning)
+            return [geoalpha.hull(frame, method=m) for m in ("convex", "alpha")]
+
+    wanted = run()
+    make_valid = shapely.make_valid
+
+    def make_valid_2_0(geometry, **kwargs):  # shapely 2.0's signature
+        if kwargs:
+            raise TypeError(f"make_valid() got an unexpected keyword {list(kwargs)}")
+        return make_valid(geometry)
+
+    monkeypatch.setattr(shapely, "make_valid", make_valid_2_0)
+    monkeypatch.setattr(geoalpha.shapes, "_MAKE_VALID_METHOD", False)
+    for got, want in zip(run(), wanted, strict=True):
+        assert got.geometry.is_valid.all()
+        assert got["n_parts"].tolist() == want["n_parts"].tolist()
+        np.testing.assert_allclose(got["area_m2"], want["area_m2"], rtol=1e-9)
+    # A ring that overlaps itself: valid, and every point still covered.
+    ring = [(0, 0), (4, 0), (4, 4), (1, 4), (1, 1), (3, 1), (3, 3), (0, 3)]
+    pts = np.array(ring, dtype=float)
+    codes, check = np.zeros(len(pts), dtype=int), np.ones(1, dtype=bool)
+    fixed, failed = geoalpha.shapes.enforce(
+        np.array([shapely.Polygon(ring)]), pts, codes, check
+    )
+    assert not failed[0] and fixed[0].is_valid
+    assert shapely.covers(fixed[0], shapely.points(pts)).all()

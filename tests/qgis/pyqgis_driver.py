@@ -11,10 +11,10 @@ from __future__ import annotations
 import json
 import os
 import sys
-import time
 from pathlib import Path
 
 from qgis.core import (
+    Qgis,
     QgsApplication,
     QgsProcessingFeedback,
     QgsProcessingModelAlgorithm,
@@ -155,17 +155,25 @@ def batch(points, out_dir):
         panel.tblParameters.cellWidget(row + 1, column).setValue(
             str(out_dir / f"batch_{field}.gpkg")
         )
-    dialog.runAlgorithm()
-    # The dialog may finish its rows in the background: wait (bounded) until
-    # both outputs are readable layers.
+    # runAlgorithm() runs the rows one after the other before it returns; a
+    # row that raises leaves only a traceback in the message log: keep it.
+    errors = []
+
+    def logged(message, tag, level):
+        if level == Qgis.Critical:
+            errors.append(f"{tag}: {message}")
+
+    QgsApplication.messageLog().messageReceived.connect(logged)
+    try:
+        dialog.runAlgorithm()
+    finally:
+        QgsApplication.messageLog().messageReceived.disconnect(logged)
     outputs = [out_dir / f"batch_{field}.gpkg" for field, _ in rows]
-    deadline = time.monotonic() + 120
-    while time.monotonic() < deadline and not all(
-        p.exists() and QgsVectorLayer(str(p), "out", "ogr").isValid() for p in outputs
-    ):
-        QgsApplication.processEvents()
-        time.sleep(0.1)
-    return {field: layer_report(p) for (field, _), p in zip(rows, outputs, strict=True)}
+    report = {
+        field: layer_report(p) for (field, _), p in zip(rows, outputs, strict=True)
+    }
+    report["errors"] = errors
+    return report
 
 
 def main():

@@ -1,0 +1,488 @@
+"""The options of :func:`geoalpha.hull`, defined once.
+
+:class:`Options` is the one place where every option of ``hull()`` (and so of
+``gdf.alpha.hull``, :func:`geoalpha.dask.hull`, ``n_jobs`` and the
+``geoalpha hull`` command) is declared: its default, its allowed values, its
+check, its documentation and its command-line flag. Everything else is
+derived from it:
+
+- the signature and the option part of the docstring of :func:`geoalpha.hull`
+  (:func:`signature`, :func:`docstring`);
+- the check of the values (``Options(**kwargs)`` raises
+  :class:`~geoalpha.errors.InvalidInputError` naming the option);
+- the ``geoalpha hull`` flags (:mod:`geoalpha.cli` builds its click options
+  from :data:`FIELDS`);
+- the defaults of the array-level calls (:mod:`geoalpha.parallel`).
+
+Adding an option is one new field here (with its ``meta``); the stage of
+:mod:`geoalpha.pipeline` that uses it then reads ``options.<name>``.
+
+This module imports only the standard library, so that ``geoalpha --help``
+stays fast.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import inspect
+import math
+import numbers
+from collections.abc import Callable, Mapping
+from typing import Any
+
+from geoalpha.errors import InvalidInputError, first_n
+
+__all__ = [
+    "DEGENERATE_POLICIES",
+    "FIELDS",
+    "METHODS",
+    "SEARCHES",
+    "OptionMeta",
+    "Options",
+    "docstring",
+    "signature",
+]
+
+#: Hull methods of :func:`geoalpha.hull`.
+METHODS = ("alpha", "convex", "concave", "knn")
+#: How the optimal alpha is searched.
+SEARCHES = ("exact", "ladder", "bisect")
+#: What :func:`geoalpha.hull` does with groups that have no alpha shape.
+DEGENERATE_POLICIES = ("buffer", "empty", "drop")
+
+
+@dataclasses.dataclass(frozen=True)
+class OptionMeta:
+    """How one option is typed, checked, documented and spelled on the command line.
+
+    Attributes
+    ----------
+    kind : str
+        ``"bool"``, ``"int"``, ``"float"``, ``"number"`` (an int stays an
+        int, anything else real becomes a float), ``"choice"`` or ``"crs"``.
+    doc : str
+        numpydoc text of the parameter (type line, then the description).
+    choices : tuple, optional
+        Allowed values (``kind="choice"``).
+    low, high : float, optional
+        Bounds of a number; ``low_open`` excludes ``low``.
+    optional : bool
+        None is allowed (and means "not set").
+    flags : tuple of str
+        Command-line spelling, e.g. ``("--holes/--no-holes",)`` or
+        ``("-j", "--jobs")``.
+    metavar, help : str
+        Command-line metavar and help text.
+    validate : callable, optional
+        A check of its own for a rule the fields above cannot say: takes the
+        value, returns it (normalised) or raises
+        :class:`~geoalpha.errors.InvalidInputError`; used instead of the
+        generic check.
+    """
+
+    kind: str
+    doc: str
+    choices: tuple = ()
+    low: float | None = None
+    high: float | None = None
+    low_open: bool = False
+    optional: bool = False
+    flags: tuple[str, ...] = ()
+    metavar: str | None = None
+    help: str = ""
+    validate: Callable[[Any], Any] | None = None
+
+    def describe(self) -> str:
+        """Say in words what values are allowed (for error messages)."""
+        if self.kind == "choice":
+            text = "one of " + ", ".join(map(repr, self.choices))
+        elif self.kind == "bool":
+            text = "True or False"
+        elif self.kind == "crs":
+            text = "'auto', a projected CRS or None"
+        else:
+            text = "an integer" if self.kind == "int" else "a finite number"
+            if self.low is not None:
+                text += f" {'>' if self.low_open else '>='} {self.low:g}"
+            if self.high is not None:
+                text += f" and <= {self.high:g}"
+        return text + (" (or None)" if self.optional and self.kind != "crs" else "")
+
+    def check(self, name: str, value: Any) -> Any:
+        """Return ``value`` normalised, or raise :class:`InvalidInputError`."""
+        if self.validate is not None:
+            return self.validate(value)
+        if value is None and (self.optional or self.kind == "crs"):
+            return None
+        if self.kind == "crs":
+            return _check_crs(value)
+        if self.kind == "choice":
+            if isinstance(value, str) and value in self.choices:
+                return value
+        elif self.kind == "bool":
+            if _is_bool(value):
+                return bool(value)
+        elif isinstance(value, numbers.Real) and not _is_bool(value):
+            if self.kind == "int" and not isinstance(value, numbers.Integral):
+                pass
+            elif math.isfinite(value) and self._in_range(value):
+                if self.kind == "int" or (
+                    self.kind == "number" and isinstance(value, numbers.Integral)
+                ):
+                    return int(value)
+                return float(value)
+        raise InvalidInputError(f"{name} must be {self.describe()}; got {value!r}")
+
+    def _in_range(self, value) -> bool:
+        if self.low is not None and (
+            value < self.low or (self.low_open and value == self.low)
+        ):
+            return False
+        return self.high is None or value <= self.high
+
+
+def _is_bool(value) -> bool:
+    """Tell True and False apart from numbers (numpy booleans too, without numpy)."""
+    return isinstance(value, bool) or (
+        type(value).__module__ == "numpy" and type(value).__name__ in ("bool", "bool_")
+    )
+
+
+def _check_crs(value):
+    if isinstance(value, str) and value.strip().lower() in ("auto", "auto-group"):
+        return value
+    from geoalpha.crs import target_crs
+
+    target_crs(value)  # raises on anything but a projected CRS
+    return value
+
+
+def _check_grow(value):
+    if (
+        _is_bool(value)
+        or not isinstance(value, numbers.Real)
+        or not math.isfinite(value)
+        or value < 0
+    ):
+        raise InvalidInputError(f"grow must be a distance >= 0 (metres); got {value!r}")
+    return float(value)
+
+
+def _check_outliers(value):
+    from geoalpha.coverage import check_outliers
+
+    check_outliers(value)
+    return value
+
+
+def option(default: Any, **meta) -> Any:
+    """Declare one field of :class:`Options`: its default and :class:`OptionMeta`."""
+    return dataclasses.field(default=default, metadata={"meta": OptionMeta(**meta)})
+
+
+def _check_n_jobs(value):
+    if (
+        _is_bool(value)
+        or not isinstance(value, numbers.Integral)
+        or value == 0
+        or value < -1_000_000
+    ):
+        raise InvalidInputError(
+            f"n_jobs must be a positive integer or -1 (all cores); got {value!r}"
+        )
+    return int(value)
+
+
+@dataclasses.dataclass(frozen=True)
+class Options:
+    """Every option of :func:`geoalpha.hull`, checked.
+
+    ``Options(**kwargs)`` checks each value (an
+    :class:`~geoalpha.errors.InvalidInputError` names the option and what it
+    accepts) and fills in the defaults. The fields are in the order of the
+    signature of :func:`geoalpha.hull`; ``dataclasses.fields(Options)`` (or
+    :data:`FIELDS`) lists them with their :class:`OptionMeta`.
+
+    Examples
+    --------
+    >>> from geoalpha.options import Options
+    >>> Options(holes=True).holes, Options().method
+    (True, 'alpha')
+    >>> Options(method="magic")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    geoalpha.errors.InvalidInputError: method must be one of 'alpha', ...; got 'magic'
+    """
+
+    alpha: float | None = option(
+        None,
+        kind="float",
+        low=0.0,
+        optional=True,
+        doc="float, optional\n    Use this alpha (1/metre) for every group instead of "
+        "the optimum;\n    0 is the convex hull.",
+        flags=("--alpha",),
+        metavar="FLOAT",
+        help="Use this alpha (1/metre) instead of searching for the optimum; "
+        "0 gives convex hulls.",
+    )
+    holes: bool = option(
+        False,
+        kind="bool",
+        doc="bool, default False\n    Keep holes (True) or fill every hole "
+        "(False: no empty space in\n    the middle).",
+        flags=("--holes/--no-holes",),
+        help="Keep holes inside the shapes, or fill them.",
+    )
+    components: int = option(
+        1,
+        kind="int",
+        low=1,
+        doc="int, default 1\n    Largest number of separate pieces per group "
+        "(a MultiPolygon when\n    more than 1).",
+        flags=("--components",),
+        help="Most pieces a group's shape may have (1: one Polygon).",
+    )
+    crs: Any = option(
+        "auto",
+        kind="crs",
+        doc='"auto", CRS or None, default "auto"\n'
+        '    Metric CRS of the computation. ``"auto"``: lon/lat input (and\n'
+        "    Mercator input such as EPSG:3857, whose scale is off by\n"
+        "    1/cos(latitude)) goes to one UTM zone when all points fit it,\n"
+        "    else to a UTM zone or a local Lambert azimuthal equal-area CRS\n"
+        "    per group; other projected input is used as it is. A projected\n"
+        "    CRS forces that CRS for every group. A CRS in feet is scaled to\n"
+        "    metres in every case, so alpha is always in 1/metre and\n"
+        "    ``area_m2`` in square metres. None uses the coordinates as\n"
+        "    planar numbers (alpha in 1/degree for lon/lat, as in the seed\n"
+        "    paper).",
+        flags=("--crs",),
+        metavar="auto|CRS|none",
+        help="Metric CRS the shapes are computed in; 'auto' picks a UTM zone "
+        "(or a local CRS per group); 'none' uses the coordinates as they are. "
+        "The output keeps INPUT's CRS.",
+    )
+    method: str = option(
+        "alpha",
+        kind="choice",
+        choices=METHODS,
+        doc='{"alpha", "convex", "concave", "knn"}, default "alpha"\n'
+        '    ``"alpha"``: the optimal alpha shape; ``"convex"``: convex hulls;\n'
+        '    ``"concave"``: ``shapely.concave_hull(ratio=ratio)``; ``"knn"``:\n'
+        "    the Moreira-Santos k-nearest-neighbour concave hull, starting\n"
+        "    at ``k``. All give the same table.",
+        flags=("--method",),
+        help="Shape: optimal alpha shape, convex hull, shapely concave hull "
+        "(see --ratio) or k-nearest-neighbour concave hull.",
+    )
+    search: str = option(
+        "exact",
+        kind="choice",
+        choices=SEARCHES,
+        doc='{"exact", "ladder", "bisect"}, default "exact"\n'
+        '    How the optimum is searched; ``"ladder"`` and ``"bisect"``\n'
+        "    reproduce the seed paper's and ``alphashape``'s searches, for\n"
+        "    comparison (see :func:`geoalpha.alpha_shapes`).",
+        flags=("--search",),
+        help="How the optimal alpha is found: exactly, or (for comparison) with "
+        "the integer ladder or float bisection.",
+    )
+    max_iterations: int = option(
+        10_000,
+        kind="int",
+        low=1,
+        doc="int, default 10000\n"
+        '    Bisection steps before ``search="bisect"`` gives up.',
+        flags=("--max-iterations",),
+        metavar="N",
+        help="Bisection steps before --search bisect gives up.",
+    )
+    ratio: float = option(
+        0.3,
+        kind="float",
+        low=0.0,
+        high=1.0,
+        doc='float, default 0.3\n    For ``method="concave"``: 0 is the tightest, '
+        "1 the convex hull.",
+        flags=("--ratio",),
+        help="Concaveness for --method concave (0: tightest, 1: convex).",
+    )
+    k: int = option(
+        3,
+        kind="int",
+        low=1,
+        doc='int, default 3\n    For ``method="knn"``: the number of neighbours '
+        "to start with.",
+        flags=("--k",),
+        help="Starting number of neighbours for --method knn.",
+    )
+    degenerate: str = option(
+        "buffer",
+        kind="choice",
+        choices=DEGENERATE_POLICIES,
+        doc='{"buffer", "empty", "drop"}, default "buffer"\n'
+        "    Groups with fewer than 3 distinct points or all collinear have\n"
+        '    no alpha shape: ``"buffer"`` gives them a polygon ``buffer``\n'
+        '    metres around their points, ``"empty"`` an empty Polygon,\n'
+        '    ``"drop"`` no row. A :class:`DegenerateGroupWarning` names\n'
+        "    the groups in every case.",
+        flags=("--degenerate",),
+        help="Groups with fewer than 3 distinct or only collinear points: a small "
+        "buffer polygon, an empty geometry, or no row.",
+    )
+    buffer: float = option(
+        1.0,
+        kind="float",
+        low=0.0,
+        low_open=True,
+        doc='float, default 1.0\n    Width for ``degenerate="buffer"``, in metres '
+        "(in the coordinate\n    units with ``crs=None``: degrees for lon/lat "
+        "input).",
+        flags=("--buffer",),
+        metavar="M",
+        help="Width of the polygon around a degenerate group with --degenerate "
+        "buffer, in metres (in the coordinate units with --crs none).",
+    )
+    vertices: bool = option(
+        False,
+        kind="bool",
+        doc="bool, default False\n    Accept non-point geometries and use their "
+        "vertices as points\n    (otherwise they are an error).",
+        flags=("--vertices",),
+        help="Accept lines and polygons in INPUT and use their vertices as points "
+        "(otherwise they are an error).",
+    )
+    dropna: bool = option(
+        True,
+        kind="bool",
+        doc="bool, default True\n    Drop rows whose group key is missing (counted "
+        "in a\n    :class:`DroppedRowsWarning`), as in ``dissolve``; False makes "
+        "them a\n    group of their own.",
+        flags=("--dropna/--no-dropna",),
+        help="Leave out rows whose --by value is missing, or make them a group.",
+    )
+    sort: bool = option(
+        True,
+        kind="bool",
+        doc="bool, default True\n    Sort the groups by key, as in ``dissolve``; "
+        "False keeps the order\n    of first appearance.",
+        flags=("--sort/--no-sort",),
+        help="Write the groups sorted by --by value, or in order of first appearance.",
+    )
+    progress: bool | None = option(
+        None,
+        kind="bool",
+        optional=True,
+        doc="bool, optional\n    Show a progress bar (needs ``tqdm``: ``pip install "
+        "geoalpha[progress]``).\n    Default: only for long runs on a terminal.",
+        flags=("--progress/--no-progress",),
+        help="Show a progress bar [default: when there are many groups].",
+    )
+    n_jobs: int = option(
+        1,
+        kind="int",
+        doc="int, default 1\n    Worker processes to spread the groups over (-1: "
+        'one per core), for\n    ``method="alpha"`` and ``"convex"``; the '
+        "result is the same for every\n    value. Pays off from about 100,000 "
+        "points (see :mod:`geoalpha.parallel`).",
+        flags=("-j", "--jobs"),
+        metavar="N",
+        validate=_check_n_jobs,
+        help="Worker processes for the groups (-1: one per core); pays off from "
+        "about 100,000 points. The result is the same.",
+    )
+
+    outliers: int | float = option(
+        0,
+        kind="number",
+        validate=_check_outliers,
+        doc="float or int, default 0\n"
+        '    Points each group may leave out (``method="alpha"``, exact search,\n'
+        "    no fixed ``alpha``): a float in ``[0, 1)`` is a fraction of the\n"
+        "    group's distinct points (``k = floor(outliers * n)``), an int a\n"
+        "    count ``k``. The optimum is then the largest alpha at which at\n"
+        "    most ``components`` pieces cover at least ``n - k`` distinct\n"
+        "    points; only those pieces are kept. :func:`outlier_rows` tells\n"
+        "    which input rows were left out.",
+        flags=("--outliers",),
+        metavar="Q",
+        help="Points each hull may leave out: a fraction in [0, 1) or a count.",
+    )
+    grow: float = option(
+        0.0,
+        kind="float",
+        low=0.0,
+        validate=_check_grow,
+        doc="float, default 0.0\n"
+        "    Grow every hull (not the degenerate buffers) by this distance in\n"
+        "    metres (coordinate units with ``crs=None``), with rounded\n"
+        "    corners, so that every point is strictly inside. ``alpha`` and\n"
+        "    ``radius`` stay those of the optimal shape; ``area_m2`` is the\n"
+        "    area of the grown polygon. 0 keeps the exact shape.",
+        flags=("--grow",),
+        metavar="M",
+        help="Grow every hull by this distance (metres), so that every point "
+        "is strictly inside.",
+    )
+
+    def __post_init__(self) -> None:
+        for field in FIELDS:
+            value = field.metadata["meta"].check(field.name, getattr(self, field.name))
+            object.__setattr__(self, field.name, value)
+
+    @classmethod
+    def from_kwargs(cls, kwargs: Mapping[str, Any], caller: str = "hull()") -> Options:
+        """Check ``kwargs`` (unknown names are an error) and build the options."""
+        unknown = sorted(set(kwargs) - set(NAMES))
+        if unknown:
+            raise InvalidInputError(
+                f"{caller} got unknown option(s) {', '.join(unknown)}; the options "
+                f"are {first_n(NAMES, limit=len(NAMES))}"
+            )
+        return cls(**kwargs)
+
+    def replace(self, **changes) -> Options:
+        """Return a copy with ``changes`` (checked)."""
+        return dataclasses.replace(self, **changes)
+
+    def as_dict(self) -> dict[str, Any]:
+        """Return the options as keyword arguments of :func:`geoalpha.hull`."""
+        return {name: getattr(self, name) for name in NAMES}
+
+
+#: The fields of :class:`Options`, in signature order.
+FIELDS: tuple[dataclasses.Field, ...] = dataclasses.fields(Options)
+#: The option names, in signature order.
+NAMES: tuple[str, ...] = tuple(f.name for f in FIELDS)
+
+
+def defaults(*names: str) -> dict[str, Any]:
+    """Return the defaults of the named options (all when none is named)."""
+    return {f.name: f.default for f in FIELDS if not names or f.name in names}
+
+
+def signature(func: Callable) -> inspect.Signature:
+    """Return the signature of ``func(..., **options)`` with the options spelled out."""
+    params = list(inspect.signature(func).parameters.values())
+    fixed = [p for p in params if p.kind is not inspect.Parameter.VAR_KEYWORD]
+    fixed += [
+        inspect.Parameter(
+            f.name, inspect.Parameter.KEYWORD_ONLY, default=f.default, annotation=f.type
+        )
+        for f in FIELDS
+        if f.name not in {p.name for p in fixed}
+    ]
+    return inspect.Signature(fixed)
+
+
+def docstring(template: str, indent: str = "    ", skip: tuple[str, ...] = ()) -> str:
+    """Fill ``{options}`` in ``template`` with the numpydoc entries of the options."""
+    lines = []
+    for f in FIELDS:
+        if f.name in skip:
+            continue
+        kind, _, text = f.metadata["meta"].doc.partition("\n")
+        lines.append(f"{indent}{f.name} : {kind}")
+        lines.extend(f"{indent}{line}" for line in text.splitlines())
+    return template.replace("{options}", "\n".join(lines).lstrip())

@@ -1,0 +1,650 @@
+"""``hull()`` on one in-memory GeoDataFrame, as a pipeline of named stages.
+
+:func:`run` is the data path of :func:`geoalpha.hull`, one function per stage::
+
+    frame ─ group ─ read_points ─ project ─ compute ─ degenerate_policy
+          ─ verify_in_output_crs ─ table
+
+- :func:`group`: a group code per row and the table of group keys (as
+  :meth:`GeoDataFrame.dissolve` groups);
+- :func:`read_points`: the point coordinates, with missing geometries and
+  keys dropped (and counted in a warning), non-points refused;
+- :func:`project`: the metric CRS round trip (:class:`geoalpha.crs.Projection`);
+- :func:`compute`: the shapes, by method (:func:`geoalpha.alpha_shapes` in one
+  batched call, or :mod:`geoalpha.comparison`), built in the output CRS;
+- :func:`degenerate_policy`: groups without a shape, by ``degenerate=``;
+- :func:`verify_in_output_crs`: every geometry valid and covering its points
+  in the output CRS, antimeridian groups split;
+- :func:`table`: the result (:mod:`geoalpha.schema`).
+
+:func:`geoalpha.hull` checks the options and calls :func:`run` (or
+:func:`geoalpha.dask.hull`, which calls :func:`run` on every partition).
+"""
+
+from __future__ import annotations
+
+import contextvars
+import sys
+import warnings
+from typing import Any, NamedTuple
+
+import numpy as np
+import pandas as pd
+import shapely
+
+from geoalpha import crs as gcrs
+from geoalpha.comparison import comparison_hulls, convex_hulls
+from geoalpha.errors import (
+    AntimeridianWarning,
+    DegenerateGroupWarning,
+    DroppedRowsWarning,
+    GeoAlphaWarning,
+    InvalidInputError,
+    OutlierWarning,
+    first_n,
+    user_stacklevel,
+)
+from geoalpha.optimal import alpha_shapes
+from geoalpha.options import Options
+from geoalpha.schema import RESULT_COLUMNS, result_frame, result_geometry_name
+from geoalpha.shapes import EMPTY_POLYGON, cover_points, enforce, repair_invalid
+
+__all__ = [
+    "PROGRESS_MIN_GROUPS",
+    "Groups",
+    "Points",
+    "Shapes",
+    "as_frame",
+    "compute",
+    "degenerate_policy",
+    "group",
+    "project",
+    "read_points",
+    "run",
+    "table",
+    "verify_in_output_crs",
+]
+
+#: Show a progress bar by default from this many groups on (on a terminal).
+PROGRESS_MIN_GROUPS = 2000
+_POINT_TYPES = (0, 4)  # shapely type ids of Point and MultiPoint
+
+
+class Groups(NamedTuple):
+    """Output of :func:`group`."""
+
+    codes: np.ndarray  #: group code per row, -1 for a dropped missing key
+    keys: pd.DataFrame  #: one row per group: the key column(s)
+
+
+class Points(NamedTuple):
+    """Output of :func:`read_points`: the points that take part."""
+
+    coords: np.ndarray  #: (n, 2) coordinates in the input CRS
+    codes: np.ndarray  #: group code per point
+    n_points: np.ndarray  #: input rows per group
+    labels: Any  #: index label per point (for messages), indexable by positions
+    rows: np.ndarray  #: row position (in the frame) of each point
+
+
+class Shapes(NamedTuple):
+    """Output of :func:`compute` and :func:`degenerate_policy`, one entry a group."""
+
+    geometry: np.ndarray  #: in the output coordinates
+    area: np.ndarray  #: in the computation CRS
+    alpha: np.ndarray
+    labels: np.ndarray  #: the ``method`` column
+    degenerate: np.ndarray  #: no shape (fewer than 3 distinct points, a line)
+    keep: np.ndarray  #: groups that get a row
+    outlier: np.ndarray  #: per point: left out of its group's hull (outliers=)
+
+
+def run(frame, by, options: Options):
+    """``hull(frame, by, **options)`` on an in-memory GeoDataFrame: every stage."""
+    groups = group(frame, by, options)
+    points = read_points(frame, groups, options)
+    proj = project(points, frame.crs, options)
+    shapes = compute(points, proj, len(groups.keys), options)
+    shapes = ensure_guarantee(shapes, groups, points, proj, options)
+    shapes = degenerate_policy(shapes, groups, points, proj, options)
+    shapes = grow(shapes, points, proj, options)
+    geometry = verify_in_output_crs(shapes.geometry, groups, points, proj, options)
+    out = table(
+        groups,
+        points,
+        proj,
+        shapes,
+        geometry,
+        frame.crs,
+        result_geometry_name(frame, groups.keys),
+    )
+    report_outliers(shapes, groups, points, frame, options)
+    return out
+
+
+def _labels(index: pd.Index, mask: np.ndarray, limit: int = 10) -> str:
+    return first_n(
+        (repr(v) if isinstance(v, str) else str(v) for v in index[mask]), limit
+    )
+
+
+def _names(keys: pd.DataFrame, groups: np.ndarray, counts=None) -> str:
+    """Name groups by key for messages (with their row counts when given)."""
+    shown = groups[:11]  # first_n shows 10, and "..." when there is an 11th
+    names = [
+        ", ".join(map(str, r)) or "all points"
+        for r in keys.iloc[shown].itertuples(index=False)
+    ]
+    if counts is not None:
+        names = [
+            f"{n!r} ({c} row{'s' if c != 1 else ''})"
+            for n, c in zip(names, counts[shown], strict=True)
+        ]
+    return first_n(names, limit=10, sep="; ")
+
+
+def as_frame(data):
+    """Return the input as a GeoDataFrame with an active geometry column."""
+    import geopandas as gpd
+
+    if isinstance(data, gpd.GeoSeries):
+        return data.to_frame("geometry").set_geometry("geometry")
+    if isinstance(data, gpd.GeoDataFrame):
+        if data._geometry_column_name not in data.columns:
+            raise InvalidInputError(
+                "hull() needs a GeoDataFrame with an active geometry column; "
+                "call set_geometry() first"
+            )
+        return data
+    raise InvalidInputError(
+        f"hull() needs a GeoDataFrame or GeoSeries; got {type(data).__name__}"
+    )
+
+
+def group(frame, by, options: Options) -> Groups:
+    """Group code per row (-1: dropped missing key) and the key table.
+
+    ``by`` is what :meth:`GeoDataFrame.dissolve` takes: column names, index
+    level names, or one value per row; None is one group of all rows (none
+    for an empty frame).
+    """
+    if by is None:
+        keys = pd.DataFrame(index=range(1 if len(frame) else 0))
+        return Groups(np.zeros(len(frame), dtype=np.int64), keys)
+    names = by if isinstance(by, list) else [by]
+    levels = [n for n in frame.index.names if n is not None]
+    for name in names:
+        if isinstance(name, str | int | tuple) and not isinstance(name, bool):
+            if name not in frame.columns and name not in levels:
+                raise InvalidInputError(
+                    f"hull(by={by!r}): no column {name!r}; the columns are "
+                    f"{', '.join(map(str, frame.columns))}"
+                    + (
+                        f" and the index levels {', '.join(map(str, levels))}"
+                        if levels
+                        else ""
+                    )
+                )
+    try:
+        grouped = frame.groupby(by, dropna=options.dropna, sort=options.sort)
+        codes = grouped.ngroup().fillna(-1).to_numpy(dtype=np.int64)
+        index = grouped.size().index
+    except (ValueError, KeyError, TypeError) as err:
+        raise InvalidInputError(f"hull(by=...) cannot group the rows: {err}") from err
+    keys = index.to_frame(index=False)
+    keys.columns = [
+        "group" if (c is None or isinstance(c, int)) and len(keys.columns) == 1 else c
+        for c in keys.columns
+    ]
+    clash = [c for c in keys.columns if c in (*RESULT_COLUMNS, "geometry")]
+    if clash:
+        raise InvalidInputError(
+            f"group column(s) {clash} have the name of a result column; rename them "
+            f"(result columns: {', '.join(RESULT_COLUMNS)}, geometry)"
+        )
+    return Groups(codes, keys)
+
+
+class _RowLabels:
+    """Index labels of points, looked up only when a message names them."""
+
+    def __init__(self, index: pd.Index, rows: np.ndarray):
+        self._index = index
+        self._rows = rows
+
+    def __getitem__(self, where):
+        return np.asarray(self._index[self._rows[where]], dtype=object)
+
+
+def read_points(frame, groups: Groups, options: Options) -> Points:
+    """Read the coordinates of the points that take part, with their group codes.
+
+    Rows with a missing or empty geometry, or a missing key, are dropped and
+    counted in a :class:`DroppedRowsWarning`; non-point geometries are an
+    error unless ``vertices=True``; NaN or infinite coordinates are an error.
+    """
+    geoms = np.asarray(frame.geometry.array, dtype=object)
+    index = frame.index
+    codes = groups.codes
+    missing = shapely.is_missing(geoms) | shapely.is_empty(geoms)
+    other = ~missing & ~np.isin(shapely.get_type_id(geoms), _POINT_TYPES)
+    if other.any() and not options.vertices:
+        kinds = pd.Series(np.asarray(frame.geom_type)[other])
+        names = ", ".join(f"{n} {t}" for t, n in kinds.value_counts().items())
+        raise InvalidInputError(
+            f"hull() needs point geometries; got {names} row(s) (index "
+            f"{_labels(index, other)}); pass vertices=True (--vertices) to use "
+            "their vertices"
+        )
+    no_key = codes < 0
+    dropped = missing | no_key
+    if dropped.any():
+        parts = []
+        if missing.any():
+            parts.append(
+                f"{missing.sum()} with a missing or empty geometry (index "
+                f"{_labels(index, missing)})"
+            )
+        if (no_key & ~missing).any():
+            parts.append(
+                f"{(no_key & ~missing).sum()} with a missing group key (index "
+                f"{_labels(index, no_key & ~missing)}; dropna=False keeps them)"
+            )
+        warnings.warn(
+            f"hull() dropped {dropped.sum()} of {len(frame)} rows: " + "; ".join(parts),
+            DroppedRowsWarning,
+            stacklevel=user_stacklevel(),
+        )
+    kept = np.flatnonzero(~dropped)
+    coords, which = shapely.get_coordinates(geoms[kept], return_index=True)
+    bad = ~np.isfinite(coords).all(axis=1)
+    if bad.any():
+        rows = np.zeros(len(index), dtype=bool)
+        rows[kept[which[bad]]] = True
+        raise InvalidInputError(
+            "hull() needs finite coordinates; got NaN or infinite values in "
+            f"{rows.sum()} row(s) (index {_labels(index, rows)})"
+        )
+    return Points(
+        coords=coords,
+        codes=codes[kept][which],
+        n_points=np.bincount(codes[kept], minlength=len(groups.keys)),
+        labels=_RowLabels(index, kept[which]),
+        rows=kept[which],
+    )
+
+
+def project(points: Points, source, options: Options) -> gcrs.Projection:
+    """Project the points to metres, with the way back (:class:`~.crs.Projection`)."""
+    return gcrs.Projection(
+        points.coords,
+        points.codes,
+        len(points.n_points),
+        source,
+        options.crs,
+        labels=points.labels,
+    )
+
+
+def _progress(progress, n_groups: int):
+    if progress is False or (
+        progress is None and (n_groups < PROGRESS_MIN_GROUPS or not sys.stderr.isatty())
+    ):
+        return None
+    try:
+        from tqdm.auto import tqdm
+    except ImportError as err:
+        if progress is None:
+            return None
+        raise ImportError(
+            "progress=True needs tqdm: pip install geoalpha[progress]"
+        ) from err
+    return tqdm(total=n_groups, unit="group", desc="geoalpha hull", file=sys.stderr)
+
+
+def compute(
+    points: Points, proj: gcrs.Projection, n_groups: int, options: Options
+) -> Shapes:
+    """Compute the shape of every group, by ``method``, in the output coordinates.
+
+    ``"alpha"`` and ``"convex"``: one batched :func:`geoalpha.alpha_shapes`
+    call in metres whose polygons are built from the input coordinates;
+    ``"concave"`` and ``"knn"``: :func:`geoalpha.comparison.comparison_hulls`.
+    """
+    method = options.method
+    if options.outliers and method != "alpha":
+        raise InvalidInputError(
+            f"outliers applies to method='alpha'; got method={method!r}"
+        )
+    bar = _progress(options.progress, n_groups)
+    try:
+        if method in ("alpha", "convex"):
+            res = alpha_shapes(
+                proj.xy,
+                points.codes,
+                alpha=0.0 if method == "convex" else options.alpha,
+                holes=options.holes,
+                components=options.components,
+                search=options.search,
+                max_iterations=options.max_iterations,
+                coords=proj.out,
+                n_groups=n_groups,
+                progress=bar,
+                n_jobs=options.n_jobs,
+                outliers=options.outliers,
+            )
+            geometry = res.geometry
+            if method == "convex":
+                convex = convex_hulls(proj.out, points.codes, n_groups)
+                geometry = np.where(res.degenerate, geometry, convex)
+            # "ladder"/"bisect" name the search that gave the alpha
+            exact = method == "convex" or options.search == "exact"
+            label = method if exact else options.search
+            return Shapes(
+                geometry=geometry,
+                area=res.area,
+                alpha=res.alpha,
+                labels=np.full(n_groups, label, dtype=object),
+                degenerate=res.degenerate,
+                keep=np.ones(n_groups, dtype=bool),
+                outlier=res.outlier,
+            )
+        hulls = comparison_hulls(
+            method,
+            proj,
+            points.codes,
+            n_groups,
+            holes=options.holes,
+            ratio=options.ratio,
+            k=options.k,
+            bar=bar,
+        )
+        return Shapes(
+            geometry=hulls.geometry,
+            area=hulls.area,
+            alpha=np.full(n_groups, np.nan),
+            labels=hulls.labels,
+            degenerate=hulls.degenerate,
+            keep=np.ones(n_groups, dtype=bool),
+            outlier=np.zeros(len(points.codes), dtype=bool),
+        )
+    finally:
+        if bar is not None:  # groups of 1-2 points are done too: a full bar
+            bar.update(max(0, n_groups - bar.n))
+            bar.close()
+
+
+def ensure_guarantee(
+    shapes: Shapes,
+    groups: Groups,
+    points: Points,
+    proj: gcrs.Projection,
+    options: Options,
+) -> Shapes:
+    """Check every group's polygon in the output coordinates; the rest are degenerate.
+
+    The guarantee of :func:`geoalpha.hull`: each group gets a valid Polygon or
+    MultiPolygon that covers every one of its input points
+    (``shapely.covers``, distance 0) in the coordinates it is returned in, or
+    it is declared degenerate (alpha NaN, a :class:`DegenerateGroupWarning`)
+    and goes to the ``degenerate=`` policy. Invalid polygons are repaired and
+    points left outside are taken in as vertices first
+    (:func:`geoalpha.shapes.enforce`). Every method goes through here; the
+    points left out on purpose (``outliers=``) and, at a fixed ``alpha``
+    (which need not cover every point), coverage are not checked. Groups
+    wider than 180 degrees of longitude have no faithful lon/lat polygon and
+    are only warned about (see :func:`verify_in_output_crs`).
+    """
+    check = ~shapes.degenerate & ~proj.wide
+    if not check.any():
+        return shapes
+    fixed_alpha = options.method == "alpha" and options.alpha is not None
+    components = options.components if options.method == "alpha" else None
+    geometry, failed = enforce(
+        shapes.geometry,
+        proj.out,
+        points.codes,
+        check,
+        cover=not fixed_alpha,
+        components=None if fixed_alpha else components,
+        test=~shapes.outlier,
+    )
+    if failed.any():
+        which = np.flatnonzero(failed)
+        warnings.warn(
+            f"{len(which)} group(s) got no valid polygon covering all their points "
+            f"in the output CRS (float geometry is too coarse for them there): "
+            f"{_names(groups.keys, which, points.n_points)}; they are treated as "
+            "degenerate",
+            DegenerateGroupWarning,
+            stacklevel=user_stacklevel(),
+        )
+        alpha = np.where(failed, np.nan, shapes.alpha)
+        return shapes._replace(
+            geometry=geometry, alpha=alpha, degenerate=shapes.degenerate | failed
+        )
+    return shapes._replace(geometry=geometry)
+
+
+def degenerate_policy(
+    shapes: Shapes,
+    groups: Groups,
+    points: Points,
+    proj: gcrs.Projection,
+    options: Options,
+) -> Shapes:
+    """Apply ``degenerate=`` to the groups without a shape, and name them in a warning.
+
+    A group whose rows were all dropped (no point left) is degenerate too.
+    """
+    n_points = points.n_points
+    degenerate = shapes.degenerate | (n_points == 0)
+    which = np.flatnonzero(degenerate)
+    if not len(which):
+        return shapes
+    geometry = shapes.geometry.copy()
+    area = np.array(shapes.area, dtype=np.float64)
+    keep = shapes.keep.copy()
+    policy = options.degenerate
+    if policy == "buffer":
+        codes = points.codes
+        sel = np.flatnonzero(np.isin(codes, which))
+        sel = sel[np.argsort(codes[sel], kind="stable")]
+        present = np.unique(codes[sel])  # groups with points left
+        buffered = np.full(len(which), EMPTY_POLYGON, dtype=object)
+        if len(present):
+            mp = shapely.multipoints(
+                proj.xy[sel], indices=np.searchsorted(present, codes[sel])
+            )
+            buffered[np.searchsorted(which, present)] = shapely.buffer(
+                shapely.convex_hull(mp), options.buffer
+            )
+        area[which] = shapely.area(buffered)
+        geometry[which] = proj.to_output(buffered, which)
+        done = (
+            f"their rows hold a {options.buffer:g} {proj.unit} buffer around their "
+            "points"
+        )
+    elif policy == "empty":
+        geometry[which] = EMPTY_POLYGON
+        area[which] = 0.0
+        done = "their rows hold an empty polygon"
+    else:
+        keep[which] = False
+        done = f"they were dropped ({n_points[which].sum()} rows)"
+    warnings.warn(
+        f"{len(which)} group(s) have fewer than 3 distinct points or all points "
+        f"on a line, so no alpha shape: {_names(groups.keys, which, n_points)}; "
+        f"{done} (degenerate={policy!r})",
+        DegenerateGroupWarning,
+        stacklevel=user_stacklevel(),
+    )
+    return shapes._replace(
+        geometry=geometry, area=area, degenerate=degenerate, keep=keep
+    )
+
+
+def verify_in_output_crs(
+    geometry: np.ndarray,
+    groups: Groups,
+    points: Points,
+    proj: gcrs.Projection,
+    options: Options,
+) -> np.ndarray:
+    """Make every geometry valid and covering its points in the output CRS.
+
+    Repairs what the CRS round trip broke (``make_valid``, with a warning),
+    covers points a repair or a hull built in metres left outside (methods
+    other than ``"alpha"``), then splits antimeridian groups.
+    """
+    keys = groups.keys
+    geometry = geometry.copy()
+    invalid = ~shapely.is_valid(geometry)
+    if invalid.any():
+        geometry[invalid] = repair_invalid(geometry[invalid])
+        told = invalid & ~proj.wide
+        if told.any():
+            warnings.warn(
+                f"{told.sum()} hull(s) became invalid in the input CRS "
+                "(coordinates too close for it) and were repaired with make_valid: "
+                + _names(keys, np.flatnonzero(told)),
+                GeoAlphaWarning,
+                stacklevel=user_stacklevel(),
+            )
+    if proj.crossing.any():
+        geometry[proj.crossing] = gcrs.split_antimeridian(geometry[proj.crossing])
+        warnings.warn(
+            f"{proj.crossing.sum()} group(s) cross the antimeridian (+-180 degrees): "
+            f"{_names(keys, np.flatnonzero(proj.crossing))}; their hulls are "
+            "MultiPolygons split at +-180 degrees (RFC 7946)",
+            AntimeridianWarning,
+            stacklevel=user_stacklevel(),
+        )
+    if proj.wide.any():
+        warnings.warn(
+            f"{proj.wide.sum()} group(s) span more than 180 degrees of longitude: "
+            f"{_names(keys, np.flatnonzero(proj.wide))}; no longitude/latitude "
+            "polygon can represent their hull faithfully (it may not contain all "
+            "their points); 'area_m2' and 'alpha' are right, for the geometry use "
+            "crs= with a projected output or split the group",
+            GeoAlphaWarning,
+            stacklevel=user_stacklevel(),
+        )
+    if options.method != "alpha":  # repairs may have cut a sliver holding a point
+        plain = ~proj.crossing[points.codes]
+        geometry = cover_points(geometry, proj.out[plain], points.codes[plain])
+    return geometry
+
+
+def table(
+    groups: Groups,
+    points: Points,
+    proj: gcrs.Projection,
+    shapes: Shapes,
+    geometry: np.ndarray,
+    crs,
+    geometry_name: str = "geometry",
+):
+    """Build the result: one row per kept group (:func:`~.schema.result_frame`)."""
+    with np.errstate(divide="ignore"):
+        radius = 1.0 / shapes.alpha
+    keep = shapes.keep
+    values = {
+        "alpha": shapes.alpha,
+        "radius": radius,
+        "n_points": points.n_points,
+        "n_outliers": np.bincount(
+            points.codes[shapes.outlier], minlength=len(points.n_points)
+        ),
+        "n_parts": np.where(
+            shapely.is_empty(geometry), 0, shapely.get_num_geometries(geometry)
+        ),
+        "area_m2": shapes.area,
+        "crs_used": proj.names,
+        "method": shapes.labels,
+    }
+    if not keep.all():
+        values = {name: np.asarray(v)[keep] for name, v in values.items()}
+        geometry = geometry[keep]
+    keys = groups.keys[keep] if not keep.all() else groups.keys
+    return result_frame(keys, values, geometry, crs, geometry_name)
+
+
+def grow(
+    shapes: Shapes, points: Points, proj: gcrs.Projection, options: Options
+) -> Shapes:
+    """Buffer the hulls (not the degenerate buffers) by ``grow`` metres.
+
+    Built in the metric CRS from the metric coordinates of the hull vertices
+    (which are input points), then moved back to the output CRS.
+    """
+    distance = options.grow
+    if not distance:
+        return shapes
+    geometry = shapes.geometry
+    sel = np.flatnonzero(~shapes.degenerate & ~shapely.is_empty(geometry))
+    if not sel.size:
+        return shapes
+    coords, which = shapely.get_coordinates(geometry[sel], return_index=True)
+    keys = pd.MultiIndex.from_arrays([points.codes, proj.out[:, 0], proj.out[:, 1]])
+    first = ~keys.duplicated()
+    loc = keys[first].get_indexer(
+        pd.MultiIndex.from_arrays([sel[which], coords[:, 0], coords[:, 1]])
+    )
+    exact = np.ones(sel.size, dtype=bool)
+    exact[which[loc < 0]] = False  # a repaired vertex: not an input point
+    metric = shapely.set_coordinates(
+        geometry[sel].copy(), proj.xy[np.flatnonzero(first)[np.maximum(loc, 0)]]
+    )
+    if not exact.all():  # pragma: no cover - hull vertices are input points
+        warnings.warn(
+            f"{(~exact).sum()} hull(s) were not grown: a vertex is not an input "
+            "point (repaired geometry)",
+            GeoAlphaWarning,
+            stacklevel=user_stacklevel(),
+        )
+    grown = shapely.buffer(metric[exact], distance, quad_segs=4)
+    geometry = geometry.copy()
+    area = np.asarray(shapes.area, dtype=float).copy()
+    area[sel[exact]] = shapely.area(grown)
+    geometry[sel[exact]] = proj.to_output(grown, sel[exact])
+    return shapes._replace(geometry=geometry, area=area)
+
+
+#: Set by :func:`geoalpha.tools.outlier_rows` to receive the left-out rows.
+OUTLIER_ROWS: contextvars.ContextVar[list | None] = contextvars.ContextVar(
+    "geoalpha_outlier_rows", default=None
+)
+
+
+def report_outliers(
+    shapes: Shapes, groups: Groups, points: Points, frame, options: Options
+) -> None:
+    """Warn about the rows left out (``outliers=``); hand them to outlier_rows()."""
+    left_out = np.zeros(len(frame), dtype=bool)
+    left_out[points.rows[shapes.outlier]] = True
+    if left_out.any():
+        n_outliers = np.bincount(
+            points.codes[shapes.outlier], minlength=len(points.n_points)
+        )
+        which = np.flatnonzero(n_outliers)
+        rows = groups.keys.iloc[which[:11]].itertuples(index=False)
+        each = first_n(
+            (
+                f"{', '.join(map(repr, key)) or 'all points'} "
+                f"({n} row{'s' if n != 1 else ''})"
+                for key, n in zip(rows, n_outliers[which[:11]], strict=True)
+            ),
+            limit=10,
+            sep="; ",
+        )
+        warnings.warn(
+            f"hull() left {n_outliers.sum()} row(s) of {len(which)} group(s) "
+            f"outside their hulls (outliers={options.outliers!r}): {each}; "
+            "geoalpha.outlier_rows() marks them",
+            OutlierWarning,
+            stacklevel=user_stacklevel(),
+        )
+    found = OUTLIER_ROWS.get()
+    if found is not None:
+        found.append(pd.Series(left_out, index=frame.index, name="outlier"))

@@ -1,0 +1,124 @@
+"""The table :func:`geoalpha.hull` returns, defined once.
+
+One row per group: the group key column(s), then :data:`RESULT_COLUMNS` with
+the dtypes of :data:`DTYPES`, then ``geometry`` in the input CRS.
+:func:`result_frame` builds the eager table and :func:`empty_result` the
+empty one with the same columns and dtypes (dask-geopandas' ``meta``), from
+the same code, so that the two cannot drift apart.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+__all__ = ["DTYPES", "RESULT_COLUMNS", "empty_result", "result_frame"]
+
+#: Columns of the result next to the group keys (then ``geometry``), and their
+#: dtypes ("text": pandas' default string dtype, ``str`` with pandas 3).
+DTYPES: dict[str, str] = {
+    "alpha": "float64",
+    "radius": "float64",
+    "n_points": "int64",
+    "n_outliers": "int64",
+    "n_parts": "int32",
+    "area_m2": "float64",
+    "crs_used": "text",
+    "method": "text",
+}
+#: Columns :func:`geoalpha.hull` adds next to the group keys (then ``geometry``).
+RESULT_COLUMNS: tuple[str, ...] = tuple(DTYPES)
+
+
+def _dtype(name: str):
+    if DTYPES[name] == "text":  # str (pandas 3) or object: what pandas infers
+        return pd.Series(np.array([""], dtype=object)).dtype
+    return np.dtype(DTYPES[name])
+
+
+def result_geometry_name(frame, keys: pd.DataFrame) -> str:
+    """Name the result's geometry column after the input's (``geom`` stays ``geom``).
+
+    A name taken by a group key or result column gives ``geometry``.
+
+    Examples
+    --------
+    >>> import geopandas as gpd, pandas as pd
+    >>> frame = gpd.GeoDataFrame(geometry=gpd.GeoSeries([])).rename_geometry("geom")
+    >>> result_geometry_name(frame, pd.DataFrame({"g": []}))
+    'geom'
+    """
+    name = frame.geometry.name if frame.geometry.name is not None else "geometry"
+    if not isinstance(name, str) or name in keys.columns or name in RESULT_COLUMNS:
+        return "geometry"
+    return name
+
+
+def result_frame(
+    keys: pd.DataFrame,
+    values: dict[str, Any],
+    geometry,
+    crs,
+    geometry_name: str = "geometry",
+):
+    """Build the result table: ``keys``, then :data:`RESULT_COLUMNS` from ``values``.
+
+    Parameters
+    ----------
+    keys : pandas.DataFrame
+        One row per group: the group key column(s) (no columns for one group
+        of all points).
+    values : dict
+        One array per name of :data:`RESULT_COLUMNS`, of ``len(keys)``; cast
+        to :data:`DTYPES`.
+    geometry : array_like of shapely geometries
+        One per group.
+    crs : CRS or None
+        The CRS of ``geometry``.
+    geometry_name : str, default "geometry"
+        Name of the geometry column (see :func:`result_geometry_name`).
+
+    Returns
+    -------
+    geopandas.GeoDataFrame
+        With a fresh RangeIndex.
+
+    Examples
+    --------
+    >>> import pandas as pd, shapely
+    >>> keys = pd.DataFrame({"g": ["a"]})
+    >>> values = dict(alpha=[0], radius=[float("inf")], n_points=[3], n_outliers=[0],
+    ...               n_parts=[1], area_m2=[2], crs_used=["EPSG:32630"],
+    ...               method=["convex"])
+    >>> out = result_frame(keys, values, [shapely.box(0, 0, 1, 2)], "EPSG:32630")
+    >>> out.dtypes["area_m2"], out.columns.tolist()[-2:]
+    (dtype('float64'), ['method', 'geometry'])
+    """
+    import geopandas as gpd
+
+    table = keys.reset_index(drop=True)
+    for name in RESULT_COLUMNS:
+        table[name] = pd.Series(np.asarray(values[name]), dtype=_dtype(name))
+    out = gpd.GeoDataFrame(
+        table, geometry=gpd.GeoSeries(list(geometry), crs=crs), crs=crs
+    )
+    return out if geometry_name == "geometry" else out.rename_geometry(geometry_name)
+
+
+def empty_result(keys: pd.DataFrame, crs, geometry_name: str = "geometry"):
+    """Build the result table with no row (dask's ``meta``): same columns and dtypes.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> meta = empty_result(pd.DataFrame({"g": pd.Series([], dtype=object)}), None)
+    >>> len(meta), meta.columns.tolist()[:3], str(meta.dtypes["n_parts"])
+    (0, ['g', 'alpha', 'radius'], 'int32')
+    """
+    values = {name: np.array([], dtype=object) for name in RESULT_COLUMNS}
+    for name, dtype in DTYPES.items():
+        if dtype != "text":
+            values[name] = np.array([], dtype=dtype)
+    return result_frame(keys.iloc[:0], values, [], crs, geometry_name)

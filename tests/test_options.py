@@ -1,0 +1,248 @@
+"""Every option of ``hull()`` reaches the computation on every path (issue #11).
+
+The paths: the eager call, the accessor, ``n_jobs`` (through
+:mod:`geoalpha.parallel`), dask-geopandas (the function and the accessor) and
+the ``geoalpha hull`` command. Each option is set to a value that is not its
+default, and the test records the :class:`~geoalpha.options.Options` that the
+``compute`` stage of :mod:`geoalpha.pipeline` receives.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import inspect
+import warnings
+
+import geopandas as gpd
+import numpy as np
+import pandas as pd
+import pytest
+import shapely
+from click.testing import CliRunner
+from compat import HAS_DASK, requires_dask
+
+import geoalpha
+from geoalpha import parallel, pipeline
+from geoalpha.cli import main
+from geoalpha.errors import InvalidInputError, SearchWarning
+from geoalpha.options import FIELDS, NAMES, Options
+
+#: A value that is not the default, for every option.
+NON_DEFAULT = {
+    "alpha": 0.002,
+    "holes": True,
+    "components": 2,
+    "crs": "EPSG:27700",
+    "method": "convex",
+    "search": "ladder",
+    "max_iterations": 7,
+    "ratio": 0.5,
+    "k": 5,
+    "degenerate": "drop",
+    "buffer": 2.5,
+    "vertices": True,
+    "dropna": False,
+    "sort": False,
+    "progress": False,
+    "n_jobs": 2,
+    "outliers": 1,
+    "grow": 2.0,
+}
+#: Options that `geoalpha hull` has no flag for yet (its flags are written out
+#: in geoalpha/cli.py, not built from Options since the merge of #13).
+NOT_IN_CLI = {"max_iterations"}
+#: Options that reach geoalpha.parallel with n_jobs != 1.
+ARRAY_OPTIONS = ("holes", "components", "search", "max_iterations")
+
+
+def test_every_option_has_a_non_default_test_value():
+    assert list(NON_DEFAULT) == list(NAMES)
+    for field in FIELDS:
+        assert NON_DEFAULT[field.name] != field.default, field.name
+        Options(**{field.name: NON_DEFAULT[field.name]})  # a valid value
+
+
+@pytest.fixture
+def points():
+    rng = np.random.default_rng(3)
+    xy = np.array([-0.12, 51.5]) + rng.random((60, 2)) * [0.05, 0.03]
+    return gpd.GeoDataFrame(
+        {"g": np.repeat(["b", "a", "c"], 20)}, geometry=shapely.points(xy), crs=4326
+    )
+
+
+@pytest.fixture
+def received(monkeypatch):
+    """The Options of every compute stage, and the kwargs reaching parallel."""
+    calls = {"compute": [], "parallel": []}
+    compute, run_parallel = pipeline.compute, parallel.alpha_shapes_parallel
+
+    def record_compute(points, proj, n_groups, options):
+        calls["compute"].append(options)
+        return compute(points, proj, n_groups, options)
+
+    def record_parallel(*args, **kwargs):
+        calls["parallel"].append(kwargs)
+        return run_parallel(*args, **kwargs)
+
+    monkeypatch.setattr(pipeline, "compute", record_compute)
+    monkeypatch.setattr(parallel, "alpha_shapes_parallel", record_parallel)
+    return calls
+
+
+def _eager(points, name, value):
+    geoalpha.hull(points, "g", **{name: value})
+
+
+def _accessor(points, name, value):
+    points.alpha.hull("g", **{name: value})
+
+
+def _n_jobs(points, name, value):
+    geoalpha.hull(points, "g", **{"n_jobs": 2, name: value})
+
+
+def _dask(points, name, value):
+    import dask_geopandas
+
+    ddf = dask_geopandas.from_geopandas(points, npartitions=2)
+    geoalpha.hull(ddf, "g", **{name: value}).compute(scheduler="sync")
+
+
+def _dask_accessor(points, name, value):
+    import dask_geopandas
+
+    ddf = dask_geopandas.from_geopandas(points, npartitions=2)
+    ddf.alpha.hull("g", **{name: value}).compute(scheduler="sync")
+
+
+def _cli_flags() -> set[str]:
+    hull_command = main.commands["hull"]
+    return {opt for p in hull_command.params for opt in (*p.opts, *p.secondary_opts)}
+
+
+def test_the_cli_misses_only_the_listed_options():
+    missing = {
+        f.name
+        for f in FIELDS
+        if not set(f.metadata["meta"].flags[-1].split("/")) <= _cli_flags()
+    }
+    assert missing == NOT_IN_CLI
+
+
+def _cli(points, name, value, tmp_path):
+    table = pd.DataFrame(points.drop(columns="geometry"))
+    table["lon"], table["lat"] = points.geometry.x, points.geometry.y
+    table.to_csv(tmp_path / "p.csv", index=False)
+    meta = dataclasses.fields(Options)[NAMES.index(name)].metadata["meta"]
+    flag = meta.flags[-1]
+    if meta.kind == "bool":
+        positive, _, negative = flag.partition("/")
+        args = [positive if value else negative]
+    else:
+        args = [flag, str(value)]
+    out = tmp_path / "h.gpkg"
+    runner = CliRunner()
+    result = runner.invoke(
+        main, ["hull", str(tmp_path / "p.csv"), str(out), "--by", "g", *args]
+    )
+    if result.exit_code != 0 and "no hull to write" not in result.output + str(
+        getattr(result, "stderr", "")
+    ):
+        raise AssertionError(result.output)
+
+
+PATHS = {
+    "eager": _eager,
+    "accessor": _accessor,
+    "n_jobs": _n_jobs,
+    "dask": pytest.param(_dask, marks=requires_dask),
+    "dask accessor": pytest.param(_dask_accessor, marks=requires_dask),
+    "cli": _cli,
+}
+
+
+@pytest.mark.parametrize("name", NAMES)
+@pytest.mark.parametrize("path", list(PATHS.values()), ids=list(PATHS))
+def test_every_option_arrives_on_every_path(points, received, tmp_path, path, name):
+    value = NON_DEFAULT[name]
+    if path is _cli and name in NOT_IN_CLI:
+        with pytest.raises(AssertionError, match="No such option"):
+            path(points, name, value, tmp_path)
+        return
+    dask_path = path in (_dask, _dask_accessor)
+    args = (points, name, value) + ((tmp_path,) if path is _cli else ())
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        if dask_path and name == "n_jobs":  # dask spreads partitions itself
+            with pytest.raises(InvalidInputError, match="does not apply to dask"):
+                path(*args)
+            return
+        path(*args)
+    assert received["compute"], "the compute stage was not reached"
+    for options in received["compute"]:
+        assert getattr(options, name) == value, (name, options)
+    if path is _n_jobs or name == "n_jobs":
+        assert received["parallel"], "n_jobs did not reach geoalpha.parallel"
+        for kwargs in received["parallel"]:
+            assert kwargs["n_jobs"] == 2
+            if name in ARRAY_OPTIONS:
+                assert kwargs[name] == value
+
+
+def test_hull_signature_and_docstring_come_from_options():
+    params = inspect.signature(geoalpha.hull).parameters
+    assert list(params) == ["gdf", "by", *NAMES]
+    for field in FIELDS:
+        assert params[field.name].default == field.default
+        assert params[field.name].kind is inspect.Parameter.KEYWORD_ONLY
+        assert f"\n    {field.name} : " in geoalpha.hull.__doc__
+    accessor = inspect.signature(gpd.GeoDataFrame.alpha.hull).parameters
+    assert list(accessor)[-len(NAMES) :] == list(NAMES)
+
+
+def test_unknown_and_bad_options_name_the_option(points):
+    with pytest.raises(InvalidInputError, match=r"unknown option.*holez.*the options"):
+        geoalpha.hull(points, "g", holez=True)
+    with pytest.raises(InvalidInputError, match="components must be an integer >= 1"):
+        points.alpha.hull("g", components=0)
+    with pytest.raises(InvalidInputError, match="holes must be True or False"):
+        geoalpha.hull(points, "g", holes="yes")
+    with pytest.raises(InvalidInputError, match="crs= must be a projected"):
+        geoalpha.hull(points, "g", crs="EPSG:4326")
+
+
+@requires_dask
+def test_dask_honours_max_iterations(points):
+    """``geoalpha.hull(ddf, search="bisect", max_iterations=3)`` used to drop it."""
+    import dask_geopandas
+
+    ddf = dask_geopandas.from_geopandas(points, npartitions=2)
+    options = {"search": "bisect", "max_iterations": 3, "crs": None}
+    with pytest.warns(SearchWarning, match="max_iterations=3"):
+        eager = geoalpha.hull(points, "g", **options)
+    for lazy in (geoalpha.hull(ddf, "g", **options), ddf.alpha.hull("g", **options)):
+        with pytest.warns(SearchWarning, match="max_iterations=3"):
+            out = lazy.compute(scheduler="sync")
+        np.testing.assert_array_equal(out["alpha"], eager["alpha"])
+    assert HAS_DASK
+
+
+def test_numpy_scalars_are_accepted_and_booleans_are_not_numbers():
+    assert Options(holes=np.True_, components=np.int64(2)).components == 2
+    assert Options(alpha=np.float32(0.5)).alpha == 0.5
+    with pytest.raises(InvalidInputError, match="components must be an integer"):
+        Options(components=True)
+    with pytest.raises(InvalidInputError, match="k must be an integer >= 1"):
+        Options(k=2.5)
+
+
+def test_a_number_option_keeps_ints_and_floats_apart():
+    """What ``outliers=`` (a count or a fraction) will need: kind="number"."""
+    from geoalpha import options
+
+    meta = options.OptionMeta(kind="number", low=0.0, doc="", flags=("--q",))
+    assert meta.check("q", 3) == 3 and isinstance(meta.check("q", 3), int)
+    assert meta.check("q", 0.25) == 0.25
+    with pytest.raises(InvalidInputError, match="q must be a finite number >= 0"):
+        meta.check("q", -1)
