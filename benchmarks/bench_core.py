@@ -55,6 +55,8 @@ DATASETS = {
 MIN_DISTINCT = 4
 DEFAULT_SAMPLE = 150
 EXACT = "geoalpha exact (batched)"
+GEOS = "shapely.delaunay_triangles (one GEOS call, triangles only)"
+HULL = "geoalpha hull(by=...) from lon/lat (frame in and out)"
 RTOL = 1e-4  # peers vs exact: equal within this relative tolerance
 
 
@@ -138,6 +140,22 @@ def load_groups(name: str) -> Groups:
     if name == "stats19":
         return full.take(np.flatnonzero(sizes >= MIN_DISTINCT))
     return full
+
+
+def hull_frame(name: str, labels: np.ndarray):
+    """The dataset's rows (lon/lat, EPSG:4326) of the groups ``labels``."""
+    from geoalpha import datasets
+
+    by = DATASETS[name][0]
+    frame = datasets.load(name)
+    return frame[frame[by].isin(labels)], by
+
+
+def geos_triangles(g: Groups):
+    """GEOS Delaunay triangles of every group in one shapely call (no indices)."""
+    import shapely
+
+    return shapely.delaunay_triangles(shapely.multipoints(g.points, indices=g.codes))
 
 
 def triangulable(groups: Groups) -> np.ndarray:
@@ -309,6 +327,7 @@ def bench_dataset(name: str, args, api) -> tuple[list[dict], dict, list[dict]]:
     for scope, g in scopes.items():
         arrays = g.arrays()
         fns = {"scipy Delaunay loop (floor)": lambda a=arrays: peers.delaunay_floor(a)}
+        fns[GEOS] = lambda g=g: geos_triangles(g)
         if api is not None:
             fns[EXACT] = lambda g=g: alpha_shapes(
                 g.points, g.codes, holes=False, components=1
@@ -319,6 +338,9 @@ def bench_dataset(name: str, args, api) -> tuple[list[dict], dict, list[dict]]:
             fns["geoalpha optimal_alpha (per-group loop)"] = lambda a=arrays: [
                 optimal_alpha(xy) for xy in a
             ]
+            if scope == "all" or name == "stats19":
+                frame, by = hull_frame(name, g.labels)
+                fns[HULL] = lambda f=frame, by=by: f.alpha.hull(by=by)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # degenerate groups in "all"
             for method, rounds in best_of(fns, args.repeat).items():
@@ -421,6 +443,37 @@ def markdown(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def goal_ratios(rows: list[dict]) -> list[str]:
+    """Issue #12's ratios, each within this run (best / best, median of rounds)."""
+
+    def find(dataset, scope, method):
+        for r in rows:
+            if (r["dataset"], r["scope"], r["method"]) == (dataset, scope, method):
+                return r
+        return None
+
+    floor = "scipy Delaunay loop (floor)"
+    goals = [
+        ("uk_clusters", "all", EXACT, floor, "alpha_shapes / scipy loop", 0.6),
+        ("uk_clusters", "all", HULL, floor, "hull(by=...) / scipy loop", 0.75),
+        ("uk_clusters", "all", GEOS, floor, "GEOS triangles only / scipy loop", None),
+        ("stats19", "sample", HULL, EXACT, "hull(by=...) / alpha_shapes", 1.5),
+    ]
+    out = []
+    for dataset, scope, num, den, label, goal in goals:
+        a, b = find(dataset, scope, num), find(dataset, scope, den)
+        if a is None or b is None:
+            continue
+        paired = np.median(np.divide(a["rounds"], b["rounds"]))
+        target = "" if goal is None else f" (goal <= {goal}x)"
+        out.append(
+            f"{dataset} ({scope}, {a['groups']} groups): {label} = "
+            f"{a['seconds'] / b['seconds']:.2f}x best/best, {paired:.2f}x median "
+            f"of {len(a['rounds'])} paired rounds{target}"
+        )
+    return out
+
+
 def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     """Parse the command line."""
     parser = argparse.ArgumentParser(
@@ -485,6 +538,9 @@ def main(argv: Sequence[str] | None = None) -> int:
                 f"{r['seconds'] / floor['seconds']:.2f}x (best / best), "
                 f"{paired:.2f}x (median of {len(r['rounds'])} paired rounds)"
             )
+    print()
+    for line in goal_ratios(rows):
+        print(line)
     if api is None:
         print("geoalpha.alpha_shapes not available: geoalpha rows skipped")
     print(

@@ -24,8 +24,10 @@ load): the floor (group the rows with one argsort, then a bare loop of
 ``scipy.spatial.Delaunay`` over the groups), ``gdf.alpha.hull(by="group")``
 with ``n_jobs=1`` and ``n_jobs=2``, the same hull with all groups in one pass
 of the batched steps instead of runs of about 50,000 points (to check
-``geoalpha.parallel.BATCH_POINTS``), and the floor loop split over two threads
-(to check whether Qhull releases the GIL). Peak memory: each case once more in a
+``geoalpha.parallel.BATCH_POINTS``), the floor loop split over two threads
+(to check whether Qhull releases the GIL), and one ``shapely.delaunay_triangles``
+call over all groups (GEOS's triangles alone, no indices: what geoalpha's
+triangulation backend starts from). Peak memory: each case once more in a
 fresh subprocess, ``ru_maxrss`` (the input frame included); the forked
 workers' peak is the largest of one worker (shared pages counted).
 
@@ -63,7 +65,7 @@ except ImportError:  # running from a source tree without installing
     sys.path.insert(0, str(HERE.parent))
     import geoalpha
 
-from geoalpha import core, parallel, shapes, tools  # noqa: E402
+from geoalpha import core, delaunay, parallel, shapes, tools  # noqa: E402
 
 SEED = 20240606
 CRS = "EPSG:32633"
@@ -192,7 +194,17 @@ def cases(x, y, g, gdf, n_groups: int) -> dict[str, Callable[[], object]]:
         "hull n_jobs=2": lambda: gdf.alpha.hull(by="group", n_jobs=2),
         "hull n_jobs=1, one pass (no runs)": lambda: hull_one_pass(gdf),
         "floor, 2 threads": lambda: floor_loop(x, y, g, n_groups, threads=2),
+        "GEOS triangles only (one shapely call)": lambda: geos_only(x, y, g),
     }
+
+
+def geos_only(x, y, g) -> None:
+    """Group the rows, then one ``shapely.delaunay_triangles`` call (no indices)."""
+    import shapely
+
+    order = np.argsort(g, kind="stable")
+    lines = shapely.linestrings(np.column_stack([x, y])[order], indices=g[order])
+    shapely.delaunay_triangles(lines)
 
 
 def run_eager(n: int, n_groups: int, repeat: int, seed: int) -> dict:
@@ -294,8 +306,12 @@ class Stopwatch:
 
 def stage_times(gdf) -> dict[str, float]:
     """One ``hull(n_jobs=1)`` with its stages timed."""
+    import shapely
+
     watch = Stopwatch()
-    watch.wrap(core, "Delaunay", "Qhull (scipy Delaunay calls)")
+    watch.wrap(shapely, "delaunay_triangles", "GEOS (shapely.delaunay_triangles)")
+    watch.wrap(delaunay, "triangulate_groups", "backend")
+    watch.wrap(core, "Delaunay", "Qhull (fallback groups)")
     watch.wrap(core, "triangulate", "triangulate")
     watch.wrap(core, "fill_radius", "fill radii (maximum spanning tree)")
     watch.wrap(
@@ -316,11 +332,16 @@ def stage_times(gdf) -> dict[str, float]:
     finally:
         watch.restore()
     t = dict(watch.total)
-    qhull = t.pop("Qhull (scipy Delaunay calls)")
+    geos = t.pop("GEOS (shapely.delaunay_triangles)", 0.0)
+    backend = t.pop("backend", 0.0)
+    qhull = t.pop("Qhull (fallback groups)", 0.0)
     inner = t.pop("alpha_shapes")
     out = {
-        "Qhull (scipy Delaunay calls)": qhull,
+        "GEOS (shapely.delaunay_triangles)": geos,
+        "backend: index arrays, neighbours, checks": backend - geos,
+        "Qhull (fallback groups)": qhull,
         "triangulate: batched numpy (radii, ties, orientation)": t.pop("triangulate")
+        - backend
         - qhull,
         **t,
     }

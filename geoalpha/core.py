@@ -1,8 +1,10 @@
 """Exact optimal alpha shapes on Delaunay triangulations, batched over groups.
 
 Pure numpy/scipy: no pandas, no shapely. Everything works on many groups at
-once; the only Python loop per group is the call to Qhull (scipy's
-:class:`~scipy.spatial.Delaunay`), which is the floor any method pays.
+once: GEOS triangulates all groups in one call (through
+:mod:`geoalpha.delaunay`, the one module here that imports shapely, loaded
+when :func:`triangulate` runs), and only the groups it cannot do go one by
+one to Qhull (scipy's :class:`~scipy.spatial.Delaunay`).
 
 Notation (see ``DESIGN.md``): a triangle ``t`` of the Delaunay triangulation
 has circumradius ``r(t)``; it is *solid* at ``alpha`` when ``alpha * r(t) <= 1``,
@@ -576,6 +578,57 @@ def collinear_groups(local, point_group, n_groups: int, tol) -> np.ndarray:
 
 
 def _delaunay(local, point_ptr, groups, progress, use=None):
+    """GEOS for all listed groups in one call, Qhull for the groups it cannot do.
+
+    Same contract as :func:`_qhull`. GEOS (:mod:`geoalpha.delaunay`, which
+    checks its output group by group) triangulates the groups; the groups it
+    fails go to Qhull one by one, and their triangles are put back in group
+    order. Exact duplicates come back as coplanar pairs, as Qhull reports
+    them. The second pass on representatives (``use``) is Qhull's: it only
+    sees groups with near-duplicates.
+    """
+    if use is not None:
+        return _smallest_first(*_qhull(local, point_ptr, groups, progress, use))
+    from geoalpha.delaunay import triangulate_groups
+
+    batch = triangulate_groups(local, point_ptr, groups, progress)
+    moved = np.flatnonzero(batch.vertex != np.arange(len(local)))  # duplicates
+    cp = np.column_stack([moved, batch.vertex[moved]])
+    redo = groups[batch.failed]
+    if len(redo) == 0:
+        return _smallest_first(
+            batch.triangles, batch.neighbors, cp, np.empty(0, dtype=np.int64)
+        )
+    tri, nb, cp2, failed = _qhull(local, point_ptr, redo, None)
+    tri = np.concatenate([batch.triangles, tri])
+    nb = np.where(nb >= 0, nb + len(batch.triangles), -1)
+    nb = np.concatenate([batch.neighbors, nb])
+    order = np.argsort(
+        np.searchsorted(point_ptr, tri[:, 0], side="right"), kind="stable"
+    )
+    new = np.empty_like(order)
+    new[order] = np.arange(len(order))
+    nb = np.where(nb >= 0, new[np.maximum(nb, 0)], -1)[order]
+    return _smallest_first(tri[order], nb, np.concatenate([cp, cp2]), failed)
+
+
+def _smallest_first(tri, nb, cp, failed):
+    """Rotate every triangle (and its neighbours) to start at its smallest index.
+
+    The radii are computed from vertex 0 out, so the same triangle from GEOS
+    or from Qhull gets the same radius to the last bit.
+    """
+    first = np.argmin(tri, axis=1)
+    turn = (first[:, None] + np.arange(3)) % 3
+    return (
+        np.take_along_axis(tri, turn, axis=1),
+        np.take_along_axis(nb, turn, axis=1),
+        cp,
+        failed,
+    )
+
+
+def _qhull(local, point_ptr, groups, progress, use=None):
     """Qhull per listed group: triangles, neighbours and coplanar pairs.
 
     Returns global point and triangle indices. ``use`` (bool per point)
@@ -816,7 +869,14 @@ def _edges_and_cross(xy: np.ndarray, triangles: np.ndarray, scale=1.0):
             q2, e2h = _two_product(ay[hard], bx[hard])
             cross[hard] = (q1 - q2) + (e1 - e2h)  # q1 - q2 is exact here
         cross = cross + cross_e
-    return cross, e2[0] * e2[1] * e2[2], np.minimum(np.minimum(e2[0], e2[1]), e2[2])
+    # The product in sorted order, so that it does not depend on the vertex
+    # order either (rounding of a * b * c does).
+    least = np.minimum(np.minimum(e2[0], e2[1]), e2[2])
+    most = np.maximum(np.maximum(e2[0], e2[1]), e2[2])
+    middle = np.maximum(
+        np.minimum(e2[0], e2[1]), np.minimum(np.maximum(e2[0], e2[1]), e2[2])
+    )
+    return cross, least * middle * most, least
 
 
 def merge_ties(
