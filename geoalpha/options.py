@@ -10,8 +10,10 @@ derived from it:
   (:func:`signature`, :func:`docstring`);
 - the check of the values (``Options(**kwargs)`` raises
   :class:`~geoalpha.errors.InvalidInputError` naming the option);
-- the ``geoalpha hull`` flags (:mod:`geoalpha.cli` builds its click options
-  from :data:`FIELDS`);
+- the spelling of the ``geoalpha hull`` flags (``flags``; the click options
+  in :mod:`geoalpha.cli` are still written out there, and
+  ``tests/test_options.py`` checks that they match, but ``max_iterations``,
+  which has no flag yet);
 - the defaults of the array-level calls (:mod:`geoalpha.parallel`).
 
 Adding an option is one new field here (with its ``meta``); the stage of
