@@ -1,10 +1,11 @@
 """Exact optimal alpha shapes on Delaunay triangulations, batched over groups.
 
 Pure numpy/scipy: no pandas, no shapely. Everything works on many groups at
-once: GEOS triangulates all groups in one call (through
-:mod:`geoalpha.delaunay`, the one module here that imports shapely, loaded
-when :func:`triangulate` runs), and only the groups it cannot do go one by
-one to Qhull (scipy's :class:`~scipy.spatial.Delaunay`).
+once: a batched triangulation backend handed in by the caller (the array API
+passes GEOS, :func:`geoalpha.delaunay.triangulate_groups`, which triangulates
+all groups in one call) hands index arrays to :func:`triangulate`, and only
+the groups it cannot do go one by one to Qhull (scipy's
+:class:`~scipy.spatial.Delaunay`), as does everything without a backend.
 
 Notation (see ``DESIGN.md``): a triangle ``t`` of the Delaunay triangulation
 has circumradius ``r(t)``; it is *solid* at ``alpha`` when ``alpha * r(t) <= 1``,
@@ -278,6 +279,7 @@ def triangulate(
     n_groups: int | None = None,
     progress=None,
     degenerate=None,
+    backend=None,
 ) -> Triangulation:
     """Delaunay-triangulate the distinct points of every group.
 
@@ -296,6 +298,11 @@ def triangulate(
     degenerate : array_like of bool, shape (G,), optional
         Groups to treat as degenerate whatever their points (e.g. groups found
         collinear in the coordinates the result is returned in).
+    backend : callable, optional
+        Batched Delaunay triangulation ``backend(local, point_ptr, groups,
+        progress)`` returning index arrays, such as
+        :func:`geoalpha.delaunay.triangulate_groups` (GEOS); the groups it
+        fails, and all groups without one, are triangulated by Qhull.
 
     Returns
     -------
@@ -364,7 +371,9 @@ def triangulate(
     # Pass 1: Qhull on every point (it keeps one of each set of duplicates).
     vertex = np.arange(len(xy))
     todo = np.flatnonzero(~flagged)
-    simplices, nbrs, coplanar, failed = _delaunay(local, point_ptr, todo, progress)
+    simplices, nbrs, coplanar, failed = _delaunay(
+        local, point_ptr, todo, progress, backend=backend
+    )
     flagged[failed] = True
     measures = _edges_and_cross(
         xy, simplices, frame.scale[point_group[simplices[:, 0]]]
@@ -577,21 +586,20 @@ def collinear_groups(local, point_group, n_groups: int, tol) -> np.ndarray:
     return width <= np.broadcast_to(tol, (n_groups,))
 
 
-def _delaunay(local, point_ptr, groups, progress, use=None):
-    """GEOS for all listed groups in one call, Qhull for the groups it cannot do.
+def _delaunay(local, point_ptr, groups, progress, use=None, backend=None):
+    """Triangulate with a batched backend, and with Qhull the groups it cannot do.
 
-    Same contract as :func:`_qhull`. GEOS (:mod:`geoalpha.delaunay`, which
-    checks its output group by group) triangulates the groups; the groups it
-    fails go to Qhull one by one, and their triangles are put back in group
-    order. Exact duplicates come back as coplanar pairs, as Qhull reports
-    them. The second pass on representatives (``use``) is Qhull's: it only
-    sees groups with near-duplicates.
+    Same contract as :func:`_qhull`. ``backend`` (e.g.
+    :func:`geoalpha.delaunay.triangulate_groups`, GEOS, which checks its
+    output group by group; None: Qhull only) triangulates the groups; the
+    groups it fails go to Qhull one by one, and their triangles are put back
+    in group order. Exact duplicates come back as coplanar pairs, as Qhull
+    reports them. The second pass on representatives (``use``) is Qhull's: it
+    only sees groups with near-duplicates.
     """
-    if use is not None:
+    if use is not None or backend is None:
         return _smallest_first(*_qhull(local, point_ptr, groups, progress, use))
-    from geoalpha.delaunay import triangulate_groups
-
-    batch = triangulate_groups(local, point_ptr, groups, progress)
+    batch = backend(local, point_ptr, groups, progress)
     moved = np.flatnonzero(batch.vertex != np.arange(len(local)))  # duplicates
     cp = np.column_stack([moved, batch.vertex[moved]])
     redo = groups[batch.failed]

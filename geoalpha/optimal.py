@@ -13,7 +13,7 @@ from typing import Literal, NamedTuple
 import numpy as np
 import shapely
 
-from geoalpha import core, coverage, parallel, search, shapes
+from geoalpha import core, coverage, delaunay, parallel, search, shapes
 from geoalpha.errors import (
     DegenerateGroupWarning,
     InvalidInputError,
@@ -298,7 +298,12 @@ def _alpha_shapes_batch(
     try:
         out_xy, thin = _output_coordinates(points, groups, coords, n_groups)
         tri = core.triangulate(
-            points, groups, n_groups=n_groups, progress=progress, degenerate=thin
+            points,
+            groups,
+            n_groups=n_groups,
+            progress=progress,
+            degenerate=thin,
+            backend=delaunay.triangulate_groups,
         )
     except ValueError as err:
         raise InvalidInputError(str(err)) from err

@@ -57,6 +57,7 @@ __all__ = [
     "as_frame",
     "compute",
     "degenerate_policy",
+    "ensure_guarantee",
     "group",
     "project",
     "read_points",

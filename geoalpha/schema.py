@@ -14,7 +14,13 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-__all__ = ["DTYPES", "RESULT_COLUMNS", "empty_result", "result_frame"]
+__all__ = [
+    "DTYPES",
+    "RESULT_COLUMNS",
+    "empty_result",
+    "result_frame",
+    "result_geometry_name",
+]
 
 #: Columns of the result next to the group keys (then ``geometry``), and their
 #: dtypes ("text": pandas' default string dtype, ``str`` with pandas 3).

@@ -19,6 +19,11 @@ from test_real_groups import EXPECTED_GROUPS, real_dataset
 from geoalpha import alpha_shapes, core, delaunay
 
 
+def geos(local, point_ptr, groups, progress=None):
+    """The backend the array API hands to core.triangulate (looked up at call time)."""
+    return delaunay.triangulate_groups(local, point_ptr, groups, progress)
+
+
 def qhull_only(monkeypatch):
     """Make every group fail in the backend, so that Qhull triangulates all."""
     real = delaunay.triangulate_groups
@@ -60,7 +65,7 @@ def test_geos_and_qhull_radius_spectra_agree_on_real_groups(name):
     # Qhull's (the triangle sets differ at most by cocircular diagonals,
     # which keep every radius), and no group needs the fallback.
     xy, codes, names = real_dataset(name)
-    tri = core.triangulate(xy, codes)
+    tri = core.triangulate(xy, codes, backend=geos)
     order = np.argsort(codes, kind="stable")
     local = tri.local
     todo = np.flatnonzero(np.diff(tri.point_ptr) >= 3)
@@ -169,23 +174,23 @@ def test_groups_geos_cannot_do_fall_back_alone():
 def test_fallback_gives_the_qhull_result(monkeypatch):
     sets = [GOOD, COLLINEAR, GOOD + 7, FLAT, NEEDLE, GOOD[:5]]
     points, codes = batch(sets)
-    geos = core.triangulate(points, codes)
+    geos_tri = core.triangulate(points, codes, backend=geos)
     qhull_only(monkeypatch)
-    qhull = core.triangulate(points, codes)
-    assert geos.degenerate.tolist() == qhull.degenerate.tolist()
+    qhull = core.triangulate(points, codes, backend=geos)
+    assert geos_tri.degenerate.tolist() == qhull.degenerate.tolist()
     # FLAT is within core's collinearity tolerance: degenerate either way.
-    assert geos.degenerate.tolist() == [False, True, False, True, False, False]
-    np.testing.assert_array_equal(geos.tri_ptr, qhull.tri_ptr)
-    np.testing.assert_array_equal(geos.n_distinct, qhull.n_distinct)
-    for g in np.flatnonzero(~geos.degenerate):
-        np.testing.assert_allclose(sorted_radii(geos, g), sorted_radii(qhull, g))
+    assert geos_tri.degenerate.tolist() == [False, True, False, True, False, False]
+    np.testing.assert_array_equal(geos_tri.tri_ptr, qhull.tri_ptr)
+    np.testing.assert_array_equal(geos_tri.n_distinct, qhull.n_distinct)
+    for g in np.flatnonzero(~geos_tri.degenerate):
+        np.testing.assert_allclose(sorted_radii(geos_tri, g), sorted_radii(qhull, g))
     # The Qhull groups' triangles sit in their place, neighbours remapped.
-    t = np.arange(len(geos.triangles))
+    t = np.arange(len(geos_tri.triangles))
     for j in range(3):
-        n = geos.neighbors[:, j]
+        n = geos_tri.neighbors[:, j]
         has = n >= 0
-        assert (geos.tri_group[n[has]] == geos.tri_group[t[has]]).all()
-        assert (geos.neighbors[n[has]] == t[has, None]).any(axis=1).all()
+        assert (geos_tri.tri_group[n[has]] == geos_tri.tri_group[t[has]]).all()
+        assert (geos_tri.neighbors[n[has]] == t[has, None]).any(axis=1).all()
 
 
 def test_geos_exception_fails_only_its_group(monkeypatch):
@@ -219,5 +224,5 @@ def test_progress_counts_every_group():
 
     sets = [GOOD + i for i in range(600)] + [COLLINEAR]
     bar = Bar()
-    core.triangulate(*batch(sets), progress=bar)
+    core.triangulate(*batch(sets), progress=bar, backend=geos)
     assert bar.n == 600  # the collinear group is flagged before triangulating

@@ -25,6 +25,7 @@ from geoalpha import (
     alpha_shape,
     alpha_shapes,
     core,
+    delaunay,
     optimal_alpha,
 )
 
@@ -290,7 +291,7 @@ def same_triangulation(p, tri) -> bool:
     made when both have the same circumradius spectrum (cocircular points may
     still differ by diagonal flips, which keep every radius).
     """
-    ours = core.triangulate(p)
+    ours = core.triangulate(p, backend=delaunay.triangulate_groups)
     if ours.degenerate[0] or len(ours.radius) != len(tri[3]):
         return False
     return bool(np.allclose(np.sort(ours.radius), np.sort(tri[3]), rtol=1e-9, atol=0))
@@ -546,7 +547,7 @@ def test_piece_counts_at_every_spectrum_value(holes, data):
     assume(sets)
     points = np.concatenate(sets)
     codes = np.repeat(np.arange(len(sets)), [len(p) for p in sets])
-    tri = core.triangulate(points, codes)
+    tri = core.triangulate(points, codes, backend=delaunay.triangulate_groups)
     weight = tri.rank if holes else core.fill_radius(tri)
     spectrum = core.Spectrum.build(tri, weight, filled=not holes)
     for g in np.flatnonzero(~tri.degenerate):

@@ -32,7 +32,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("optimal",),
     ("parallel",),
     ("options",),
-    ("io", "shapes", "search", "knn", "coverage"),
+    ("io", "shapes", "search", "knn", "coverage", "delaunay"),
     ("postgis",),
     ("crs", "core", "schema", "registration", "datasets", "distortion", "redact"),
     ("errors",),

@@ -32,6 +32,8 @@ WITH_PARQUET = "<!-- readme-test: with GeoParquet files of points in points/"
 WITH_POSTGIS = "<!-- readme-test: with a PostGIS database"
 # Blocks for QGIS's Python console: run under real QGIS by test_qgis_plugin.py.
 IN_QGIS = "<!-- readme-test: in QGIS's Python console"
+# Excerpts of the source (docs/architecture.md), not examples to run.
+EXCERPT = "<!-- readme-test: an excerpt of"
 BLOCK = re.compile(r"(?P<before>[^\n]*)\n```(?P<lang>\w+)\n(?P<code>.*?)\n```", re.S)
 # Data a block says it needs, made before it runs.
 PARQUET_POINTS = """
@@ -48,7 +50,7 @@ del points
 def python_blocks():
     for match in BLOCK.finditer(README):
         if match["lang"] == "python" and not match["before"].startswith(
-            (NOT_RUN, WITH_POSTGIS, IN_QGIS)
+            (NOT_RUN, WITH_POSTGIS, IN_QGIS, EXCERPT)
         ):
             line = README[: match.start("code")].count("\n") + 1
             setup = PARQUET_POINTS if match["before"].startswith(WITH_PARQUET) else ""

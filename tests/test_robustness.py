@@ -32,6 +32,7 @@ from geoalpha import (
     alpha_shape,
     alpha_shapes,
     core,
+    delaunay,
     optimal_alpha,
 )
 
@@ -294,7 +295,7 @@ def test_alpha_is_exact_on_a_thin_strip():
     rng = np.random.default_rng(5)
     t = np.sort(rng.random(25)) * 100
     p = np.c_[t, rng.normal(size=25) * 1e-5]
-    tri = core.triangulate(p)
+    tri = core.triangulate(p, backend=delaunay.triangulate_groups)
     assert not tri.degenerate[0]
     exact = np.array([reference.exact_circumradius(*tri.xy[s]) for s in tri.triangles])
     assert tri.radius == pytest.approx(exact, rel=1e-12)
