@@ -313,7 +313,10 @@ def test_unopenable_input_never_shows_its_password(tmp_path, source, verbose):
     assert result.exit_code == 1
     text = result.stdout + result.stderr
     assert SECRET not in text
-    assert "***" in text
+    if not source.startswith(("PG:", "postgresql://")):
+        # Named in the message, with the password masked. (PostGIS sources
+        # are refused or reported without echoing the source at all.)
+        assert "***" in text
     assert result.stderr.splitlines()[-1].startswith("Error: ")
     if verbose:
         assert "Traceback" in result.stderr
