@@ -14,8 +14,24 @@ from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
+from compat import require_for_module
 
 from geoalpha.cli import main
+
+#: Packages of the optional extras that an example may need.
+OPTIONAL_MODULES = {
+    "matplotlib",
+    "dask",
+    "dask_geopandas",
+    "distributed",
+    "pyarrow",
+    "tqdm",
+    "folium",
+    "mapclassify",
+    "sqlalchemy",
+    "psycopg",
+    "geoalchemy2",
+}
 
 REPO = Path(__file__).resolve().parents[1]
 OTHER_PAGES = sorted(
@@ -80,6 +96,13 @@ def test_python_example_runs(code, tmp_path):
         timeout=300,
         check=False,
     )
+    missing = re.search(
+        r"(?:No module named|Missing optional dependency) '([\w.]+)'", done.stderr
+    )
+    if done.returncode and missing and missing[1].split(".")[0] in OPTIONAL_MODULES:
+        # An example of an optional extra (plotting, dask, ...), with only
+        # ".[test]" installed: skipped here, an error where everything is.
+        require_for_module(False, missing[1])
     assert done.returncode == 0, done.stderr
 
 
