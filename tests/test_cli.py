@@ -14,24 +14,14 @@ import geopandas as gpd
 import pandas as pd
 import pytest
 import shapely
-from click.testing import CliRunner
+from cli_runner import run
 
 import geoalpha
 from geoalpha import datasets
-from geoalpha.cli import main
 from geoalpha.errors import DegenerateGroupWarning, InvalidInputError
 
 GROUP = "Local_Authority_(Highway)"
 REPO = Path(__file__).resolve().parents[1]
-
-
-def run(*args, **kwargs):
-    """Invoke the command; stdout and stderr are kept apart."""
-    try:
-        runner = CliRunner(mix_stderr=False)  # click < 8.2
-    except TypeError:
-        runner = CliRunner()
-    return runner.invoke(main, [str(a) for a in args], **kwargs)
 
 
 @pytest.fixture

@@ -15,24 +15,15 @@ from pathlib import Path
 import geopandas as gpd
 import pytest
 import shapely
-from click.testing import CliRunner
+from cli_runner import run
 
 from geoalpha import datasets
-from geoalpha.cli import main
 from geoalpha.io import check_output, remove_stale_staging, write_hulls
 from geoalpha.redact import redact, secrets_in
 
 REPO = Path(__file__).resolve().parents[1]
 GROUP = "Local_Authority_(Highway)"
 SECRET = "s3cr3t-Pw"
-
-
-def run(*args):
-    try:
-        runner = CliRunner(mix_stderr=False)  # click < 8.2
-    except TypeError:
-        runner = CliRunner()
-    return runner.invoke(main, [str(a) for a in args])
 
 
 def staging_dirs(folder: Path) -> list[str]:

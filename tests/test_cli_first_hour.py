@@ -13,11 +13,10 @@ import pandas as pd
 import pyproj
 import pytest
 import shapely
-from click.testing import CliRunner
+from cli_runner import run
 
 import geoalpha
 from geoalpha import datasets
-from geoalpha.cli import main
 from geoalpha.errors import CRSWarning, DegenerateGroupWarning, InvalidInputError
 from geoalpha.io import read_points
 
@@ -25,14 +24,6 @@ GROUP = "Local_Authority_(Highway)"
 PYTHON_TERMS = re.compile(
     r"\b(x|y|crs|overwrite|progress|by|layer|vertices|dropna|n_jobs)=|hull\("
 )
-
-
-def run(*args):
-    try:
-        runner = CliRunner(mix_stderr=False)  # click < 8.2
-    except TypeError:
-        runner = CliRunner()
-    return runner.invoke(main, [str(a) for a in args])
 
 
 @pytest.fixture

@@ -21,11 +21,10 @@ import geopandas as gpd
 import numpy as np
 import pytest
 import shapely
-from click.testing import CliRunner
+from cli_runner import run
 
 import geoalpha
 from geoalpha import datasets
-from geoalpha.cli import main
 from geoalpha.errors import DatabaseError, InvalidInputError
 from geoalpha.postgis import parse_table, read_postgis, redact, write_postgis
 
@@ -38,15 +37,6 @@ pytestmark = pytest.mark.filterwarnings(
 )
 WRONG = "Wr0ng-pa55word"
 GROUP = "Local_Authority_(Highway)"  # must never show up in any output
-
-
-def run(*args, **kwargs):
-    """Invoke the command; stdout and stderr are kept apart."""
-    try:
-        runner = CliRunner(mix_stderr=False)  # click < 8.2
-    except TypeError:
-        runner = CliRunner()
-    return runner.invoke(main, [str(a) for a in args], **kwargs)
 
 
 def _unavailable(reason: str):

@@ -15,9 +15,7 @@ from pathlib import Path
 import geopandas as gpd
 import pytest
 import shapely
-from click.testing import CliRunner
-
-from geoalpha.cli import main
+from cli_runner import run
 
 SYSTEM_PYTHON = "/usr/bin/python3"
 
@@ -77,14 +75,6 @@ def open_in_qgis(path: Path) -> tuple[dict, str]:
     )
     assert done.returncode == 0, done.stderr
     return json.loads(done.stdout.strip().splitlines()[-1]), done.stderr
-
-
-def run(*args):
-    try:
-        runner = CliRunner(mix_stderr=False)  # click < 8.2
-    except TypeError:
-        runner = CliRunner()
-    return runner.invoke(main, [str(a) for a in args])
 
 
 @pytest.mark.parametrize("engine", ["pyogrio", "fiona"])
