@@ -278,17 +278,20 @@ def test_the_array_api_checks_options_as_hull_does(points, option, message):
 
 
 def test_the_array_api_defaults_are_those_of_options():
-    """The array API spells its defaults out; they must be those of Options."""
+    """The array API (and the layers below) spell defaults out: those of Options."""
     import typing
 
-    from geoalpha import optimal, search
+    from geoalpha import core, crs, optimal, search
     from geoalpha.options import SEARCHES, defaults
 
     functions = (
         geoalpha.alpha_shapes,
         geoalpha.optimal_alpha,
         geoalpha.alpha_shape,
-        search.bisect_alpha,
+        search.bisect_alpha,  # the layers below options.py: no import of it
+        core.Spectrum.valid,
+        core.Spectrum.optimum,
+        crs.metric_crs,
     )
     for func in functions:
         params = inspect.signature(func).parameters
