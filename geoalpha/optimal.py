@@ -332,7 +332,8 @@ def _alpha_shapes_batch(
     # points merged into another one, and every point when the geometry is
     # built from other coordinates (lon/lat), are tested.
     if coords is None:
-        test = (tri.xy != tri.xy[tri.vertex]).any(axis=1)
+        x, y, v = tri.xy[:, 0], tri.xy[:, 1], tri.vertex
+        test = (x != x[v]) | (y != y[v])
     else:
         test = np.ones(len(tri.xy), dtype=bool)
     if kept is not None:  # the points left out on purpose (outliers=)

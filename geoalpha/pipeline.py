@@ -290,7 +290,7 @@ def read_points(frame, groups: Groups, options: Options) -> Points:
         )
     kept = np.flatnonzero(~dropped)
     coords, which = shapely.get_coordinates(geoms[kept], return_index=True)
-    bad = ~np.isfinite(coords).all(axis=1)
+    bad = ~(np.isfinite(coords[:, 0]) & np.isfinite(coords[:, 1]))
     if bad.any():
         rows = np.zeros(len(index), dtype=bool)
         rows[kept[which[bad]]] = True
