@@ -163,10 +163,9 @@ class Triangulation:
         """
         cached = self.__dict__.get("_dual_edges")
         if cached is None:
-            a = np.repeat(np.arange(len(self.triangles)), 3)
-            b = self.neighbors.ravel()
-            keep = b > a
-            cached = (a[keep], b[keep])
+            nb = self.neighbors
+            at = np.flatnonzero(nb > np.arange(len(nb))[:, None])
+            cached = (at // 3, nb.ravel()[at])
             object.__setattr__(self, "_dual_edges", cached)
         return cached
 
@@ -1032,27 +1031,34 @@ def fill_radius(tri: Triangulation) -> np.ndarray:
     if m == 0:
         return rank.copy()
     top = len(tri.values)  # rank of the outside: above every radius
-    a, b = tri.dual_edges()
-    nb = tri.neighbors
-    hull = np.flatnonzero((nb[:, 0] < 0) | (nb[:, 1] < 0) | (nb[:, 2] < 0))
-    outside = m
-    # The graph in CSR form: row t holds the dual edges (t, b), t < b (listed
-    # by t already), and the outside's row the triangles on the convex hull.
+    # The triangles relabelled by descending rank (``order[i]`` is the
+    # triangle of label i; the outside is label m). Each dual edge sits in
+    # the row of its later endpoint, whose rank is the edge's weight
+    # ``min(rank[a], rank[b])``, so the weights in CSR order ascend and the
+    # sort inside Kruskal's algorithm finds them sorted (no O(E log E) sort).
+    order = _radix_argsort(top - 1 - rank, top.bit_length())
+    label = np.empty(m + 1, dtype=np.int64)
+    label[order] = np.arange(m)
+    label[m] = -1  # the outside, as neighbour -1 (moved to label m below)
+    col = label[tri.neighbors[order]]
+    keep = col < np.arange(m)[:, None]
     indptr = np.zeros(m + 2, dtype=np.int64)
-    np.cumsum(np.bincount(a, minlength=m + 1), out=indptr[1:])
-    indptr[-1] += len(hull)
-    w = np.concatenate([np.minimum(rank[a], rank[b]), rank[hull]])
-    # Maximum spanning tree = minimum spanning tree on reversed ranks (> 0).
-    graph = csr_array(
-        ((top - w).astype(float), np.concatenate([b, hull]), indptr),
-        shape=(m + 1, m + 1),
+    k8 = keep.view(np.uint8)  # columns summed (no row-wise reduction)
+    np.cumsum(k8[:, 0] + k8[:, 1] + k8[:, 2], out=indptr[1 : m + 1])
+    indptr[m + 1] = indptr[m]
+    col = col[keep]
+    col[col < 0] = m
+    # The ranks in label order, counted out (no gather); the outside last.
+    r_ext = np.repeat(
+        np.arange(top, -1, -1), np.bincount(top - rank, minlength=top + 1)
     )
+    r_ext = np.append(r_ext, top)
+    # Kruskal only compares weights, so each edge's position in this
+    # (ascending) order is its weight: ties broken, still a maximum tree.
+    graph = csr_array((np.arange(1.0, len(col) + 1), col, indptr), shape=(m + 1, m + 1))
     tree = minimum_spanning_tree(graph, overwrite=True)
-    _, parent = breadth_first_order(
-        tree, outside, directed=False, return_predecessors=True
-    )
-    parent[outside] = outside
-    r_ext = np.append(rank, top)
+    _, parent = breadth_first_order(tree, m, directed=False, return_predecessors=True)
+    parent[m] = m
     # Edge weight towards the parent is min(rank[t], rank[parent]); the fill
     # radius is the minimum over the path to the root.
     val = np.minimum(r_ext, r_ext[parent])
@@ -1064,7 +1070,23 @@ def fill_radius(tri: Triangulation) -> np.ndarray:
         parent = grand
     else:  # pragma: no cover - a BFS tree has depth <= m
         raise RuntimeError("fill_radius: the spanning tree has a cycle")
-    return val[:m]
+    out = np.empty(m, dtype=np.int64)
+    out[order] = val[:m]
+    return out
+
+
+def _radix_argsort(key: np.ndarray, bits: int) -> np.ndarray:
+    """Stable argsort of non-negative integers below ``2**bits``, 16 bits a pass.
+
+    numpy's stable sort of ``uint16`` is a radix sort (``O(n)``), several
+    times faster than ``np.argsort`` of int64 keys (as in
+    :mod:`geoalpha.delaunay`, which core does not import).
+    """
+    order = np.argsort((key & 0xFFFF).astype(np.uint16), kind="stable")
+    for shift in range(16, min(bits, 64), 16):  # at most 3 more passes
+        digit = ((key[order] >> shift) & 0xFFFF).astype(np.uint16)
+        order = order[np.argsort(digit, kind="stable")]
+    return order
 
 
 def _doublings(n: int) -> int:
@@ -1164,12 +1186,20 @@ class Spectrum:
         pieces = at_or_below(rank, tri.tri_group, tri.tri_ptr)
         a, b = tri.dual_edges()
         if filled:
-            pieces -= at_or_below(np.maximum(rank[a], rank[b]), tri.tri_group[a])
+            # Dual edges are listed by ``a``, so by group: offsets by search.
+            pieces -= at_or_below(
+                np.maximum(rank[a], rank[b]), None, np.searchsorted(a, tri.tri_ptr)
+            )
             vmax = np.full(p, -1, dtype=np.int64)
             np.maximum.at(vmax, corner, corner_rank)
-            t, j = np.nonzero(tri.neighbors < 0)  # hull edges: not inner vertices
-            vmax[tri.triangles[t, (j + 1) % 3]] = -1
-            vmax[tri.triangles[t, (j + 2) % 3]] = -1
+            # Vertices of hull edges (those of the other two corners of a
+            # missing neighbour) are not inner vertices.
+            out = tri.neighbors < 0
+            on_hull = np.empty_like(out)
+            on_hull[:, 0] = out[:, 1] | out[:, 2]
+            on_hull[:, 1] = out[:, 2] | out[:, 0]
+            on_hull[:, 2] = out[:, 0] | out[:, 1]
+            vmax[tri.triangles[on_hull]] = -1
             inner = np.flatnonzero(vmax >= 0)
             pieces += at_or_below(vmax[inner], tri.point_group[inner])
         elif m:
@@ -1345,13 +1375,15 @@ def boundary_rings(tri: Triangulation, inside: np.ndarray, piece: np.ndarray) ->
     >>> len(rings.vertex), rings.ring_piece.tolist(), rings.piece_group.tolist()
     (4, [0], [0])
     """
-    t = np.repeat(np.arange(len(tri.triangles)), 3)
-    j = np.tile(np.arange(3), len(tri.triangles))
-    nb = tri.neighbors.ravel()
-    border = inside[t] & ((nb < 0) | ~inside[np.maximum(nb, 0)])
-    t, j = t[border], j[border]
-    u = tri.triangles[t, (j + 1) % 3]
-    v = tri.triangles[t, (j + 2) % 3]
+    # Edge j of triangle t (opposite corner j) is flat entry 3 t + j; a
+    # missing neighbour (-1) reads the appended False.
+    in_ext = np.append(inside, False)
+    at = np.flatnonzero(inside[:, None] & ~in_ext[tri.neighbors])
+    j = at % 3
+    t = at // 3
+    corner = tri.triangles.ravel()
+    u = corner[np.where(j == 2, at - 2, at + 1)]
+    v = corner[np.where(j == 0, at + 2, at - 1)]
     pc = piece[t]
     n_pieces = int(piece.max()) + 1 if len(piece) and piece.max() >= 0 else 0
     piece_group = np.zeros(n_pieces, dtype=np.int64)
@@ -1367,8 +1399,9 @@ def boundary_rings(tri: Triangulation, inside: np.ndarray, piece: np.ndarray) ->
         bad = nxt < 0
         bad |= np.bincount(nxt[~bad], minlength=n_edges)[nxt.clip(0)] != 1
         if not bad.any():
+            # One successor per edge: the CSR rows are the edges themselves.
             graph = csr_array(
-                (np.ones(n_edges), (np.arange(n_edges), nxt)), (n_edges,) * 2
+                (np.ones(n_edges), nxt, np.arange(n_edges + 1)), (n_edges,) * 2
             )
             n_rings, label = connected_components(
                 graph, directed=True, connection="weak"
@@ -1401,19 +1434,20 @@ def boundary_rings(tri: Triangulation, inside: np.ndarray, piece: np.ndarray) ->
     position = length[label] - 1 - dist
 
     # Shell (counter-clockwise, positive area) first within each piece.
-    pu, pv = tri.local[u], tri.local[v]
-    area2 = np.bincount(
-        label, weights=pu[:, 0] * pv[:, 1] - pv[:, 0] * pu[:, 1], minlength=n_rings
-    )
+    x, y = tri.local[:, 0], tri.local[:, 1]
+    area2 = np.bincount(label, weights=x[u] * y[v] - x[v] * y[u], minlength=n_rings)
     ring_piece_raw = pc[root]
     ring_order = np.lexsort((np.arange(n_rings), area2 <= 0, ring_piece_raw))
     ring_new = np.empty(n_rings, dtype=np.int64)
     ring_new[ring_order] = np.arange(n_rings)
-    ring = ring_new[label]
-    edge_order = np.lexsort((position, ring))
+    # Rings in their new order, each edge at its position within its ring.
+    new_length = length[ring_order]
+    start = np.cumsum(new_length) - new_length
+    vertex = np.empty(n_edges, dtype=u.dtype)
+    vertex[start[ring_new[label]] + position] = u
     return Rings(
-        vertex=u[edge_order],
-        ring=ring[edge_order],
+        vertex=vertex,
+        ring=np.repeat(np.arange(n_rings), new_length),
         ring_piece=ring_piece_raw[ring_order],
         piece_group=piece_group,
         failed=failed,
@@ -1425,17 +1459,33 @@ def _successors(tri, u, v, pc) -> np.ndarray:
 
     -1 where the head has no outgoing edge (an inconsistent triangle set).
     """
-    if len(u) == 0:
+    n = len(u)
+    if n == 0:
         return np.empty(0, dtype=np.int64)
     stride = len(tri.xy)
-    out_key = pc * stride + u
-    order = np.argsort(out_key, kind="stable")
-    sorted_key = out_key[order]
-    in_key = pc * stride + v
-    lo = np.searchsorted(sorted_key, in_key, side="left")
-    hi = np.searchsorted(sorted_key, in_key, side="right")
-    nxt = np.where(hi > lo, order[np.minimum(lo, len(order) - 1)], -1)
-    pinch = np.flatnonzero(hi - lo > 1)
+    # Most heads have one outgoing edge: a lookup, if it is of the same piece.
+    n_out = np.bincount(u, minlength=stride)[v]
+    some_out = np.zeros(stride, dtype=np.int64)
+    some_out[u] = np.arange(n)
+    nxt = some_out[v]
+    nxt = np.where((n_out == 1) & (pc[nxt] == pc), nxt, -1)
+    several = np.flatnonzero(n_out > 1)
+    if len(several) == 0:
+        return nxt
+    # Elsewhere search the edges leaving those heads by (piece, tail).
+    leaving = np.flatnonzero(np.bincount(u, minlength=stride)[u] > 1)
+    out_key = pc[leaving] * stride + u[leaving]
+    sort = np.argsort(out_key, kind="stable")
+    order = leaving[sort]
+    sorted_key = out_key[sort]
+    in_key = pc[several] * stride + v[several]
+    lo = np.zeros(n, dtype=np.int64)
+    hi = np.zeros(n, dtype=np.int64)
+    lo[several] = np.searchsorted(sorted_key, in_key, side="left")
+    hi[several] = np.searchsorted(sorted_key, in_key, side="right")
+    found = hi[several] > lo[several]
+    nxt[several] = np.where(found, order[np.minimum(lo[several], len(order) - 1)], -1)
+    pinch = several[hi[several] - lo[several] > 1]
     if len(pinch):
         nxt[pinch] = _turn_through_exterior(tri.local, u, v, order, lo, hi, pinch)
     return nxt
