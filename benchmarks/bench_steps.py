@@ -33,13 +33,13 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
 sys.path.insert(0, str(HERE))
 
-from geoalpha import core, delaunay, parallel, shapes  # noqa: E402
+from geoalpha import core, delaunay, optimal, parallel, shapes  # noqa: E402
 
 
 def load_revision(ref: str, tmp: Path):
-    """``(core, shapes)`` modules of git revision ``ref``, under other names."""
+    """``(core, shapes, parallel)`` of git revision ``ref``, under other names."""
     out = []
-    for name in ("core", "shapes"):
+    for name in ("core", "shapes", "parallel"):
         text = subprocess.run(
             ["git", "show", f"{ref}:geoalpha/{name}.py"],
             cwd=HERE.parent,
@@ -118,6 +118,30 @@ def steps(mod_core, mod_shapes, tri):
     return times, (weight, spectrum.pieces, spectrum.cover, rings, geoms)
 
 
+def no_op_batch(points, codes, *, n_groups, **kwargs):
+    """A batch that computes nothing: what is left is the split's own cost."""
+    zeros = np.zeros(n_groups)
+    return optimal.AlphaShapes(*[zeros] * 8, outlier=np.zeros(len(points), bool))
+
+
+def split_overhead(old_parallel, rounds: int) -> None:
+    """``alpha_shapes_parallel``'s own cost on 1M rows in 1,000 groups (lon/lat)."""
+    import bench_scale as bs
+
+    x, y, c = bs.make_points(bs.make_groups(1000), 1_000_000)
+    xy = np.column_stack([x, y])
+    lonlat = xy * 1e-5
+    times: dict[str, list[float]] = {"old": [], "new": []}
+    for _ in range(rounds):
+        for label, mod in (("old", old_parallel), ("new", parallel)):
+            t0 = time.process_time()
+            mod.alpha_shapes_parallel(xy, c, batch=no_op_batch, n_jobs=1, coords=lonlat)
+            times[label].append(time.process_time() - t0)
+    o, n = (np.median(times[k]) * 1e3 for k in ("old", "new"))
+    print(f"\n1m: alpha_shapes_parallel with a no-op batch, median of {rounds}, CPU ms")
+    print(f"{'split, sort, gather':<24}{o:>10.2f}{n:>10.2f}{n / o:>8.2f}")
+
+
 def same(a, b) -> bool:
     import shapely
 
@@ -142,7 +166,7 @@ def main(argv=None) -> None:
     parser.add_argument("--only", choices=["all", "uk", "1m"], default="all")
     args = parser.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
-        old_core, old_shapes = load_revision(args.ref, Path(tmp))
+        old_core, old_shapes, old_parallel = load_revision(args.ref, Path(tmp))
         for name, tris in workloads(args.only).items():
             for tri in tris:
                 if not same(
@@ -170,6 +194,8 @@ def main(argv=None) -> None:
                 o = np.median([r[k] for r in old_t]) * 1e3
                 n = np.median([r[k] for r in new_t]) * 1e3
                 print(f"{k:<24}{o:>10.2f}{n:>10.2f}{n / o:>8.2f}")
+        if args.only in ("all", "1m"):
+            split_overhead(old_parallel, args.rounds)
 
 
 if __name__ == "__main__":

@@ -1037,12 +1037,15 @@ def fill_radius(tri: Triangulation) -> np.ndarray:
     # ``min(rank[a], rank[b])``, so the weights in CSR order ascend and the
     # sort inside Kruskal's algorithm finds them sorted (no O(E log E) sort).
     order = _radix_argsort(top - 1 - rank, top.bit_length())
-    label = np.empty(m + 1, dtype=np.int64)
-    label[order] = np.arange(m)
+    # scipy's graph routines work in int32: so do we where it fits.
+    itype = np.int32 if m < 2**31 - 2 else np.int64
+    label = np.empty(m + 1, dtype=itype)
+    label[order] = np.arange(m, dtype=itype)
     label[m] = -1  # the outside, as neighbour -1 (moved to label m below)
-    col = label[tri.neighbors[order]]
-    keep = col < np.arange(m)[:, None]
-    indptr = np.zeros(m + 2, dtype=np.int64)
+    # Neighbours are near in memory, so gather first, then permute once.
+    col = np.take(label[tri.neighbors], order, axis=0)
+    keep = col < np.arange(m, dtype=itype)[:, None]
+    indptr = np.zeros(m + 2, dtype=itype)
     k8 = keep.view(np.uint8)  # columns summed (no row-wise reduction)
     np.cumsum(k8[:, 0] + k8[:, 1] + k8[:, 2], out=indptr[1 : m + 1])
     indptr[m + 1] = indptr[m]
@@ -1050,9 +1053,9 @@ def fill_radius(tri: Triangulation) -> np.ndarray:
     col[col < 0] = m
     # The ranks in label order, counted out (no gather); the outside last.
     r_ext = np.repeat(
-        np.arange(top, -1, -1), np.bincount(top - rank, minlength=top + 1)
+        np.arange(top, -1, -1, dtype=itype), np.bincount(top - rank, minlength=top + 1)
     )
-    r_ext = np.append(r_ext, top)
+    r_ext = np.append(r_ext, itype(top))
     # Kruskal only compares weights, so each edge's position in this
     # (ascending) order is its weight: ties broken, still a maximum tree.
     graph = csr_array((np.arange(1.0, len(col) + 1), col, indptr), shape=(m + 1, m + 1))
@@ -1513,6 +1516,8 @@ def _turn_through_exterior(local, u, v, order, lo, hi, pinch) -> np.ndarray:
 
 # The input checks of triangulate(), for the callers that cut the input into
 # runs first (geoalpha.parallel): points as an (n, 2) float array (ValueError
-# naming NaN/inf rows) and group codes with their count.
+# naming NaN/inf rows) and group codes with their count; and the stable radix
+# argsort of non-negative integers that sorts those codes.
 check_points = _check_points
 group_codes = _group_codes
+radix_argsort = _radix_argsort

@@ -285,12 +285,13 @@ def alpha_shapes_parallel(
             )
 
     # Rows sorted by group (stable, a no-op when they already are), so that a
-    # run of groups is a slice of rows.
+    # run of groups is a slice of rows: a radix sort of the codes, and rows
+    # gathered with np.take (several times faster than ``xy[order]``).
     order = None
     if n > 1 and (codes[1:] < codes[:-1]).any():
-        order = np.argsort(codes, kind="stable")
-        xy, codes = xy[order], codes[order]
-        coords = None if coords is None else coords[order]
+        order = core.radix_argsort(codes, max(int(n_groups) - 1, 1).bit_length())
+        xy, codes = np.take(xy, order, axis=0), codes[order]
+        coords = None if coords is None else np.take(coords, order, axis=0)
     counts = np.bincount(codes, minlength=n_groups)
     bounds = split_groups(counts, n_chunks)
     rows = np.concatenate([[0], np.cumsum(counts)])[bounds]
