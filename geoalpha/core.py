@@ -865,10 +865,13 @@ def _edges_and_cross(xy: np.ndarray, triangles: np.ndarray, scale=1.0):
         # vertex j+2, with edges a = edge j+2 out of it and b = -edge j+1.
         first = (e2[0] >= e2[1]) & (e2[0] >= e2[2])
         second = ~first & (e2[1] >= e2[2])
-        j = np.where(first, 0, np.where(second, 1, 2))
 
-        def pick(values, shift):
-            return np.choose((j + shift) % 3, values)
+        def pick(values, shift):  # values[(j + shift) % 3] (np.choose: 7x slower)
+            return np.where(
+                first,
+                values[shift % 3],
+                np.where(second, values[(1 + shift) % 3], values[(2 + shift) % 3]),
+            )
 
         ax, ay = pick(ex, 2), pick(ey, 2)
         ax_e, ay_e = pick(ex_e, 2), pick(ey_e, 2)
