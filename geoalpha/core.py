@@ -1470,7 +1470,8 @@ def _successors(tri, u, v, pc) -> np.ndarray:
         return np.empty(0, dtype=np.int64)
     stride = len(tri.xy)
     # Most heads have one outgoing edge: a lookup, if it is of the same piece.
-    n_out = np.bincount(u, minlength=stride)[v]
+    out_degree = np.bincount(u, minlength=stride)
+    n_out = out_degree[v]
     some_out = np.zeros(stride, dtype=np.int64)
     some_out[u] = np.arange(n)
     nxt = some_out[v]
@@ -1479,7 +1480,7 @@ def _successors(tri, u, v, pc) -> np.ndarray:
     if len(several) == 0:
         return nxt
     # Elsewhere search the edges leaving those heads by (piece, tail).
-    leaving = np.flatnonzero(np.bincount(u, minlength=stride)[u] > 1)
+    leaving = np.flatnonzero(out_degree[u] > 1)
     out_key = pc[leaving] * stride + u[leaving]
     sort = np.argsort(out_key, kind="stable")
     order = leaving[sort]
