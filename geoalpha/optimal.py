@@ -302,7 +302,10 @@ def _alpha_shapes_batch(
     if out_xy is None:
         out_xy = tri.xy
     else:
-        out_xy = out_xy[np.argsort(tri.input_point)]
+        # In the order of tri.xy: the inverse permutation, no sort.
+        inverse = np.empty(len(tri.input_point), dtype=np.int64)
+        inverse[tri.input_point] = np.arange(len(inverse))
+        out_xy = np.take(out_xy, inverse, axis=0)
     weight = tri.rank if holes else core.fill_radius(tri)
     a, top, n_pieces = _rank_threshold(
         tri, weight, alpha, components, search, max_iterations, filled=not holes
