@@ -302,7 +302,9 @@ def _alpha_shapes_batch(
     if out_xy is None:
         out_xy = tri.xy
     else:
-        out_xy = out_xy[np.argsort(tri.input_point)]
+        sorted_xy = np.empty_like(out_xy)  # in the triangulation's point order
+        sorted_xy[tri.input_point] = out_xy
+        out_xy = sorted_xy
     weight = tri.rank if holes else core.fill_radius(tri)
     a, top, n_pieces = _rank_threshold(
         tri, weight, alpha, components, search, max_iterations, filled=not holes
