@@ -360,7 +360,9 @@ def compute(
                 components=options.components,
                 search=options.search,
                 max_iterations=options.max_iterations,
-                coords=proj.out,
+                # None: the computation coordinates are the output ones
+                # (projected input used as it is), nothing to map or recheck
+                coords=None if proj.out is proj.xy else proj.out,
                 n_groups=n_groups,
                 progress=bar,
                 n_jobs=options.n_jobs,
