@@ -18,9 +18,13 @@ with dask's string dtype):
    data fit one, else ``crs="auto-group"`` (each group its own metric CRS);
    a partition alone would see only its own points and could decide
    otherwise;
-3. the stages of :func:`geoalpha.hull` (:func:`geoalpha.pipeline.run`) run on
+3. the warnings about the set-up (:mod:`geoalpha.checks`: nearly one group
+   per row, a computation CRS that stretches areas) are made once, on the
+   number of distinct keys and rows and a sample of up to 1,000 points per
+   partition, when the result is computed;
+4. the stages of :func:`geoalpha.hull` (:func:`geoalpha.pipeline.run`) run on
    every partition (``map_partitions``);
-4. with ``sort=True`` the (small: one row per group) result is gathered into
+5. with ``sort=True`` the (small: one row per group) result is gathered into
    one partition sorted by key, as the eager call returns it.
 
 Importing this module imports dask-geopandas (``pip install geoalpha[dask]``)
@@ -39,6 +43,7 @@ import shapely
 
 from geoalpha import crs as gcrs
 from geoalpha import options as _options
+from geoalpha.checks import check_distortion, check_grouping, computation_crs
 from geoalpha.errors import InvalidInputError
 from geoalpha.options import Options
 from geoalpha.pipeline import group, run
@@ -126,6 +131,42 @@ def _decide_crs(extents: pd.DataFrame, source_crs):
     return chosen[0] if gcrs.crs_name(chosen[0]).startswith("EPSG:") else "auto-group"
 
 
+#: Points per partition that the distortion check looks at.
+_SAMPLE = 1000
+
+
+def _sample(part) -> pd.DataFrame:
+    """Up to :data:`_SAMPLE` evenly spaced point coordinates of a partition."""
+    geoms = np.asarray(part.geometry.array, dtype=object)
+    xy = shapely.get_coordinates(geoms[~shapely.is_missing(geoms)])
+    if len(xy) > _SAMPLE:
+        xy = xy[np.linspace(0, len(xy) - 1, _SAMPLE).astype(np.intp)]
+    return pd.DataFrame(xy, columns=["x", "y"])
+
+
+def _check(n_groups, n_rows, sample, by, source_crs, crs) -> None:
+    """Make the warnings of :mod:`geoalpha.checks`, once for the whole dataset."""
+    if n_groups is not None:
+        check_grouping(int(n_groups), int(n_rows), by)
+    if sample is not None:
+        check_distortion(sample[["x", "y"]].to_numpy(), source_crs, crs)
+
+
+def _checks(ddf, names: list, by, options: Options):
+    """Return a lazy :func:`_check` of ``ddf``, or None when nothing can warn."""
+    n_groups = n_rows = sample = None
+    if names:
+        keys = ddf[names].dropna() if options.dropna else ddf[names]
+        n_groups = keys.drop_duplicates().shape[0]
+        n_rows = ddf.map_partitions(len).sum()
+    if computation_crs(ddf.crs, options.crs)[0] is not None:
+        meta = pd.DataFrame({"x": pd.Series(dtype=float), "y": pd.Series(dtype=float)})
+        sample = ddf.map_partitions(_sample, meta=meta)
+    if n_groups is None and sample is None:
+        return None
+    return dask.delayed(_check)(n_groups, n_rows, sample, by, ddf.crs, options.crs)
+
+
 def _meta(frame_meta, by, options: Options):
     """Empty GeoDataFrame with the columns and dtypes of the eager result."""
     keys = group(frame_meta, by, options).keys
@@ -148,7 +189,10 @@ def _for_shuffle(part, geometry: str, partition_info=None) -> pd.DataFrame:
     return out
 
 
-def _hull_partition(part, by, crs, meta, geometry, source_crs, options: Options):
+def _hull_partition(
+    part, by, crs, meta, geometry, source_crs, options: Options, checked=None
+):
+    """:func:`geoalpha.pipeline.run` on a partition (``checked``: after the checks)."""
     import geopandas as gpd
 
     if len(part) == 0:
@@ -161,7 +205,7 @@ def _hull_partition(part, by, crs, meta, geometry, source_crs, options: Options)
             part[geometry].to_numpy(), index=part.index, crs=source_crs
         )
     part = gpd.GeoDataFrame(part, geometry=geometry, crs=source_crs)
-    out = run(part, by, options.replace(crs=crs))
+    out = run(part, by, options.replace(crs=crs), checks=False)
     return out.astype(dict(meta.dtypes.drop(meta.geometry.name)))
 
 
@@ -224,7 +268,10 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
     -----
     Warnings of :func:`geoalpha.hull` (dropped rows, degenerate groups) are
     raised where the partitions are computed: in this process with the local
-    schedulers, in the worker logs with ``distributed``.
+    schedulers, in the worker logs with ``distributed``. Those about the
+    set-up (``by`` making nearly one group per row, a computation CRS that
+    stretches areas: :mod:`geoalpha.checks`) are raised once for the whole
+    dataset.
 
     Point the same code at a cluster by creating a ``distributed.Client``
     before ``.compute()``; each worker then needs geoalpha installed.
@@ -268,8 +315,9 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
     names = _key_names(ddf, by)
     meta = _meta(ddf._meta, by, opts)
     if names:  # the eager checks of the options, on the (empty) meta frame
-        run(ddf._meta, by, opts)
+        run(ddf._meta, by, opts, checks=False)
     crs, dropna, sort = opts.crs, opts.dropna, opts.sort
+    checked = _checks(ddf, names, by, opts)
 
     source = ddf.crs
     if (
@@ -297,6 +345,7 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
         ddf.geometry.name,
         source,
         opts,
+        checked,
         meta=meta,
         enforce_metadata=False,
     )
