@@ -151,7 +151,7 @@ def _stages(frame, by, options: Options, bar: Phases, checks: bool):
         check_distortion(points.coords, frame.crs, options.crs)
     proj = project(points, frame.crs, options)
     bar.start("compute", units=n_groups)
-    shapes = compute(points, proj, n_groups, options, progress=bar)
+    shapes = compute(points, proj, n_groups, options)
     bar.start("check")
     shapes = ensure_guarantee(shapes, groups, points, proj, options)
     shapes = degenerate_policy(shapes, groups, points, proj, options)
@@ -335,18 +335,14 @@ def project(points: Points, source, options: Options) -> gcrs.Projection:
 
 
 def compute(
-    points: Points,
-    proj: gcrs.Projection,
-    n_groups: int,
-    options: Options,
-    progress: Phases | None = None,
+    points: Points, proj: gcrs.Projection, n_groups: int, options: Options
 ) -> Shapes:
     """Compute the shape of every group, by ``method``, in the output coordinates.
 
     ``"alpha"`` and ``"convex"``: one batched :func:`geoalpha.alpha_shapes`
     call in metres whose polygons are built from the input coordinates;
     ``"concave"`` and ``"knn"``: :func:`geoalpha.comparison.comparison_hulls`.
-    ``progress`` (the run's :class:`~geoalpha.progress.Phases`, in its
+    The run's progress bar (:func:`geoalpha.progress.current`, in its
     ``compute`` phase) counts the groups done, batch by batch.
     """
     method = options.method
@@ -354,7 +350,7 @@ def compute(
         raise InvalidInputError(
             f"outliers applies to method='alpha'; got method={method!r}"
         )
-    bar = progress
+    bar = current()
     try:
         if method in ("alpha", "convex"):
             res = alpha_shapes(
