@@ -24,6 +24,7 @@ import click
 from geoalpha import __version__
 from geoalpha.datasets import DATASETS
 from geoalpha.errors import GeoAlphaError, InvalidInputError
+from geoalpha.options import META, check, defaults
 from geoalpha.postgis import is_postgres_url
 from geoalpha.redact import redact, secrets_in
 
@@ -40,16 +41,26 @@ def _by_flag(match: re.Match) -> str:
     return "--by " + ",".join(re.findall(r"'([^']*)'", match[1]))
 
 
+def _option_terms() -> list[tuple[str, str]]:
+    """``name=value`` of the options of hull() -> their flags (from options.py)."""
+    terms = []
+    for name, meta in META.items():
+        positive, *negative = meta.flags[-1].split("/")
+        if meta.kind == "bool":
+            terms.append((rf"\b{name}=True\b", positive))
+            terms.extend((rf"\b{name}=False\b", flag) for flag in negative)
+        elif meta.kind != "crs":  # --crs: rules of its own
+            terms.append((rf"\b{name}=(?=\S)", f"{positive} "))
+            terms.append((rf"\b{name}=", positive))
+    return terms
+
+
 # Python keywords in messages of the library -> the command's options.
 _CLI_TERMS: tuple[tuple[str, str | Callable[[re.Match], str]], ...] = (
     (r"hull\(by=[^)]*\)", "--by"),
     (r"\bby=(\[[^\]]*\]|'[^']*')", _by_flag),
     (r"\bhull\(\) ", "geoalpha "),
     (r"pass vertices=True \(--vertices\)", "pass --vertices"),
-    (r"\bvertices=True\b", "--vertices"),
-    (r"\bdropna=False\b", "--no-dropna"),
-    (r"\bsort=False\b", "--no-sort"),
-    (r"\bholes=True\b", "--holes"),
     (r"\(degenerate='(\w+)'\)", r"(--degenerate \1)"),
     (r"\bdegenerate='(\w+)'", r"--degenerate \1"),
     (
@@ -62,12 +73,12 @@ _CLI_TERMS: tuple[tuple[str, str | Callable[[re.Match], str]], ...] = (
     (r"\bthe input's CRS\b", "INPUT's CRS"),
     (r"\bcrs=None\b", "--crs none"),
     (r"\bcrs=(?=\s)", "--crs"),
-    (r"\bprogress=True\b", "--progress"),
+    *_option_terms(),
     (r"\bn_jobs\b", "--jobs"),
     (r"\boverwrite=True\b", "--overwrite"),
     (r"\bx= and y=", "--x and --y"),
-    (r"\b(alpha|components|buffer|ratio|k|method|search|layer)=(?=\S)", r"--\1 "),
-    (r"\b(alpha|components|buffer|ratio|k|method|search|layer)=", r"--\1"),
+    (r"\blayer=(?=\S)", "--layer "),
+    (r"\blayer=", "--layer"),
 )
 
 
@@ -483,7 +494,12 @@ def _write_preview(hulls, points, path: str, by: list[str]) -> None:
 
 
 class _OutliersType(click.ParamType):
-    """``--outliers``: a fraction in [0, 1) (``0.02``) or a count (``3``)."""
+    """``--outliers``: a fraction in [0, 1) (``0.02``) or a count (``3``).
+
+    The text is parsed here (an integer is a count, anything else a
+    fraction); the value is checked by the check of ``outliers`` in
+    :mod:`geoalpha.options`, and refused as a usage error.
+    """
 
     name = "FRACTION|COUNT"
 
@@ -498,15 +514,75 @@ class _OutliersType(click.ParamType):
             self.fail(
                 f"{value!r} is neither a fraction (0.02) nor a count (3)", param, ctx
             )
-        if isinstance(number, float) and not 0 <= number < 1:
+        try:
+            return check(outliers=number)["outliers"]
+        except InvalidInputError:
+            if isinstance(number, int):
+                self.fail(f"{value!r}: a count must be >= 0", param, ctx)
             self.fail(
                 f"{value!r}: a fraction must be in [0, 1); a count is an integer",
                 param,
                 ctx,
             )
-        if isinstance(number, int) and number < 0:
-            self.fail(f"{value!r}: a count must be >= 0", param, ctx)
-        return number
+
+
+#: How an option of hull() is typed on the command line, where its kind and
+#: bounds in geoalpha/options.py do not say it (--crs: see _crs_option).
+_CLI_TYPES: dict[str, click.ParamType] = {"outliers": _OutliersType()}
+
+
+def _whole(bound: float | None) -> float | int | None:
+    return int(bound) if bound is not None and float(bound).is_integer() else bound
+
+
+def _click_type(name: str):
+    """Return the click type of an option of hull(): its choices or bounds."""
+    meta = META[name]
+    if name in _CLI_TYPES:
+        return _CLI_TYPES[name]
+    if meta.kind == "choice":
+        return click.Choice(meta.choices)
+    if meta.kind in ("int", "float"):
+        if meta.low is None and meta.high is None:
+            return int if meta.kind == "int" else float
+        low, high = _whole(meta.low), _whole(meta.high)  # "x>=1", not "x>=1.0"
+        if meta.kind == "int":
+            return click.IntRange(min=low, max=high, min_open=meta.low_open)
+        return click.FloatRange(min=low, max=high, min_open=meta.low_open)
+    if meta.kind == "crs":
+        return click.STRING  # "none" becomes None in the command (_crs_option)
+    raise TypeError(f"option {name} needs a click type in geoalpha.cli._CLI_TYPES")
+
+
+def _option(name: str):
+    """Return the click option of one option of hull(), all from options.py.
+
+    Its flags, default, type (choices, bounds), metavar and help text are
+    those of the field ``name`` of :class:`geoalpha.options.Options`.
+    """
+    meta = META[name]
+    flag_only = meta.kind == "bool" and "/" not in meta.flags[-1]
+    return click.option(
+        *meta.flags,
+        name,
+        is_flag=flag_only or None,
+        type=None if meta.kind == "bool" else _click_type(name),
+        default=defaults(name)[name],
+        show_default=True,
+        metavar=meta.metavar,
+        help=meta.help,
+    )
+
+
+def _options(*names: str):
+    """Apply :func:`_option` for ``names`` (all options of hull() if none), in order."""
+
+    def decorate(command):
+        for name in reversed(names or tuple(META)):
+            command = _option(name)(command)
+        return command
+
+    return decorate
 
 
 _engine_option = click.option(
@@ -517,11 +593,6 @@ _engine_option = click.option(
 )
 _overwrite_option = click.option(
     "--overwrite", is_flag=True, help="Replace OUTPUT if it exists."
-)
-_progress_option = click.option(
-    "--progress/--no-progress",
-    default=None,
-    help="Show a progress bar [default: when there are many groups].",
 )
 _preview_option = click.option(
     "--preview",
@@ -595,135 +666,9 @@ _preview_option = click.option(
     help="Layer name in a GeoPackage OUTPUT [default: OUTPUT's file name]; "
     "the schema.table to create for a postgresql:// OUTPUT.",
 )
-@click.option(
-    "--alpha",
-    type=click.FloatRange(min=0),
-    help="Use this alpha (1/metre) instead of searching for the optimum; "
-    "0 gives convex hulls.",
-)
-@click.option(
-    "--holes/--no-holes",
-    default=False,
-    show_default=True,
-    help="Keep holes inside the shapes, or fill them.",
-)
-@click.option(
-    "--components",
-    type=click.IntRange(min=1),
-    default=1,
-    show_default=True,
-    help="Most pieces a group's shape may have (1: one Polygon).",
-)
-@click.option(
-    "--outliers",
-    type=_OutliersType(),
-    default="0",
-    show_default=True,
-    help="Points each group may leave out: a fraction of its distinct points "
-    "(0.02) or a count (3); the hull is then the tightest shape around the "
-    "others. The output's n_outliers column counts the rows left out.",
-)
-@click.option(
-    "--method",
-    type=click.Choice(["alpha", "convex", "concave", "knn"]),
-    default="alpha",
-    show_default=True,
-    help="Shape: optimal alpha shape, convex hull, shapely concave hull "
-    "(see --ratio) or k-nearest-neighbour concave hull.",
-)
-@click.option(
-    "--search",
-    type=click.Choice(["exact", "ladder", "bisect"]),
-    default="exact",
-    show_default=True,
-    help="How the optimal alpha is found: exactly, or (for comparison) with "
-    "the integer ladder or float bisection.",
-)
-@click.option(
-    "--ratio",
-    type=click.FloatRange(0, 1),
-    default=0.3,
-    show_default=True,
-    help="Concaveness for --method concave (0: tightest, 1: convex).",
-)
-@click.option(
-    "--k",
-    "k",
-    type=click.IntRange(min=1),
-    default=3,
-    show_default=True,
-    help="Starting number of neighbours for --method knn.",
-)
-@click.option(
-    "--crs",
-    metavar="auto|CRS|none",
-    default="auto",
-    show_default=True,
-    help="Metric CRS the shapes are computed in; 'auto' picks a UTM zone "
-    "(or a local CRS per group) for lon/lat input and keeps projected input "
-    "as it is. 'none' computes in INPUT's coordinates as they are (lon/lat: "
-    "alpha in 1/degree, as in the seed paper; for input without a CRS the same "
-    "as --crs-in none). The output keeps INPUT's CRS.",
-)
-@click.option(
-    "--degenerate",
-    type=click.Choice(["buffer", "empty", "drop"]),
-    default="buffer",
-    show_default=True,
-    help="Groups with fewer than 3 distinct or only collinear points: a small "
-    "buffer polygon, an empty geometry, or no row.",
-)
-@click.option(
-    "--buffer",
-    type=click.FloatRange(min=0, min_open=True),
-    default=1.0,
-    show_default=True,
-    help="Width of the polygon around a degenerate group with --degenerate "
-    "buffer, in metres (in the coordinate units with --crs none).",
-)
-@click.option(
-    "--grow",
-    type=click.FloatRange(min=0),
-    default=0.0,
-    show_default=True,
-    metavar="M",
-    help="Grow every hull by M metres (in coordinate units with --crs none) so "
-    "that every point is strictly inside, for QGIS 'Count points in polygon' "
-    "and within/contains joins; alpha and radius stay those of the optimal "
-    "shape, area_m2 is the grown area. 0: the exact shape, whose vertices are "
-    "input points.",
-)
-@click.option(
-    "--vertices",
-    is_flag=True,
-    help="Accept lines and polygons in INPUT and use their vertices as points "
-    "(otherwise they are an error).",
-)
-@click.option(
-    "--dropna/--no-dropna",
-    default=True,
-    show_default=True,
-    help="Leave out rows whose --by value is missing, or make them a group.",
-)
-@click.option(
-    "--sort/--no-sort",
-    default=True,
-    show_default=True,
-    help="Write the groups sorted by --by value, or in order of first appearance.",
-)
-@click.option(
-    "-j",
-    "--jobs",
-    "n_jobs",
-    type=int,
-    default=1,
-    show_default=True,
-    help="Worker processes for the groups (-1: one per core); pays off from "
-    "about 100,000 points. The result is the same.",
-)
+@_options()
 @_overwrite_option
 @_engine_option
-@_progress_option
 @_preview_option
 @_verbose_option
 @_quiet_option
@@ -738,28 +683,12 @@ def hull(
     sql: str | None,
     geometry_column: str | None,
     output_layer: str | None,
-    alpha: float | None,
-    holes: bool,
-    components: int,
-    outliers: float,
-    method: str,
-    search: str,
-    ratio: float,
-    k: int,
-    crs: str,
-    degenerate: str,
-    buffer: float,
-    grow: float,
-    vertices: bool,
-    dropna: bool,
-    sort: bool,
-    n_jobs: int,
     overwrite: bool,
     engine: str | None,
-    progress: bool | None,
     preview: str | None,
     verbose: int,
     quiet: int,
+    **options,
 ) -> None:
     """Write one hull per group of the points in INPUT to OUTPUT.
 
@@ -795,11 +724,13 @@ def hull(
     size = _input_size(input_path)  # None for a database
     with (
         _reporting(verbosity),
-        _progress_bar(progress, verbosity, size, preview=preview is not None) as bar,
+        _progress_bar(
+            options["progress"], verbosity, size, preview=preview is not None
+        ) as bar,
     ):
         check_output(output, layer=output_layer, overwrite=overwrite)
         _check_preview(preview)
-        work_crs = _crs_option(crs)
+        work_crs = _crs_option(options["crs"])
         # --crs none on input without CRS: planar, as --crs-in none would be.
         points = read_input_points(
             input_path,
@@ -825,23 +756,7 @@ def hull(
             verbosity=verbosity,
             preview=preview,
             bar=bar,
-            alpha=alpha,
-            holes=holes,
-            components=components,
-            outliers=outliers,
-            crs=work_crs,
-            method=method,
-            search=search,
-            ratio=ratio,
-            k=k,
-            degenerate=degenerate,
-            buffer=buffer,
-            grow=grow,
-            vertices=vertices,
-            dropna=dropna,
-            sort=sort,
-            n_jobs=n_jobs,
-            progress=progress,
+            **{**options, "crs": work_crs},
         )
 
 
@@ -854,18 +769,10 @@ def hull(
     show_default=True,
     help="Bundled dataset to use.",
 )
-@click.option(
-    "--grow",
-    type=click.FloatRange(min=0),
-    default=0.0,
-    show_default=True,
-    metavar="M",
-    help="Grow every hull by M metres so that every point is strictly inside "
-    "(see geoalpha hull --help).",
-)
+@_options("grow")
 @_overwrite_option
 @_engine_option
-@_progress_option
+@_options("progress")
 @_preview_option
 @_verbose_option
 @_quiet_option

@@ -768,7 +768,7 @@ def metric_crs(
         factor = unit_factor(target)
         xy[rows, 0] = x if factor == 1.0 else np.multiply(x, factor)
         xy[rows, 1] = y if factor == 1.0 else np.multiply(y, factor)
-    failed = ~np.isfinite(xy).all(axis=1)
+    failed = ~(np.isfinite(xy[:, 0]) & np.isfinite(xy[:, 1]))
     if failed.any():
         names = sorted({crs_name(crs_list[k]) for k in crs_index[codes[failed]]})
         raise InvalidInputError(
@@ -945,7 +945,7 @@ class Projection:
             forward = _transformer(_crs_key(src), _crs_key(target))
             x, y = forward.transform(coords[:, 0], coords[:, 1])
             self.xy = np.column_stack([x, y]) * unit_factor(target)
-            failed = ~np.isfinite(self.xy).all(axis=1)
+            failed = ~(np.isfinite(self.xy[:, 0]) & np.isfinite(self.xy[:, 1]))
             if failed.any():
                 raise InvalidInputError(
                     f"could not project {_positions(failed, labels)} to "

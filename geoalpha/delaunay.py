@@ -309,8 +309,11 @@ def _neighbors(tri, p, max_size, tri_gi, failed):
         return neighbors.reshape(0, 3), np.empty((0, 2), dtype=np.int64)
     # Slot c = 3 t + j of neighbors is the edge opposite vertex j: from
     # vertex j + 1 to vertex j + 2.
-    a = np.roll(tri, -1, axis=1).ravel()
-    b = np.roll(tri, 1, axis=1).ravel()
+    a = np.empty_like(tri)
+    b = np.empty_like(tri)
+    a[:, 0], a[:, 1], a[:, 2] = tri[:, 1], tri[:, 2], tri[:, 0]
+    b[:, 0], b[:, 1], b[:, 2] = tri[:, 2], tri[:, 0], tri[:, 1]
+    a, b = a.ravel(), b.ravel()
     lo = np.minimum(a, b)
     # Both ends are in one group, so (lo, hi - lo) is unique per edge and
     # small: a radix sort orders it. The last bit is the direction.

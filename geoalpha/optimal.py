@@ -21,11 +21,12 @@ from geoalpha.errors import (
     first_n,
     user_stacklevel,
 )
+from geoalpha.options import check
 
 __all__ = ["AlphaShapes", "alpha_shape", "alpha_shapes", "optimal_alpha"]
 
+#: The values of ``search=`` (:data:`geoalpha.options.SEARCHES`), as a type.
 Search = Literal["exact", "ladder", "bisect"]
-_SEARCHES = ("exact", "ladder", "bisect")
 
 
 class AlphaShapes(NamedTuple):
@@ -73,25 +74,23 @@ class AlphaShapes(NamedTuple):
     outlier: np.ndarray | None = None
 
 
-def _check_options(holes, components, search_: str, outliers=0, alpha=None) -> None:
-    if not isinstance(holes, bool | np.bool_):
-        raise InvalidInputError(f"holes must be True or False; got {holes!r}")
-    if isinstance(components, bool) or not isinstance(components, int | np.integer):
-        raise InvalidInputError(
-            f"components must be an integer >= 1; got {components!r}"
-        )
-    if components < 1:
-        raise InvalidInputError(f"components must be an integer >= 1; got {components}")
-    if search_ not in _SEARCHES:
-        raise InvalidInputError(
-            f"search must be one of {', '.join(map(repr, _SEARCHES))}; got {search_!r}"
-        )
-    coverage.check_outliers(outliers)
+def _check_options(
+    holes, components, search_: str, max_iterations, outliers=0, alpha=None
+) -> dict:
+    """Check the options as ``hull()`` does (:func:`geoalpha.options.check`)."""
+    checked = check(
+        holes=holes,
+        components=components,
+        search=search_,
+        max_iterations=max_iterations,
+        outliers=outliers,
+    )
     if outliers and (alpha is not None or search_ != "exact"):
         raise InvalidInputError(
             "outliers applies to the exact optimum: use it without alpha and "
             f"with search='exact'; got alpha={alpha!r}, search={search_!r}"
         )
+    return checked
 
 
 def _rank_threshold(
@@ -255,17 +254,10 @@ def alpha_shapes(
     >>> res.alpha.round(4).tolist(), res.n_outliers.tolist(), res.outlier.tolist()
     ([0.4308], [1], [False, False, False, False, False, True])
     """
-    _check_options(holes, components, search, outliers, alpha)
-    options = {
-        "alpha": alpha,
-        "holes": holes,
-        "components": components,
-        "search": search,
-        "max_iterations": max_iterations,
-        "coords": coords,
-        "n_groups": n_groups,
-        "progress": progress,
-    }
+    checked = _check_options(holes, components, search, max_iterations, outliers, alpha)
+    outliers = checked.pop("outliers")
+    options = {"alpha": alpha, **checked}
+    options.update(coords=coords, n_groups=n_groups, progress=progress)
     if outliers:  # passed on only when used, so that 0 takes today's path
         options["outliers"] = outliers
     if type(n_jobs) is not int or n_jobs != 1 or _batched(points, groups):
@@ -340,7 +332,8 @@ def _alpha_shapes_batch(
     # points merged into another one, and every point when the geometry is
     # built from other coordinates (lon/lat), are tested.
     if coords is None:
-        test = (tri.xy != tri.xy[tri.vertex]).any(axis=1)
+        x, y, v = tri.xy[:, 0], tri.xy[:, 1], tri.vertex
+        test = (x != x[v]) | (y != y[v])
     else:
         test = np.ones(len(tri.xy), dtype=bool)
     if kept is not None:  # the points left out on purpose (outliers=)

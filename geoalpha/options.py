@@ -9,12 +9,20 @@ derived from it:
 - the signature and the option part of the docstring of :func:`geoalpha.hull`
   (:func:`signature`, :func:`docstring`);
 - the check of the values (``Options(**kwargs)`` raises
-  :class:`~geoalpha.errors.InvalidInputError` naming the option);
-- the spelling of the ``geoalpha hull`` flags (``flags``; the click options
-  in :mod:`geoalpha.cli` are still written out there, and
-  ``tests/test_options.py`` checks that they match, but ``max_iterations``,
-  which has no flag yet);
-- the defaults of the array-level calls (:mod:`geoalpha.parallel`).
+  :class:`~geoalpha.errors.InvalidInputError` naming the option), which the
+  array API (:func:`geoalpha.alpha_shapes`, :func:`geoalpha.optimal_alpha`,
+  ``n_jobs`` in :mod:`geoalpha.parallel`) runs on its own options with
+  :func:`check`;
+- the ``geoalpha hull`` options: :mod:`geoalpha.cli` makes one click option
+  per field from its ``flags``, default, ``choices``/``low``/``high`` (as a
+  ``click.Choice``/``IntRange``/``FloatRange``), ``metavar`` and ``help``;
+  only how ``--outliers`` parses its text and how ``--crs none`` becomes None
+  are written in the command;
+- the defaults of the array-level calls in :mod:`geoalpha.parallel`
+  (:func:`defaults`).
+
+The array API's signatures spell their defaults out (for readers and type
+checkers); ``tests/test_options.py`` checks that they equal these.
 
 Adding an option is one new field here (with its ``meta``); the stage of
 :mod:`geoalpha.pipeline` that uses it then reads ``options.<name>``.
@@ -37,10 +45,13 @@ from geoalpha.errors import InvalidInputError, first_n
 __all__ = [
     "DEGENERATE_POLICIES",
     "FIELDS",
+    "META",
     "METHODS",
     "SEARCHES",
     "OptionMeta",
     "Options",
+    "check",
+    "defaults",
     "docstring",
     "signature",
 ]
@@ -133,7 +144,9 @@ class OptionMeta:
                 ):
                     return int(value)
                 return float(value)
-        raise InvalidInputError(f"{name} must be {self.describe()}; got {value!r}")
+        raise InvalidInputError(
+            f"{name} must be {self.describe()}; got {_shown(value)!r}"
+        )
 
     def _in_range(self, value) -> bool:
         if self.low is not None and (
@@ -148,6 +161,13 @@ def _is_bool(value) -> bool:
     return isinstance(value, bool) or (
         type(value).__module__ == "numpy" and type(value).__name__ in ("bool", "bool_")
     )
+
+
+def _shown(value):
+    """Show a numpy scalar as the number it holds (``0``, not ``np.int64(0)``)."""
+    if type(value).__module__ == "numpy" and getattr(value, "ndim", None) == 0:
+        return value.item()
+    return value
 
 
 def _check_crs(value):
@@ -262,8 +282,10 @@ class Options:
         flags=("--crs",),
         metavar="auto|CRS|none",
         help="Metric CRS the shapes are computed in; 'auto' picks a UTM zone "
-        "(or a local CRS per group); 'none' uses the coordinates as they are. "
-        "The output keeps INPUT's CRS.",
+        "(or a local CRS per group) for lon/lat input and keeps projected input "
+        "as it is. 'none' computes in INPUT's coordinates as they are (lon/lat: "
+        "alpha in 1/degree, as in the seed paper; for input without a CRS the same "
+        "as --crs-in none). The output keeps INPUT's CRS.",
     )
     method: str = option(
         "alpha",
@@ -408,8 +430,10 @@ class Options:
         "    points; only those pieces are kept. :func:`outlier_rows` tells\n"
         "    which input rows were left out.",
         flags=("--outliers",),
-        metavar="Q",
-        help="Points each hull may leave out: a fraction in [0, 1) or a count.",
+        metavar="FRACTION|COUNT",
+        help="Points each group may leave out: a fraction of its distinct points "
+        "(0.02) or a count (3); the hull is then the tightest shape around the "
+        "others. The output's n_outliers column counts the rows left out.",
     )
     grow: float = option(
         0.0,
@@ -424,8 +448,11 @@ class Options:
         "    area of the grown polygon. 0 keeps the exact shape.",
         flags=("--grow",),
         metavar="M",
-        help="Grow every hull by this distance (metres), so that every point "
-        "is strictly inside.",
+        help="Grow every hull by M metres (in coordinate units with --crs none) so "
+        "that every point is strictly inside, for QGIS 'Count points in polygon' "
+        "and within/contains joins; alpha and radius stay those of the optimal "
+        "shape, area_m2 is the grown area. 0: the exact shape, whose vertices are "
+        "input points.",
     )
 
     def __post_init__(self) -> None:
@@ -457,10 +484,66 @@ class Options:
 FIELDS: tuple[dataclasses.Field, ...] = dataclasses.fields(Options)
 #: The option names, in signature order.
 NAMES: tuple[str, ...] = tuple(f.name for f in FIELDS)
+#: The :class:`OptionMeta` of every option, by name.
+META: dict[str, OptionMeta] = {f.name: f.metadata["meta"] for f in FIELDS}
+
+
+def check(**values: Any) -> dict[str, Any]:
+    """Check some options on their own, as :class:`Options` checks them.
+
+    For calls that take a few of the options (the array API:
+    :func:`geoalpha.alpha_shapes`, :func:`geoalpha.optimal_alpha`, ...): the
+    same rule and the same message as ``hull()`` gives.
+
+    Parameters
+    ----------
+    **values
+        Option names and their values.
+
+    Returns
+    -------
+    dict
+        The values, normalised (``numpy.True_`` -> ``True``, ...).
+
+    Raises
+    ------
+    InvalidInputError
+        Naming the first option whose value is not allowed.
+
+    Examples
+    --------
+    >>> check(holes=True, components=2)
+    {'holes': True, 'components': 2}
+    >>> check(search="fast")
+    Traceback (most recent call last):
+    ...
+    geoalpha.errors.InvalidInputError: search must be one of 'exact', 'ladder', \
+'bisect'; got 'fast'
+    """
+    unknown = sorted(set(values) - set(NAMES))
+    if unknown:
+        raise TypeError(f"not options of hull(): {', '.join(unknown)}")
+    return {name: META[name].check(name, value) for name, value in values.items()}
 
 
 def defaults(*names: str) -> dict[str, Any]:
-    """Return the defaults of the named options (all when none is named)."""
+    """Return the defaults of the named options (all when none is named).
+
+    Parameters
+    ----------
+    *names : str
+        Option names.
+
+    Returns
+    -------
+    dict
+        Option name -> default, in signature order.
+
+    Examples
+    --------
+    >>> defaults("search", "max_iterations")
+    {'search': 'exact', 'max_iterations': 10000}
+    """
     return {f.name: f.default for f in FIELDS if not names or f.name in names}
 
 

@@ -38,7 +38,7 @@ import numpy as np
 
 from geoalpha import core
 from geoalpha.errors import InvalidInputError, user_stacklevel
-from geoalpha.options import defaults
+from geoalpha.options import check, defaults
 
 __all__ = [
     "BATCH_POINTS",
@@ -97,16 +97,9 @@ def effective_n_jobs(n_jobs) -> int:
     >>> effective_n_jobs(-1) >= 1
     True
     """
-    if isinstance(n_jobs, bool) or not isinstance(n_jobs, int | np.integer):
-        raise InvalidInputError(
-            f"n_jobs must be a positive integer or -1 (all cores); got {n_jobs!r}"
-        )
-    if n_jobs == 0:
-        raise InvalidInputError(
-            "n_jobs must be a positive integer or -1 (all cores); got 0"
-        )
+    n_jobs = check(n_jobs=n_jobs)["n_jobs"]  # the check of hull(n_jobs=)
     if n_jobs > 0:
-        return int(n_jobs)
+        return n_jobs
     try:
         cores = len(os.sched_getaffinity(0))
     except AttributeError:  # pragma: no cover - not on Linux

@@ -112,6 +112,11 @@ class Shapes(NamedTuple):
     degenerate: np.ndarray  #: no shape (fewer than 3 distinct points, a line)
     keep: np.ndarray  #: groups that get a row
     outlier: np.ndarray  #: per point: left out of its group's hull (outliers=)
+    #: groups whose geometry is already verified in the output coordinates
+    #: (valid; covering its points unless at a fixed alpha): :func:`compute`
+    #: sets it where :func:`geoalpha.alpha_shapes` checked its own polygons,
+    #: and every stage that replaces a geometry clears it
+    checked: np.ndarray
 
 
 def run(frame, by, options: Options, *, checks: bool = True):
@@ -156,7 +161,9 @@ def _stages(frame, by, options: Options, bar: Phases, checks: bool):
     shapes = ensure_guarantee(shapes, groups, points, proj, options)
     shapes = degenerate_policy(shapes, groups, points, proj, options)
     shapes = grow(shapes, points, proj, options)
-    geometry = verify_in_output_crs(shapes.geometry, groups, points, proj, options)
+    geometry = verify_in_output_crs(
+        shapes.geometry, groups, points, proj, options, checked=shapes.checked
+    )
     out = table(
         groups,
         points,
@@ -234,12 +241,13 @@ def group(frame, by, options: Options) -> Groups:
                     )
                 )
     try:
-        grouped = frame.groupby(by, dropna=options.dropna, sort=options.sort)
-        codes = grouped.ngroup().fillna(-1).to_numpy(dtype=np.int64)
-        index = grouped.size().index
+        codes, keys = _factorize_column(frame, by, options)
+        if codes is None:
+            grouped = frame.groupby(by, dropna=options.dropna, sort=options.sort)
+            codes = grouped.ngroup().fillna(-1).to_numpy(dtype=np.int64)
+            keys = grouped.size().index.to_frame(index=False)
     except (ValueError, KeyError, TypeError) as err:
         raise InvalidInputError(f"hull(by=...) cannot group the rows: {err}") from err
-    keys = index.to_frame(index=False)
     keys.columns = [
         "group" if (c is None or isinstance(c, int)) and len(keys.columns) == 1 else c
         for c in keys.columns
@@ -251,6 +259,30 @@ def group(frame, by, options: Options) -> Groups:
             f"(result columns: {', '.join(RESULT_COLUMNS)}, geometry)"
         )
     return Groups(codes, keys)
+
+
+def _factorize_column(frame, by, options: Options):
+    """Group codes and keys of one plain column, as ``groupby`` makes them.
+
+    For a single column that is not categorical, ``groupby`` numbers the
+    groups with :func:`pandas.factorize` (``sort``, ``dropna`` as the
+    sentinel -1); calling it directly skips building a GroupBy (several
+    times the cost on small frames). Returns ``(None, None)`` for every other
+    ``by``, which goes through ``groupby``.
+    """
+    name = by[0] if isinstance(by, list) and len(by) == 1 else by
+    if not isinstance(name, str) or name in frame.index.names:
+        return None, None
+    if name not in frame.columns or not frame.columns.is_unique:
+        return None, None
+    column = frame[name]
+    if isinstance(column.dtype, pd.CategoricalDtype):
+        return None, None
+    codes, uniques = pd.factorize(
+        column, sort=options.sort, use_na_sentinel=options.dropna
+    )
+    keys = pd.DataFrame({name: uniques})
+    return codes.astype(np.int64, copy=False), keys
 
 
 class _RowLabels:
@@ -305,7 +337,7 @@ def read_points(frame, groups: Groups, options: Options) -> Points:
         )
     kept = np.flatnonzero(~dropped)
     coords, which = shapely.get_coordinates(geoms[kept], return_index=True)
-    bad = ~np.isfinite(coords).all(axis=1)
+    bad = ~(np.isfinite(coords[:, 0]) & np.isfinite(coords[:, 1]))
     if bad.any():
         rows = np.zeros(len(index), dtype=bool)
         rows[kept[which[bad]]] = True
@@ -382,6 +414,9 @@ def compute(
                 degenerate=res.degenerate,
                 keep=np.ones(n_groups, dtype=bool),
                 outlier=res.outlier,
+                # alpha_shapes verified its polygons in proj.out (shapes.enforce,
+                # with the options of ensure_guarantee); convex hulls are new
+                checked=~res.degenerate & (method == "alpha"),
             )
         hulls = comparison_hulls(
             method,
@@ -401,6 +436,7 @@ def compute(
             degenerate=hulls.degenerate,
             keep=np.ones(n_groups, dtype=bool),
             outlier=np.zeros(len(points.codes), dtype=bool),
+            checked=np.zeros(n_groups, dtype=bool),
         )
     finally:
         if bar is not None:  # groups of 1-2 points are done too: the phase ends full
@@ -426,9 +462,11 @@ def ensure_guarantee(
     points left out on purpose (``outliers=``) and, at a fixed ``alpha``
     (which need not cover every point), coverage are not checked. Groups
     wider than 180 degrees of longitude have no faithful lon/lat polygon and
-    are only warned about (see :func:`verify_in_output_crs`).
+    are only warned about (see :func:`verify_in_output_crs`). Groups that
+    :func:`compute` already verified in these coordinates (``checked``) are
+    not checked twice.
     """
-    check = ~shapes.degenerate & ~proj.wide
+    check = ~shapes.degenerate & ~proj.wide & ~shapes.checked
     if not check.any():
         return shapes
     fixed_alpha = options.method == "alpha" and options.alpha is not None
@@ -454,9 +492,12 @@ def ensure_guarantee(
         )
         alpha = np.where(failed, np.nan, shapes.alpha)
         return shapes._replace(
-            geometry=geometry, alpha=alpha, degenerate=shapes.degenerate | failed
+            geometry=geometry,
+            alpha=alpha,
+            degenerate=shapes.degenerate | failed,
+            checked=(shapes.checked | check) & ~failed,
         )
-    return shapes._replace(geometry=geometry)
+    return shapes._replace(geometry=geometry, checked=shapes.checked | check)
 
 
 def degenerate_policy(
@@ -512,8 +553,10 @@ def degenerate_policy(
         DegenerateGroupWarning,
         stacklevel=user_stacklevel(),
     )
+    checked = shapes.checked.copy()
+    checked[which] = False
     return shapes._replace(
-        geometry=geometry, area=area, degenerate=degenerate, keep=keep
+        geometry=geometry, area=area, degenerate=degenerate, keep=keep, checked=checked
     )
 
 
@@ -523,16 +566,21 @@ def verify_in_output_crs(
     points: Points,
     proj: gcrs.Projection,
     options: Options,
+    checked: np.ndarray | None = None,
 ) -> np.ndarray:
     """Make every geometry valid and covering its points in the output CRS.
 
     Repairs what the CRS round trip broke (``make_valid``, with a warning),
     covers points a repair or a hull built in metres left outside (methods
-    other than ``"alpha"``), then splits antimeridian groups.
+    other than ``"alpha"``), then splits antimeridian groups. Geometries
+    already verified in the output coordinates (``checked``) are not tested
+    again.
     """
     keys = groups.keys
     geometry = geometry.copy()
-    invalid = ~shapely.is_valid(geometry)
+    invalid = np.zeros(len(geometry), dtype=bool)
+    todo = np.ones(len(geometry), dtype=bool) if checked is None else ~checked
+    invalid[todo] = ~shapely.is_valid(geometry[todo])
     if invalid.any():
         geometry[invalid] = repair_invalid(geometry[invalid])
         told = invalid & ~proj.wide
@@ -641,7 +689,9 @@ def grow(
     area = np.asarray(shapes.area, dtype=float).copy()
     area[sel[exact]] = shapely.area(grown)
     geometry[sel[exact]] = proj.to_output(grown, sel[exact])
-    return shapes._replace(geometry=geometry, area=area)
+    checked = shapes.checked.copy()
+    checked[sel[exact]] = False
+    return shapes._replace(geometry=geometry, area=area, checked=checked)
 
 
 #: Set by :func:`geoalpha.tools.outlier_rows` to receive the left-out rows.

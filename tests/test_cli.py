@@ -18,7 +18,7 @@ from cli_runner import run
 
 import geoalpha
 from geoalpha import datasets
-from geoalpha.errors import DegenerateGroupWarning, InvalidInputError
+from geoalpha.errors import DegenerateGroupWarning, InvalidInputError, SearchWarning
 
 GROUP = "Local_Authority_(Highway)"
 REPO = Path(__file__).resolve().parents[1]
@@ -118,7 +118,8 @@ def test_options_are_passed_to_hull(fake_hull, points_csv, tmp_path):
     result = run(
         "hull", points_csv, tmp_path / "h.gpkg", "--by", f"Accident_Index,{GROUP}",
         "--alpha", "0.5", "--holes", "--components", "2", "--method", "concave",
-        "--search", "ladder", "--ratio", "0.5", "--k", "7", "--crs", "EPSG:27700",
+        "--search", "ladder", "--max-iterations", "9", "--ratio", "0.5", "--k", "7",
+        "--crs", "EPSG:27700",
         "--degenerate", "drop", "--buffer", "2.5", "--grow", "0.5", "--vertices",
         "--no-dropna", "--no-sort", "-j", "2", "--no-progress",
     )  # fmt: skip
@@ -133,6 +134,7 @@ def test_options_are_passed_to_hull(fake_hull, points_csv, tmp_path):
             "crs": "EPSG:27700",
             "method": "concave",
             "search": "ladder",
+            "max_iterations": 9,
             "ratio": 0.5,
             "k": 7,
             "degenerate": "drop",
@@ -160,6 +162,7 @@ def test_defaults_passed_to_hull(fake_hull, points_csv, tmp_path):
             "crs": "auto",
             "method": "alpha",
             "search": "exact",
+            "max_iterations": 10_000,
             "ratio": 0.3,
             "k": 3,
             "degenerate": "buffer",
@@ -427,6 +430,57 @@ def _csv_points(path):
     from geoalpha.io import read_points
 
     return read_points(path)
+
+
+def test_max_iterations_reaches_the_bisection(points_csv, tmp_path):
+    """``--search bisect --max-iterations 3``: ``search="bisect", max_iterations=3``.
+
+    Three bisection steps from [0, 1.8e308] cannot find alphas of a few
+    1/1000 m: the bisection gives up with the convex hull (alpha 0), where
+    the exact search (and the bisection with its 10,000 steps) finds them.
+    """
+    points = _csv_points(points_csv)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DegenerateGroupWarning)
+        exact = geoalpha.hull(points, by=GROUP)
+        with pytest.warns(SearchWarning, match="max_iterations=3 for 3 group"):
+            three = geoalpha.hull(points, by=GROUP, search="bisect", max_iterations=3)
+    files = {}
+    for name, steps in (("three", ["--max-iterations", "3"]), ("default", [])):
+        files[name] = tmp_path / f"{name}.gpkg"
+        result = run(
+            "hull", points_csv, files[name], "--by", GROUP, "--search", "bisect",
+            *steps,
+        )  # fmt: skip
+        assert result.exit_code == 0, result.stderr
+    assert "did not converge" not in result.stderr  # the default: 10,000 steps
+    back = {
+        name: gpd.read_file(path).set_index(GROUP).loc[exact[GROUP]]
+        for name, path in files.items()
+    }
+    assert back["three"]["alpha"].tolist() == pytest.approx(
+        three["alpha"].tolist(), nan_ok=True
+    )
+    assert back["three"]["alpha"].tolist()[1:] == [0.0, 0.0, 0.0]  # convex hulls
+    assert back["default"]["alpha"].tolist() == pytest.approx(
+        exact["alpha"].tolist(), rel=1e-9, nan_ok=True
+    )
+    assert all(a > 4e-4 for a in exact["alpha"].tolist()[1:])  # E09000013, ...
+    shaped = exact["alpha"].notna().to_numpy()
+    grown = back["three"]["area_m2"].to_numpy() / exact["area_m2"].to_numpy()
+    assert (grown[shaped] > 1.8).all()  # the convex hulls are twice as large
+
+
+def test_max_iterations_warning_names_the_options(points_csv, tmp_path):
+    result = run(
+        "hull", points_csv, tmp_path / "h.gpkg", "--by", GROUP,
+        "--search", "bisect", "--max-iterations", "3",
+    )  # fmt: skip
+    assert result.exit_code == 0, result.stderr
+    assert result.stderr.splitlines()[0].startswith(
+        "Warning: --search 'bisect' did not converge within --max-iterations 3 for "
+        "3 group(s) (codes 1, 2, 3) and returned "
+    )
 
 
 def test_demo_default_dataset_is_visible_at_once(tmp_path):

@@ -11,6 +11,7 @@ import warnings
 
 import geopandas as gpd
 import numpy as np
+import pandas as pd
 import pyproj
 import pytest
 import shapely
@@ -126,3 +127,47 @@ def test_by_an_index_level_name(london):
     assert geoalpha.hull(multi, by=["g", "h"])["n_points"].tolist() == [40, 40]
     with pytest.raises(InvalidInputError, match=r"no column 'k'.*index levels g"):
         geoalpha.hull(london.set_index("g"), by="k")
+
+
+KEY_COLUMNS = {
+    "int": [3, 1, 3, 2, 1, 2, 3, 1],
+    "float_nan": [2.5, np.nan, 0.5, 2.5, np.nan, 0.5, 1.0, 1.0],
+    "str": ["b", "a", "c", "a", "b", "c", "a", "b"],
+    "object_none": ["b", None, "c", "a", None, "c", "a", "b"],
+    "bool": [True, False, True, False, True, False, True, False],
+    "nullable_int": pd.array([2, None, 1, 2, None, 1, 3, 3], dtype="Int64"),
+    "datetime_tz": pd.to_datetime(
+        [
+            "2024-01-02",
+            "2024-01-01",
+            None,
+            "2024-01-02",
+            "2024-01-03",
+            "2024-01-01",
+            None,
+            "2024-01-03",
+        ]
+    ).tz_localize("UTC"),
+}
+
+
+@pytest.mark.parametrize("column", sorted(KEY_COLUMNS))
+@pytest.mark.parametrize("sort", [True, False])
+@pytest.mark.parametrize("dropna", [True, False])
+def test_grouping_by_one_column_numbers_groups_as_pandas_groupby(column, sort, dropna):
+    # hull() numbers the groups of one plain column without building a
+    # GroupBy; the codes and the key table must be pandas' own.
+    from geoalpha import pipeline
+    from geoalpha.options import Options
+
+    frame = gpd.GeoDataFrame(
+        {"k": KEY_COLUMNS[column]},
+        geometry=gpd.points_from_xy(range(8), [0, 1, 0, 1, 0, 1, 0, 1]),
+    )
+    got = pipeline.group(frame, "k", Options(sort=sort, dropna=dropna))
+    grouped = frame.groupby("k", sort=sort, dropna=dropna)
+    expected_codes = grouped.ngroup().fillna(-1).to_numpy(dtype=np.int64)
+    np.testing.assert_array_equal(got.codes, expected_codes)
+    pd.testing.assert_frame_equal(
+        got.keys, grouped.size().index.to_frame(index=False), check_dtype=True
+    )

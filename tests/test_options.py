@@ -48,9 +48,6 @@ NON_DEFAULT = {
     "outliers": 1,
     "grow": 2.0,
 }
-#: Options that `geoalpha hull` has no flag for yet (its flags are written out
-#: in geoalpha/cli.py, not built from Options since the merge of #13).
-NOT_IN_CLI = {"max_iterations"}
 #: Options that reach geoalpha.parallel with n_jobs != 1.
 ARRAY_OPTIONS = ("holes", "components", "search", "max_iterations")
 
@@ -121,13 +118,21 @@ def _cli_flags() -> set[str]:
     return {opt for p in hull_command.params for opt in (*p.opts, *p.secondary_opts)}
 
 
-def test_the_cli_misses_only_the_listed_options():
-    missing = {
-        f.name
-        for f in FIELDS
-        if not set(f.metadata["meta"].flags[-1].split("/")) <= _cli_flags()
-    }
-    assert missing == NOT_IN_CLI
+def test_the_cli_options_are_built_from_options():
+    """Every option is a flag of `geoalpha hull`, with its default, choices and help."""
+    params = {p.name: p for p in main.commands["hull"].params}
+    for field in FIELDS:
+        meta = field.metadata["meta"]
+        param = params[field.name]
+        assert set(meta.flags[-1].split("/")) <= _cli_flags(), field.name
+        assert param.default == field.default, field.name
+        assert param.help == meta.help, field.name
+        if meta.kind == "choice":
+            assert tuple(param.type.choices) == meta.choices, field.name
+    assert params["max_iterations"].opts == ["--max-iterations"]
+    for name in ("grow", "progress"):  # the same options in `geoalpha demo`
+        demo = next(p for p in main.commands["demo"].params if p.name == name)
+        assert demo.to_info_dict() == params[name].to_info_dict()
 
 
 def _cli(points, name, value, tmp_path):
@@ -166,10 +171,6 @@ PATHS = {
 @pytest.mark.parametrize("path", list(PATHS.values()), ids=list(PATHS))
 def test_every_option_arrives_on_every_path(points, received, tmp_path, path, name):
     value = NON_DEFAULT[name]
-    if path is _cli and name in NOT_IN_CLI:
-        with pytest.raises(AssertionError, match="No such option"):
-            path(points, name, value, tmp_path)
-        return
     dask_path = path in (_dask, _dask_accessor)
     args = (points, name, value) + ((tmp_path,) if path is _cli else ())
     with warnings.catch_warnings():
@@ -246,3 +247,74 @@ def test_a_number_option_keeps_ints_and_floats_apart():
     assert meta.check("q", 0.25) == 0.25
     with pytest.raises(InvalidInputError, match="q must be a finite number >= 0"):
         meta.check("q", -1)
+
+
+@pytest.mark.parametrize(
+    ("option", "message"),
+    [
+        ({"holes": "yes"}, "holes must be True or False; got 'yes'"),
+        ({"components": 0}, "components must be an integer >= 1; got 0"),
+        ({"components": np.int64(0)}, "components must be an integer >= 1; got 0"),
+        ({"components": 2.5}, "components must be an integer >= 1; got 2.5"),
+        ({"search": "fast"}, "search must be one of 'exact', 'ladder', 'bisect'"),
+        ({"max_iterations": 0}, "max_iterations must be an integer >= 1; got 0"),
+        ({"outliers": 1.5}, "outliers must be a fraction in [0, 1) or a count >= 0"),
+        ({"n_jobs": 0}, "n_jobs must be a positive integer or -1 (all cores); got 0"),
+    ],
+)
+def test_the_array_api_checks_options_as_hull_does(points, option, message):
+    """One check (options.py) and one message, for hull() and the array API."""
+    xy = shapely.get_coordinates(points.geometry.array)
+    calls = [
+        lambda: geoalpha.hull(points, "g", **option),
+        lambda: geoalpha.alpha_shapes(xy, **option),
+    ]
+    if "n_jobs" not in option:
+        calls.append(lambda: geoalpha.optimal_alpha(xy, **option))
+    for call in calls:
+        with pytest.raises(InvalidInputError) as caught:
+            call()
+        assert str(caught.value).startswith(message)
+
+
+def test_the_array_api_defaults_are_those_of_options():
+    """The array API (and the layers below) spell defaults out: those of Options."""
+    import typing
+
+    from geoalpha import core, crs, optimal, search
+    from geoalpha.options import SEARCHES, defaults
+
+    functions = (
+        geoalpha.alpha_shapes,
+        geoalpha.optimal_alpha,
+        geoalpha.alpha_shape,
+        search.bisect_alpha,  # the layers below options.py: no import of it
+        core.Spectrum.valid,
+        core.Spectrum.optimum,
+        crs.metric_crs,
+    )
+    for func in functions:
+        params = inspect.signature(func).parameters
+        shared = [name for name in params if name in NAMES and name != "alpha"]
+        assert shared, func
+        for name in shared:
+            assert params[name].default == defaults()[name], (func, name)
+    assert typing.get_args(optimal.Search) == SEARCHES
+
+
+def test_the_qgis_plugin_offers_the_choices_of_options():
+    """The plugin cannot import geoalpha when it loads; its copies must agree."""
+    import ast
+    from pathlib import Path
+
+    from geoalpha.options import DEGENERATE_POLICIES, METHODS
+
+    path = Path(__file__).parents[1] / "qgis_plugin/geoalpha_qgis/algorithm.py"
+    constants = {
+        target.id: ast.literal_eval(node.value)
+        for node in ast.parse(path.read_text()).body
+        if isinstance(node, ast.Assign)
+        for target in node.targets
+        if isinstance(target, ast.Name) and target.id in ("METHODS", "DEGENERATE")
+    }
+    assert constants == {"METHODS": METHODS, "DEGENERATE": DEGENERATE_POLICIES}

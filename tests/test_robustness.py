@@ -462,7 +462,12 @@ def test_repairs_work_with_shapely_2_0(monkeypatch):
 
 
 def spoil_first_group(monkeypatch, make):
-    """Make compute() hand a chosen geometry to the next stages for group 0."""
+    """Make compute() hand a chosen, unverified geometry to the next stages for group 0.
+
+    compute() marks the polygons that alpha_shapes verified itself
+    (``checked``); a geometry from anywhere else is not marked, and the
+    guarantee stage must check it.
+    """
     from geoalpha import pipeline
 
     real = pipeline.compute
@@ -471,7 +476,9 @@ def spoil_first_group(monkeypatch, make):
         shapes = real(points, proj, n_groups, options)
         geometry = shapes.geometry.copy()
         geometry[0] = make(geometry[0])
-        return shapes._replace(geometry=geometry)
+        checked = shapes.checked.copy()
+        checked[0] = False
+        return shapes._replace(geometry=geometry, checked=checked)
 
     monkeypatch.setattr(pipeline, "compute", spoiled)
 
