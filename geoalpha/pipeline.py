@@ -375,7 +375,8 @@ def compute(
     call in metres whose polygons are built from the input coordinates;
     ``"concave"`` and ``"knn"``: :func:`geoalpha.comparison.comparison_hulls`.
     The run's progress bar (:func:`geoalpha.progress.current`, in its
-    ``compute`` phase) counts the groups done, batch by batch.
+    ``compute`` phase), when it is shown, counts the groups done, batch by
+    batch.
     """
     method = options.method
     if options.outliers and method != "alpha":
@@ -383,6 +384,8 @@ def compute(
             f"outliers applies to method='alpha'; got method={method!r}"
         )
     bar = current()
+    if bar is not None and not bar.shown:
+        bar = None  # nobody to tell: one batch, not one per PROGRESS_GROUPS groups
     try:
         if method in ("alpha", "convex"):
             res = alpha_shapes(
