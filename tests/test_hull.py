@@ -18,7 +18,7 @@ import pandas as pd
 import pytest
 import shapely
 from compat import requires_fiona, requires_pyogrio, requires_tqdm
-from progress_output import assert_bar_covers
+from progress_output import assert_bar_covers, bar_states
 from shapely.geometry import LineString, Point, Polygon
 
 import geoalpha
@@ -947,6 +947,20 @@ def test_progress_bar_by_default_on_a_terminal_from_many_groups(small, monkeypat
             assert_bar_covers(stderr.getvalue(), HULL_PHASES)
         else:
             assert stderr.getvalue() == ""
+
+
+@requires_tqdm
+def test_progress_bar_stops_where_an_error_stops_the_run(small, capsys):
+    bad = small.copy()
+    bad.loc[bad.index[3], "geometry"] = LineString([(10, 50), (10.1, 50.1)])
+    before = warnings.showwarning
+    with pytest.raises(InvalidInputError, match="needs point geometries"):
+        geoalpha.hull(bad, by="g", progress=True)
+    assert warnings.showwarning is before
+    states = bar_states(capsys.readouterr().err)
+    assert states and set(states) == {("group", 0)}  # shown, not filled
+    geoalpha.hull(small, by="g")  # and no bar left behind for the next run
+    assert capsys.readouterr().err == ""
 
 
 @requires_tqdm
