@@ -60,6 +60,7 @@ from geoalpha.progress import (
     PROGRESS_MIN_GROUPS,
     Phases,
     current,
+    hull_costs,
     phases,
 )
 from geoalpha.schema import RESULT_COLUMNS, result_frame, result_geometry_name
@@ -135,21 +136,29 @@ def run(frame, by, options: Options, *, checks: bool = True):
         return _stages(frame, by, options, bar, checks)
 
 
-def _per_group_crs(source, crs) -> bool:
-    """Whether groups may get a metric CRS each (for the progress estimate)."""
+def _per_group_crs(source, crs, coords: np.ndarray) -> bool:
+    """Whether groups are likely to get a metric CRS each (for the progress bar).
+
+    Longitude/latitude points wider than one UTM zone takes
+    (:data:`geoalpha.crs.UTM_HALF_WIDTH` either side) with ``crs="auto"``: a
+    rough guess of the choice of :func:`geoalpha.crs.metric_crs`.
+    """
     auto = isinstance(crs, str) and crs.strip().lower() in ("auto", "auto-group")
     src = gcrs.parse_crs(source) if auto else None
-    return src is not None and (src.is_geographic or gcrs.is_mercator(src))
+    if src is None or not src.is_geographic or not len(coords):
+        return False
+    return bool(np.ptp(coords[:, 0]) > 2 * gcrs.UTM_HALF_WIDTH)
 
 
 def _stages(frame, by, options: Options, bar: Phases, checks: bool):
+    bar.estimate(hull_costs(len(frame), 0, per_group_crs=False))  # groups: unknown
     bar.start("group")
     groups = group(frame, by, options)
     n_groups = len(groups.keys)
     if checks:
         check_grouping(n_groups, len(frame), by)
     points = read_points(frame, groups, options)
-    per_group_crs = _per_group_crs(frame.crs, options.crs)
+    per_group_crs = _per_group_crs(frame.crs, options.crs, points.coords)
     bar.sized(len(points.codes), n_groups, per_group_crs=per_group_crs)
     bar.start("project")
     if checks:
