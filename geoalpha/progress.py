@@ -58,7 +58,7 @@ def hull_costs(n_rows: int, n_groups: int, *, per_group_crs: bool) -> dict:
     56 to 22 thousand groups): about 4 us a point to compute, and, when
     longitude/latitude groups each get their own metric CRS
     (``per_group_crs``), about 150 us a group both to project and to check
-    (43,645 world points in 22,205 groups: 48 % of the time projecting, 4 %
+    (43,645 world points in 22,205 groups: about 45 % of the time projecting, 4 %
     computing, 40 % checking). Only the ratios matter: they split the bar
     among the phases.
 
