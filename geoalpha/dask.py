@@ -144,27 +144,50 @@ def _sample(part) -> pd.DataFrame:
     return pd.DataFrame(xy, columns=["x", "y"])
 
 
-def _check(n_groups, n_rows, sample, by, source_crs, crs) -> None:
+def _keys(part, names: list, dropna: bool) -> pd.DataFrame:
+    """Return the distinct group keys of a partition, and its number of rows.
+
+    ``__rows__`` holds the partition's rows on the first row (0 on the
+    others); in a partition whose rows all lack a key, one row that is not a
+    key (``__key__`` False) carries them.
+    """
+    keys = part[names]
+    if dropna:
+        keys = keys.dropna()
+    keys = keys.drop_duplicates().assign(__key__=True)
+    if not len(keys) and len(part):
+        keys = part[names].iloc[:1].assign(__key__=False)
+    return keys.assign(__rows__=np.where(np.arange(len(keys)) == 0, len(part), 0))
+
+
+def _check(keys, sample, by, source_crs, crs) -> None:
     """Make the warnings of :mod:`geoalpha.checks`, once for the whole dataset."""
-    if n_groups is not None:
-        check_grouping(int(n_groups), int(n_rows), by)
+    if keys is not None:
+        names = [c for c in keys.columns if c not in ("__rows__", "__key__")]
+        groups = keys.loc[keys["__key__"].to_numpy(bool), names].drop_duplicates()
+        check_grouping(len(groups), int(keys["__rows__"].sum()), by)
     if sample is not None:
         check_distortion(sample[["x", "y"]].to_numpy(), source_crs, crs)
 
 
 def _checks(ddf, names: list, by, options: Options):
-    """Return a lazy :func:`_check` of ``ddf``, or None when nothing can warn."""
-    n_groups = n_rows = sample = None
+    """Return a lazy :func:`_check` of ``ddf``, or None when nothing can warn.
+
+    One pass over the partitions: their distinct keys and row counts, and a
+    sample of points when the computation CRS may stretch areas.
+    """
+    keys = sample = None
     if names:
-        keys = ddf[names].dropna() if options.dropna else ddf[names]
-        n_groups = keys.drop_duplicates().shape[0]
-        n_rows = ddf.map_partitions(len).sum()
+        meta = _keys(ddf._meta, names, options.dropna)
+        keys = ddf.map_partitions(
+            _keys, names, options.dropna, meta=meta, enforce_metadata=False
+        )
     if computation_crs(ddf.crs, options.crs)[0] is not None:
         meta = pd.DataFrame({"x": pd.Series(dtype=float), "y": pd.Series(dtype=float)})
         sample = ddf.map_partitions(_sample, meta=meta)
-    if n_groups is None and sample is None:
+    if keys is None and sample is None:
         return None
-    return dask.delayed(_check)(n_groups, n_rows, sample, by, ddf.crs, options.crs)
+    return dask.delayed(_check)(keys, sample, by, ddf.crs, options.crs)
 
 
 def _meta(frame_meta, by, options: Options):
@@ -189,10 +212,7 @@ def _for_shuffle(part, geometry: str, partition_info=None) -> pd.DataFrame:
     return out
 
 
-def _hull_partition(
-    part, by, crs, meta, geometry, source_crs, options: Options, checked=None
-):
-    """:func:`geoalpha.pipeline.run` on a partition (``checked``: after the checks)."""
+def _hull_partition(part, by, crs, meta, geometry, source_crs, options: Options):
     import geopandas as gpd
 
     if len(part) == 0:
@@ -209,7 +229,12 @@ def _hull_partition(
     return out.astype(dict(meta.dtypes.drop(meta.geometry.name)))
 
 
-def _sort_groups(part, keys: list):
+def _after(part, checked):
+    """Return ``part``: a result partition that waits for the lazy ``checked``."""
+    return part
+
+
+def _sort_groups(part, keys: list, checked=None):
     if keys:
         part = part.sort_values(keys, kind="stable", na_position="last")
     return part.reset_index(drop=True)
@@ -345,15 +370,16 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
         ddf.geometry.name,
         source,
         opts,
-        checked,
         meta=meta,
         enforce_metadata=False,
     )
     if sort:
         keys = list(meta.columns[: meta.columns.get_loc("alpha")])
         out = out.repartition(npartitions=1).map_partitions(
-            _sort_groups, keys, meta=meta, enforce_metadata=False
+            _sort_groups, keys, checked, meta=meta, enforce_metadata=False
         )
+    elif checked is not None:  # the result depends on the checks, not the hulls
+        out = out.map_partitions(_after, checked, meta=meta, enforce_metadata=False)
     return out
 
 
