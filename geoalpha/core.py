@@ -353,7 +353,7 @@ def triangulate(
 
     # Points sorted by group (a no-op when they already are).
     if n > 1 and (codes[1:] < codes[:-1]).any():
-        order = np.argsort(codes, kind="stable")
+        order = _group_order(codes, n_groups)
         xy, point_group = xy_in[order], codes[order]
     else:
         order = np.arange(n)
@@ -517,6 +517,23 @@ class _Frame:
         return cls(local, scale, tol)
 
 
+def _group_order(codes: np.ndarray, n_groups: int) -> np.ndarray:
+    """Stable argsort of group codes ``0 .. n_groups - 1``.
+
+    numpy sorts 8- and 16-bit integers stably by radix (``O(n)``); codes
+    that fit are sorted as such, which is several times faster than sorting
+    them as int64.
+
+    Examples
+    --------
+    >>> _group_order(np.array([2, 0, 2, 1, 0]), 3).tolist()
+    [1, 4, 3, 0, 2]
+    """
+    if n_groups <= 2**16:
+        return np.argsort(codes.astype(np.uint16), kind="stable")
+    return np.argsort(codes, kind="stable")
+
+
 def thin_groups(points, groups=None, n_groups: int | None = None) -> np.ndarray:
     """Flag the groups that are degenerate by the tolerances of :func:`triangulate`.
 
@@ -542,7 +559,7 @@ def thin_groups(points, groups=None, n_groups: int | None = None) -> np.ndarray:
     """
     xy = _check_points(points)
     codes, n_groups = _group_codes(groups, len(xy), n_groups)
-    order = np.argsort(codes, kind="stable")
+    order = _group_order(codes, n_groups)
     xy, codes = xy[order], codes[order]
     ptr = _offsets(codes, n_groups)
     frame = _Frame.of(xy, codes, ptr)
@@ -866,10 +883,13 @@ def _edges_and_cross(xy: np.ndarray, triangles: np.ndarray, scale=1.0):
         # vertex j+2, with edges a = edge j+2 out of it and b = -edge j+1.
         first = (e2[0] >= e2[1]) & (e2[0] >= e2[2])
         second = ~first & (e2[1] >= e2[2])
-        j = np.where(first, 0, np.where(second, 1, 2))
 
-        def pick(values, shift):
-            return np.choose((j + shift) % 3, values)
+        def pick(values, shift):  # values[(j + shift) % 3] (np.choose: 7x slower)
+            return np.where(
+                first,
+                values[shift % 3],
+                np.where(second, values[(1 + shift) % 3], values[(2 + shift) % 3]),
+            )
 
         ax, ay = pick(ex, 2), pick(ey, 2)
         ax_e, ay_e = pick(ex_e, 2), pick(ey_e, 2)

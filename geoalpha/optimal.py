@@ -302,7 +302,9 @@ def _alpha_shapes_batch(
     if out_xy is None:
         out_xy = tri.xy
     else:
-        out_xy = out_xy[np.argsort(tri.input_point)]
+        sorted_xy = np.empty_like(out_xy)  # in the triangulation's point order
+        sorted_xy[tri.input_point] = out_xy
+        out_xy = sorted_xy
     weight = tri.rank if holes else core.fill_radius(tri)
     a, top, n_pieces = _rank_threshold(
         tri, weight, alpha, components, search, max_iterations, filled=not holes
@@ -326,16 +328,20 @@ def _alpha_shapes_batch(
     # its points, in the coordinates it is returned in (at the optimum), or
     # declared degenerate. Points merged as near-duplicates are taken in here.
     check = ~tri.degenerate & ~rings.failed
-    # Coverage needs a geometric test only where it is not certain: at the
-    # optimum every representative point is a vertex of the (checked)
-    # triangulation in the shape, so in the same coordinates it is covered;
-    # points merged into another one, and every point when the geometry is
-    # built from other coordinates (lon/lat), are tested.
-    if coords is None:
-        x, y, v = tri.xy[:, 0], tri.xy[:, 1], tri.vertex
-        test = (x != x[v]) | (y != y[v])
-    else:
-        test = np.ones(len(tri.xy), dtype=bool)
+    # Coverage needs a geometric test only where it is not certain. Every
+    # point at exactly the place of a ring vertex is a vertex of the
+    # (validity-checked) polygon, so it is covered, in any coordinates. In
+    # the coordinates of the triangulation, the other representative points
+    # are vertices of triangles in the shape, so they are covered too; in
+    # other coordinates (lon/lat) they are tested, as are points merged into
+    # another one. (shapes.enforce tests every point of a polygon it had to
+    # repair.)
+    x, y, v = out_xy[:, 0], out_xy[:, 1], tri.vertex
+    test = (x != x[v]) | (y != y[v])
+    if coords is not None:
+        on_ring = np.zeros(len(out_xy), dtype=bool)
+        on_ring[rings.vertex] = True
+        test |= ~on_ring[v]
     if kept is not None:  # the points left out on purpose (outliers=)
         test &= ~kept.outlier
     geometry, failed = shapes.enforce(

@@ -106,8 +106,9 @@ def enforce(geoms, out_xy, codes, check, *, cover=True, components=None, test=No
     test : ndarray of bool, shape (k,), optional
         The points whose coverage must be tested geometrically (default:
         all). A caller may leave out points whose coverage is already
-        certain, e.g. vertices of a valid triangulation of the shape in the
-        very coordinates of the geometry.
+        certain for the geometry given, e.g. vertices of a valid
+        triangulation of the shape in the very coordinates of the geometry.
+        Every point of a geometry that had to be repaired is tested.
 
     Returns
     -------
@@ -139,7 +140,9 @@ def enforce(geoms, out_xy, codes, check, *, cover=True, components=None, test=No
     if cover:
         mine = check[codes] & ~failed[codes]
         if test is not None:
-            mine &= test
+            repaired = np.zeros(len(geoms), dtype=bool)
+            repaired[invalid] = True
+            mine &= test | repaired[codes]
         outside = ~covered(geoms, out_xy[mine], codes[mine])
         repair = np.unique(codes[mine][outside])
         if len(repair):

@@ -226,3 +226,28 @@ def test_progress_counts_every_group():
     bar = Bar()
     core.triangulate(*batch(sets), progress=bar, backend=geos)
     assert bar.n == 600  # the collinear group is flagged before triangulating
+
+
+def test_duplicates_found_whatever_the_hash_and_collisions_fall_back(monkeypatch):
+    # Points GEOS leaves out (exact duplicates) are matched to their vertex by
+    # a hash of (group, x, y). Every pair is compared exactly: a hash that
+    # collides for every point leaves the groups with duplicates to Qhull,
+    # with the same optimum; it never pairs different points.
+    rng = np.random.default_rng(5)
+    sets = [rng.integers(0, 6, (40, 2)).astype(float) * 7.5 for _ in range(6)]
+    points, codes = batch(sets)
+    expected = alpha_shapes(points, codes)
+    local, ptr, groups = group_arrays(sets)
+    found = delaunay.triangulate_groups(local, ptr, groups)
+    assert not found.failed.any()
+    # Every point is represented by an equal point that GEOS kept.
+    np.testing.assert_array_equal(local[found.vertex], local)
+    assert len(np.unique(found.vertex)) < len(local)  # duplicates were there
+
+    monkeypatch.setattr(delaunay, "_hash64", lambda *w: np.zeros(len(w[0]), np.uint64))
+    collided = delaunay.triangulate_groups(local, ptr, groups)
+    np.testing.assert_array_equal(local[collided.vertex], local)
+    assert collided.failed.any()  # some group lost its pairing: Qhull's now
+    got = alpha_shapes(points, codes)
+    np.testing.assert_array_equal(got.alpha, expected.alpha)
+    assert shapely.equals(got.geometry, expected.geometry).all()

@@ -509,3 +509,24 @@ def test_hull_declares_degenerate_what_it_cannot_repair(monkeypatch):
     mine = frame.geometry[frame["g"] == key].to_numpy()
     assert np.isnan(hulls["alpha"][0])
     assert shapely.covers(hulls.geometry[0], mine).all()
+
+
+def test_enforce_takes_in_points_a_repair_left_out_even_when_not_asked_to_test():
+    # A caller may skip points whose coverage is certain for the polygon it
+    # built (test=False); once the polygon is invalid and repaired, that
+    # certainty is gone: every point of the group is tested again, and a
+    # point the repair left outside is taken in (not just reported).
+    bow = shapely.Polygon([(0, 0), (2, 2), (2, 0), (0, 2)])  # self-crossing
+    pts = np.array([[0, 0], [2, 2], [2, 0], [0, 2], [1, 0.2]])
+    repaired = geoalpha.shapes.repair_invalid(np.array([bow]))[0]
+    assert not repaired.covers(shapely.Point(1, 0.2))
+    fixed, failed = geoalpha.shapes.enforce(
+        np.array([bow]),
+        pts,
+        np.zeros(len(pts), dtype=int),
+        np.ones(1, bool),
+        test=np.zeros(len(pts), bool),
+    )
+    assert not failed[0]
+    assert fixed[0].is_valid
+    assert shapely.covers(fixed[0], shapely.points(pts)).all()
