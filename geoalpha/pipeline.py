@@ -158,12 +158,13 @@ def _stages(frame, by, options: Options, bar: Phases, checks: bool):
     if checks:
         check_grouping(n_groups, len(frame), by)
     points = read_points(frame, groups, options)
-    per_group_crs = _per_group_crs(frame.crs, options.crs, points.coords)
+    crs = frame.crs  # a property that costs a lookup each time
+    per_group_crs = _per_group_crs(crs, options.crs, points.coords)
     bar.sized(len(points.codes), n_groups, per_group_crs=per_group_crs)
     bar.start("project")
     if checks:
-        check_distortion(points.coords, frame.crs, options.crs)
-    proj = project(points, frame.crs, options)
+        check_distortion(points.coords, crs, options.crs)
+    proj = project(points, crs, options)
     bar.start("compute", units=n_groups)
     shapes = compute(points, proj, n_groups, options)
     bar.start("check")
@@ -179,7 +180,7 @@ def _stages(frame, by, options: Options, bar: Phases, checks: bool):
         proj,
         shapes,
         geometry,
-        frame.crs,
+        crs,
         result_geometry_name(frame, groups.keys),
     )
     report_outliers(shapes, groups, points, frame, options)
@@ -257,10 +258,12 @@ def group(frame, by, options: Options) -> Groups:
             keys = grouped.size().index.to_frame(index=False)
     except (ValueError, KeyError, TypeError) as err:
         raise InvalidInputError(f"hull(by=...) cannot group the rows: {err}") from err
-    keys.columns = [
+    names = [
         "group" if (c is None or isinstance(c, int)) and len(keys.columns) == 1 else c
         for c in keys.columns
     ]
+    if names != list(keys.columns):  # (setting them costs as much as grouping)
+        keys.columns = names
     clash = [c for c in keys.columns if c in (*RESULT_COLUMNS, "geometry")]
     if clash:
         raise InvalidInputError(
@@ -290,7 +293,7 @@ def _factorize_column(frame, by, options: Options):
     codes, uniques = pd.factorize(
         column, sort=options.sort, use_na_sentinel=options.dropna
     )
-    keys = pd.DataFrame({name: uniques})
+    keys = pd.Index(uniques).to_frame(index=False, name=name)
     return codes.astype(np.int64, copy=False), keys
 
 
@@ -312,7 +315,8 @@ def read_points(frame, groups: Groups, options: Options) -> Points:
     counted in a :class:`DroppedRowsWarning`; non-point geometries are an
     error unless ``vertices=True``; NaN or infinite coordinates are an error.
     """
-    geoms = np.asarray(frame.geometry.array, dtype=object)
+    # The active geometry column's array (``frame.geometry`` builds a GeoSeries)
+    geoms = np.asarray(frame[frame._geometry_column_name].array, dtype=object)
     index = frame.index
     codes = groups.codes
     missing = shapely.is_missing(geoms) | shapely.is_empty(geoms)
