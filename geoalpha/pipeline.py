@@ -319,8 +319,9 @@ def read_points(frame, groups: Groups, options: Options) -> Points:
     geoms = np.asarray(frame[frame._geometry_column_name].array, dtype=object)
     index = frame.index
     codes = groups.codes
-    missing = shapely.is_missing(geoms) | shapely.is_empty(geoms)
-    other = ~missing & ~np.isin(shapely.get_type_id(geoms), _POINT_TYPES)
+    kind = shapely.get_type_id(geoms)  # -1: missing
+    missing = (kind < 0) | shapely.is_empty(geoms)
+    other = ~missing & (kind != _POINT_TYPES[0]) & (kind != _POINT_TYPES[1])
     if other.any() and not options.vertices:
         kinds = pd.Series(np.asarray(frame.geom_type)[other])
         names = ", ".join(f"{n} {t}" for t, n in kinds.value_counts().items())
@@ -349,7 +350,13 @@ def read_points(frame, groups: Groups, options: Options) -> Points:
             stacklevel=user_stacklevel(),
         )
     kept = np.flatnonzero(~dropped)
-    coords, which = shapely.get_coordinates(geoms[kept], return_index=True)
+    if len(kept) < len(geoms):
+        geoms, kind = geoms[kept], kind[kept]
+    if (kind == _POINT_TYPES[0]).all():  # one coordinate pair per row
+        coords = np.column_stack([shapely.get_x(geoms), shapely.get_y(geoms)])
+        which = np.arange(len(kept))
+    else:
+        coords, which = shapely.get_coordinates(geoms, return_index=True)
     bad = ~(np.isfinite(coords[:, 0]) & np.isfinite(coords[:, 1]))
     if bad.any():
         rows = np.zeros(len(index), dtype=bool)
