@@ -17,7 +17,7 @@ import re
 import sys
 import traceback
 import warnings
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 
 import click
 
@@ -36,6 +36,11 @@ _CONTEXT = {"help_option_names": ["-h", "--help"], "max_content_width": 88}
 _EXPECTED = (GeoAlphaError, OSError, ImportError)
 
 
+def _by_flag(match: re.Match) -> str:
+    """``by='a'`` / ``by=['a', 'b']`` -> ``--by a`` / ``--by a,b``."""
+    return "--by " + ",".join(re.findall(r"'([^']*)'", match[1]))
+
+
 def _option_terms() -> list[tuple[str, str]]:
     """``name=value`` of the options of hull() -> their flags (from options.py)."""
     terms = []
@@ -51,8 +56,9 @@ def _option_terms() -> list[tuple[str, str]]:
 
 
 # Python keywords in messages of the library -> the command's options.
-_CLI_TERMS: tuple[tuple[str, str], ...] = (
+_CLI_TERMS: tuple[tuple[str, str | Callable[[re.Match], str]], ...] = (
     (r"hull\(by=[^)]*\)", "--by"),
+    (r"\bby=(\[[^\]]*\]|'[^']*')", _by_flag),
     (r"\bhull\(\) ", "geoalpha "),
     (r"pass vertices=True \(--vertices\)", "pass --vertices"),
     (r"\(degenerate='(\w+)'\)", r"(--degenerate \1)"),
@@ -62,6 +68,9 @@ _CLI_TERMS: tuple[tuple[str, str], ...] = (
         "with --crs-in, or pass --crs-in none",
     ),
     (r"\bcrs='auto'", "--crs auto"),
+    (r"\bcrs='([^' ]+)'", r"--crs \1"),
+    (r"\(crs=\)", "(--crs)"),
+    (r"\bthe input's CRS\b", "INPUT's CRS"),
     (r"\bcrs=None\b", "--crs none"),
     (r"\bcrs=(?=\s)", "--crs"),
     *_option_terms(),
@@ -233,78 +242,62 @@ def _group_columns(values: tuple[str, ...], columns, source: str) -> list[str]:
     return by
 
 
-#: Warn about --by from this share of groups per row (and at least 50 rows).
-MANY_GROUPS_SHARE = 0.5
+def _input_size(path) -> int | None:
+    """Bytes of an input file (or of the files of a folder); None for a database."""
+    import os
+
+    path = os.fspath(path)
+    if os.path.isfile(path):
+        return os.path.getsize(path)
+    if os.path.isdir(path):
+        return sum(e.stat().st_size for e in os.scandir(path) if e.is_file())
+    return None
 
 
-def _check_grouping(points, by: list[str]) -> None:
-    """Warn when --by makes nearly one group per row (a wrong column?)."""
-    from geoalpha.errors import GroupingWarning
+@contextlib.contextmanager
+def _progress_bar(
+    progress: bool | None,
+    verbosity: int,
+    size: int | None,
+    *,
+    points_layer: bool = False,
+    preview: bool = False,
+):
+    """One progress bar over the command's phases, from reading to writing.
 
-    rows = len(points)
-    if not by or rows < 50:
-        return
-    groups = points.groupby(by, dropna=True, sort=False).ngroups
-    if groups > MANY_GROUPS_SHARE * rows:
-        warnings.warn(
-            f"--by {','.join(by)} makes {groups:,} groups of {rows:,} rows; groups "
-            "of 1-2 points have no alpha shape, so is this the right column?",
-            GroupingWarning,
-            stacklevel=2,
+    ``read``, then the phases of :func:`geoalpha.hull` (which uses this bar),
+    ``write`` and ``preview``; their shares of the bar are estimated from
+    the input's size in bytes until it is read, then from its rows and groups
+    (:mod:`geoalpha.progress`). ``-q`` means no bar unless ``--progress``.
+    """
+    from geoalpha.progress import HULL_PHASES, hull_costs, phases
+
+    show = False if progress is None and verbosity < 0 else progress
+
+    # Importing geopandas (read) and matplotlib (preview) takes about a second.
+    imports = {
+        m: 0 if m in sys.modules else 800_000 for m in ("geopandas", "matplotlib")
+    }
+
+    def after_hull(n_rows: float, n_groups: float) -> dict:
+        """Estimated microseconds (as hull_costs), measured on the demo data."""
+        return {
+            "write": 20_000 + 15 * n_groups + (5 * n_rows if points_layer else 0),
+            "preview": imports["matplotlib"] + 100_000 + 5 * n_rows + 400 * n_groups,
+        }
+
+    names = ("read", *HULL_PHASES, "write", *(("preview",) if preview else ()))
+    with phases(names, show, costs=after_hull) as bar:
+        rows = size / 50 if size else 100_000  # a guess until INPUT is read
+        bar.estimate(
+            {
+                **hull_costs(rows, rows / 100, per_group_crs=False),
+                **after_hull(rows, rows / 100),
+                "read": imports["geopandas"] + (0.04 * size if size else 2 * rows),
+            }
         )
-
-
-def _computation_crs(points, work_crs):
-    """Return the one computation CRS to check for distortion, and its origin."""
-    import pyproj
-
-    if points.crs is None or work_crs is None:
-        return None, ""
-    if isinstance(work_crs, str) and work_crs.strip().lower() == "auto":
-        if points.crs.is_projected:
-            return points.crs, "INPUT's CRS"
-        return None, ""
-    try:
-        crs = pyproj.CRS.from_user_input(work_crs)
-    except pyproj.exceptions.CRSError:
-        return None, ""  # hull() reports it
-    return (crs, "--crs") if crs.is_projected else (None, "")
-
-
-def _check_distortion(points, work_crs) -> None:
-    """Warn when the computation CRS stretches areas where the points are."""
-    import numpy as np
-    import shapely
-
-    from geoalpha.crs import crs_name
-    from geoalpha.distortion import AREA_TOLERANCE, area_scale
-    from geoalpha.errors import CRSWarning
-
-    crs, chosen_by = _computation_crs(points, work_crs)
-    if crs is None:
-        return
-    xy = shapely.get_coordinates(points.geometry.array)
-    scale = area_scale(crs, xy[:, 0], xy[:, 1], points.crs)
-    if scale.size == 0 or np.abs(scale - 1.0).max() <= AREA_TOLERANCE:
-        return
-    if chosen_by == "--crs":
-        advice = (
-            "leave out --crs (auto: a UTM zone or a local equal-area CRS per "
-            "group) for true metres"
-        )
-    else:
-        advice = "pass --crs with a UTM zone or an equal-area CRS for these points"
-        with contextlib.suppress(Exception):
-            advice += f", e.g. --crs {crs_name(points.estimate_utm_crs())}"
-    middle = float(np.median(scale))
-    warnings.warn(
-        f"the shapes are computed in {crs_name(crs)} ({chosen_by}), which "
-        f"stretches areas {middle:.3g} times (median at the points; "
-        f"{float(scale.min()):.3g}-{float(scale.max()):.3g}), so 'area_m2' and "
-        f"'radius' are not true square metres and metres: {advice}",
-        CRSWarning,
-        stacklevel=2,
-    )
+        bar.start("read")
+        yield bar
 
 
 def _planar_unit(points, work_crs) -> str | None:
@@ -385,17 +378,20 @@ def _run(
     verbosity: int,
     preview: str | None = None,
     extra_layers: dict | None = None,
+    bar=None,
     **options,
 ) -> None:
-    """Compute the hulls, write them and report what was written."""
+    """Compute the hulls, write them and report what was written.
+
+    ``bar`` is the command's progress bar (:func:`_progress_bar`), in which
+    the hull's phases run; it is closed before the summary.
+    """
     from geoalpha.io import write_hulls
     from geoalpha.tools import hull
 
     if options.get("progress") is None and verbosity < 0:
         options["progress"] = False
     work_crs = options.get("crs", "auto")
-    _check_grouping(points, by)
-    _check_distortion(points, work_crs)
     key = None if not by else by[0] if len(by) == 1 else by
     hulls = hull(points, by=key, **options)
     if len(hulls) == 0:
@@ -407,6 +403,8 @@ def _run(
     if unit is not None:  # say the unit instead of a wrong "m2"
         table = hulls.rename(columns={"area_m2": "area"})
         table.insert(list(table.columns).index("area") + 1, "unit", unit)
+    if bar is not None:
+        bar.start("write")
     mapping = write_hulls(
         table,
         output,
@@ -416,7 +414,11 @@ def _run(
         extra_layers=extra_layers,
     )
     if preview is not None:
+        if bar is not None:
+            bar.start("preview")
         _write_preview(hulls, points, preview, by)
+    if bar is not None:
+        bar.close()  # full, before the summary
     if verbosity < 0:
         return
     for line in _summary(points, hulls, source, work_crs, unit):
@@ -719,7 +721,13 @@ def hull(
     from geoalpha.io import check_output, read_input_points
 
     verbosity = _verbosity(verbose, quiet)
-    with _reporting(verbosity):
+    size = _input_size(input_path)  # None for a database
+    with (
+        _reporting(verbosity),
+        _progress_bar(
+            options["progress"], verbosity, size, preview=preview is not None
+        ) as bar,
+    ):
         check_output(output, layer=output_layer, overwrite=overwrite)
         _check_preview(preview)
         work_crs = _crs_option(options["crs"])
@@ -747,6 +755,7 @@ def hull(
             engine=engine,
             verbosity=verbosity,
             preview=preview,
+            bar=bar,
             **{**options, "crs": work_crs},
         )
 
@@ -803,11 +812,20 @@ def demo(
     from geoalpha.io import check_output
 
     verbosity = _verbosity(verbose, quiet)
-    with _reporting(verbosity):
+    gpkg = output.lower().endswith(".gpkg")
+    with (
+        _reporting(verbosity),
+        _progress_bar(
+            progress,
+            verbosity,
+            _input_size(datasets.path(dataset)),
+            points_layer=gpkg,
+            preview=preview is not None,
+        ) as bar,
+    ):
         check_output(output, overwrite=overwrite)
         _check_preview(preview)
         points = datasets.load(dataset)
-        gpkg = output.lower().endswith(".gpkg")
         _run(
             points,
             output,
@@ -819,6 +837,7 @@ def demo(
             verbosity=verbosity,
             preview=preview,
             extra_layers={"points": points} if gpkg else None,
+            bar=bar,
             progress=progress,
             grow=grow,
         )

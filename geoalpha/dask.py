@@ -18,9 +18,13 @@ with dask's string dtype):
    data fit one, else ``crs="auto-group"`` (each group its own metric CRS);
    a partition alone would see only its own points and could decide
    otherwise;
-3. the stages of :func:`geoalpha.hull` (:func:`geoalpha.pipeline.run`) run on
+3. the warnings about the set-up (:mod:`geoalpha.checks`: nearly one group
+   per row, a computation CRS that stretches areas) are made once, on the
+   number of distinct keys and rows and a sample of up to 1,000 points per
+   partition, when the result is computed;
+4. the stages of :func:`geoalpha.hull` (:func:`geoalpha.pipeline.run`) run on
    every partition (``map_partitions``);
-4. with ``sort=True`` the (small: one row per group) result is gathered into
+5. with ``sort=True`` the (small: one row per group) result is gathered into
    one partition sorted by key, as the eager call returns it.
 
 Importing this module imports dask-geopandas (``pip install geoalpha[dask]``)
@@ -39,6 +43,7 @@ import shapely
 
 from geoalpha import crs as gcrs
 from geoalpha import options as _options
+from geoalpha.checks import check_distortion, check_grouping, computation_crs
 from geoalpha.errors import InvalidInputError
 from geoalpha.options import Options
 from geoalpha.pipeline import group, run
@@ -126,6 +131,65 @@ def _decide_crs(extents: pd.DataFrame, source_crs):
     return chosen[0] if gcrs.crs_name(chosen[0]).startswith("EPSG:") else "auto-group"
 
 
+#: Points per partition that the distortion check looks at.
+_SAMPLE = 1000
+
+
+def _sample(part) -> pd.DataFrame:
+    """Up to :data:`_SAMPLE` evenly spaced point coordinates of a partition."""
+    geoms = np.asarray(part.geometry.array, dtype=object)
+    xy = shapely.get_coordinates(geoms[~shapely.is_missing(geoms)])
+    if len(xy) > _SAMPLE:
+        xy = xy[np.linspace(0, len(xy) - 1, _SAMPLE).astype(np.intp)]
+    return pd.DataFrame(xy, columns=["x", "y"])
+
+
+def _keys(part, names: list, dropna: bool) -> pd.DataFrame:
+    """Return the distinct group keys of a partition, and its number of rows.
+
+    ``__rows__`` holds the partition's rows on the first row (0 on the
+    others); in a partition whose rows all lack a key, one row that is not a
+    key (``__key__`` False) carries them.
+    """
+    keys = part[names]
+    if dropna:
+        keys = keys.dropna()
+    keys = keys.drop_duplicates().assign(__key__=True)
+    if not len(keys) and len(part):
+        keys = part[names].iloc[:1].assign(__key__=False)
+    return keys.assign(__rows__=np.where(np.arange(len(keys)) == 0, len(part), 0))
+
+
+def _check(keys, sample, by, source_crs, crs) -> None:
+    """Make the warnings of :mod:`geoalpha.checks`, once for the whole dataset."""
+    if keys is not None:
+        names = [c for c in keys.columns if c not in ("__rows__", "__key__")]
+        groups = keys.loc[keys["__key__"].to_numpy(bool), names].drop_duplicates()
+        check_grouping(len(groups), int(keys["__rows__"].sum()), by)
+    if sample is not None:
+        check_distortion(sample[["x", "y"]].to_numpy(), source_crs, crs)
+
+
+def _checks(ddf, names: list, by, options: Options):
+    """Return a lazy :func:`_check` of ``ddf``, or None when nothing can warn.
+
+    One pass over the partitions: their distinct keys and row counts, and a
+    sample of points when the computation CRS may stretch areas.
+    """
+    keys = sample = None
+    if names:
+        meta = _keys(ddf._meta, names, options.dropna)
+        keys = ddf.map_partitions(
+            _keys, names, options.dropna, meta=meta, enforce_metadata=False
+        )
+    if computation_crs(ddf.crs, options.crs)[0] is not None:
+        meta = pd.DataFrame({"x": pd.Series(dtype=float), "y": pd.Series(dtype=float)})
+        sample = ddf.map_partitions(_sample, meta=meta)
+    if keys is None and sample is None:
+        return None
+    return dask.delayed(_check)(keys, sample, by, ddf.crs, options.crs)
+
+
 def _meta(frame_meta, by, options: Options):
     """Empty GeoDataFrame with the columns and dtypes of the eager result."""
     keys = group(frame_meta, by, options).keys
@@ -161,11 +225,16 @@ def _hull_partition(part, by, crs, meta, geometry, source_crs, options: Options)
             part[geometry].to_numpy(), index=part.index, crs=source_crs
         )
     part = gpd.GeoDataFrame(part, geometry=geometry, crs=source_crs)
-    out = run(part, by, options.replace(crs=crs))
+    out = run(part, by, options.replace(crs=crs), checks=False)
     return out.astype(dict(meta.dtypes.drop(meta.geometry.name)))
 
 
-def _sort_groups(part, keys: list):
+def _after(part, checked):
+    """Return ``part``: a result partition that waits for the lazy ``checked``."""
+    return part
+
+
+def _sort_groups(part, keys: list, checked=None):
     if keys:
         part = part.sort_values(keys, kind="stable", na_position="last")
     return part.reset_index(drop=True)
@@ -224,7 +293,10 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
     -----
     Warnings of :func:`geoalpha.hull` (dropped rows, degenerate groups) are
     raised where the partitions are computed: in this process with the local
-    schedulers, in the worker logs with ``distributed``.
+    schedulers, in the worker logs with ``distributed``. Those about the
+    set-up (``by`` making nearly one group per row, a computation CRS that
+    stretches areas: :mod:`geoalpha.checks`) are raised once for the whole
+    dataset.
 
     Point the same code at a cluster by creating a ``distributed.Client``
     before ``.compute()``; each worker then needs geoalpha installed.
@@ -268,8 +340,9 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
     names = _key_names(ddf, by)
     meta = _meta(ddf._meta, by, opts)
     if names:  # the eager checks of the options, on the (empty) meta frame
-        run(ddf._meta, by, opts)
+        run(ddf._meta, by, opts, checks=False)
     crs, dropna, sort = opts.crs, opts.dropna, opts.sort
+    checked = _checks(ddf, names, by, opts)
 
     source = ddf.crs
     if (
@@ -303,8 +376,10 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
     if sort:
         keys = list(meta.columns[: meta.columns.get_loc("alpha")])
         out = out.repartition(npartitions=1).map_partitions(
-            _sort_groups, keys, meta=meta, enforce_metadata=False
+            _sort_groups, keys, checked, meta=meta, enforce_metadata=False
         )
+    elif checked is not None:  # the result depends on the checks, not the hulls
+        out = out.map_partitions(_after, checked, meta=meta, enforce_metadata=False)
     return out
 
 

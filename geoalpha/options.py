@@ -398,8 +398,10 @@ class Options:
         None,
         kind="bool",
         optional=True,
-        doc="bool, optional\n    Show a progress bar (needs ``tqdm``: ``pip install "
-        "geoalpha[progress]``).\n    Default: only for long runs on a terminal.",
+        doc="bool, optional\n    Show one progress bar through every phase (group, "
+        "project, compute,\n    check; see :mod:`geoalpha.progress`; needs ``tqdm``: "
+        "``pip install\n    geoalpha[progress]``). Default: only for long runs on a "
+        "terminal.",
         flags=("--progress/--no-progress",),
         help="Show a progress bar [default: when there are many groups].",
     )

@@ -2,13 +2,18 @@
 
 :func:`run` is the data path of :func:`geoalpha.hull`, one function per stage::
 
-    frame ─ group ─ read_points ─ project ─ compute ─ degenerate_policy
+    frame ─ group ─ check_grouping ─ read_points ─ check_distortion ─ project
+          ─ compute ─ ensure_guarantee ─ degenerate_policy ─ grow
           ─ verify_in_output_crs ─ table
 
 - :func:`group`: a group code per row and the table of group keys (as
   :meth:`GeoDataFrame.dissolve` groups);
+- :func:`~geoalpha.checks.check_grouping`: a warning when ``by`` makes nearly
+  one group per row;
 - :func:`read_points`: the point coordinates, with missing geometries and
   keys dropped (and counted in a warning), non-points refused;
+- :func:`~geoalpha.checks.check_distortion`: a warning when the computation
+  CRS stretches areas where the points are;
 - :func:`project`: the metric CRS round trip (:class:`geoalpha.crs.Projection`);
 - :func:`compute`: the shapes, by method (:func:`geoalpha.alpha_shapes` in one
   batched call, or :mod:`geoalpha.comparison`), built in the output CRS;
@@ -17,6 +22,10 @@
   in the output CRS, antimeridian groups split;
 - :func:`table`: the result (:mod:`geoalpha.schema`).
 
+One progress bar (:mod:`geoalpha.progress`) follows the phases ``group``,
+``project``, ``compute`` and ``check``; inside the ``geoalpha`` command, the
+command's bar, which also has ``read`` and ``write``.
+
 :func:`geoalpha.hull` checks the options and calls :func:`run` (or
 :func:`geoalpha.dask.hull`, which calls :func:`run` on every partition).
 """
@@ -24,7 +33,6 @@
 from __future__ import annotations
 
 import contextvars
-import sys
 import warnings
 from typing import Any, NamedTuple
 
@@ -33,6 +41,7 @@ import pandas as pd
 import shapely
 
 from geoalpha import crs as gcrs
+from geoalpha.checks import check_distortion, check_grouping
 from geoalpha.comparison import comparison_hulls, convex_hulls
 from geoalpha.errors import (
     AntimeridianWarning,
@@ -46,6 +55,14 @@ from geoalpha.errors import (
 )
 from geoalpha.optimal import alpha_shapes
 from geoalpha.options import Options
+from geoalpha.progress import (
+    HULL_PHASES,
+    PROGRESS_MIN_GROUPS,
+    Phases,
+    current,
+    hull_costs,
+    phases,
+)
 from geoalpha.schema import RESULT_COLUMNS, result_frame, result_geometry_name
 from geoalpha.shapes import EMPTY_POLYGON, cover_points, enforce, repair_invalid
 
@@ -66,8 +83,6 @@ __all__ = [
     "verify_in_output_crs",
 ]
 
-#: Show a progress bar by default from this many groups on (on a terminal).
-PROGRESS_MIN_GROUPS = 2000
 _POINT_TYPES = (0, 4)  # shapely type ids of Point and MultiPoint
 
 
@@ -105,12 +120,54 @@ class Shapes(NamedTuple):
     checked: np.ndarray
 
 
-def run(frame, by, options: Options):
-    """``hull(frame, by, **options)`` on an in-memory GeoDataFrame: every stage."""
+def run(frame, by, options: Options, *, checks: bool = True):
+    """``hull(frame, by, **options)`` on an in-memory GeoDataFrame: every stage.
+
+    With a progress bar over the phases (``options.progress``), or inside the
+    one of the enclosing :func:`geoalpha.progress.phases` (the command's).
+    ``checks=False`` leaves out the warnings about the set-up
+    (:mod:`geoalpha.checks`), which :func:`geoalpha.dask.hull` makes once for
+    the whole dataset instead of once per partition.
+    """
+    outer = current()
+    if outer is not None and options.progress is not False:
+        return _stages(frame, by, options, outer, checks)
+    with phases(HULL_PHASES, options.progress) as bar:
+        return _stages(frame, by, options, bar, checks)
+
+
+def _per_group_crs(source, crs, coords: np.ndarray) -> bool:
+    """Whether groups are likely to get a metric CRS each (for the progress bar).
+
+    Longitude/latitude points wider than one UTM zone takes
+    (:data:`geoalpha.crs.UTM_HALF_WIDTH` either side) with ``crs="auto"``: a
+    rough guess of the choice of :func:`geoalpha.crs.metric_crs`.
+    """
+    auto = isinstance(crs, str) and crs.strip().lower() in ("auto", "auto-group")
+    src = gcrs.parse_crs(source) if auto else None
+    if src is None or not src.is_geographic or not len(coords):
+        return False
+    return bool(np.ptp(coords[:, 0]) > 2 * gcrs.UTM_HALF_WIDTH)
+
+
+def _stages(frame, by, options: Options, bar: Phases, checks: bool):
+    bar.estimate(hull_costs(len(frame), 0, per_group_crs=False))  # groups: unknown
+    bar.start("group")
     groups = group(frame, by, options)
+    n_groups = len(groups.keys)
+    if checks:
+        check_grouping(n_groups, len(frame), by)
     points = read_points(frame, groups, options)
-    proj = project(points, frame.crs, options)
-    shapes = compute(points, proj, len(groups.keys), options)
+    crs = frame.crs  # a property that costs a lookup each time
+    per_group_crs = _per_group_crs(crs, options.crs, points.coords)
+    bar.sized(len(points.codes), n_groups, per_group_crs=per_group_crs)
+    bar.start("project")
+    if checks:
+        check_distortion(points.coords, crs, options.crs)
+    proj = project(points, crs, options)
+    bar.start("compute", units=n_groups)
+    shapes = compute(points, proj, n_groups, options)
+    bar.start("check")
     shapes = ensure_guarantee(shapes, groups, points, proj, options)
     shapes = degenerate_policy(shapes, groups, points, proj, options)
     shapes = grow(shapes, points, proj, options)
@@ -123,7 +180,7 @@ def run(frame, by, options: Options):
         proj,
         shapes,
         geometry,
-        frame.crs,
+        crs,
         result_geometry_name(frame, groups.keys),
     )
     report_outliers(shapes, groups, points, frame, options)
@@ -201,10 +258,12 @@ def group(frame, by, options: Options) -> Groups:
             keys = grouped.size().index.to_frame(index=False)
     except (ValueError, KeyError, TypeError) as err:
         raise InvalidInputError(f"hull(by=...) cannot group the rows: {err}") from err
-    keys.columns = [
+    names = [
         "group" if (c is None or isinstance(c, int)) and len(keys.columns) == 1 else c
         for c in keys.columns
     ]
+    if names != list(keys.columns):  # (setting them costs as much as grouping)
+        keys.columns = names
     clash = [c for c in keys.columns if c in (*RESULT_COLUMNS, "geometry")]
     if clash:
         raise InvalidInputError(
@@ -234,7 +293,7 @@ def _factorize_column(frame, by, options: Options):
     codes, uniques = pd.factorize(
         column, sort=options.sort, use_na_sentinel=options.dropna
     )
-    keys = pd.DataFrame({name: uniques})
+    keys = pd.Index(uniques).to_frame(index=False, name=name)
     return codes.astype(np.int64, copy=False), keys
 
 
@@ -256,11 +315,13 @@ def read_points(frame, groups: Groups, options: Options) -> Points:
     counted in a :class:`DroppedRowsWarning`; non-point geometries are an
     error unless ``vertices=True``; NaN or infinite coordinates are an error.
     """
-    geoms = np.asarray(frame.geometry.array, dtype=object)
+    # The active geometry column's array (``frame.geometry`` builds a GeoSeries)
+    geoms = np.asarray(frame[frame._geometry_column_name].array, dtype=object)
     index = frame.index
     codes = groups.codes
-    missing = shapely.is_missing(geoms) | shapely.is_empty(geoms)
-    other = ~missing & ~np.isin(shapely.get_type_id(geoms), _POINT_TYPES)
+    kind = shapely.get_type_id(geoms)  # -1: missing
+    missing = (kind < 0) | shapely.is_empty(geoms)
+    other = ~missing & (kind != _POINT_TYPES[0]) & (kind != _POINT_TYPES[1])
     if other.any() and not options.vertices:
         kinds = pd.Series(np.asarray(frame.geom_type)[other])
         names = ", ".join(f"{n} {t}" for t, n in kinds.value_counts().items())
@@ -289,7 +350,13 @@ def read_points(frame, groups: Groups, options: Options) -> Points:
             stacklevel=user_stacklevel(),
         )
     kept = np.flatnonzero(~dropped)
-    coords, which = shapely.get_coordinates(geoms[kept], return_index=True)
+    if len(kept) < len(geoms):
+        geoms, kind = geoms[kept], kind[kept]
+    if (kind == _POINT_TYPES[0]).all():  # one coordinate pair per row
+        coords = np.column_stack([shapely.get_x(geoms), shapely.get_y(geoms)])
+        which = np.arange(len(kept))
+    else:
+        coords, which = shapely.get_coordinates(geoms, return_index=True)
     bad = ~(np.isfinite(coords[:, 0]) & np.isfinite(coords[:, 1]))
     if bad.any():
         rows = np.zeros(len(index), dtype=bool)
@@ -319,22 +386,6 @@ def project(points: Points, source, options: Options) -> gcrs.Projection:
     )
 
 
-def _progress(progress, n_groups: int):
-    if progress is False or (
-        progress is None and (n_groups < PROGRESS_MIN_GROUPS or not sys.stderr.isatty())
-    ):
-        return None
-    try:
-        from tqdm.auto import tqdm
-    except ImportError as err:
-        if progress is None:
-            return None
-        raise ImportError(
-            "progress=True needs tqdm: pip install geoalpha[progress]"
-        ) from err
-    return tqdm(total=n_groups, unit="group", desc="geoalpha hull", file=sys.stderr)
-
-
 def compute(
     points: Points, proj: gcrs.Projection, n_groups: int, options: Options
 ) -> Shapes:
@@ -343,13 +394,18 @@ def compute(
     ``"alpha"`` and ``"convex"``: one batched :func:`geoalpha.alpha_shapes`
     call in metres whose polygons are built from the input coordinates;
     ``"concave"`` and ``"knn"``: :func:`geoalpha.comparison.comparison_hulls`.
+    The run's progress bar (:func:`geoalpha.progress.current`, in its
+    ``compute`` phase), when it is shown, counts the groups done, batch by
+    batch.
     """
     method = options.method
     if options.outliers and method != "alpha":
         raise InvalidInputError(
             f"outliers applies to method='alpha'; got method={method!r}"
         )
-    bar = _progress(options.progress, n_groups)
+    bar = current()
+    if bar is not None and not bar.shown:
+        bar = None  # nobody to tell: one batch, not one per PROGRESS_GROUPS groups
     try:
         if method in ("alpha", "convex"):
             res = alpha_shapes(
@@ -408,9 +464,8 @@ def compute(
             checked=np.zeros(n_groups, dtype=bool),
         )
     finally:
-        if bar is not None:  # groups of 1-2 points are done too: a full bar
-            bar.update(max(0, n_groups - bar.n))
-            bar.close()
+        if bar is not None:  # groups of 1-2 points are done too: the phase ends full
+            bar.update(n_groups)
 
 
 def ensure_guarantee(

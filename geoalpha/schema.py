@@ -58,7 +58,8 @@ def result_geometry_name(frame, keys: pd.DataFrame) -> str:
     >>> result_geometry_name(frame, pd.DataFrame({"g": []}))
     'geom'
     """
-    name = frame.geometry.name if frame.geometry.name is not None else "geometry"
+    name = frame._geometry_column_name  # frame.geometry.name builds a GeoSeries
+    name = name if name is not None else "geometry"
     if not isinstance(name, str) or name in keys.columns or name in RESULT_COLUMNS:
         return "geometry"
     return name
@@ -118,7 +119,7 @@ def result_frame(
             columns[name] = pd.array(text, dtype=dtype)
     geoms = np.asarray(geometry, dtype=object).reshape(-1)
     columns[geometry_name] = gpd.array.from_shapely(geoms, crs=crs)
-    return gpd.GeoDataFrame(pd.DataFrame(columns, copy=False), geometry=geometry_name)
+    return gpd.GeoDataFrame(columns, geometry=geometry_name)
 
 
 def empty_result(keys: pd.DataFrame, crs, geometry_name: str = "geometry"):

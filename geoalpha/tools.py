@@ -79,6 +79,14 @@ def hull(gdf, by=None, **options):
         Groups with fewer than 3 distinct points or all collinear.
     AntimeridianWarning
         Groups across +-180 degrees, returned as split MultiPolygons.
+    GroupingWarning
+        ``by`` makes more groups than half the rows (from 50 rows on): a
+        wrong column? (:func:`geoalpha.checks.check_grouping`)
+    CRSWarning
+        The computation CRS (a forced ``crs``, or projected input kept by
+        ``crs="auto"``) stretches areas by more than 2 % where the points
+        are, so ``area_m2`` and ``radius`` are not true metres
+        (:func:`geoalpha.checks.check_distortion`).
 
     Notes
     -----

@@ -14,6 +14,8 @@ import pyproj
 import pytest
 import shapely
 from cli_runner import run
+from compat import HAS_TQDM
+from progress_output import assert_bar_covers
 
 import geoalpha
 from geoalpha import datasets
@@ -127,7 +129,7 @@ def test_forced_web_mercator_warns_about_areas(lonlat_csv, tmp_path):
         "hull", lonlat_csv, tmp_path / "h.gpkg", "--by", GROUP, "--crs", "3857"
     )
     assert result.exit_code == 0, result.stderr
-    line = next(x for x in result.stderr.splitlines() if "stretches" in x)
+    (line,) = [x for x in result.stderr.splitlines() if "stretches" in x]  # once
     assert line.startswith(
         "Warning: the shapes are computed in EPSG:3857 (--crs), which stretches "
         "areas 2.5"
@@ -141,13 +143,16 @@ def test_projected_input_far_from_its_zone_warns(stats19, tmp_path):
     stats19.to_crs("EPSG:32633").to_file(path)  # UK data in a zone for Italy
     result = run("hull", path, tmp_path / "h.gpkg", "--by", GROUP)
     assert result.exit_code == 0, result.stderr
-    line = next(x for x in result.stderr.splitlines() if "stretches" in x)
+    (line,) = [x for x in result.stderr.splitlines() if "stretches" in x]
     assert "computed in EPSG:32633 (INPUT's CRS)" in line
     assert "e.g. --crs EPSG:32630" in line
     quiet = run(
         "hull", stats19.pipe(_to_file, tmp_path / "bng.gpkg"), tmp_path / "b.gpkg"
     )
     assert "stretches" not in quiet.stderr  # British National Grid is fine
+    mercator = tmp_path / "3857.gpkg"
+    stats19.to_crs("EPSG:3857").to_file(mercator)  # computed in a UTM zone
+    assert "stretches" not in run("hull", mercator, tmp_path / "m.gpkg").stderr
 
 
 def _to_file(gdf, path: Path) -> Path:
@@ -273,6 +278,12 @@ def test_preview_draws_hulls_over_points(lonlat_csv, tmp_path):
     image = matplotlib.image.imread(picture)
     colours = pd.DataFrame(image[..., :3].reshape(-1, 3).round(2)).drop_duplicates()
     assert len(colours) > 10  # hulls in several colours, points, axes
+    if HAS_TQDM:  # drawing is the progress bar's last phase
+        again = run(
+            *("hull", lonlat_csv, tmp_path / "h.gpkg", "--by", GROUP, "--overwrite"),
+            *("--preview", picture, "--progress"),
+        )
+        assert_bar_covers(again.stderr, [*CLI_PHASES, "preview"])
 
 
 def test_bad_preview_name_is_refused_before_computing(lonlat_csv, tmp_path):
@@ -336,10 +347,15 @@ def test_laea_pipeline_back_equals_the_database_transform():
 def test_by_with_nearly_one_group_per_row_warns(lonlat_csv, tmp_path):
     result = run("hull", lonlat_csv, tmp_path / "h.gpkg", "--by", "Latitude")
     assert result.exit_code == 0, result.stderr
-    assert (
+    assert [x for x in result.stderr.splitlines() if "groups of" in x] == [
         "Warning: --by Latitude makes 47 groups of 55 rows; groups of 1-2 points "
         "have no alpha shape, so is this the right column?"
-    ) in result.stderr.splitlines()
+    ]  # once, in the command's terms
+    both = run("hull", lonlat_csv, tmp_path / "h2.gpkg", "--by", "Latitude,Longitude")
+    assert (
+        "Warning: --by Latitude,Longitude makes 47 groups of 55 rows; groups of "
+        "1-2 points have no alpha shape, so are these the right columns?"
+    ) in both.stderr.splitlines()
 
 
 # --------------------------------------------------------------------------
@@ -405,12 +421,32 @@ def test_components_split_hawaii_as_the_readme_shows(tmp_path):
     assert round(areas[4]) == 9487  # half the area: no sea between the pieces
 
 
-def test_progress_bar_ends_full_with_many_small_groups(lonlat_csv, tmp_path):
+CLI_PHASES = ["read", "group", "project", "compute", "check", "write"]
+
+
+@pytest.mark.parametrize(
+    "command",
+    [
+        lambda csv, d: ["hull", csv, d / "h.gpkg", "--by", "Latitude"],
+        lambda csv, d: ["demo", d / "h.gpkg", "--dataset", "stats19"],
+    ],
+    ids=["hull", "demo"],
+)
+def test_progress_bar_covers_every_phase_from_read_to_write(
+    lonlat_csv, tmp_path, command
+):
     pytest.importorskip("tqdm")  # the progress extra; CI installs it
-    # 47 groups, most of 1-2 points that are never triangulated: the bar
-    # still reaches 47/47 instead of stopping at the triangulated share.
-    result = run(
-        "hull", lonlat_csv, tmp_path / "h.gpkg", "--by", "Latitude", "--progress"
-    )
+    result = run(*command(lonlat_csv, tmp_path), "--progress")
     assert result.exit_code == 0, result.stderr
-    assert "47/47" in result.stderr
+    # one bar through every phase, never backwards, full at the end of writing
+    # (here 47 groups, most of 1-2 points that are never triangulated)
+    assert_bar_covers(result.stderr, CLI_PHASES)
+    segments = re.split(r"[\r\n]", result.stderr)
+    # warnings are written above the bar, not into its line
+    assert all(x.startswith("Warning: ") for x in segments if "Warning: " in x)
+    # the summary follows the closed bar
+    last_bar = max(i for i, x in enumerate(segments) if "geoalpha hull: " in x)
+    assert segments[last_bar].startswith("geoalpha hull: write 100%")
+    assert segments[last_bar + 1].startswith("Read ")
+    quiet = run(*command(lonlat_csv, tmp_path), "--overwrite")  # not a terminal
+    assert "geoalpha hull: " not in quiet.stderr

@@ -8,9 +8,11 @@ metric CRS; the result is lazy; ``import geoalpha`` does not import dask.
 
 from __future__ import annotations
 
+import re
 import subprocess
 import sys
 import textwrap
+import warnings
 
 import geopandas as gpd
 import numpy as np
@@ -27,7 +29,7 @@ import distributed  # noqa: E402
 import geoalpha  # noqa: E402
 import geoalpha.dask  # noqa: E402
 from geoalpha import datasets  # noqa: E402
-from geoalpha.errors import InvalidInputError  # noqa: E402
+from geoalpha.errors import CRSWarning, GroupingWarning, InvalidInputError  # noqa: E402
 
 pytestmark = pytest.mark.filterwarnings(
     "ignore::geoalpha.errors.DegenerateGroupWarning",
@@ -265,6 +267,79 @@ def test_data_errors_are_raised_by_compute(clusters):
     lazy = geoalpha.hull(spread(bad, 2), by="Cluster")
     with pytest.raises(InvalidInputError, match="needs point geometries"):
         lazy.compute()
+
+
+# --- warnings about the set-up, progress ----------------------------------------
+
+
+def setup_warnings(call) -> list[tuple[type, str]]:
+    """The CRSWarnings and GroupingWarnings of ``call()``.
+
+    Computed with ``scheduler="sync"``: Python's warning filters are global
+    to the process, so a task that sets its own (pandas does) in another
+    thread can hide a warning of this one for a moment.
+    """
+    with warnings.catch_warnings(record=True) as found:
+        warnings.simplefilter("always")
+        call()
+    return [
+        (w.category, str(w.message))
+        for w in found
+        if issubclass(w.category, CRSWarning | GroupingWarning)
+    ]
+
+
+@pytest.mark.parametrize(
+    "options",
+    [
+        {"by": "Latitude"},
+        {"by": "Latitude", "sort": False},  # no gathering step at the end
+        {"by": "Local_Authority_(Highway)", "crs": "EPSG:3857"},
+    ],
+    ids=["many groups", "many groups unsorted", "web mercator"],
+)
+def test_setup_warnings_once_for_the_whole_dataset(options):
+    points = datasets.load("stats19")
+    lazy = setup_warnings(lambda: geoalpha.hull(spread(points, 4), **options))
+    assert lazy == []  # nothing computed yet
+    computed = setup_warnings(
+        lambda: geoalpha.hull(spread(points, 4), **options).compute(scheduler="sync")
+    )
+    eager = setup_warnings(lambda: geoalpha.hull(points, **options))
+    assert len(computed) == len(eager) == 1  # not once per partition
+    category, message = computed[0]
+    assert category is eager[0][0]
+    if category is GroupingWarning:  # the counts of the whole dataset
+        assert message == eager[0][1]
+    else:  # from a sample of the points: the same stretch, about
+        assert message.startswith("the shapes are computed in EPSG:3857 (crs=)")
+        lazy_stretch, eager_stretch = (
+            float(re.search(r"areas ([\d.]+)", m)[1]) for m in (message, eager[0][1])
+        )
+        assert lazy_stretch == pytest.approx(eager_stretch, rel=0.01)
+
+
+@pytest.mark.parametrize("dropna", [True, False])
+def test_grouping_warning_counts_every_row_as_the_eager_call(dropna):
+    points = datasets.load("stats19")
+    points.loc[:149, "Latitude"] = np.nan
+    ddf = dask_geopandas.from_geopandas(points, npartitions=10, sort=False)
+    assert ddf.partitions[0].compute()["Latitude"].isna().all()  # no key at all
+    lazy = setup_warnings(
+        lambda: geoalpha.hull(ddf, by="Latitude", dropna=dropna).compute(
+            scheduler="sync"
+        )
+    )
+    eager = setup_warnings(lambda: geoalpha.hull(points, by="Latitude", dropna=dropna))
+    assert lazy == eager
+    assert len(lazy) == 1 and "groups of 1,017 rows" in lazy[0][1]
+
+
+def test_progress_bar_does_not_apply(clusters, capsys):
+    with pytest.raises(InvalidInputError, match="progress=True does not apply"):
+        geoalpha.hull(spread(clusters, 2), by="Cluster", progress=True)
+    geoalpha.hull(spread(clusters, 2), by="Cluster").compute()
+    assert "geoalpha hull" not in capsys.readouterr().err
 
 
 # --- a real cluster -------------------------------------------------------------

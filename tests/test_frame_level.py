@@ -18,6 +18,7 @@ import shapely
 
 import geoalpha
 from geoalpha.errors import (
+    CRSWarning,
     DegenerateGroupWarning,
     DroppedRowsWarning,
     InvalidInputError,
@@ -98,9 +99,12 @@ def test_buffer_must_be_a_positive_finite_number(london, buffer):
 
 def test_crs_in_feet_gives_alpha_in_metres_for_every_input(london):
     feet = "EPSG:2263"  # NAD83 / New York Long Island (ftUS), here just a CRS
-    from_lonlat = geoalpha.hull(london, by="g", crs=feet)
-    from_utm = geoalpha.hull(london.to_crs(32630), by="g", crs=feet)
-    from_feet = geoalpha.hull(london.to_crs(feet), by="g")  # crs="auto"
+    # so far from London that it stretches areas by 4 %, and says so
+    with pytest.warns(CRSWarning, match=r"EPSG:2263 \(crs=\), which stretches"):
+        from_lonlat = geoalpha.hull(london, by="g", crs=feet)
+        from_utm = geoalpha.hull(london.to_crs(32630), by="g", crs=feet)
+    with pytest.warns(CRSWarning, match=r"EPSG:2263 \(the input's CRS\)"):
+        from_feet = geoalpha.hull(london.to_crs(feet), by="g")  # crs="auto"
     # the reference: the points in the CRS in feet, scaled to metres
     xy = shapely.get_coordinates(london.to_crs(feet).geometry.array)[:40]
     factor = pyproj.CRS(feet).axis_info[0].unit_conversion_factor  # m per ftUS

@@ -7,7 +7,9 @@ not round-trip, a warning or error that does not say what happened.
 
 from __future__ import annotations
 
+import io
 import re
+import sys
 import warnings
 
 import geopandas as gpd
@@ -16,12 +18,15 @@ import pandas as pd
 import pytest
 import shapely
 from compat import requires_fiona, requires_pyogrio, requires_tqdm
+from progress_output import assert_bar_covers, bar_states
 from shapely.geometry import LineString, Point, Polygon
 
 import geoalpha
+import geoalpha.progress
 from geoalpha import datasets
 from geoalpha.errors import (
     AntimeridianWarning,
+    CRSWarning,
     DegenerateGroupWarning,
     DroppedRowsWarning,
     GeoAlphaError,
@@ -537,7 +542,8 @@ def test_unparsable_crs_is_an_error(stats19):
 def test_projected_input_in_feet_gives_alpha_in_inverse_metres(stats19_osgr):
     points = stats19_osgr[stats19_osgr[LA] == "E09000020"]
     metres = geoalpha.hull(points)
-    feet = geoalpha.hull(points.to_crs("EPSG:2263"))  # New York, US survey feet
+    with pytest.warns(CRSWarning, match="stretches areas 1.0"):  # not in New York
+        feet = geoalpha.hull(points.to_crs("EPSG:2263"))  # New York, US survey feet
     assert feet["alpha"].item() == pytest.approx(metres["alpha"].item(), rel=0.05)
     assert feet["area_m2"].item() == pytest.approx(metres["area_m2"].item(), rel=0.05)
 
@@ -899,13 +905,86 @@ def test_not_a_geodataframe(small):
 # --- progress ------------------------------------------------------------------------
 
 
+HULL_PHASES = ["group", "project", "compute", "check"]
+
+
 @requires_tqdm
-def test_progress_bar_on_stderr(small, capsys):
-    geoalpha.hull(small, by="g", progress=True)
+@pytest.mark.parametrize("method", ["alpha", "convex", "concave", "knn"])
+def test_progress_bar_goes_through_every_phase_to_the_end(small, capsys, method):
+    geoalpha.hull(small, by="g", progress=True, method=method)
     captured = capsys.readouterr()
-    assert "geoalpha hull" in captured.err
-    assert "2/2" in captured.err
+    # one bar: group, project, compute, check, never backwards, ends at 100 %
+    assert_bar_covers(captured.err, HULL_PHASES)
+    assert "2 groups]" in captured.err
     assert captured.out == ""
+
+
+@requires_tqdm
+def test_progress_bar_of_a_run_with_many_degenerate_groups(capsys):
+    # 300 groups, 200 of them of 1-2 points that are never triangulated
+    rng = np.random.default_rng(3)
+    xy = rng.random((1300, 2)) * 0.01 + np.array([10.0, 50.0])
+    keys = np.concatenate([np.arange(1000) % 100, 100 + np.arange(300) % 200])
+    with pytest.warns(DegenerateGroupWarning):
+        geoalpha.hull(frame(xy, keys, "EPSG:4326"), by="g", progress=True)
+    err = capsys.readouterr().err
+    assert_bar_covers(err, HULL_PHASES)  # the 200 count too: the bar ends full
+    assert "300 groups]" in err
+
+
+@requires_tqdm
+def test_progress_bar_by_default_on_a_terminal_from_many_groups(small, monkeypatch):
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    for tty, least, shown in [(True, 2, True), (True, 3, False), (False, 2, False)]:
+        monkeypatch.setattr(geoalpha.progress, "PROGRESS_MIN_GROUPS", least)
+        stderr = Terminal() if tty else io.StringIO()
+        monkeypatch.setattr(sys, "stderr", stderr)
+        geoalpha.hull(small, by="g")  # progress=None
+        if shown:  # it appears once the groups are known, and ends full
+            assert_bar_covers(stderr.getvalue(), HULL_PHASES)
+        else:
+            assert stderr.getvalue() == ""
+
+
+@requires_tqdm
+def test_progress_bar_stops_where_an_error_stops_the_run(small, capsys):
+    bad = small.copy()
+    bad.loc[bad.index[3], "geometry"] = LineString([(10, 50), (10.1, 50.1)])
+    before = warnings.showwarning
+    with pytest.raises(InvalidInputError, match="needs point geometries"):
+        geoalpha.hull(bad, by="g", progress=True)
+    assert warnings.showwarning is before
+    states = bar_states(capsys.readouterr().err)
+    assert states and set(states) == {("group", 0)}  # shown, not filled
+    geoalpha.hull(small, by="g")  # and no bar left behind for the next run
+    assert capsys.readouterr().err == ""
+
+
+@requires_tqdm
+def test_warnings_are_written_above_the_bar_not_into_it(small, capsys):
+    shown = []
+
+    def show(message, category, *args, **kwargs):
+        shown.append(str(message))
+        print(f"{category.__name__}: {message}", file=sys.stderr)
+
+    small = small.copy()
+    small.loc[small.index[-14:], "g"] = "c"  # a group of one point
+    with warnings.catch_warnings():
+        warnings.simplefilter("always")
+        warnings.showwarning = show
+        geoalpha.hull(small, by="g", progress=True)
+        assert warnings.showwarning is show  # given back
+    err = capsys.readouterr().err
+    assert shown and all(
+        line.startswith("DegenerateGroupWarning")
+        for line in re.split(r"[\r\n]", err)
+        if "Warning" in line
+    )
+    assert_bar_covers(err, HULL_PHASES)
 
 
 @pytest.mark.parametrize("progress", [False, None])

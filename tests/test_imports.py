@@ -32,9 +32,18 @@ LAYERS: list[tuple[str, ...]] = [
     ("optimal",),
     ("parallel",),
     ("options",),
-    ("io", "shapes", "search", "knn", "coverage", "delaunay"),
+    ("io", "shapes", "search", "knn", "coverage", "delaunay", "checks"),
     ("postgis",),
-    ("crs", "core", "schema", "registration", "datasets", "distortion", "redact"),
+    (
+        "crs",
+        "core",
+        "schema",
+        "registration",
+        "datasets",
+        "distortion",
+        "redact",
+        "progress",
+    ),
     ("errors",),
 ]
 RANK = {name: rank for rank, names in enumerate(LAYERS) for name in names}

@@ -13,7 +13,9 @@ import warnings
 import numpy as np
 import pytest
 import shapely
+from compat import requires_tqdm
 from geopandas.testing import assert_geodataframe_equal
+from progress_output import assert_bar_covers
 
 import geoalpha
 from geoalpha import datasets, parallel
@@ -216,6 +218,21 @@ def test_progress_counts_every_group(clusters):
     bar = Bar()
     alpha_shapes(xy, codes, n_jobs=2, progress=bar)
     assert bar.n == codes.max() + 1
+
+
+@requires_tqdm
+def test_hull_progress_bar_with_workers_covers_every_phase(capsys, monkeypatch):
+    gdf = datasets.load("uk_clusters")
+    chunks = []
+    real = parallel.split_groups
+    monkeypatch.setattr(
+        parallel, "split_groups", lambda *a: chunks.append(real(*a)) or chunks[-1]
+    )
+    geoalpha.hull(gdf, "Cluster", n_jobs=2, progress=True)
+    assert len(chunks[0]) > 2  # the groups went to the workers in several chunks
+    err = capsys.readouterr().err
+    assert_bar_covers(err, ["group", "project", "compute", "check"])
+    assert "691 groups]" in err
 
 
 def test_bad_input_is_reported_before_workers_start():

@@ -1,0 +1,219 @@
+"""Warnings about a run's set-up: a ``by`` that looks wrong, a CRS that stretches areas.
+
+Two stages of :func:`geoalpha.hull` (:func:`geoalpha.pipeline.run`; once
+over the whole dataset in :func:`geoalpha.dask.hull`), worded in Python's
+terms (``by=``, ``crs=``); the ``geoalpha`` command rewords them in its own
+(``--by``, ``--crs``):
+
+- :func:`check_grouping`: a :class:`~geoalpha.errors.GroupingWarning` when
+  ``by`` makes nearly one group per row (groups of 1-2 points have no alpha
+  shape: a wrong column?);
+- :func:`check_distortion`: a :class:`~geoalpha.errors.CRSWarning` when the
+  computation CRS (a forced ``crs=``, or a projected input CRS kept by
+  ``crs="auto"``) stretches areas where the points are
+  (:func:`geoalpha.distortion.area_scale`), so that ``area_m2`` and
+  ``radius`` are not true square metres and metres.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import warnings
+from typing import Any
+
+import numpy as np
+import pyproj
+
+from geoalpha.crs import crs_name, is_mercator, metric_crs, parse_crs
+from geoalpha.distortion import AREA_TOLERANCE, area_scale
+from geoalpha.errors import CRSWarning, GroupingWarning, user_stacklevel
+
+__all__ = [
+    "MANY_GROUPS_MIN_ROWS",
+    "MANY_GROUPS_SHARE",
+    "check_distortion",
+    "check_grouping",
+    "computation_crs",
+]
+
+#: Warn about ``by`` from this share of groups per row ...
+MANY_GROUPS_SHARE = 0.5
+#: ... and this many rows.
+MANY_GROUPS_MIN_ROWS = 50
+
+
+def _by_text(by) -> tuple[str, str]:
+    """``by`` as a message shows it, and the question to ask about it."""
+    names = by if isinstance(by, list) else [by]
+    if not all(isinstance(n, str) for n in names):
+        return "by=", "is this the right grouping?"
+    if len(names) > 1:
+        return f"by={names!r}", "are these the right columns?"
+    return f"by={names[0]!r}", "is this the right column?"
+
+
+def check_grouping(n_groups: int, n_rows: int, by: Any) -> None:
+    """Warn when ``by`` makes nearly one group per row.
+
+    Parameters
+    ----------
+    n_groups : int
+        Groups that ``by`` makes.
+    n_rows : int
+        Input rows.
+    by : str, list or array_like or None
+        The ``by`` of :func:`geoalpha.hull` (None: one group, never warned).
+
+    Warns
+    -----
+    GroupingWarning
+        When there are more than :data:`MANY_GROUPS_SHARE` groups per row and
+        at least :data:`MANY_GROUPS_MIN_ROWS` rows.
+
+    Examples
+    --------
+    >>> import warnings
+    >>> from geoalpha.checks import check_grouping
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     check_grouping(47, 55, "Latitude")
+    ...     check_grouping(4, 55, "Local_Authority")
+    >>> [str(w.message) for w in caught]  # doctest: +NORMALIZE_WHITESPACE
+    ["by='Latitude' makes 47 groups of 55 rows; groups of 1-2 points have no
+      alpha shape, so is this the right column?"]
+    """
+    if by is None or n_rows < MANY_GROUPS_MIN_ROWS:
+        return
+    if n_groups <= MANY_GROUPS_SHARE * n_rows:
+        return
+    text, question = _by_text(by)
+    warnings.warn(
+        f"{text} makes {n_groups:,} groups of {n_rows:,} rows; groups of 1-2 "
+        f"points have no alpha shape, so {question}",
+        GroupingWarning,
+        stacklevel=user_stacklevel(),
+    )
+
+
+def computation_crs(source: Any, crs: Any) -> tuple[pyproj.CRS | None, str]:
+    """Return the one projected CRS a run computes every group in, and who chose it.
+
+    Parameters
+    ----------
+    source : CRS or None
+        The input CRS.
+    crs : "auto", "auto-group", CRS or None
+        The ``crs=`` option.
+
+    Returns
+    -------
+    (pyproj.CRS or None, str)
+        The CRS and ``"crs="`` (forced) or ``"input"`` (a projected input
+        CRS kept by ``crs="auto"``); ``(None, "")`` when geoalpha chooses a
+        metric CRS itself (longitude/latitude or Mercator input), computes
+        in the coordinates as they are (``crs=None``), or ``crs`` is not a
+        projected CRS (:class:`geoalpha.crs.Projection` reports it).
+
+    Examples
+    --------
+    >>> from geoalpha.checks import computation_crs
+    >>> computation_crs("EPSG:4326", "auto")
+    (None, '')
+    >>> crs, chosen_by = computation_crs("EPSG:4326", "EPSG:3857")
+    >>> crs.to_epsg(), chosen_by
+    (3857, 'crs=')
+    >>> computation_crs("EPSG:27700", "auto")[1]
+    'input'
+    """
+    src = parse_crs(source)
+    if src is None or crs is None:
+        return None, ""
+    if isinstance(crs, str) and crs.strip().lower() in ("auto", "auto-group"):
+        if src.is_projected and not is_mercator(src):
+            return src, "input"
+        return None, ""
+    try:
+        parsed = parse_crs(crs)
+    except Exception:  # the projection stage reports a bad crs=
+        return None, ""
+    if parsed is None or not parsed.is_projected:
+        return None, ""
+    return parsed, "crs="
+
+
+def _suggestion(coords: np.ndarray, source: pyproj.CRS) -> str:
+    """``, e.g. crs='EPSG:32630'``: the UTM zone of the points, if one fits."""
+    with contextlib.suppress(Exception):
+        geographic = source.geodetic_crs or pyproj.CRS.from_epsg(4326)
+        to_lonlat = pyproj.Transformer.from_crs(source, geographic, always_xy=True)
+        lon, lat = to_lonlat.transform(coords[:, 0], coords[:, 1])
+        ok = np.isfinite(lon) & np.isfinite(lat)
+        codes = np.zeros(int(ok.sum()), dtype=np.intp)
+        _, chosen, _ = metric_crs(
+            lon[ok], lat[ok], codes, 1, crs="auto", source_crs=geographic
+        )
+        name = crs_name(chosen[0])
+        if name.startswith("EPSG:"):
+            return f", e.g. crs='{name}'"
+    return ""
+
+
+def check_distortion(coords: np.ndarray, source: Any, crs: Any) -> None:
+    """Warn when the computation CRS stretches areas where the points are.
+
+    Parameters
+    ----------
+    coords : numpy.ndarray, shape (n, 2)
+        The points (or a sample of them) in ``source``.
+    source : CRS or None
+        The input CRS.
+    crs : "auto", "auto-group", CRS or None
+        The ``crs=`` option (:func:`computation_crs`).
+
+    Warns
+    -----
+    CRSWarning
+        When the areal scale factor of the computation CRS is further than
+        :data:`geoalpha.distortion.AREA_TOLERANCE` from 1 at some point
+        (Web Mercator: 2.6 at London; a UTM zone far from the data).
+
+    Examples
+    --------
+    >>> import warnings
+    >>> import numpy as np
+    >>> from geoalpha.checks import check_distortion
+    >>> london = np.array([[-0.12, 51.5], [-0.10, 51.52]])
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     check_distortion(london, "EPSG:4326", "EPSG:3857")
+    ...     check_distortion(london, "EPSG:4326", "EPSG:32630")
+    >>> len(caught), str(caught[0].message)[:64]
+    (1, 'the shapes are computed in EPSG:3857 (crs=), which stretches are')
+    """
+    target, chosen_by = computation_crs(source, crs)
+    coords = np.asarray(coords, dtype=float).reshape(-1, 2)
+    if target is None or not len(coords):
+        return
+    src = parse_crs(source)
+    scale = area_scale(target, coords[:, 0], coords[:, 1], src)
+    if scale.size == 0 or np.abs(scale - 1.0).max() <= AREA_TOLERANCE:
+        return
+    if chosen_by == "crs=":
+        how = "crs="
+        advice = (
+            "leave out crs= (the default crs='auto' picks a UTM zone or a local "
+            "equal-area CRS per group) for true metres"
+        )
+    else:
+        how = "the input's CRS"
+        advice = "pass crs= with a UTM zone or an equal-area CRS for these points"
+        advice += _suggestion(coords, src)
+    middle = float(np.median(scale))
+    warnings.warn(
+        f"the shapes are computed in {crs_name(target)} ({how}), which stretches "
+        f"areas {middle:.3g} times (median at the points; "
+        f"{float(scale.min()):.3g}-{float(scale.max()):.3g}), so 'area_m2' and "
+        f"'radius' are not true square metres and metres: {advice}",
+        CRSWarning,
+        stacklevel=user_stacklevel(),
+    )
