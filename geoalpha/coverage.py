@@ -164,7 +164,8 @@ def point_weight(tri: Triangulation) -> np.ndarray:
     p = len(tri.xy)
     moved = tri.vertex != np.arange(p)
     weight = (~moved).astype(np.int64)
-    extra = moved & (tri.xy != tri.xy[tri.vertex]).any(axis=1)
+    x, y, v = tri.xy[:, 0], tri.xy[:, 1], tri.vertex
+    extra = moved & ((x != x[v]) | (y != y[v]))
     np.add.at(weight, tri.vertex[extra], 1)
     return weight
 

@@ -51,6 +51,8 @@ from typing import NamedTuple
 import numpy as np
 import shapely
 
+from geoalpha.core import radix_argsort
+
 __all__ = ["GroupTriangles", "triangulate_groups"]
 
 #: Groups per GEOS call when progress is reported.
@@ -152,7 +154,7 @@ def triangulate_groups(local, point_ptr, groups, progress=None) -> GroupTriangle
     else:
         rows = np.repeat(start - offsets[:-1], size) + np.arange(offsets[-1])
     xyz = np.empty((len(rows), 3))
-    xyz[:, :2] = local[rows]
+    xyz[:, :2] = np.take(local, rows, axis=0)  # ~10x faster than local[rows]
     xyz[:, 2] = rows
     lines = shapely.from_ragged_array(shapely.GeometryType.LINESTRING, xyz, (offsets,))
     if progress is None:
@@ -283,12 +285,12 @@ def _twins(local, rows, point_gi, used_row) -> np.ndarray:
     has_missing[point_gi[mine]] = True
     take = np.flatnonzero(has_missing[point_gi])
     pts, gi, is_missing = rows[take], point_gi[take], mine[take]
-    x = local[pts, 0] + 0.0  # -0.0 -> 0.0: equal values, equal bits
-    y = local[pts, 1] + 0.0
+    x = np.take(local[:, 0], pts) + 0.0  # -0.0 -> 0.0: equal values, equal bits
+    y = np.take(local[:, 1], pts) + 0.0
     key = _hash64(x.view(np.uint64), y.view(np.uint64), gi.astype(np.uint64))
     # 47 bits of hash and the left-out bit: three 16-bit radix passes.
     key = (key >> np.uint64(17) << np.uint64(1)) | is_missing.astype(np.uint64)
-    order = _radix_argsort(key, 48)
+    order = radix_argsort(key, 48)
     last_used = np.where(is_missing[order], -1, np.arange(len(order)))
     np.maximum.accumulate(last_used, out=last_used)
     where = np.flatnonzero(is_missing[order])
@@ -338,7 +340,7 @@ def _neighbors(tri, p, max_size, tri_gi, failed):
     # Both ends are in one group, so (lo, hi - lo) is unique per edge and
     # small: a radix sort orders it. The last bit is the direction.
     key = (lo * max_size + (np.maximum(a, b) - lo)) * 2 + (a > b)
-    order = _radix_argsort(key, (2 * p * max_size).bit_length())
+    order = radix_argsort(key, (2 * p * max_size).bit_length())
     sk = key[order]
     pair = np.flatnonzero((sk[1:] >> 1) == (sk[:-1] >> 1))
     c1, c2 = order[pair], order[pair + 1]
@@ -356,20 +358,6 @@ def _neighbors(tri, p, max_size, tri_gi, failed):
     alone[pair + 1] = False
     hull = order[alone]
     return neighbors.reshape(m, 3), np.column_stack([hull // 3, hull % 3])
-
-
-def _radix_argsort(key: np.ndarray, bits: int) -> np.ndarray:
-    """Stable argsort of non-negative integers below ``2**bits``, 16 bits a pass.
-
-    numpy's stable sort of ``uint16`` is a radix sort (``O(n)``); a least
-    significant digit first sort of 16-bit digits is several times faster
-    than ``np.argsort`` of the int64 keys.
-    """
-    order = np.argsort((key & 0xFFFF).astype(np.uint16), kind="stable")
-    for shift in range(16, min(bits, 64), 16):  # at most 3 more passes
-        digit = ((key[order] >> shift) & 0xFFFF).astype(np.uint16)
-        order = order[np.argsort(digit, kind="stable")]
-    return order
 
 
 def _bad_boundary(local, tri, hull_edges, tri_gi, k) -> np.ndarray:
@@ -391,8 +379,9 @@ def _bad_boundary(local, tri, hull_edges, tri_gi, k) -> np.ndarray:
     nxt[u] = v
     w = nxt[v]
     ok = w >= 0
-    d1 = local[v] - local[u]
-    d2 = local[np.maximum(w, 0)] - local[v]
+    lv = np.take(local, v, axis=0)
+    d1 = lv - np.take(local, u, axis=0)
+    d2 = np.take(local, np.maximum(w, 0), axis=0) - lv
     turn = d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]
     scale = np.hypot(d1[:, 0], d1[:, 1]) * np.hypot(d2[:, 0], d2[:, 1])
     ok &= turn >= -TURN_RTOL * scale

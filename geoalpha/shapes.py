@@ -65,7 +65,8 @@ def assemble(coords: np.ndarray, rings: Rings, n_groups: int) -> np.ndarray:
     out = np.full(n_groups, EMPTY_POLYGON, dtype=object)
     if len(rings.vertex) == 0:
         return out
-    linear = shapely.linearrings(coords[rings.vertex], indices=rings.ring)
+    ring_xy = np.take(coords, rings.vertex, axis=0)  # (10x coords[rings.vertex])
+    linear = shapely.linearrings(ring_xy, indices=rings.ring)
     polys = shapely.polygons(linear, indices=rings.ring_piece)
     n_pieces = np.bincount(rings.piece_group, minlength=n_groups)
     first_piece = np.cumsum(n_pieces) - n_pieces
@@ -143,7 +144,7 @@ def enforce(geoms, out_xy, codes, check, *, cover=True, components=None, test=No
             repaired = np.zeros(len(geoms), dtype=bool)
             repaired[invalid] = True
             mine &= test | repaired[codes]
-        outside = ~covered(geoms, out_xy[mine], codes[mine])
+        outside = ~covered(geoms, np.compress(mine, out_xy, axis=0), codes[mine])
         repair = np.unique(codes[mine][outside])
         if len(repair):
             take = np.isin(codes, repair)
@@ -165,7 +166,7 @@ def enforce(geoms, out_xy, codes, check, *, cover=True, components=None, test=No
         failed[np.flatnonzero(again)[bad]] = True
         if cover:
             take = again[codes] & ~failed[codes]
-            miss = ~covered(geoms, out_xy[take], codes[take])
+            miss = ~covered(geoms, np.compress(take, out_xy, axis=0), codes[take])
             failed[codes[take][miss]] = True
     if cover:  # an empty optimum covers nothing
         failed[sel[shapely.is_empty(geoms[sel])]] = True
