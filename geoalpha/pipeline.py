@@ -196,9 +196,10 @@ def _labels(index: pd.Index, mask: np.ndarray, limit: int = 10) -> str:
 def _names(keys: pd.DataFrame, groups: np.ndarray, counts=None) -> str:
     """Name groups by key for messages (with their row counts when given)."""
     shown = groups[:11]  # first_n shows 10, and "..." when there is an 11th
+    columns = [keys.iloc[:, j].array for j in range(keys.shape[1])]
     names = [
-        ", ".join(map(str, r)) or "all points"
-        for r in keys.iloc[shown].itertuples(index=False)
+        ", ".join(str(column[i]) for column in columns) or "all points"
+        for i in np.asarray(shown).tolist()
     ]
     if counts is not None:
         names = [
