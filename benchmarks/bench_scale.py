@@ -65,7 +65,7 @@ except ImportError:  # running from a source tree without installing
     sys.path.insert(0, str(HERE.parent))
     import geoalpha
 
-from geoalpha import core, delaunay, parallel, shapes, tools  # noqa: E402
+from geoalpha import core, delaunay, parallel, pipeline, shapes  # noqa: E402
 
 SEED = 20240606
 CRS = "EPSG:32633"
@@ -324,7 +324,8 @@ def stage_times(gdf) -> dict[str, float]:
     watch.wrap(core, "piece_labels", "pieces")
     watch.wrap(core, "boundary_rings", "boundary rings")
     watch.wrap(shapes, "assemble", "polygons (shapely)")
-    watch.wrap(tools, "alpha_shapes", "alpha_shapes")
+    watch.wrap(shapes, "enforce", "guarantee (valid, covering; repairs)")
+    watch.wrap(pipeline, "alpha_shapes", "alpha_shapes")
     try:
         t0 = time.perf_counter()
         gdf.alpha.hull(by="group")
