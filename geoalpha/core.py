@@ -425,8 +425,10 @@ def triangulate(
     # Orient every triangle counter-clockwise (swap vertices 1, 2 and the
     # neighbours opposite them where Qhull gave them clockwise).
     cw = twice_area < 0
-    simplices[cw] = simplices[cw][:, [0, 2, 1]]
-    nbrs[cw] = nbrs[cw][:, [0, 2, 1]]
+    if cw.any():  # (never for GEOS's triangles)
+        swap = np.flatnonzero(cw)
+        simplices[swap] = np.take(simplices, swap, axis=0)[:, [0, 2, 1]]
+        nbrs[swap] = np.take(nbrs, swap, axis=0)[:, [0, 2, 1]]
     cross = np.abs(twice_area)
     # Qhull's vertices: the points it neither set aside nor skipped.
     used = vertex == np.arange(len(xy))
@@ -641,7 +643,8 @@ def _delaunay(local, point_ptr, groups, progress, use=None, backend=None):
     new = np.empty_like(order)
     new[order] = np.arange(len(order))
     nb = np.where(nb >= 0, new[np.maximum(nb, 0)], -1)[order]
-    return _smallest_first(tri[order], nb, np.concatenate([cp, cp2]), failed)
+    tri = np.take(tri, order, axis=0)
+    return _smallest_first(tri, nb, np.concatenate([cp, cp2]), failed)
 
 
 def _smallest_first(tri, nb, cp, failed):
@@ -750,7 +753,7 @@ def _near_duplicates(local, point_group, simplices, e2_min, coplanar, tol):
     if len(simplices) == 0:
         return np.empty((0, 2), dtype=np.int64)
     t = tol[point_group[simplices[:, 0]]]
-    short = simplices[e2_min < t * t]
+    short = np.compress(e2_min < t * t, simplices, axis=0)
     a = short.ravel()
     b = short[:, [1, 2, 0]].ravel()
     pairs = np.concatenate([np.column_stack([a, b]), coplanar])
@@ -798,8 +801,9 @@ def _merge_runs(point_group, old, new):
 def _drop_triangles(simplices, nbrs, keep):
     """Keep whole groups' triangles, renumbering the neighbours."""
     renumber = np.cumsum(keep) - 1
-    nbrs = nbrs[keep]
-    return simplices[keep], np.where(nbrs >= 0, renumber[np.maximum(nbrs, 0)], -1)
+    nbrs = np.compress(keep, nbrs, axis=0)  # (10x nbrs[keep] in numpy 2)
+    simplices = np.compress(keep, simplices, axis=0)
+    return simplices, np.where(nbrs >= 0, renumber[np.maximum(nbrs, 0)], -1)
 
 
 def _not_a_triangulation(nbrs, tri_group, n_vertices, n_groups) -> np.ndarray:

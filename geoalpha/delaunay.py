@@ -171,7 +171,7 @@ def triangulate_groups(local, point_ptr, groups, progress=None) -> GroupTriangle
     n_tri = shapely.get_num_geometries(collections).astype(np.int64)
     corners = shapely.get_coordinates(collections, include_z=True)
     # Each triangle is a closed ring of 4 corners, z the point index.
-    z = corners[:, 2].reshape(-1, 4)[:, :3]
+    z = np.ascontiguousarray(corners[:, 2]).reshape(-1, 4)[:, :3]
     tri_gi = np.repeat(np.arange(k), n_tri)  # triangle -> position in groups
     point_gi = np.repeat(np.arange(k), size)  # row -> position in groups
     if len(z) and not (z.min() >= 0 and z.max() < p):  # z lost: all to Qhull
@@ -215,8 +215,8 @@ def triangulate_groups(local, point_ptr, groups, progress=None) -> GroupTriangle
     if failed.any():
         keep = ~failed[tri_gi]
         new = np.cumsum(keep) - 1
-        tri = tri[keep]
-        nb = neighbors[keep]
+        tri = np.compress(keep, tri, axis=0)
+        nb = np.compress(keep, neighbors, axis=0)
         neighbors = np.where(nb >= 0, new[np.maximum(nb, 0)], -1)
         n_tri[failed] = 0
         vertex[rows[failed[point_gi]]] = rows[failed[point_gi]]
@@ -366,8 +366,9 @@ def _bad_boundary(local, tri, hull_edges, tri_gi, k) -> np.ndarray:
     if len(hull_edges) == 0:
         return bad
     t, j = hull_edges[:, 0], hull_edges[:, 1]
-    u = tri[t, (j + 1) % 3]
-    v = tri[t, (j + 2) % 3]
+    flat = tri.ravel()
+    u = flat[3 * t + (j + 1) % 3]
+    v = flat[3 * t + (j + 2) % 3]
     gi = tri_gi[t]
     # Each hull vertex starts exactly one hull edge and ends one.
     p = len(local)
