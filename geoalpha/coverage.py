@@ -450,7 +450,7 @@ def outlier_optimum(
     )
     inside[sel] = chosen[label]
     held = np.zeros(len(tri.xy), dtype=bool)
-    held[tri.triangles[inside].ravel()] = True
+    held[np.compress(inside, tri.triangles, axis=0).ravel()] = True
     return Kept(
         rank=hi,
         inside=inside,
