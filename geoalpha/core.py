@@ -1236,7 +1236,7 @@ class Spectrum:
             on_hull[:, 0] = out[:, 1] | out[:, 2]
             on_hull[:, 1] = out[:, 2] | out[:, 0]
             on_hull[:, 2] = out[:, 0] | out[:, 1]
-            vmax[np.compress(on_hull, tri.triangles, axis=0)] = -1
+            vmax[tri.triangles[on_hull]] = -1
             inner = np.flatnonzero(vmax >= 0)
             pieces += at_or_below(vmax[inner], tri.point_group[inner])
         elif m:
