@@ -512,8 +512,8 @@ class _Frame:
         scale = np.where(extent > 0, np.ldexp(1.0, -exponent), 1.0)
         origin = xy[np.minimum(point_ptr[:-1], max(len(xy) - 1, 0))] if len(xy) else xy
         with np.errstate(over="ignore"):
-            at = np.take(origin, point_group, axis=0)  # (fancy indexing of
-            # (n, 2) arrays costs ~10x np.take in numpy 2)
+            # np.take: fancy indexing of (n, 2) arrays costs ~10x in numpy 2
+            at = np.take(origin, point_group, axis=0)
             local = (xy - at) * scale[point_group][:, None]
         # The coordinates' own resolution, in the scaled units.
         quantum = np.spacing(big) * scale
@@ -1551,7 +1551,7 @@ def _turn_through_exterior(local, u, v, order, lo, hi, pinch) -> np.ndarray:
 
 # The input checks of triangulate(), for the callers that cut the input into
 # runs first (geoalpha.parallel): points as an (n, 2) float array (ValueError
-# naming NaN/inf rows) and group codes with their count; and the stable radix
-# argsort of non-negative integers that sorts those codes.
+# naming NaN/inf rows), group codes with their count, and their stable order.
 check_points = _check_points
 group_codes = _group_codes
+group_order = _group_order

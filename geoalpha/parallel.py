@@ -289,7 +289,7 @@ def alpha_shapes_parallel(
     # gathered with np.take (several times faster than ``xy[order]``).
     order = None
     if n > 1 and (codes[1:] < codes[:-1]).any():
-        order = core.radix_argsort(codes, max(int(n_groups) - 1, 1).bit_length())
+        order = core.group_order(codes, n_groups)
         xy, codes = np.take(xy, order, axis=0), codes[order]
         coords = None if coords is None else np.take(coords, order, axis=0)
     counts = np.bincount(codes, minlength=n_groups)
