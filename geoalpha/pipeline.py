@@ -86,11 +86,43 @@ __all__ = [
 _POINT_TYPES = (0, 4)  # shapely type ids of Point and MultiPoint
 
 
-class Groups(NamedTuple):
-    """Output of :func:`group`."""
+class Groups:
+    """Output of :func:`group`: a code per row and the key of every group.
 
-    codes: np.ndarray  #: group code per row, -1 for a dropped missing key
-    keys: pd.DataFrame  #: one row per group: the key column(s)
+    The key columns are kept as arrays (``names``, ``columns``); the
+    DataFrame :attr:`keys` is built only when asked for (a message, dask's
+    ``meta``): on small inputs building DataFrames is a large share of the
+    run.
+    """
+
+    __slots__ = ("_keys", "codes", "columns", "n_groups", "names")
+
+    def __init__(self, codes: np.ndarray, names, columns, n_groups: int):
+        self.codes = codes  #: group code per row, -1 for a dropped missing key
+        self.names = tuple(names)  #: names of the key columns
+        self.columns = tuple(columns)  #: one array per key column, a row a group
+        self.n_groups = n_groups  #: number of groups
+        self._keys = None
+
+    @classmethod
+    def from_frame(cls, codes: np.ndarray, keys: pd.DataFrame) -> Groups:
+        """Make the groups whose keys are the rows of ``keys``."""
+        columns = [keys.iloc[:, j].array for j in range(keys.shape[1])]
+        return cls(codes, keys.columns, columns, len(keys))
+
+    @property
+    def keys(self) -> pd.DataFrame:
+        """One row per group: the key column(s) (none for one group of all rows)."""
+        if self._keys is None:
+            columns = dict(enumerate(self.columns))
+            keys = pd.DataFrame(columns, index=range(self.n_groups))
+            keys.columns = list(self.names)
+            self._keys = keys
+        return self._keys
+
+    def take(self, which: np.ndarray) -> tuple[np.ndarray, ...]:
+        """Return the key columns of the groups ``which`` (positions or a mask)."""
+        return tuple(column[which] for column in self.columns)
 
 
 class Points(NamedTuple):
@@ -154,7 +186,7 @@ def _stages(frame, by, options: Options, bar: Phases, checks: bool):
     bar.estimate(hull_costs(len(frame), 0, per_group_crs=False))  # groups: unknown
     bar.start("group")
     groups = group(frame, by, options)
-    n_groups = len(groups.keys)
+    n_groups = groups.n_groups
     if checks:
         check_grouping(n_groups, len(frame), by)
     points = read_points(frame, groups, options)
@@ -181,7 +213,7 @@ def _stages(frame, by, options: Options, bar: Phases, checks: bool):
         shapes,
         geometry,
         crs,
-        result_geometry_name(frame, groups.keys),
+        result_geometry_name(frame, groups.names),
     )
     report_outliers(shapes, groups, points, frame, options)
     return out
@@ -193,10 +225,10 @@ def _labels(index: pd.Index, mask: np.ndarray, limit: int = 10) -> str:
     )
 
 
-def _names(keys: pd.DataFrame, groups: np.ndarray, counts=None) -> str:
+def _names(groups: Groups, which: np.ndarray, counts=None) -> str:
     """Name groups by key for messages (with their row counts when given)."""
-    shown = groups[:11]  # first_n shows 10, and "..." when there is an 11th
-    columns = [keys.iloc[:, j].array for j in range(keys.shape[1])]
+    shown = which[:11]  # first_n shows 10, and "..." when there is an 11th
+    columns = groups.columns
     names = [
         ", ".join(str(column[i]) for column in columns) or "all points"
         for i in np.asarray(shown).tolist()
@@ -235,8 +267,7 @@ def group(frame, by, options: Options) -> Groups:
     for an empty frame).
     """
     if by is None:
-        keys = pd.DataFrame(index=range(1 if len(frame) else 0))
-        return Groups(np.zeros(len(frame), dtype=np.int64), keys)
+        return Groups(np.zeros(len(frame), dtype=np.int64), (), (), min(len(frame), 1))
     names = by if isinstance(by, list) else [by]
     levels = [n for n in frame.index.names if n is not None]
     for name in names:
@@ -252,50 +283,49 @@ def group(frame, by, options: Options) -> Groups:
                     )
                 )
     try:
-        codes, keys = _factorize_column(frame, by, options)
-        if codes is None:
+        groups = _factorize_column(frame, by, options)
+        if groups is None:
             grouped = frame.groupby(by, dropna=options.dropna, sort=options.sort)
             codes = grouped.ngroup().fillna(-1).to_numpy(dtype=np.int64)
             keys = grouped.size().index.to_frame(index=False)
+            groups = Groups.from_frame(codes, keys)
     except (ValueError, KeyError, TypeError) as err:
         raise InvalidInputError(f"hull(by=...) cannot group the rows: {err}") from err
-    names = [
-        "group" if (c is None or isinstance(c, int)) and len(keys.columns) == 1 else c
-        for c in keys.columns
-    ]
-    if names != list(keys.columns):  # (setting them costs as much as grouping)
-        keys.columns = names
-    clash = [c for c in keys.columns if c in (*RESULT_COLUMNS, "geometry")]
+    if len(groups.names) == 1 and (
+        groups.names[0] is None or isinstance(groups.names[0], int)
+    ):
+        groups.names = ("group",)
+    clash = [c for c in groups.names if c in (*RESULT_COLUMNS, "geometry")]
     if clash:
         raise InvalidInputError(
             f"group column(s) {clash} have the name of a result column; rename them "
             f"(result columns: {', '.join(RESULT_COLUMNS)}, geometry)"
         )
-    return Groups(codes, keys)
+    return groups
 
 
-def _factorize_column(frame, by, options: Options):
+def _factorize_column(frame, by, options: Options) -> Groups | None:
     """Group codes and keys of one plain column, as ``groupby`` makes them.
 
     For a single column that is not categorical, ``groupby`` numbers the
     groups with :func:`pandas.factorize` (``sort``, ``dropna`` as the
     sentinel -1); calling it directly skips building a GroupBy (several
-    times the cost on small frames). Returns ``(None, None)`` for every other
-    ``by``, which goes through ``groupby``.
+    times the cost on small frames). Returns None for every other ``by``,
+    which goes through ``groupby``.
     """
     name = by[0] if isinstance(by, list) and len(by) == 1 else by
     if not isinstance(name, str) or name in frame.index.names:
-        return None, None
+        return None
     if name not in frame.columns or not frame.columns.is_unique:
-        return None, None
+        return None
     column = frame[name]
     if isinstance(column.dtype, pd.CategoricalDtype):
-        return None, None
+        return None
     codes, uniques = pd.factorize(
         column, sort=options.sort, use_na_sentinel=options.dropna
     )
-    keys = pd.Index(uniques).to_frame(index=False, name=name)
-    return codes.astype(np.int64, copy=False), keys
+    codes = codes.astype(np.int64, copy=False)
+    return Groups(codes, (name,), (pd.Index(uniques).array,), len(uniques))
 
 
 class _RowLabels:
@@ -369,7 +399,7 @@ def read_points(frame, groups: Groups, options: Options) -> Points:
     return Points(
         coords=coords,
         codes=codes[kept][which],
-        n_points=np.bincount(codes[kept], minlength=len(groups.keys)),
+        n_points=np.bincount(codes[kept], minlength=groups.n_groups),
         labels=_RowLabels(index, kept[which]),
         rows=kept[which],
     )
@@ -511,7 +541,7 @@ def ensure_guarantee(
         warnings.warn(
             f"{len(which)} group(s) got no valid polygon covering all their points "
             f"in the output CRS (float geometry is too coarse for them there): "
-            f"{_names(groups.keys, which, points.n_points)}; they are treated as "
+            f"{_names(groups, which, points.n_points)}; they are treated as "
             "degenerate",
             DegenerateGroupWarning,
             stacklevel=user_stacklevel(),
@@ -574,7 +604,7 @@ def degenerate_policy(
         done = f"they were dropped ({n_points[which].sum()} rows)"
     warnings.warn(
         f"{len(which)} group(s) have fewer than 3 distinct points or all points "
-        f"on a line, so no alpha shape: {_names(groups.keys, which, n_points)}; "
+        f"on a line, so no alpha shape: {_names(groups, which, n_points)}; "
         f"{done} (degenerate={policy!r})",
         DegenerateGroupWarning,
         stacklevel=user_stacklevel(),
@@ -602,7 +632,6 @@ def verify_in_output_crs(
     already verified in the output coordinates (``checked``) are not tested
     again.
     """
-    keys = groups.keys
     geometry = geometry.copy()
     invalid = np.zeros(len(geometry), dtype=bool)
     todo = np.ones(len(geometry), dtype=bool) if checked is None else ~checked
@@ -614,7 +643,7 @@ def verify_in_output_crs(
             warnings.warn(
                 f"{told.sum()} hull(s) became invalid in the input CRS "
                 "(coordinates too close for it) and were repaired with make_valid: "
-                + _names(keys, np.flatnonzero(told)),
+                + _names(groups, np.flatnonzero(told)),
                 GeoAlphaWarning,
                 stacklevel=user_stacklevel(),
             )
@@ -622,7 +651,7 @@ def verify_in_output_crs(
         geometry[proj.crossing] = gcrs.split_antimeridian(geometry[proj.crossing])
         warnings.warn(
             f"{proj.crossing.sum()} group(s) cross the antimeridian (+-180 degrees): "
-            f"{_names(keys, np.flatnonzero(proj.crossing))}; their hulls are "
+            f"{_names(groups, np.flatnonzero(proj.crossing))}; their hulls are "
             "MultiPolygons split at +-180 degrees (RFC 7946)",
             AntimeridianWarning,
             stacklevel=user_stacklevel(),
@@ -630,7 +659,7 @@ def verify_in_output_crs(
     if proj.wide.any():
         warnings.warn(
             f"{proj.wide.sum()} group(s) span more than 180 degrees of longitude: "
-            f"{_names(keys, np.flatnonzero(proj.wide))}; no longitude/latitude "
+            f"{_names(groups, np.flatnonzero(proj.wide))}; no longitude/latitude "
             "polygon can represent their hull faithfully (it may not contain all "
             "their points); 'area_m2' and 'alpha' are right, for the geometry use "
             "crs= with a projected output or split the group",
@@ -673,7 +702,8 @@ def table(
     if not keep.all():
         values = {name: np.asarray(v)[keep] for name, v in values.items()}
         geometry = geometry[keep]
-    keys = groups.keys[keep] if not keep.all() else groups.keys
+    columns = groups.take(keep) if not keep.all() else groups.columns
+    keys = dict(zip(groups.names, columns, strict=True))
     return result_frame(keys, values, geometry, crs, geometry_name)
 
 
@@ -737,12 +767,13 @@ def report_outliers(
             points.codes[shapes.outlier], minlength=len(points.n_points)
         )
         which = np.flatnonzero(n_outliers)
-        rows = groups.keys.iloc[which[:11]].itertuples(index=False)
+        shown = which[:11]  # first_n shows 10, and "..." when there is an 11th
+        rows = list(zip(*groups.take(shown), strict=True)) or [()] * len(shown)
         each = first_n(
             (
                 f"{', '.join(map(repr, key)) or 'all points'} "
                 f"({n} row{'s' if n != 1 else ''})"
-                for key, n in zip(rows, n_outliers[which[:11]], strict=True)
+                for key, n in zip(rows, n_outliers[shown], strict=True)
             ),
             limit=10,
             sep="; ",

@@ -9,6 +9,7 @@ the same code, so that the two cannot drift apart.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from functools import cache
 from typing import Any
 
@@ -46,10 +47,11 @@ def _dtype(name: str):
     return np.dtype(DTYPES[name])
 
 
-def result_geometry_name(frame, keys: pd.DataFrame) -> str:
+def result_geometry_name(frame, keys) -> str:
     """Name the result's geometry column after the input's (``geom`` stays ``geom``).
 
-    A name taken by a group key or result column gives ``geometry``.
+    A name taken by a group key (``keys``: the key table, or its column
+    names) or by a result column gives ``geometry``.
 
     Examples
     --------
@@ -60,13 +62,14 @@ def result_geometry_name(frame, keys: pd.DataFrame) -> str:
     """
     name = frame._geometry_column_name  # frame.geometry.name builds a GeoSeries
     name = name if name is not None else "geometry"
-    if not isinstance(name, str) or name in keys.columns or name in RESULT_COLUMNS:
+    taken = keys.columns if isinstance(keys, pd.DataFrame) else keys
+    if not isinstance(name, str) or name in taken or name in RESULT_COLUMNS:
         return "geometry"
     return name
 
 
 def result_frame(
-    keys: pd.DataFrame,
+    keys: pd.DataFrame | Mapping[Any, Any],
     values: dict[str, Any],
     geometry,
     crs,
@@ -76,9 +79,9 @@ def result_frame(
 
     Parameters
     ----------
-    keys : pandas.DataFrame
+    keys : pandas.DataFrame or mapping
         One row per group: the group key column(s) (no columns for one group
-        of all points).
+        of all points), as a DataFrame or as arrays by column name.
     values : dict
         One array per name of :data:`RESULT_COLUMNS`, of ``len(keys)``; cast
         to :data:`DTYPES`.
@@ -109,7 +112,9 @@ def result_frame(
 
     # One DataFrame from whole columns (assigning them one by one, or going
     # through a GeoSeries of a list, costs several times more).
-    columns = {name: keys.iloc[:, i].array for i, name in enumerate(keys.columns)}
+    if isinstance(keys, pd.DataFrame):
+        keys = {name: keys.iloc[:, i].array for i, name in enumerate(keys.columns)}
+    columns = dict(keys)
     for name in RESULT_COLUMNS:
         dtype = _dtype(name)
         if isinstance(dtype, np.dtype):
@@ -119,7 +124,28 @@ def result_frame(
             columns[name] = pd.array(text, dtype=dtype)
     geoms = np.asarray(geometry, dtype=object).reshape(-1)
     columns[geometry_name] = gpd.array.from_shapely(geoms, crs=crs)
-    return gpd.GeoDataFrame(columns, geometry=geometry_name)
+    return _geodataframe(columns, geometry_name)
+
+
+def _geodataframe(columns: dict[Any, Any], geometry_name: str):
+    """``GeoDataFrame(columns, geometry=geometry_name)`` for checked columns.
+
+    ``columns[geometry_name]`` is a GeometryArray with its CRS. The public
+    constructor checks and copies that column again (``set_geometry``), which
+    is a third of the cost of a small result; with pandas >= 2.1 the frame is
+    made as pandas' and geopandas' own methods make their results
+    (``_from_mgr``, then the active geometry column). Older pandas take the
+    public constructor.
+    """
+    import geopandas as gpd
+
+    frame = pd.DataFrame(columns, copy=False)
+    from_mgr = getattr(gpd.GeoDataFrame, "_from_mgr", None)
+    if from_mgr is None:  # pragma: no cover - pandas < 2.1 (Debian 12's QGIS)
+        return gpd.GeoDataFrame(frame, geometry=geometry_name, copy=False)
+    out = from_mgr(frame._mgr, frame._mgr.axes)
+    out._geometry_column_name = geometry_name
+    return out
 
 
 def empty_result(keys: pd.DataFrame, crs, geometry_name: str = "geometry"):
