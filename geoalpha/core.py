@@ -285,6 +285,7 @@ def triangulate(
     progress=None,
     degenerate=None,
     backend=None,
+    out_coords=None,
 ) -> Triangulation:
     """Delaunay-triangulate the distinct points of every group.
 
@@ -308,6 +309,10 @@ def triangulate(
         progress)`` returning index arrays, such as
         :func:`geoalpha.delaunay.triangulate_groups` (GEOS); the groups it
         fails, and all groups without one, are triangulated by Qhull.
+    out_coords : array_like of shape (n, 2), optional
+        The same points in the coordinates the result is returned in (e.g.
+        longitude/latitude): groups degenerate there by the same tolerances
+        (:func:`thin_groups`) are degenerate too.
 
     Returns
     -------
@@ -372,6 +377,12 @@ def triangulate(
         flagged |= np.asarray(degenerate, dtype=bool)
     flagged |= counts < 3
     flagged |= collinear_groups(local, point_group, n_groups, frame.tol)
+    if out_coords is not None:  # (thin_groups, on the sort made above)
+        out = np.take(_check_points(out_coords), order, axis=0)
+        out_frame = _Frame.of(out, point_group, point_ptr)
+        flagged |= collinear_groups(
+            out_frame.local, point_group, n_groups, out_frame.tol
+        )
 
     # Pass 1: Qhull on every point (it keeps one of each set of duplicates).
     vertex = np.arange(len(xy))

@@ -288,14 +288,14 @@ def _alpha_shapes_batch(
 ) -> AlphaShapes:
     """:func:`alpha_shapes` of all groups in one pass (no runs, no workers)."""
     try:
-        out_xy, thin = _output_coordinates(points, groups, coords, n_groups)
+        out_xy = _output_coordinates(points, coords)
         tri = core.triangulate(
             points,
             groups,
             n_groups=n_groups,
             progress=progress,
-            degenerate=thin,
             backend=delaunay.triangulate_groups,
+            out_coords=out_xy,
         )
     except ValueError as err:
         raise InvalidInputError(str(err)) from err
@@ -384,22 +384,23 @@ def _alpha_shapes_batch(
     )
 
 
-def _output_coordinates(points, groups, coords, n_groups):
-    """Return the output coordinates (None: the points) and the groups thin there.
+def _output_coordinates(points, coords):
+    """Return the output coordinates (None: the points), checked.
 
-    Degeneracy is decided in the coordinates the result is returned in, too:
-    points on one meridian are collinear in longitude/latitude even where
-    their image in metres is a hair away from a line.
+    Degeneracy is decided in the coordinates the result is returned in, too
+    (:func:`geoalpha.core.triangulate`'s ``out_coords``): points on one
+    meridian are collinear in longitude/latitude even where their image in
+    metres is a hair away from a line.
     """
     if coords is None:
-        return None, None
+        return None
     c = np.asarray(coords, dtype=float)
     n = len(np.asarray(points))
     if c.shape != (n, 2):
         raise InvalidInputError(
             f"coords must have the shape of points {(n, 2)}; got {c.shape}"
         )
-    return c, core.thin_groups(c, groups, n_groups)
+    return c
 
 
 def _as_xy(points):

@@ -133,6 +133,7 @@ class Points(NamedTuple):
     n_points: np.ndarray  #: input rows per group
     labels: Any  #: index label per point (for messages), indexable by positions
     rows: np.ndarray  #: row position (in the frame) of each point
+    crs: Any  #: the CRS of ``coords`` (the frame's; None when it has none)
 
 
 class Shapes(NamedTuple):
@@ -190,7 +191,7 @@ def _stages(frame, by, options: Options, bar: Phases, checks: bool):
     if checks:
         check_grouping(n_groups, len(frame), by)
     points = read_points(frame, groups, options)
-    crs = frame.crs  # a property that costs a lookup each time
+    crs = points.crs  # (frame.crs builds a GeoSeries each time)
     per_group_crs = _per_group_crs(crs, options.crs, points.coords)
     bar.sized(len(points.codes), n_groups, per_group_crs=per_group_crs)
     bar.start("project")
@@ -347,7 +348,8 @@ def read_points(frame, groups: Groups, options: Options) -> Points:
     error unless ``vertices=True``; NaN or infinite coordinates are an error.
     """
     # The active geometry column's array (``frame.geometry`` builds a GeoSeries)
-    geoms = np.asarray(frame[frame._geometry_column_name].array, dtype=object)
+    array = frame[frame._geometry_column_name].array
+    geoms = np.asarray(array, dtype=object)
     index = frame.index
     codes = groups.codes
     kind = shapely.get_type_id(geoms)  # -1: missing
@@ -402,6 +404,7 @@ def read_points(frame, groups: Groups, options: Options) -> Points:
         n_points=np.bincount(codes[kept], minlength=groups.n_groups),
         labels=_RowLabels(index, kept[which]),
         rows=kept[which],
+        crs=array.crs,
     )
 
 
