@@ -922,11 +922,14 @@ class Projection:
             self.xy, self._crs_list, self._crs_index = metric_crs(
                 lon, lat, codes, n_groups, crs=crs, source_crs=src, labels=labels
             )
-            self.crossing = crosses_antimeridian(lon, codes, n_groups)
+            # crosses_antimeridian(lon, codes, n_groups), keeping its ranges
+            arcs = _group_arcs(lon, None, codes, n_groups)
+            self.crossing = arcs["crossing"]
+            low, high = arcs["west"], arcs["east"]
             if self.crossing.any():
                 self.out = coords.copy()
                 self.out[:, 0] = unwrap_lon(lon, codes, self.crossing)
-            low, high = _group_min_max(self.out[:, 0], codes, n_groups)
+                low, high = _group_min_max(self.out[:, 0], codes, n_groups)
             with np.errstate(invalid="ignore"):
                 self.wide = high - low > 180.0
         elif auto and is_mercator(src):

@@ -459,7 +459,10 @@ class Options:
 
     def __post_init__(self) -> None:
         for field in FIELDS:
-            value = field.metadata["meta"].check(field.name, getattr(self, field.name))
+            value = getattr(self, field.name)
+            if value is field.default:  # checked once (tests/test_options.py)
+                continue
+            value = field.metadata["meta"].check(field.name, value)
             object.__setattr__(self, field.name, value)
 
     @classmethod

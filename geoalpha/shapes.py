@@ -145,7 +145,7 @@ def enforce(geoms, out_xy, codes, check, *, cover=True, components=None, test=No
             repaired[invalid] = True
             mine &= test | repaired[codes]
         outside = ~covered(geoms, np.compress(mine, out_xy, axis=0), codes[mine])
-        repair = np.unique(codes[mine][outside])
+        repair = np.unique(codes[mine][outside]) if outside.any() else ()
         if len(repair):
             take = np.isin(codes, repair)
             try:

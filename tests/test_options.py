@@ -191,6 +191,17 @@ def test_every_option_arrives_on_every_path(points, received, tmp_path, path, na
                 assert kwargs[name] == value
 
 
+def test_every_default_is_its_own_checked_value():
+    # Options skips the check of a value that is its field's default object,
+    # so every default must be what the check makes of it, of the same type.
+    for field in FIELDS:
+        checked = field.metadata["meta"].check(field.name, field.default)
+        assert checked == field.default, field.name
+        assert type(checked) is type(field.default), field.name
+    with pytest.raises(InvalidInputError, match="components"):
+        Options(components=0)  # a value other than the default is checked
+
+
 def test_hull_signature_and_docstring_come_from_options():
     params = inspect.signature(geoalpha.hull).parameters
     assert list(params) == ["gdf", "by", *NAMES]
