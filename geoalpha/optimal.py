@@ -61,6 +61,10 @@ class AlphaShapes(NamedTuple):
     outlier : ndarray of bool, shape (n,)
         One entry per input point (not per group): True where the point was
         left out (duplicates of a left-out point too).
+    gave_up : ndarray of bool
+        ``search="bisect"`` stopped at ``max_iterations`` and returned alpha
+        0, the convex hull (:func:`alpha_shapes` names these groups in a
+        :class:`SearchWarning`); False for the other searches.
     """
 
     alpha: np.ndarray
@@ -72,6 +76,7 @@ class AlphaShapes(NamedTuple):
     degenerate: np.ndarray
     n_outliers: np.ndarray | None = None
     outlier: np.ndarray | None = None
+    gave_up: np.ndarray | None = None
 
 
 def _check_options(
@@ -102,14 +107,15 @@ def _rank_threshold(
     max_iterations: int,
     *,
     filled: bool,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-    """Per group: the alpha, the largest solid rank and the number of pieces.
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray]:
+    """Per group: the alpha, the largest solid rank, the number of pieces.
 
-    The alpha is nan for degenerate groups; the pieces are None if not
-    counted (for a given alpha). ``filled``: the weights are fill radii
-    (see :meth:`core.Spectrum.build`).
+    And whether ``search="bisect"`` gave up. The alpha is nan for degenerate
+    groups; the pieces are None if not counted (for a given alpha).
+    ``filled``: the weights are fill radii (see :meth:`core.Spectrum.build`).
     """
     G = tri.n_groups
+    gave_up = np.zeros(G, dtype=bool)
     if alpha is not None:
         try:
             a = np.broadcast_to(np.asarray(alpha, dtype=float), (G,)).copy()
@@ -120,7 +126,7 @@ def _rank_threshold(
         if not np.isfinite(a).all() or (a < 0).any():
             raise InvalidInputError(f"alpha must be finite and >= 0; got {alpha!r}")
         a[tri.degenerate] = np.nan
-        return a, tri.rank_of(core.radius_of_alpha(a)), None
+        return a, tri.rank_of(core.radius_of_alpha(a)), None, gave_up
 
     spectrum = core.Spectrum.build(tri, weight, filled=filled)
     if search_ == "exact":
@@ -129,7 +135,7 @@ def _rank_threshold(
         with np.errstate(divide="ignore"):
             a = 1.0 / radius
         a[tri.degenerate] = np.nan
-        return a, rank, spectrum.pieces_at_rank(np.arange(G), rank)
+        return a, rank, spectrum.pieces_at_rank(np.arange(G), rank), gave_up
 
     def valid(groups, alphas):
         return spectrum.valid(groups, core.radius_of_alpha(alphas), components)
@@ -139,18 +145,24 @@ def _rank_threshold(
     else:
         a, gave_up, _ = search.bisect_alpha(valid, G, max_iterations=max_iterations)
         gave_up &= ~tri.degenerate
-        if gave_up.any():
-            warnings.warn(
-                f"search='bisect' did not converge within max_iterations="
-                f"{max_iterations} for {gave_up.sum()} group(s) (codes "
-                f"{first_n(np.flatnonzero(gave_up))}) and returned alpha=0, the "
-                "convex hull, as alphashape does; use search='exact'",
-                SearchWarning,
-                stacklevel=user_stacklevel(),
-            )
     a[tri.degenerate] = np.nan
     rank = tri.rank_of(core.radius_of_alpha(a))
-    return a, rank, spectrum.pieces_at_rank(np.arange(G), rank)
+    return a, rank, spectrum.pieces_at_rank(np.arange(G), rank), gave_up
+
+
+def warn_gave_up(gave_up: np.ndarray, max_iterations: int, names: str) -> None:
+    """Warn (:class:`SearchWarning`) about the groups the bisection gave up on.
+
+    ``names`` names them (group codes for :func:`alpha_shapes`, keys for
+    :func:`geoalpha.hull`).
+    """
+    warnings.warn(
+        f"search='bisect' did not converge within max_iterations={max_iterations} "
+        f"for {gave_up.sum()} group(s) ({names}) and gave them alpha 0, the convex "
+        "hull, as alphashape does; use search='exact'",
+        SearchWarning,
+        stacklevel=user_stacklevel(),
+    )
 
 
 def alpha_shapes(
@@ -167,6 +179,7 @@ def alpha_shapes(
     progress=None,
     n_jobs: int = 1,
     outliers: float = 0,
+    name_groups=None,
 ) -> AlphaShapes:
     """Optimal alpha shapes of many groups of points in one call.
 
@@ -215,6 +228,10 @@ def alpha_shapes(
         points; only those pieces are kept, and the points they miss are
         reported (``n_outliers``, ``outlier``). Groups with ``k = 0`` get the
         result without outliers. See :mod:`geoalpha.coverage`.
+    name_groups : callable, optional
+        Turns an array of group codes into the text that names those groups
+        in a warning (:func:`geoalpha.hull` names them by key); default: the
+        codes.
 
     Returns
     -------
@@ -261,10 +278,16 @@ def alpha_shapes(
     if outliers:  # passed on only when used, so that 0 takes today's path
         options["outliers"] = outliers
     if type(n_jobs) is not int or n_jobs != 1 or _batched(points, groups):
-        return parallel.alpha_shapes_parallel(
+        res = parallel.alpha_shapes_parallel(
             points, groups, batch=_alpha_shapes_batch, n_jobs=n_jobs, **options
         )
-    return _alpha_shapes_batch(points, groups, **options)
+    else:
+        res = _alpha_shapes_batch(points, groups, **options)
+    if res.gave_up.any():
+        which = np.flatnonzero(res.gave_up)
+        names = f"codes {first_n(which)}" if name_groups is None else name_groups(which)
+        warn_gave_up(res.gave_up, checked["max_iterations"], names)
+    return res
 
 
 def _batched(points, groups) -> bool:
@@ -306,7 +329,7 @@ def _alpha_shapes_batch(
         order[tri.input_point] = np.arange(len(out_xy))
         out_xy = np.take(out_xy, order, axis=0)  # (10x out_xy[order])
     weight = tri.rank if holes else core.fill_radius(tri)
-    a, top, n_pieces = _rank_threshold(
+    a, top, n_pieces, gave_up = _rank_threshold(
         tri, weight, alpha, components, search, max_iterations, filled=not holes
     )
 
@@ -381,6 +404,7 @@ def _alpha_shapes_batch(
         degenerate=degenerate,
         n_outliers=n_outliers,
         outlier=outlier,
+        gave_up=gave_up & ~degenerate,
     )
 
 

@@ -33,6 +33,7 @@ import sys
 import warnings
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor, as_completed
+from contextlib import nullcontext
 
 import numpy as np
 
@@ -163,8 +164,13 @@ def _start_context():
     return multiprocessing.get_context(method)
 
 
-def _run(task):
-    """Worker: ``batch`` of one run of groups; warnings come back too."""
+def _run(task, in_worker: bool = True):
+    """``batch`` of one run of groups; from a worker process, its warnings too.
+
+    In the calling process (``in_worker=False``) warnings take their usual
+    way: catching them there would change the process-wide filters under
+    other threads (dask's threaded scheduler).
+    """
     call, lo, hi, g0, g1, data, batch, kwargs = task
     points, codes, coords, alpha = _SHARED[call] if data is None else data
     if data is None:
@@ -172,10 +178,13 @@ def _run(task):
         coords = None if coords is None else coords[lo:hi]
     if alpha is not None and np.ndim(alpha) == 1:
         alpha = alpha[:g1]
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
+    caught: list = []
+    with warnings.catch_warnings(record=True) if in_worker else nullcontext() as got:
+        if in_worker:
+            warnings.simplefilter("always")
+            caught = got
         # Codes stay global (groups before this run are empty, hence skipped),
-        # so that messages name the same groups as a single call would.
+        # so that results and messages are those of a single call.
         res = batch(
             points,
             codes,
@@ -318,7 +327,7 @@ def alpha_shapes_parallel(
     try:
         if context is None:  # one process: the runs one after the other
             for i, task in enumerate(tasks):
-                results[i] = _run(task)
+                results[i] = _run(task, in_worker=False)
                 if progress is not None:
                     progress.update(int(bounds[i + 1] - bounds[i]))
         else:

@@ -34,6 +34,8 @@ from __future__ import annotations
 
 import contextvars
 import warnings
+from collections.abc import Callable
+from functools import partial
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -199,7 +201,13 @@ def _stages(frame, by, options: Options, bar: Phases, checks: bool):
         check_distortion(points.coords, crs, options.crs)
     proj = project(points, crs, options)
     bar.start("compute", units=n_groups)
-    shapes = compute(points, proj, n_groups, options)
+    shapes = compute(
+        points,
+        proj,
+        n_groups,
+        options,
+        names=partial(_names, groups, counts=points.n_points),
+    )
     bar.start("check")
     shapes = ensure_guarantee(shapes, groups, points, proj, options)
     shapes = degenerate_policy(shapes, groups, points, proj, options)
@@ -421,7 +429,11 @@ def project(points: Points, source, options: Options) -> gcrs.Projection:
 
 
 def compute(
-    points: Points, proj: gcrs.Projection, n_groups: int, options: Options
+    points: Points,
+    proj: gcrs.Projection,
+    n_groups: int,
+    options: Options,
+    names: Callable[[np.ndarray], str] | None = None,
 ) -> Shapes:
     """Compute the shape of every group, by ``method``, in the output coordinates.
 
@@ -430,7 +442,7 @@ def compute(
     ``"concave"`` and ``"knn"``: :func:`geoalpha.comparison.comparison_hulls`.
     The run's progress bar (:func:`geoalpha.progress.current`, in its
     ``compute`` phase), when it is shown, counts the groups done, batch by
-    batch.
+    batch. ``names`` names groups (given their codes) in warnings.
     """
     method = options.method
     if options.outliers and method != "alpha":
@@ -457,6 +469,7 @@ def compute(
                 progress=bar,
                 n_jobs=options.n_jobs,
                 outliers=options.outliers,
+                name_groups=names,
             )
             geometry = res.geometry
             if method == "convex":

@@ -477,9 +477,14 @@ def test_max_iterations_warning_names_the_options(points_csv, tmp_path):
         "--search", "bisect", "--max-iterations", "3",
     )  # fmt: skip
     assert result.exit_code == 0, result.stderr
-    assert result.stderr.splitlines()[0].startswith(
+    # The groups by their --by value with their rows (not internal codes);
+    # the result is worded as a result, not as an option (no "--alpha 0").
+    rows = pd.read_csv(points_csv)[GROUP].value_counts()
+    named = "; ".join(f"'{key}' ({rows[key]} rows)" for key in sorted(rows.index)[1:])
+    assert result.stderr.splitlines()[0] == (
         "Warning: --search 'bisect' did not converge within --max-iterations 3 for "
-        "3 group(s) (codes 1, 2, 3) and returned "
+        f"3 group(s) ({named}) and gave them alpha 0, the convex hull, as "
+        "alphashape does; use --search 'exact'"
     )
 
 

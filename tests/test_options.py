@@ -74,9 +74,9 @@ def received(monkeypatch):
     calls = {"compute": [], "parallel": []}
     compute, run_parallel = pipeline.compute, parallel.alpha_shapes_parallel
 
-    def record_compute(points, proj, n_groups, options):
+    def record_compute(points, proj, n_groups, options, **kwargs):
         calls["compute"].append(options)
-        return compute(points, proj, n_groups, options)
+        return compute(points, proj, n_groups, options, **kwargs)
 
     def record_parallel(*args, **kwargs):
         calls["parallel"].append(kwargs)

@@ -472,8 +472,8 @@ def spoil_first_group(monkeypatch, make):
 
     real = pipeline.compute
 
-    def spoiled(points, proj, n_groups, options):
-        shapes = real(points, proj, n_groups, options)
+    def spoiled(points, proj, n_groups, options, **kwargs):
+        shapes = real(points, proj, n_groups, options, **kwargs)
         geometry = shapes.geometry.copy()
         geometry[0] = make(geometry[0])
         checked = shapes.checked.copy()

@@ -216,7 +216,7 @@ def test_bisect_from_4_up_gives_up_with_warning(target):
     ) as rec:
         got = optimal_alpha(q, search="bisect")
     assert got == 0
-    assert "returned alpha=0, the convex hull" in str(rec[0].message)
+    assert "gave them alpha 0, the convex hull" in str(rec[0].message)
     assert rec[0].filename == __file__
     # alpha=0 really is the convex hull.
     with pytest.warns(SearchWarning):
@@ -237,6 +237,39 @@ def test_bisect_warning_names_only_the_groups_that_gave_up():
         res = alpha_shapes(points, codes, search="bisect", max_iterations=2000)
     assert res.alpha[[1, 3]].tolist() == [0.0, 0.0]
     assert res.alpha[[0, 2]] == pytest.approx([0.5, 2.0], rel=1e-12)
+
+
+@pytest.mark.parametrize("n_jobs", [1, 2])
+def test_hull_bisect_warning_names_the_groups_by_key_once(n_jobs):
+    import geopandas as gpd
+    import pandas as pd
+
+    rng = np.random.default_rng(11)
+    sets = [rng.uniform(0, 1, (10, 2)) for _ in range(4)]
+    targets = [0.5, 40.0, 2.0, 7.0]  # in 1/metre: the bisection gives up >= 4
+    sets = [
+        p * (reference.graph_optimum(p) / t) for p, t in zip(sets, targets, strict=True)
+    ]
+    xy = np.concatenate(sets)
+    frame = gpd.GeoDataFrame(
+        {"site": np.repeat(["north", "east", "south", "west"], 10)},
+        geometry=gpd.points_from_xy(xy[:, 0], xy[:, 1]),
+        crs="EPSG:27700",
+    )
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        hulls = frame.alpha.hull(
+            by="site", search="bisect", max_iterations=2000, n_jobs=n_jobs
+        )
+    messages = [str(w.message) for w in caught if w.category is SearchWarning]
+    assert messages == [
+        "search='bisect' did not converge within max_iterations=2000 for 2 "
+        "group(s) ('east' (10 rows); 'west' (10 rows)) and gave them alpha 0, "
+        "the convex hull, as alphashape does; use search='exact'"
+    ]
+    alpha = pd.Series(hulls["alpha"].to_numpy(), index=hulls["site"])
+    assert alpha[["east", "west"]].tolist() == [0.0, 0.0]
+    assert alpha[["north", "south"]].tolist() == pytest.approx([0.5, 2.0], rel=1e-12)
 
 
 def test_bisect_max_iterations_is_passed_on():
