@@ -52,7 +52,9 @@ __all__ = [
     "Triangulation",
     "boundary_rings",
     "collinear_groups",
+    "exact_duplicates",
     "fill_radius",
+    "hash64",
     "merge_ties",
     "piece_labels",
     "radius_of_alpha",
@@ -1135,6 +1137,96 @@ def radix_argsort(key: np.ndarray, bits: int) -> np.ndarray:
         digit = ((key[order] >> shift) & 0xFFFF).astype(np.uint16)
         order = order[np.argsort(digit, kind="stable")]
     return order
+
+
+def hash64(*words: np.ndarray) -> np.ndarray:
+    """Mix unsigned 64-bit words elementwise into one hash (splitmix64 steps).
+
+    Examples
+    --------
+    >>> a = np.array([1, 2], dtype=np.uint64)
+    >>> h = hash64(a, a[::-1])
+    >>> h.dtype, bool(h[0] != h[1])
+    (dtype('uint64'), True)
+    """
+    h = np.zeros(len(words[0]), dtype=np.uint64)
+    with np.errstate(over="ignore"):
+        for w in words:
+            h = (h ^ w) + np.uint64(0x9E3779B97F4A7C15)
+            h = (h ^ (h >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+            h = (h ^ (h >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+            h ^= h >> np.uint64(31)
+    return h
+
+
+def exact_duplicates(
+    xy: np.ndarray, codes: np.ndarray, other=None
+) -> np.ndarray | None:
+    """Rows that repeat an earlier row exactly: same group, same coordinates.
+
+    Parameters
+    ----------
+    xy : ndarray of shape (n, 2)
+        Coordinates (checked: finite floats).
+    codes : ndarray of int, shape (n,)
+        Group code of each row.
+    other : ndarray of shape (n, 2), optional
+        Further coordinates of the rows that must be equal too (the
+        coordinates the result is returned in).
+
+    Returns
+    -------
+    ndarray of int, shape (n,), or None
+        For each row the first row (in input order) with its group and
+        coordinates (itself for the first ones); None when no row repeats
+        another.
+
+    Notes
+    -----
+    Rows are sorted by a 48-bit hash of their group and coordinates (those of
+    ``other`` too) with a stable radix sort, and neighbours in that order are
+    compared exactly. Equal rows have
+    equal hashes, so they are found unless a colliding row sorts between two
+    of them; a hash collision can therefore only leave a duplicate in place
+    (which the triangulation handles as before), never join two different
+    points.
+
+    Examples
+    --------
+    >>> xy = np.array([[0.0, 0], [1, 1], [0, 0], [-0.0, 0], [0, 0]])
+    >>> exact_duplicates(xy, np.array([0, 0, 0, 0, 1])).tolist()
+    [0, 1, 0, 0, 4]
+    >>> exact_duplicates(xy[:2], np.zeros(2, dtype=int)) is None
+    True
+    """
+    n = len(xy)
+    if n < 2:
+        return None
+    x = xy[:, 0] + 0.0  # -0.0 -> 0.0: equal values, equal bits
+    y = xy[:, 1] + 0.0
+    words = [x.view(np.uint64), y.view(np.uint64), codes.astype(np.uint64)]
+    if other is not None:
+        words += [(other[:, j] + 0.0).view(np.uint64) for j in (0, 1)]
+    key = hash64(*words)
+    order = radix_argsort(key >> np.uint64(16), 48)
+    sk = key[order]
+    same = sk[1:] == sk[:-1]
+    if not same.any():
+        return None
+    a, b = order[:-1][same], order[1:][same]
+    equal = (codes[a] == codes[b]) & (x[a] == x[b]) & (y[a] == y[b])
+    if other is not None:
+        equal &= (other[a, 0] == other[b, 0]) & (other[a, 1] == other[b, 1])
+    if not equal.any():
+        return None
+    # Runs of equal rows in the (stable) order start at their first row.
+    link = np.zeros(n, dtype=bool)  # position i + 1 equals position i
+    link[1:][np.flatnonzero(same)[equal]] = True
+    start = np.where(link, 0, np.arange(n))
+    np.maximum.accumulate(start, out=start)
+    rep = np.empty(n, dtype=np.int64)
+    rep[order] = order[start]
+    return rep
 
 
 def _doublings(n: int) -> int:

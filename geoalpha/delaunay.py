@@ -51,7 +51,7 @@ from typing import NamedTuple
 import numpy as np
 import shapely
 
-from geoalpha.core import radix_argsort
+from geoalpha.core import hash64, radix_argsort
 
 __all__ = ["GroupTriangles", "triangulate_groups"]
 
@@ -287,7 +287,7 @@ def _twins(local, rows, point_gi, used_row) -> np.ndarray:
     pts, gi, is_missing = rows[take], point_gi[take], mine[take]
     x = np.take(local[:, 0], pts) + 0.0  # -0.0 -> 0.0: equal values, equal bits
     y = np.take(local[:, 1], pts) + 0.0
-    key = _hash64(x.view(np.uint64), y.view(np.uint64), gi.astype(np.uint64))
+    key = hash64(x.view(np.uint64), y.view(np.uint64), gi.astype(np.uint64))
     # 47 bits of hash and the left-out bit: three 16-bit radix passes.
     key = (key >> np.uint64(17) << np.uint64(1)) | is_missing.astype(np.uint64)
     order = radix_argsort(key, 48)
@@ -301,18 +301,6 @@ def _twins(local, rows, point_gi, used_row) -> np.ndarray:
     twin = np.full(len(take), -1, dtype=np.int64)
     twin[me] = np.where(ok, pts[before], -1)
     return twin[is_missing]
-
-
-def _hash64(*words: np.ndarray) -> np.ndarray:
-    """Mix unsigned 64-bit words elementwise into one hash (splitmix64 steps)."""
-    h = np.zeros(len(words[0]), dtype=np.uint64)
-    with np.errstate(over="ignore"):
-        for w in words:
-            h = (h ^ w) + np.uint64(0x9E3779B97F4A7C15)
-            h = (h ^ (h >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
-            h = (h ^ (h >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
-            h ^= h >> np.uint64(31)
-    return h
 
 
 def _neighbors(tri, p, max_size, tri_gi, failed):

@@ -309,12 +309,59 @@ def _alpha_shapes_batch(
     progress,
     outliers=0,
 ) -> AlphaShapes:
-    """:func:`alpha_shapes` of all groups in one pass (no runs, no workers)."""
+    """:func:`alpha_shapes` of all groups in one pass (no runs, no workers).
+
+    Rows that repeat an earlier row of their group exactly (in ``points`` and
+    in ``coords``) are set aside first: the shapes are those of the other
+    rows, and the per-row results are copied to the repeats.
+    """
     try:
-        out_xy = _output_coordinates(points, coords)
+        xy = core.check_points(points)  # (errors name rows of the input)
+        codes, n_groups = core.group_codes(groups, len(xy), n_groups)
+        out_xy = _output_coordinates(xy, coords)
+    except ValueError as err:
+        raise InvalidInputError(str(err)) from err
+    rep = core.exact_duplicates(xy, codes, out_xy)
+    options = dict(alpha=alpha, holes=holes, components=components, search=search)
+    options.update(max_iterations=max_iterations, progress=progress)
+    if rep is None:
+        return _distinct_shapes(xy, codes, out_xy, n_groups, outliers, **options)
+    first = rep == np.arange(len(rep))
+    rows = np.flatnonzero(first)
+    res = _distinct_shapes(
+        np.take(xy, rows, axis=0),
+        codes[rows],
+        None if out_xy is None else np.take(out_xy, rows, axis=0),
+        n_groups,
+        outliers,
+        **options,
+    )
+    position = np.cumsum(first) - 1  # of each first row among them
+    return res._replace(
+        n_points=np.bincount(codes, minlength=n_groups),
+        outlier=res.outlier[position[rep]],
+    )
+
+
+def _distinct_shapes(
+    xy,
+    codes,
+    out_xy,
+    n_groups,
+    outliers,
+    *,
+    alpha,
+    holes,
+    components,
+    search,
+    max_iterations,
+    progress,
+) -> AlphaShapes:
+    """:func:`_alpha_shapes_batch` of rows without exact repeats."""
+    try:
         tri = core.triangulate(
-            points,
-            groups,
+            xy,
+            codes,
             n_groups=n_groups,
             progress=progress,
             backend=delaunay.triangulate_groups,
@@ -322,6 +369,7 @@ def _alpha_shapes_batch(
         )
     except ValueError as err:
         raise InvalidInputError(str(err)) from err
+    elsewhere = out_xy is not None  # returned in other coordinates (lon/lat)
     if out_xy is None:
         out_xy = tri.xy
     else:
@@ -361,7 +409,7 @@ def _alpha_shapes_batch(
     # repair.)
     x, y, v = out_xy[:, 0], out_xy[:, 1], tri.vertex
     test = (x != x[v]) | (y != y[v])
-    if coords is not None:
+    if elsewhere:
         on_ring = np.zeros(len(out_xy), dtype=bool)
         on_ring[rings.vertex] = True
         test |= ~on_ring[v]
@@ -386,7 +434,6 @@ def _alpha_shapes_batch(
         tri.tri_group[inside], weights=tri.area[inside], minlength=tri.n_groups
     )
     area[degenerate] = 0.0
-    codes = tri.point_group[tri.input_point]
     if kept is None:
         n_outliers, outlier = (
             np.zeros(tri.n_groups, np.int64),

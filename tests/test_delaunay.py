@@ -244,10 +244,82 @@ def test_duplicates_found_whatever_the_hash_and_collisions_fall_back(monkeypatch
     np.testing.assert_array_equal(local[found.vertex], local)
     assert len(np.unique(found.vertex)) < len(local)  # duplicates were there
 
-    monkeypatch.setattr(delaunay, "_hash64", lambda *w: np.zeros(len(w[0]), np.uint64))
+    zero = lambda *w: np.zeros(len(w[0]), np.uint64)  # noqa: E731
+    monkeypatch.setattr(delaunay, "hash64", zero)
+    # (and in alpha_shapes' removal of exact duplicates, which then finds only
+    # those next to each other in the input and leaves the rest to GEOS)
+    monkeypatch.setattr(core, "hash64", zero)
     collided = delaunay.triangulate_groups(local, ptr, groups)
     np.testing.assert_array_equal(local[collided.vertex], local)
     assert collided.failed.any()  # some group lost its pairing: Qhull's now
     got = alpha_shapes(points, codes)
     np.testing.assert_array_equal(got.alpha, expected.alpha)
     assert shapely.equals(got.geometry, expected.geometry).all()
+
+
+# --------------------------------------------------------------------------
+# Exact repeats set aside before the triangulation (core.exact_duplicates)
+# --------------------------------------------------------------------------
+
+
+def first_equal_rows(xy, codes, other=None):
+    """Brute force: the first row with the same group and coordinates."""
+    seen, rep = {}, []
+    for i in range(len(xy)):
+        key = (int(codes[i]), xy[i, 0] + 0.0, xy[i, 1] + 0.0)
+        if other is not None:
+            key += (other[i, 0] + 0.0, other[i, 1] + 0.0)
+        rep.append(seen.setdefault(key, i))
+    return np.array(rep)
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    n=st.integers(0, 60),
+    values=st.integers(1, 6),
+    groups=st.integers(1, 3),
+    seed=st.integers(0, 2**32 - 1),
+    with_other=st.booleans(),
+)
+def test_exact_duplicates_are_the_brute_force_ones(n, values, groups, seed, with_other):
+    rng = np.random.default_rng(seed)
+    # Few distinct values: many repeats, -0.0 next to 0.0.
+    grid = np.array([-0.0, 0.0, 1.5, -2.25, 1e-300, 7.0])[:values]
+    xy = rng.choice(grid, (n, 2))
+    codes = rng.integers(0, groups, n)
+    other = rng.choice(grid, (n, 2)) if with_other else None
+    got = core.exact_duplicates(xy, codes, other)
+    expected = first_equal_rows(xy, codes, other)
+    if got is None:
+        np.testing.assert_array_equal(expected, np.arange(n))
+    else:
+        np.testing.assert_array_equal(got, expected)
+
+
+def test_exact_duplicates_never_join_different_points_on_collisions(monkeypatch):
+    monkeypatch.setattr(core, "hash64", lambda *w: np.zeros(len(w[0]), np.uint64))
+    xy = np.array([[0.0, 0], [1, 1], [0, 0], [0, 0], [1, 1], [2, 2]])
+    codes = np.zeros(6, dtype=int)
+    # Every hash equal: the stable order is the input order, so only repeats
+    # next to each other are found (row 3); the others stay rows of their own.
+    assert core.exact_duplicates(xy, codes).tolist() == [0, 1, 2, 2, 4, 5]
+
+
+def test_repeated_rows_count_and_share_their_points_result():
+    rng = np.random.default_rng(3)
+    base = rng.uniform(0, 10, (30, 2))
+    base[0] = [60.0, 60.0]  # an outlier
+    codes = np.zeros(30, dtype=int)
+    repeat = rng.integers(0, 30, 25)
+    repeat[:3] = 0  # the outlier three more times
+    xy = np.concatenate([base, base[repeat]])
+    groups = np.concatenate([codes, codes[repeat]])
+    plain = alpha_shapes(base, codes, outliers=1)
+    got = alpha_shapes(xy, groups, outliers=1)
+    assert got.n_points.tolist() == [55]  # every row counts
+    assert got.n_distinct.tolist() == plain.n_distinct.tolist() == [30]
+    assert got.alpha.tolist() == plain.alpha.tolist()
+    assert shapely.equals_exact(got.geometry, plain.geometry, tolerance=0).all()
+    # The outlier's four rows are all left out, and only they.
+    assert np.flatnonzero(got.outlier).tolist() == [0, 30, 31, 32]
+    assert got.n_outliers.tolist() == plain.n_outliers.tolist() == [1]
