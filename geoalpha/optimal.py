@@ -150,7 +150,7 @@ def _rank_threshold(
     return a, rank, spectrum.pieces_at_rank(np.arange(G), rank), gave_up
 
 
-def warn_gave_up(gave_up: np.ndarray, max_iterations: int, names: str) -> None:
+def _warn_gave_up(gave_up: np.ndarray, max_iterations: int, names: str) -> None:
     """Warn (:class:`SearchWarning`) about the groups the bisection gave up on.
 
     ``names`` names them (group codes for :func:`alpha_shapes`, keys for
@@ -272,6 +272,11 @@ def alpha_shapes(
     ([0.4308], [1], [False, False, False, False, False, True])
     """
     checked = _check_options(holes, components, search, max_iterations, outliers, alpha)
+    if name_groups is not None and not callable(name_groups):
+        raise InvalidInputError(
+            "name_groups must be a function of an array of group codes that "
+            f"returns their names as text; got {type(name_groups).__name__}"
+        )
     outliers = checked.pop("outliers")
     options = {"alpha": alpha, **checked}
     options.update(coords=coords, n_groups=n_groups, progress=progress)
@@ -286,7 +291,7 @@ def alpha_shapes(
     if res.gave_up.any():
         which = np.flatnonzero(res.gave_up)
         names = f"codes {first_n(which)}" if name_groups is None else name_groups(which)
-        warn_gave_up(res.gave_up, checked["max_iterations"], names)
+        _warn_gave_up(res.gave_up, checked["max_iterations"], names)
     return res
 
 

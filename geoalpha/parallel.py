@@ -178,11 +178,10 @@ def _run(task, in_worker: bool = True):
         coords = None if coords is None else coords[lo:hi]
     if alpha is not None and np.ndim(alpha) == 1:
         alpha = alpha[:g1]
-    caught: list = []
-    with warnings.catch_warnings(record=True) if in_worker else nullcontext() as got:
+    record = warnings.catch_warnings(record=True) if in_worker else nullcontext([])
+    with record as caught:
         if in_worker:
             warnings.simplefilter("always")
-            caught = got
         # Codes stay global (groups before this run are empty, hence skipped),
         # so that results and messages are those of a single call.
         res = batch(

@@ -23,6 +23,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import QhullError
 
 from geoalpha import SearchWarning, alpha_shape, alpha_shapes, optimal_alpha
+from geoalpha.errors import InvalidInputError
 from geoalpha.search import LADDER, bisect_alpha, ladder_alpha
 
 #: The seed paper's rungs, copied from the paper, not from geoalpha.
@@ -270,6 +271,11 @@ def test_hull_bisect_warning_names_the_groups_by_key_once(n_jobs):
     alpha = pd.Series(hulls["alpha"].to_numpy(), index=hulls["site"])
     assert alpha[["east", "west"]].tolist() == [0.0, 0.0]
     assert alpha[["north", "south"]].tolist() == pytest.approx([0.5, 2.0], rel=1e-12)
+
+
+def test_name_groups_must_be_a_function():
+    with pytest.raises(InvalidInputError, match="name_groups must be a function"):
+        alpha_shapes(np.eye(3), name_groups=["a"])
 
 
 def test_bisect_max_iterations_is_passed_on():
