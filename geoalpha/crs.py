@@ -39,6 +39,7 @@ __all__ = [
     "is_mercator",
     "metric_crs",
     "parse_crs",
+    "restore_longitudes",
     "split_antimeridian",
     "target_crs",
     "unit_factor",
@@ -465,6 +466,78 @@ def split_antimeridian(geom: Any) -> Any:
             result[todo[has_parts]] = multi
             out = result.reshape(geoms.shape)
     return out[0] if scalar else out
+
+
+def restore_longitudes(
+    geoms: np.ndarray, geom_group: Any, lon: Any, lat: Any, codes: Any
+) -> np.ndarray:
+    """Give split polygons the input points' own longitudes back.
+
+    :func:`unwrap_lon` adds 360 degrees to negative longitudes and
+    :func:`split_antimeridian` subtracts it again from the part east of the
+    line; between -128 and 0 degrees that round trip rounds (``lon + 360``
+    has a coarser spacing than ``lon``), so a vertex that was an input point
+    comes back up to one unit in the last place away from it, and the point
+    can fall outside its polygon. This puts every such vertex back on the
+    longitude of the input point it came from (same group, same latitude,
+    same round-tripped longitude).
+
+    Parameters
+    ----------
+    geoms : ndarray of shapely geometries, shape (k,)
+        Polygons from :func:`split_antimeridian`.
+    geom_group : array_like of int, shape (k,)
+        Group code of each geometry.
+    lon, lat : array_like of float, shape (n,)
+        The input points' longitudes (in [-180, 180]) and latitudes.
+    codes : array_like of int, shape (n,)
+        Group code of each point.
+
+    Returns
+    -------
+    ndarray of shapely geometries, shape (k,)
+        New geometries (the input array is not changed); vertices that match
+        no input point (on the antimeridian, say) are left as they are.
+
+    Examples
+    --------
+    >>> from shapely import Polygon
+    >>> lon = np.array([175.0, -114.6042657247226, -119.0])
+    >>> lat = np.array([-38.0, 25.0, 33.0])
+    >>> unwrapped = unwrap_lon(lon, [0, 0, 0], [True])
+    >>> parts = split_antimeridian(np.array([Polygon(zip(unwrapped, lat))]))
+    >>> float(parts[0].geoms[1].exterior.coords[1][0])  # lon + 360 - 360
+    -114.60426572472261
+    >>> fixed = restore_longitudes(parts, [0], lon, lat, [0, 0, 0])
+    >>> float(fixed[0].geoms[1].exterior.coords[1][0])
+    -114.6042657247226
+    """
+    geoms = np.array(geoms, dtype=object)
+    geom_group = np.asarray(geom_group, dtype=np.int64)
+    lon = np.asarray(lon, dtype=np.float64)
+    lat = np.asarray(lat, dtype=np.float64)
+    codes = np.asarray(codes, dtype=np.int64)
+    coords, which = shapely.get_coordinates(geoms, return_index=True)
+    mine = np.isin(codes, geom_group) & (lon < 0.0)
+    if len(coords) == 0 or not mine.any():
+        return geoms
+    # What each shifted point's longitude became: as split_antimeridian
+    # computes it.
+    shifted = _snap(
+        np.column_stack([lon[mine] + 360.0, lat[mine]]) - (360.0, 0.0), -180.0
+    )
+    table = np.column_stack([codes[mine].astype(np.float64), shifted])
+    query = np.column_stack([geom_group[which].astype(np.float64), coords])
+    _, key = np.unique(np.concatenate([table, query]), axis=0, return_inverse=True)
+    key = key.ravel()
+    entry = np.full(key.max() + 1, -1, dtype=np.int64)
+    entry[key[: len(table)]] = np.arange(len(table))
+    hit = entry[key[len(table) :]]
+    found = hit >= 0
+    if not found.any():
+        return geoms
+    coords[found, 0] = lon[mine][hit[found]]
+    return shapely.set_coordinates(geoms, coords)
 
 
 _OWN_LAEA = re.compile(

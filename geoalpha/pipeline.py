@@ -66,7 +66,13 @@ from geoalpha.progress import (
     phases,
 )
 from geoalpha.schema import RESULT_COLUMNS, result_frame, result_geometry_name
-from geoalpha.shapes import EMPTY_POLYGON, cover_points, enforce, repair_invalid
+from geoalpha.shapes import (
+    EMPTY_POLYGON,
+    cover_points,
+    covered,
+    enforce,
+    repair_invalid,
+)
 
 __all__ = [
     "PROGRESS_MIN_GROUPS",
@@ -664,14 +670,7 @@ def verify_in_output_crs(
                 stacklevel=user_stacklevel(),
             )
     if proj.crossing.any():
-        geometry[proj.crossing] = gcrs.split_antimeridian(geometry[proj.crossing])
-        warnings.warn(
-            f"{proj.crossing.sum()} group(s) cross the antimeridian (+-180 degrees): "
-            f"{_names(groups, np.flatnonzero(proj.crossing))}; their hulls are "
-            "MultiPolygons split at +-180 degrees (RFC 7946)",
-            AntimeridianWarning,
-            stacklevel=user_stacklevel(),
-        )
+        geometry = _split_at_antimeridian(geometry, groups, points, proj)
     if proj.wide.any():
         warnings.warn(
             f"{proj.wide.sum()} group(s) span more than 180 degrees of longitude: "
@@ -685,6 +684,44 @@ def verify_in_output_crs(
     if options.method != "alpha":  # repairs may have cut a sliver holding a point
         plain = ~proj.crossing[points.codes]
         geometry = cover_points(geometry, proj.out[plain], points.codes[plain])
+    return geometry
+
+
+def _split_at_antimeridian(geometry, groups, points, proj) -> np.ndarray:
+    """Split the hulls of antimeridian-crossing groups at +-180 degrees (RFC 7946).
+
+    The vertices get their input points' exact longitudes back (the round
+    trip through unwrapped longitudes rounds), and every crossing group is
+    checked again: valid (repaired otherwise) and covering its points in the
+    output coordinates. Points the split polygon still leaves outside (a
+    point at exactly -180 whose polygon reaches the line from the east, at
+    +180) are counted in the warning.
+    """
+    crossing = np.flatnonzero(proj.crossing)
+    lon, lat = points.coords[:, 0], points.coords[:, 1]
+    parts = gcrs.split_antimeridian(geometry[crossing])
+    parts = gcrs.restore_longitudes(parts, crossing, lon, lat, points.codes)
+    invalid = ~shapely.is_valid(parts)
+    if invalid.any():
+        parts[invalid] = repair_invalid(parts[invalid])
+    geometry[crossing] = parts
+    mine = proj.crossing[points.codes]
+    outside = ~covered(geometry, points.coords[mine], points.codes[mine])
+    message = (
+        f"{len(crossing)} group(s) cross the antimeridian (+-180 degrees): "
+        f"{_names(groups, crossing)}; their hulls are MultiPolygons split at "
+        "+-180 degrees (RFC 7946)"
+    )
+    if outside.any():
+        missed = points.codes[mine][outside]
+        which = np.unique(missed)
+        message += (
+            f"; {outside.sum()} of their point(s) lie outside the split hull, on the "
+            "other side of the +-180 line from it (a longitude of -180 for a hull "
+            "that reaches the line at +180, or the reverse): "
+            + _names(groups, which, np.bincount(missed, minlength=len(geometry)))
+        )
+    warnings.warn(message, AntimeridianWarning, stacklevel=user_stacklevel())
     return geometry
 
 

@@ -585,6 +585,55 @@ def test_antimeridian_group_next_to_an_ordinary_one(fiji):
     assert_covers(both, hulls, "g")
 
 
+@pytest.mark.parametrize("seed", range(6))
+def test_wide_pacific_groups_keep_every_point_after_the_split(seed):
+    """Groups reaching from ~175 E to ~100-130 W: their east vertices round-trip.
+
+    Longitudes between -128 and 0 lose their last bits in ``lon + 360 - 360``;
+    the split hulls must still have the input points as vertices and cover
+    them, in EPSG:4326 (the audit found 126 of 200 such triangles missing a
+    point by ~1e-14 degrees).
+    """
+    rng = np.random.default_rng(seed)
+    n_groups, size = 8, rng.integers(3, 30)
+    west = rng.uniform(160.0, 179.9, (n_groups, size))
+    east = rng.uniform(-130.0, -100.0, (n_groups, size))
+    lon = np.where(rng.random((n_groups, size)) < 0.5, west, east)
+    lon[:, 0], lon[:, 1] = west[:, 0], east[:, 1]  # both sides in every group
+    lat = rng.uniform(-40.0, 40.0, (n_groups, size))
+    groups = np.repeat([f"pacific {i}" for i in range(n_groups)], size)
+    points = frame(np.column_stack([lon.ravel(), lat.ravel()]), groups, "EPSG:4326")
+    with pytest.warns(AntimeridianWarning, match=r"8 group\(s\) cross") as record:
+        hulls = geoalpha.hull(points, by="g")
+    assert "outside the split hull" not in str(record[0].message)
+    assert shapely.is_valid(hulls.geometry.to_numpy()).all()
+    assert_covers(points, hulls, "g")
+    foreign = foreign_vertices(points, hulls, "g")
+    assert (foreign["x"].abs() == 180.0).all(), foreign  # only the cut's ends
+    assert widest_part(hulls.geometry) <= 180.0
+
+
+def test_a_point_at_minus_180_is_named_when_its_hull_ends_at_plus_180():
+    """-180 and +180 are one meridian, but not one coordinate: warned, not hidden."""
+    lon = [179.998600178459, 179.998241542992, -180.0]
+    lat = [9.136294549352, 9.132884092232, 9.133651947977]
+    points = frame(np.column_stack([lon, lat]), ["fj"] * 3, "EPSG:4326")
+    with pytest.warns(
+        AntimeridianWarning,
+        match=r"1 of their point\(s\) lie outside the split hull, on the other side "
+        r"of the \+-180 line.*'fj' \(1 row\)",
+    ):
+        hulls = geoalpha.hull(points, by="g")
+    hull = hulls.geometry.item()
+    assert hull.is_valid
+    assert shapely.covers(hull, points.geometry.to_numpy()).tolist() == [
+        True,
+        True,
+        False,
+    ]
+    assert shapely.covers(hull, Point(180.0, lat[2]))  # the same place, at +180
+
+
 # --- methods -------------------------------------------------------------------------
 
 
