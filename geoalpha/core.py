@@ -105,6 +105,12 @@ class Triangulation:
         For each point, the triangulation vertex that represents it: itself,
         or for a duplicate or a point that Qhull merged with a numerically
         coincident one (a "coplanar" point), that neighbour.
+    distinct : ndarray of bool, shape (p,)
+        Whether the point counts as a distinct point of its group: one point
+        of each set of exact duplicates or of points merged as
+        near-duplicates (its ``vertex``), and points that Qhull set aside
+        farther than the tolerance from their vertex. In a non-degenerate
+        group they number ``n_distinct``.
     n_distinct : ndarray of shape (G,)
         Distinct points of each group.
     triangles : ndarray of shape (m, 3)
@@ -141,6 +147,7 @@ class Triangulation:
     point_ptr: np.ndarray
     input_point: np.ndarray
     vertex: np.ndarray
+    distinct: np.ndarray
     n_distinct: np.ndarray
     triangles: np.ndarray
     neighbors: np.ndarray
@@ -480,6 +487,7 @@ def triangulate(
         point_ptr=point_ptr,
         input_point=input_point,
         vertex=vertex,
+        distinct=distinct,
         n_distinct=n_distinct,
         triangles=simplices,
         neighbors=nbrs,

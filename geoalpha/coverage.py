@@ -157,17 +157,21 @@ class Kept:
 def point_weight(tri: Triangulation) -> np.ndarray:
     """Distinct points each point of ``tri.xy`` stands for as a vertex.
 
-    A Qhull vertex counts itself and the points Qhull merged into it that
-    differ from it (exact duplicates are one point); other points count 0.
-    Over a non-degenerate group the weights sum to ``tri.n_distinct``.
+    A vertex counts itself and the points Qhull set aside as lying on one of
+    its edges farther than the tolerance from it (``tri.distinct``); exact
+    duplicates and near-duplicates merged into it count 0, as in
+    ``tri.n_distinct``. Other points count 0. Over a non-degenerate group the
+    weights sum to ``tri.n_distinct``.
+
+    Examples
+    --------
+    >>> from geoalpha import core
+    >>> square = [[0, 0], [1, 0], [1, 1], [0, 1], [0, 1], [1, 1 + 1e-13]]
+    >>> tri = core.triangulate(square)  # a repeat and a near-duplicate
+    >>> point_weight(tri).tolist(), tri.n_distinct.tolist()
+    ([1, 1, 1, 1, 0, 0], [4])
     """
-    p = len(tri.xy)
-    moved = tri.vertex != np.arange(p)
-    weight = (~moved).astype(np.int64)
-    x, y, v = tri.xy[:, 0], tri.xy[:, 1], tri.vertex
-    extra = moved & ((x != x[v]) | (y != y[v]))
-    np.add.at(weight, tri.vertex[extra], 1)
-    return weight
+    return np.bincount(tri.vertex[tri.distinct], minlength=len(tri.xy))
 
 
 def _coverage_rank(tri, weight, point_weight_, need) -> np.ndarray:

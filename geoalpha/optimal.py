@@ -418,8 +418,6 @@ def _distinct_shapes(
         on_ring = np.zeros(len(out_xy), dtype=bool)
         on_ring[rings.vertex] = True
         test |= ~on_ring[v]
-    if kept is not None:  # the points left out on purpose (outliers=)
-        test &= ~kept.outlier
     geometry, failed = shapes.enforce(
         geometry,
         out_xy,
@@ -428,6 +426,7 @@ def _distinct_shapes(
         cover=alpha is None,
         components=components if alpha is None else None,
         test=test,
+        exempt=None if kept is None else kept.outlier,  # left out on purpose
     )
     failed |= rings.failed & ~tri.degenerate
     degenerate = tri.degenerate | failed
@@ -445,7 +444,8 @@ def _distinct_shapes(
             np.zeros(len(codes), bool),
         )
     else:
-        n_outliers, outlier = kept.n_outliers, kept.outlier[tri.input_point]
+        n_outliers, outlier = _still_left_out(tri, kept, geometry, out_xy)
+        outlier = outlier[tri.input_point]
     return AlphaShapes(
         alpha=a,
         geometry=geometry,
@@ -458,6 +458,30 @@ def _distinct_shapes(
         outlier=outlier,
         gave_up=gave_up & ~degenerate,
     )
+
+
+def _still_left_out(tri, kept, geometry, out_xy):
+    """Return the points left out (``outliers=``) that the final polygons miss.
+
+    Taking in a point that the kept pieces just miss (a near-duplicate of
+    one of their vertices) can move an edge over a point left out; such a
+    point is then inside its shape, and no longer reported as left out.
+    Returns the distinct points left out per group (points merged as
+    near-duplicates count once) and the flag of each point.
+    """
+    outlier = kept.outlier.copy()
+    if not outlier.any():
+        return kept.n_outliers, outlier
+    which = np.flatnonzero(outlier)
+    inside = shapes.covered(
+        geometry, np.take(out_xy, which, axis=0), tri.point_group[which]
+    )
+    outlier[which[inside]] = False
+    if not inside.any():
+        return kept.n_outliers, outlier
+    own = np.where(tri.distinct, np.arange(len(outlier)), tri.vertex)
+    left = np.unique(own[outlier])
+    return np.bincount(tri.point_group[left], minlength=tri.n_groups), outlier
 
 
 def _output_coordinates(points, coords):

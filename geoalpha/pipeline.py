@@ -556,7 +556,7 @@ def ensure_guarantee(
         check,
         cover=not fixed_alpha,
         components=None if fixed_alpha else components,
-        test=~shapes.outlier,
+        exempt=shapes.outlier,
     )
     if failed.any():
         which = np.flatnonzero(failed)
@@ -574,8 +574,23 @@ def ensure_guarantee(
             alpha=alpha,
             degenerate=shapes.degenerate | failed,
             checked=(shapes.checked | check) & ~failed,
+            outlier=_still_outside(shapes.outlier, geometry, proj.out, points.codes),
         )
-    return shapes._replace(geometry=geometry, checked=shapes.checked | check)
+    return shapes._replace(
+        geometry=geometry,
+        checked=shapes.checked | check,
+        outlier=_still_outside(shapes.outlier, geometry, proj.out, points.codes),
+    )
+
+
+def _still_outside(outlier, geometry, xy, codes) -> np.ndarray:
+    """Return the rows left out (``outliers=``) that a repaired hull misses."""
+    if not outlier.any():
+        return outlier
+    which = np.flatnonzero(outlier)
+    outlier = outlier.copy()
+    outlier[which] = ~covered(geometry, np.take(xy, which, axis=0), codes[which])
+    return outlier
 
 
 def degenerate_policy(

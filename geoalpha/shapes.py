@@ -78,7 +78,17 @@ def assemble(coords: np.ndarray, rings: Rings, n_groups: int) -> np.ndarray:
     return out
 
 
-def enforce(geoms, out_xy, codes, check, *, cover=True, components=None, test=None):
+def enforce(
+    geoms,
+    out_xy,
+    codes,
+    check,
+    *,
+    cover=True,
+    components=None,
+    test=None,
+    exempt=None,
+):
     """Verify the guarantee per group; repair where possible; report the rest.
 
     Every group in ``check`` must get a valid, non-empty Polygon or
@@ -110,6 +120,9 @@ def enforce(geoms, out_xy, codes, check, *, cover=True, components=None, test=No
         certain for the geometry given, e.g. vertices of a valid
         triangulation of the shape in the very coordinates of the geometry.
         Every point of a geometry that had to be repaired is tested.
+    exempt : ndarray of bool, shape (k,), optional
+        Points that need not be covered (left out on purpose, ``outliers=``):
+        never tested, and never taken in when a group is repaired.
 
     Returns
     -------
@@ -138,8 +151,9 @@ def enforce(geoms, out_xy, codes, check, *, cover=True, components=None, test=No
             geoms[invalid] = repair_invalid(geoms[invalid])
         except shapely.errors.GEOSException:  # pragma: no cover - defensive
             failed[invalid] = True
+    needed = np.ones(len(codes), dtype=bool) if exempt is None else ~exempt
     if cover:
-        mine = check[codes] & ~failed[codes]
+        mine = check[codes] & ~failed[codes] & needed
         if test is not None:
             repaired = np.zeros(len(geoms), dtype=bool)
             repaired[invalid] = True
@@ -147,7 +161,7 @@ def enforce(geoms, out_xy, codes, check, *, cover=True, components=None, test=No
         outside = ~covered(geoms, np.compress(mine, out_xy, axis=0), codes[mine])
         repair = np.unique(codes[mine][outside]) if outside.any() else ()
         if len(repair):
-            take = np.isin(codes, repair)
+            take = np.isin(codes, repair) & needed
             try:
                 geoms = cover_points(geoms, out_xy[take], codes[take])
             except shapely.errors.GEOSException:
@@ -165,7 +179,7 @@ def enforce(geoms, out_xy, codes, check, *, cover=True, components=None, test=No
             bad |= shapely.get_num_geometries(g) > components
         failed[np.flatnonzero(again)[bad]] = True
         if cover:
-            take = again[codes] & ~failed[codes]
+            take = again[codes] & ~failed[codes] & needed
             miss = ~covered(geoms, np.compress(take, out_xy, axis=0), codes[take])
             failed[codes[take][miss]] = True
     if cover:  # an empty optimum covers nothing

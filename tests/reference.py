@@ -65,29 +65,39 @@ def tolerance(points) -> float:
     return max(NEAR_RTOL * extent, PRECISION_ULPS * float(np.spacing(np.abs(p).max())))
 
 
-def merge_near(points) -> np.ndarray:
-    """One point per set of points closer than the tolerance (transitively).
+def near_labels(points) -> np.ndarray:
+    """Label of each point's set of points closer than the tolerance (transitively).
 
-    Brute force (all pairs, breadth-first search); each set is represented
-    by its first point in input order.
+    Brute force (all pairs, breadth-first search); sets are numbered in the
+    input order of their first point.
     """
     p = np.asarray(points, dtype=float)
     tol = tolerance(p)
     close = ((p[:, None, :] - p[None, :, :]) ** 2).sum(axis=-1) < tol * tol
-    seen = np.zeros(len(p), dtype=bool)
-    keep = []
+    label = np.full(len(p), -1, dtype=np.int64)
+    n_sets = 0
     for i in range(len(p)):
-        if seen[i]:
+        if label[i] >= 0:
             continue
-        keep.append(i)
-        seen[i] = True
+        label[i] = n_sets
         queue = deque([i])
         while queue:
             j = queue.popleft()
-            for k in np.flatnonzero(close[j] & ~seen):
-                seen[k] = True
+            for k in np.flatnonzero(close[j] & (label < 0)):
+                label[k] = n_sets
                 queue.append(k)
-    return p[keep]
+        n_sets += 1
+    return label
+
+
+def merge_near(points) -> np.ndarray:
+    """One point per set of points closer than the tolerance (transitively).
+
+    Each set is represented by its first point in input order.
+    """
+    p = np.asarray(points, dtype=float)
+    _, first = np.unique(near_labels(p), return_index=True)
+    return p[first]
 
 
 def is_collinear(points) -> bool:
@@ -301,7 +311,7 @@ def outlier_optimum(points, holes=False, components=1, outliers=0):
 
     A group whose budget k is 0 has the optimum without outliers.
     """
-    k = budget(outliers, len(np.unique(np.asarray(points, float), axis=0)))
+    k = budget(outliers, len(merge_near(points)))
     if k == 0:
         return graph_optimum(points, holes=holes, components=components), 0
     curve = coverage_curve(points, holes=holes, components=(components,))
