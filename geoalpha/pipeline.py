@@ -42,6 +42,7 @@ import numpy as np
 import pandas as pd
 import shapely
 
+from geoalpha import core
 from geoalpha import crs as gcrs
 from geoalpha.checks import check_distortion, check_grouping
 from geoalpha.comparison import comparison_hulls, convex_hulls
@@ -632,6 +633,13 @@ def degenerate_policy(
             f"their rows hold a {options.buffer:g} {proj.unit} buffer around their "
             "points"
         )
+        redone = _buffer_in_output(geometry, sel, points.codes, proj)
+        if len(redone):
+            done += (
+                f", except {_names(groups, redone)}: that buffer is no valid polygon "
+                "holding their points in the output CRS (around a pole), so theirs is "
+                f"a buffer of {OUTPUT_BUFFER_RTOL:g} of their extent there"
+            )
     elif policy == "empty":
         geometry[which] = EMPTY_POLYGON
         area[which] = 0.0
@@ -639,10 +647,21 @@ def degenerate_policy(
     else:
         keep[which] = False
         done = f"they were dropped ({n_points[which].sum()} rows)"
+    thin = _thin(which, points, proj)
+    reasons = []
+    if thin.any():
+        reasons.append(
+            f"{thin.sum()} group(s) have fewer than 3 distinct points or all points "
+            f"on a line, so no alpha shape: {_names(groups, which[thin], n_points)}"
+        )
+    if not thin.all():
+        reasons.append(
+            f"{(~thin).sum()} group(s) got no valid polygon holding all their points "
+            "in the output CRS (near a pole, or coordinates too coarse there): "
+            f"{_names(groups, which[~thin], n_points)}"
+        )
     warnings.warn(
-        f"{len(which)} group(s) have fewer than 3 distinct points or all points "
-        f"on a line, so no alpha shape: {_names(groups, which, n_points)}; "
-        f"{done} (degenerate={policy!r})",
+        "; ".join(reasons) + f"; {done} (degenerate={policy!r})",
         DegenerateGroupWarning,
         stacklevel=user_stacklevel(),
     )
@@ -651,6 +670,62 @@ def degenerate_policy(
     return shapes._replace(
         geometry=geometry, area=area, degenerate=degenerate, keep=keep, checked=checked
     )
+
+
+#: Width of the ``degenerate="buffer"`` polygon made in the output coordinates
+#: (where the metric buffer is no valid polygon there), relative to the
+#: group's extent in those coordinates.
+OUTPUT_BUFFER_RTOL = 1e-6
+
+
+def _thin(which, points: Points, proj: gcrs.Projection) -> np.ndarray:
+    """Which groups of ``which`` are degenerate by their points (not by a failed check).
+
+    Fewer than 3 distinct points, or all on a line by the tolerances of
+    :func:`geoalpha.core.thin_groups`, in metres or in the output coordinates.
+    """
+    sel = np.flatnonzero(np.isin(points.codes, which))
+    code = np.searchsorted(which, points.codes[sel])
+    thin = core.thin_groups(proj.xy[sel], code, len(which))
+    return thin | core.thin_groups(proj.out[sel], code, len(which))
+
+
+def _buffer_in_output(geometry, sel, codes, proj: gcrs.Projection) -> np.ndarray:
+    """Replace degenerate buffers that fail in the output CRS by ones made there.
+
+    A buffer made in metres and moved to longitude/latitude around a pole
+    holds the pole, which no lon/lat polygon can; such groups (and any whose
+    buffer is not valid or misses a point there) get the buffer of their
+    points' convex hull in the output coordinates instead,
+    :data:`OUTPUT_BUFFER_RTOL` of their extent wide (valid, and holding every
+    point), clipped to latitudes -90..90. Changes ``geometry`` in place and
+    returns the groups redone.
+    """
+    mine = codes[sel]
+    groups = np.unique(mine)
+    bad = np.zeros(len(geometry), dtype=bool)
+    bad[groups] = ~shapely.is_valid(geometry[groups]) | shapely.is_empty(
+        geometry[groups]
+    )
+    ok = ~bad[mine]
+    bad[mine[ok][~covered(geometry, proj.out[sel[ok]], mine[ok])]] = True
+    redo = np.flatnonzero(bad)
+    if not len(redo):
+        return redo
+    take = sel[bad[mine]]
+    hull = shapely.convex_hull(
+        shapely.multipoints(proj.out[take], indices=np.searchsorted(redo, codes[take]))
+    )
+    lo = np.minimum.reduceat(proj.out[take], np.searchsorted(codes[take], redo))
+    hi = np.maximum.reduceat(proj.out[take], np.searchsorted(codes[take], redo))
+    extent = (hi - lo).max(axis=1)
+    scale = np.abs(np.r_[lo, hi]).reshape(2, -1, 2).max(axis=(0, 2))
+    width = np.maximum(OUTPUT_BUFFER_RTOL * extent, 1e-9 * np.maximum(scale, 1.0))
+    buffered = shapely.buffer(hull, width)
+    if proj.source is not None and proj.source.is_geographic:
+        buffered = shapely.intersection(buffered, shapely.box(-540, -90, 540, 90))
+    geometry[redo] = buffered
+    return redo
 
 
 def verify_in_output_crs(

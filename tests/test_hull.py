@@ -763,6 +763,37 @@ def with_degenerate():
     return frame(xy, groups)
 
 
+def test_a_group_at_the_pole_is_named_for_what_failed_and_its_buffer_holds_it():
+    """Four points within ~1 m of the south pole in a 1.6 degree wedge.
+
+    Not on a line (in metres or lon/lat), but their triangles fold in lon/lat
+    (angles and distances from the pole), so no valid polygon holds them
+    there; a 1 m buffer made in metres holds the pole, which no lon/lat
+    polygon can. The warning names the real reason, and the buffer is made
+    in lon/lat: valid, and holding every point.
+    """
+    lon = [-99.188080632377, -97.632198191021, -97.882326128132, -98.778124591588]
+    lat = [-89.999989498677, -89.999997874933, -89.999995882057, -89.999992339958]
+    pole = frame(np.column_stack([lon, lat]), ["pole"] * 4, "EPSG:4326")
+    assert not geoalpha.core.thin_groups(np.column_stack([lon, lat]))[0]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        hulls = geoalpha.hull(pole, by="g")
+    messages = [str(w.message) for w in caught]
+    assert any(
+        "1 group(s) got no valid polygon holding all their points in the output "
+        "CRS (near a pole"
+        in m
+        and "'pole' (4 rows)" in m
+        for m in messages
+    ), messages
+    assert not any("on a line" in m or "make_valid" in m for m in messages)
+    hull = hulls.geometry.item()
+    assert hull.is_valid and hull.geom_type == "Polygon"
+    assert_covers(pole, hulls, "g")
+    assert hull.bounds[1] >= -90.0
+
+
 @pytest.mark.parametrize("policy", ["buffer", "empty", "drop"])
 def test_degenerate_policy(with_degenerate, tmp_path, policy):
     points = with_degenerate
