@@ -130,9 +130,30 @@ def triangulation(points):
 TIE = 1e-10
 
 
+def merged(r):
+    """Each radius replaced by the largest of its tie run (``core.merge_ties``).
+
+    Runs are greedy and do not chain: a run starts at the smallest radius
+    not yet taken and holds every radius up to ``start * (1 + TIE)``, so a
+    merged value spans at most TIE (a chain of small steps starts new runs).
+    Brute force: one pass over the sorted distinct radii.
+    """
+    r = np.asarray(r, dtype=float)
+    u = np.unique(r)
+    value = np.empty(len(u))
+    i = 0
+    while i < len(u):
+        j = i
+        while j + 1 < len(u) and u[j + 1] <= u[i] * (1 + TIE):
+            j += 1
+        value[i : j + 1] = u[j]
+        i = j + 1
+    return value[np.searchsorted(u, r)]
+
+
 def shape_mask(neighbors, r, R, holes):
     """Triangles in S(R): solid ones, plus enclosed ones when holes=False."""
-    solid = r <= R * (1 + TIE)
+    solid = merged(r) <= R
     if holes:
         return solid
     reach = np.zeros(len(r), dtype=bool)
@@ -151,10 +172,8 @@ def shape_mask(neighbors, r, R, holes):
 
 
 def spectrum(r):
-    """Distinct radii, ascending; of near-equal ones (within TIE) the largest."""
-    u = np.unique(r)
-    keep = np.append(u[1:] > u[:-1] * (1 + TIE), True)
-    return u[keep]
+    """Distinct merged radii (:func:`merged`), ascending."""
+    return np.unique(merged(r))
 
 
 def shapely_shape(pts, simplices, mask):
@@ -217,7 +236,7 @@ def filled_mask(neighbors, r, R):
     filled shape is everything not in the outside's component.
     """
     m = len(r)
-    solid = r <= R * (1 + TIE)
+    solid = merged(r) <= R
     a = np.repeat(np.arange(m), 3)
     b = neighbors.ravel()
     b = np.where(b < 0, m, b)  # m: the outside
@@ -277,7 +296,7 @@ def coverage_curve(points, holes=False, components=(1, 2, 3)):
     n = len(pts)
     radii, cover = [], {c: [] for c in components}
     for R in spectrum(r):
-        mask = (r <= R * (1 + TIE)) if holes else filled_mask(neighbors, r, R)
+        mask = (merged(r) <= R) if holes else filled_mask(neighbors, r, R)
         sets = piece_sets(simplices, neighbors, mask)
         radii.append(R)
         for c in components:
