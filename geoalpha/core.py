@@ -474,7 +474,7 @@ def triangulate(
     radius, rank, values = merge_ties(circumradius, tri_group)
     value_group = np.empty(len(values), dtype=np.int64)
     value_group[rank] = tri_group
-    area = cross / 2.0 / (scale * scale)
+    area = cross / 2.0 / scale / scale  # (scale * scale overflows below 1e-154)
 
     n_distinct = np.bincount(point_group[distinct], minlength=n_groups)
     # Degenerate groups: their exactly distinct points.
@@ -954,8 +954,10 @@ def merge_ties(
     Cocircular points (grids, rounded coordinates) have triangles with the same
     circumradius in exact arithmetic, which rounding splits by an ulp or two.
     Merging them keeps such triangles entering the shape together, as the
-    definition wants. Runs of values each within ``rtol`` of the previous one
-    form one value. With ``group`` given (non-decreasing codes), only radii of
+    definition wants. Greedy runs form one value each: a run starts at the
+    smallest value not yet taken and holds every value up to
+    ``start * (1 + rtol)`` (runs do not chain, so a merged value spans at
+    most ``rtol``). With ``group`` given (non-decreasing codes), only radii of
     the same group are merged, so that a group's result never depends on the
     other groups, and the distinct values are listed group by group.
 
