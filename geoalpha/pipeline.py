@@ -657,7 +657,8 @@ def degenerate_policy(
     if not thin.all():
         reasons.append(
             f"{(~thin).sum()} group(s) got no valid polygon holding all their points "
-            "in the output CRS (near a pole, or coordinates too coarse there): "
+            "in the output CRS (their triangles fold there, near a pole or across a "
+            "continent, or its coordinates are too coarse for them): "
             f"{_names(groups, which[~thin], n_points)}"
         )
     warnings.warn(

@@ -782,7 +782,7 @@ def test_a_group_at_the_pole_is_named_for_what_failed_and_its_buffer_holds_it():
     messages = [str(w.message) for w in caught]
     assert any(
         "1 group(s) got no valid polygon holding all their points in the output "
-        "CRS (near a pole"
+        "CRS (their triangles fold there, near a pole"
         in m
         and "'pole' (4 rows)" in m
         for m in messages
