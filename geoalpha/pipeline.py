@@ -704,12 +704,12 @@ def _buffer_in_output(geometry, sel, codes, proj: gcrs.Projection) -> np.ndarray
     """
     mine = codes[sel]
     groups = np.unique(mine)
+    own = geometry[groups]
     bad = np.zeros(len(geometry), dtype=bool)
-    bad[groups] = ~shapely.is_valid(geometry[groups]) | shapely.is_empty(
-        geometry[groups]
-    )
+    bad[groups] = ~shapely.is_valid(own) | shapely.is_empty(own)
     ok = ~bad[mine]
-    bad[mine[ok][~covered(geometry, proj.out[sel[ok]], mine[ok])]] = True
+    inside = covered(own, proj.out[sel[ok]], np.searchsorted(groups, mine[ok]))
+    bad[mine[ok][~inside]] = True
     redo = np.flatnonzero(bad)
     if not len(redo):
         return redo
@@ -797,7 +797,9 @@ def _split_at_antimeridian(geometry, groups, points, proj) -> np.ndarray:
         parts[invalid] = repair_invalid(parts[invalid])
     geometry[crossing] = parts
     mine = proj.crossing[points.codes]
-    outside = ~covered(geometry, points.coords[mine], points.codes[mine])
+    outside = ~covered(
+        parts, points.coords[mine], np.searchsorted(crossing, points.codes[mine])
+    )
     message = (
         f"{len(crossing)} group(s) cross the antimeridian (+-180 degrees): "
         f"{_names(groups, crossing)}; their hulls are MultiPolygons split at "
