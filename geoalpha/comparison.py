@@ -16,7 +16,7 @@ import shapely
 from geoalpha.crs import Projection
 from geoalpha.errors import InvalidInputError
 from geoalpha.knn import knn_hull
-from geoalpha.shapes import EMPTY_POLYGON, cover_points
+from geoalpha.shapes import EMPTY_POLYGON, cover_points, covered
 
 __all__ = ["ComparisonHulls", "comparison_hulls", "convex_hulls"]
 
@@ -64,6 +64,24 @@ def _to_input_vertices(geoms, groups, xy, out, codes) -> np.ndarray:
     return shapely.set_coordinates(geoms.copy(), out[np.flatnonzero(first)[loc]])
 
 
+def _concave(mp: np.ndarray, ratio: float, holes: bool) -> np.ndarray:
+    """GEOS concave hull of each MultiPoint; None where GEOS raises.
+
+    A batch that raises is split in halves until the failing groups are
+    alone (as :func:`geoalpha.delaunay.triangulate_groups` does).
+    """
+    try:
+        return shapely.concave_hull(mp, ratio=ratio, allow_holes=holes)
+    except shapely.errors.GEOSException:
+        if len(mp) == 1:
+            return np.array([None], dtype=object)
+    half = len(mp) // 2
+    out = np.empty(len(mp), dtype=object)
+    out[:half] = _concave(mp[:half], ratio, holes)
+    out[half:] = _concave(mp[half:], ratio, holes)
+    return out
+
+
 def comparison_hulls(
     method: str,
     proj: Projection,
@@ -88,10 +106,13 @@ def comparison_hulls(
     if method == "concave":
         mp = shapely.multipoints(xy, indices=sc)
         present = np.unique(sc)
-        geoms[present] = shapely.concave_hull(
-            mp[present], ratio=ratio, allow_holes=holes
-        )
         labels[:] = f"concave ratio={ratio:g}"
+        hulls = _concave(mp[present], ratio, holes)
+        if holes:  # GEOS fails some nearly collinear groups with holes only
+            failed = shapely.is_missing(hulls)
+            hulls[failed] = _concave(mp[present][failed], ratio, False)
+            labels[present[failed]] = f"concave ratio={ratio:g} (no holes)"
+        geoms[present] = hulls
         if bar is not None:
             bar.update(n_groups)
     else:
@@ -111,4 +132,14 @@ def comparison_hulls(
     out[present] = _to_input_vertices(
         geoms[present], np.flatnonzero(present), proj.xy, proj.out, codes
     )
-    return ComparisonHulls(cover_points(out, proj.out, codes), area, labels, degenerate)
+    out = cover_points(out, proj.out, codes)
+    # A hull that GEOS could not grow over its points in the output
+    # coordinates (around a pole, across the globe) is no hull there.
+    missed = ~covered(out, proj.out, codes) & present[codes]
+    if missed.any():
+        lost = np.unique(codes[missed])
+        out[lost], degenerate[lost], area[lost] = EMPTY_POLYGON, True, 0.0
+    invalid = present & ~degenerate & ~shapely.is_valid(out)
+    if invalid.any():
+        out[invalid], degenerate[invalid], area[invalid] = EMPTY_POLYGON, True, 0.0
+    return ComparisonHulls(out, area, labels, degenerate)

@@ -507,6 +507,17 @@ def compute(
             k=options.k,
             bar=bar,
         )
+        no_holes = hulls.labels == f"concave ratio={options.ratio:g} (no holes)"
+        if no_holes.any():
+            which = np.flatnonzero(no_holes)
+            named = names(which) if names is not None else first_n(map(str, which))
+            warnings.warn(
+                f"GEOS's concave hull with holes failed for {len(which)} "
+                f"group(s): {named}; they got the concave hull without holes "
+                "(the 'method' column says so)",
+                GeoAlphaWarning,
+                stacklevel=user_stacklevel(),
+            )
         return Shapes(
             geometry=hulls.geometry,
             area=hulls.area,
@@ -657,7 +668,7 @@ def degenerate_policy(
     if not thin.all():
         reasons.append(
             f"{(~thin).sum()} group(s) got no valid polygon holding all their points "
-            "in the output CRS (their triangles fold there, near a pole or across a "
+            "in the output CRS (their shapes fold there, near a pole or across a "
             "continent, or its coordinates are too coarse for them): "
             f"{_names(groups, which[~thin], n_points)}"
         )
@@ -774,7 +785,21 @@ def verify_in_output_crs(
         )
     if options.method != "alpha":  # repairs may have cut a sliver holding a point
         plain = ~proj.crossing[points.codes]
-        geometry = cover_points(geometry, proj.out[plain], points.codes[plain])
+        xy, codes = proj.out[plain], points.codes[plain]
+        geometry = cover_points(geometry, xy, codes)
+        outside = ~covered(geometry, xy, codes) & ~proj.wide[codes]
+        if outside.any():
+            which = np.unique(codes[outside])
+            warnings.warn(
+                f"{outside.sum()} point(s) of {len(which)} group(s) lie outside their "
+                "hull in the output CRS, which GEOS could not grow over them: "
+                + _names(
+                    groups, which, np.bincount(codes[outside], minlength=len(geometry))
+                )
+                + "; method='alpha' declares such groups degenerate instead",
+                GeoAlphaWarning,
+                stacklevel=user_stacklevel(),
+            )
     return geometry
 
 

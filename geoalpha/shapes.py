@@ -203,7 +203,10 @@ def cover_points(geoms, out_xy, codes) -> np.ndarray:
     Returns
     -------
     ndarray of shape (G,)
-        The geometries, where needed grown to cover their points.
+        The geometries, where needed grown to cover their points. A group
+        whose polygon GEOS cannot grow (an invalid or folded polygon, e.g.
+        around a pole in lon/lat) is returned unchanged, points still
+        outside: callers check coverage afterwards.
 
     Notes
     -----
@@ -226,9 +229,12 @@ def cover_points(geoms, out_xy, codes) -> np.ndarray:
     outside = ~covered(geoms, out_xy, codes) & ~shapely.is_empty(geoms[codes])
     for g in np.unique(codes[outside]):  # only groups with a point outside
         poly = geoms[g]
-        for p in shapely.points(out_xy[outside & (codes == g)]):
-            if not poly.covers(p):
-                poly = _take_in(poly, p)
+        try:
+            for p in shapely.points(out_xy[outside & (codes == g)]):
+                if not poly.covers(p):
+                    poly = _take_in(poly, p)
+        except (shapely.errors.GEOSException, ValueError):
+            continue  # left as it was: the caller's coverage check fails it
         geoms[g] = poly
     return geoms
 

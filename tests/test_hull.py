@@ -634,6 +634,63 @@ def test_a_point_at_minus_180_is_named_when_its_hull_ends_at_plus_180():
     assert shapely.covers(hull, Point(180.0, lat[2]))  # the same place, at +180
 
 
+# From the robustness audit: these raised GEOSException / ValueError.
+POLE = [
+    [142.02489423625292, -89.99999775284346],
+    [-81.10458900516971, -89.99999588109698],
+    [33.56149117146799, -89.99999930273424],
+    [-5.504776546534686, -89.99999548269567],
+    [174.6888167677531, -89.99999980261676],
+    [-15.86057131002616, -89.99999578282613],
+]
+WORLD = [[-100.0, 77.0], [136.0, 17.0], [-5.0, -21.0], [-130.0, 61.0], [-34.0, 50.0]]
+
+
+@pytest.mark.parametrize("method", ["knn", "concave"])
+@pytest.mark.parametrize("where", ["pole", "world"])
+def test_comparison_hulls_that_geos_cannot_grow_are_degenerate_not_errors(
+    method, where
+):
+    points = frame(POLE if where == "pole" else WORLD, None, "EPSG:4326")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        hulls = geoalpha.hull(points, by="g", method=method)
+    hull = hulls.geometry.item()
+    assert hull.is_valid and not hull.is_empty
+    messages = " ".join(str(w.message) for w in caught)
+    assert "span more than 180 degrees" in messages or (
+        "got no valid polygon holding all their points" in messages
+    ), messages
+    if where == "pole":  # not wide: every point is held
+        assert_covers(points, hulls, "g")
+
+
+def test_concave_hull_with_holes_falls_back_where_geos_fails():
+    # Three nearly collinear points: GEOS's concave hull with holes raised
+    # "CoverageUnion cannot process overlapping inputs".
+    xy = [
+        [400006.1816852308, 5700003.090842616],
+        [400028.0481179391, 5700014.02405897],
+        [400027.75328923936, 5700013.87664462],
+    ]
+    good = [[0.0, 0.0], [100.0, 0.0], [0.0, 100.0], [100.0, 100.0], [50.0, 40.0]]
+    points = frame(
+        np.r_[xy, np.asarray(good) + 400000.0],
+        ["thin"] * 3 + ["good"] * 5,
+        "EPSG:27700",
+    )
+    with pytest.warns(
+        GeoAlphaWarning,
+        match=r"concave hull with holes failed for 1 group\(s\): 'thin'",
+    ):
+        hulls = geoalpha.hull(points, by="g", method="concave", holes=True)
+    method = hulls.set_index("g")["method"]
+    assert method["thin"] == "concave ratio=0.3 (no holes)"
+    assert method["good"] == "concave ratio=0.3"
+    assert shapely.is_valid(hulls.geometry.to_numpy()).all()
+    assert_covers(points, hulls, "g")
+
+
 # --- methods -------------------------------------------------------------------------
 
 
@@ -782,7 +839,7 @@ def test_a_group_at_the_pole_is_named_for_what_failed_and_its_buffer_holds_it():
     messages = [str(w.message) for w in caught]
     assert any(
         "1 group(s) got no valid polygon holding all their points in the output "
-        "CRS (their triangles fold there, near a pole"
+        "CRS (their shapes fold there, near a pole"
         in m
         and "'pole' (4 rows)" in m
         for m in messages
