@@ -41,7 +41,7 @@ from scipy.sparse.csgraph import (
     connected_components,
     minimum_spanning_tree,
 )
-from scipy.spatial import Delaunay, QhullError
+from scipy.spatial import Delaunay, QhullError, cKDTree
 
 from geoalpha.errors import first_n
 
@@ -400,6 +400,11 @@ def triangulate(
         local, point_ptr, todo, progress, backend=backend
     )
     flagged[failed] = True
+    # Points Qhull left out without listing them (a near-duplicate of a
+    # vertex, sometimes): paired with their nearest vertex, as if listed.
+    coplanar = np.concatenate(
+        [coplanar, _unlisted(local, point_group, simplices, coplanar)]
+    )
     measures = _edges_and_cross(
         xy, simplices, frame.scale[point_group[simplices[:, 0]]]
     )
@@ -758,6 +763,41 @@ def _qhull(local, point_ptr, groups, progress, use=None):
         tri = to_global[tri]
         cp = to_global[cp]
     return tri, nb, cp, failed
+
+
+def _unlisted(local, point_group, simplices, coplanar) -> np.ndarray:
+    """Pairs (point, nearest vertex) for points of triangulated groups left out.
+
+    Qhull keeps one of points it finds coincident and lists the others as
+    "coplanar", but sometimes drops one without listing it. Such a point is
+    paired with the nearest triangle vertex of its group, so that it is
+    merged (a near-duplicate) or covered (see :func:`triangulate`) like a
+    listed one. Returns an ``(k, 2)`` array, usually empty.
+    """
+    empty = np.empty((0, 2), dtype=np.int64)
+    if len(simplices) == 0:
+        return empty
+    p = len(local)
+    vertex = np.zeros(p, dtype=bool)
+    vertex[simplices.ravel()] = True
+    seen = vertex.copy()
+    seen[coplanar.ravel()] = True
+    has_triangles = np.zeros(int(point_group.max()) + 1, dtype=bool)
+    has_triangles[point_group[simplices[:, 0]]] = True
+    lost = np.flatnonzero(~seen & has_triangles[point_group])
+    if not len(lost):
+        return empty
+    # One tree over the vertices of the groups concerned, each group moved
+    # 8 units apart along x (local coordinates lie within [-1, 1]).
+    groups = np.unique(point_group[lost])
+    near = np.flatnonzero(vertex & np.isin(point_group, groups))
+    shift = 8.0 * np.searchsorted(groups, point_group)
+
+    def placed(i):
+        return np.column_stack([local[i, 0] + shift[i], local[i, 1]])
+
+    _, nearest = cKDTree(placed(near)).query(placed(lost))
+    return np.column_stack([lost, near[nearest]])
 
 
 def _close(local, a, b, tol) -> np.ndarray:

@@ -293,6 +293,23 @@ def test_tiny_groups_give_right_answers_without_numpy_warnings(magnitude):
     assert shapely.covers(got.geometry[0], shapely.points(p * magnitude)).all()
 
 
+def test_a_near_duplicate_qhull_drops_without_listing_it_is_merged():
+    # The thorough profile: GEOS fails the group (a needle), Qhull then drops
+    # the near-duplicate of (0, -1.000088) without listing it as coplanar,
+    # and the group was declared collinear ("fewer than 3 or collinear").
+    import reference
+
+    p = np.array(
+        [[0, 0], [0, 0], [0, 1e-6], [1e-6, 0], [0, -1.000088], [0, -1.0000880000010002]]
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        res = alpha_shapes(p)
+    assert res.alpha[0] == pytest.approx(reference.graph_optimum(p), rel=1e-9)
+    assert res.n_distinct[0] == 4
+    assert shapely.covers(res.geometry[0], shapely.points(p)).all()
+
+
 def test_huge_coordinates_are_a_clear_error():
     p = np.array([[0, 0], [4, 0], [4, 4], [0, 4]]) * 1e120
     with pytest.raises(InvalidInputError, match=r"within \+-1e\+100"):
