@@ -400,10 +400,11 @@ def _distinct_shapes(
     piece = core.piece_labels(tri, inside, n_pieces)
     rings = core.boundary_rings(tri, inside, piece)
     geometry = shapes.assemble(out_xy, rings, tri.n_groups)
+    ring_failed, convex = _convex_where_rings_fail(geometry, tri, inside, rings, out_xy)
     # The guarantee: every group a valid (Multi)Polygon that covers each of
     # its points, in the coordinates it is returned in (at the optimum), or
     # declared degenerate. Points merged as near-duplicates are taken in here.
-    check = ~tri.degenerate & ~rings.failed
+    check = ~tri.degenerate & ~ring_failed
     # Coverage needs a geometric test only where it is not certain. Every
     # point at exactly the place of a ring vertex is a vertex of the
     # (validity-checked) polygon, so it is covered, in any coordinates. In
@@ -423,16 +424,18 @@ def _distinct_shapes(
         out_xy,
         tri.point_group,
         check,
-        cover=alpha is None,
+        # At a given alpha only alpha 0 (the convex hull) holds every point.
+        cover=True if alpha is None else np.asarray(a) == 0,
         components=components if alpha is None else None,
         test=test,
         exempt=None if kept is None else kept.outlier,  # left out on purpose
     )
-    failed |= rings.failed & ~tri.degenerate
+    failed |= ring_failed & ~tri.degenerate
     degenerate = tri.degenerate | failed
     a = np.where(degenerate, np.nan, a)
     geometry[failed] = shapes.EMPTY_POLYGON
     n_parts = np.bincount(rings.piece_group, minlength=tri.n_groups)
+    n_parts[convex] = 1
     n_parts[degenerate] = 0
     area = np.bincount(
         tri.tri_group[inside], weights=tri.area[inside], minlength=tri.n_groups
@@ -458,6 +461,35 @@ def _distinct_shapes(
         outlier=outlier,
         gave_up=gave_up & ~degenerate,
     )
+
+
+def _convex_where_rings_fail(geometry, tri, inside, rings, out_xy):
+    """Give the convex hull to groups whose whole triangulation is the shape.
+
+    With every triangle of a group in the shape (alpha 0, or an alpha below
+    the largest radius), the shape is the convex hull. Flat slivers along a
+    straight stretch of the hull (radii ~1e16) can keep
+    :func:`geoalpha.core.boundary_rings` from closing its rings; such a
+    group gets the convex hull of its points in the output coordinates
+    (valid, holding every point) instead of being declared degenerate.
+    Changes ``geometry`` in place; returns the groups whose rings still
+    failed, and those that got the convex hull.
+    """
+    failed = rings.failed.copy()
+    if not failed.any():
+        return failed, np.zeros(0, dtype=np.int64)
+    n_tri = np.diff(tri.tri_ptr)
+    n_in = np.bincount(tri.tri_group[inside], minlength=tri.n_groups)
+    whole = np.flatnonzero(failed & ~tri.degenerate & (n_tri > 0) & (n_in == n_tri))
+    if len(whole):
+        take = np.flatnonzero(np.isin(tri.point_group, whole))
+        points = shapely.multipoints(
+            np.take(out_xy, take, axis=0),
+            indices=np.searchsorted(whole, tri.point_group[take]),
+        )
+        geometry[whole] = shapely.convex_hull(points)
+        failed[whole] = False
+    return failed, whole
 
 
 def _still_left_out(tri, kept, geometry, out_xy):

@@ -566,7 +566,8 @@ def ensure_guarantee(
         proj.out,
         points.codes,
         check,
-        cover=not fixed_alpha,
+        # At a given alpha only alpha 0 (the convex hull) holds every point.
+        cover=(np.asarray(shapes.alpha) == 0) if fixed_alpha else True,
         components=None if fixed_alpha else components,
         exempt=shapes.outlier,
     )

@@ -109,9 +109,10 @@ def enforce(
         Group of each point.
     check : ndarray of bool, shape (G,)
         Groups to verify (the others are returned as they are).
-    cover : bool, default True
+    cover : bool or ndarray of bool, shape (G,), default True
         Whether every point must be covered (False: validity only, e.g. for
-        a shape at a given alpha, which need not hold every point).
+        a shape at a given alpha > 0, which need not hold every point); one
+        value, or one per group.
     components : int, optional
         Largest number of parts allowed.
     test : ndarray of bool, shape (k,), optional
@@ -152,7 +153,9 @@ def enforce(
         except shapely.errors.GEOSException:  # pragma: no cover - defensive
             failed[invalid] = True
     needed = np.ones(len(codes), dtype=bool) if exempt is None else ~exempt
-    if cover:
+    covering = np.broadcast_to(np.asarray(cover, dtype=bool), (len(geoms),))
+    needed &= covering[codes]
+    if covering.any():
         mine = check[codes] & ~failed[codes] & needed
         if test is not None:
             repaired = np.zeros(len(geoms), dtype=bool)
@@ -178,12 +181,12 @@ def enforce(
         if components is not None:
             bad |= shapely.get_num_geometries(g) > components
         failed[np.flatnonzero(again)[bad]] = True
-        if cover:
+        if covering.any():
             take = again[codes] & ~failed[codes] & needed
             miss = ~covered(geoms, np.compress(take, out_xy, axis=0), codes[take])
             failed[codes[take][miss]] = True
-    if cover:  # an empty optimum covers nothing
-        failed[sel[shapely.is_empty(geoms[sel])]] = True
+    # An empty optimum covers nothing.
+    failed[sel[covering[sel] & shapely.is_empty(geoms[sel])]] = True
     geoms[failed] = EMPTY_POLYGON
     return geoms, failed
 

@@ -373,7 +373,9 @@ def check_against_reference(p, holes, components, data):
         assert (got.geom_type, parts(got)) == (expected.geom_type, parts(expected)), (
             alpha
         )
-        assert_same_region(got, expected)
+        # Alpha 0, the convex hull, holds every point: merged near-duplicates
+        # are taken in as vertices, as at the optimum.
+        assert_same_region(got, expected, slack if alpha == 0 else 0.0)
         assert_vertices_are_inputs(got, p)
 
 

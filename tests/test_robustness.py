@@ -310,6 +310,60 @@ def test_a_near_duplicate_qhull_drops_without_listing_it_is_merged():
     assert shapely.covers(res.geometry[0], shapely.points(p)).all()
 
 
+def test_alpha_zero_is_the_convex_hull_of_a_grid_with_flat_slivers():
+    # A 3x3 grid straight to a few ulps: GEOS gives flat slivers along the
+    # hull (radii ~1e16) that kept the rings from closing, and alpha 0 (and
+    # method="convex") came back empty / degenerate.
+    p = np.array(
+        [
+            [11.677334885683626, -4.516224862846358],
+            [20.426289270916033, -4.516224862846356],
+            [29.175243656148453, -4.516224862846357],
+            [11.677334885683623, 4.232729522386055],
+            [20.426289270916033, 4.232729522386054],
+            [29.175243656148453, 4.232729522386053],
+            [11.67733488568363, 12.98168390761846],
+            [20.42628927091604, 12.981683907618464],
+            [29.17524365614844, 12.981683907618466],
+        ]
+    )
+    hull = shapely.convex_hull(shapely.multipoints(p))
+    for alpha in [0.0, 2e-17]:
+        res = alpha_shapes(p, alpha=alpha)
+        assert not res.degenerate[0]
+        assert res.geometry[0].is_valid
+        assert res.geometry[0].area == pytest.approx(hull.area, rel=1e-12)
+        assert shapely.covers(res.geometry[0], shapely.points(p)).all()
+    frame = gpd.GeoDataFrame(geometry=gpd.points_from_xy(*p.T), crs="EPSG:27700")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        convex = frame.alpha.hull(method="convex")
+    assert convex["alpha"].item() == 0.0
+    assert convex.geometry.item().area == pytest.approx(hull.area, rel=1e-12)
+
+
+def test_alpha_zero_covers_every_point_in_lon_lat():
+    # Five nearly collinear lon/lat points along 7.5 km: the convex hull built
+    # in metres folds in lon/lat; at alpha=0 the repaired polygon missed a
+    # point, with no warning (a given alpha > 0 need not cover; alpha 0 must).
+    xy = np.array(
+        [
+            [-11.850472428544453, -53.26773614925367],
+            [-11.872486110821281, -53.290251182372295],
+            [-11.837574507975809, -53.25455993753908],
+            [-11.874526810620932, -53.29230953914366],
+            [-11.903717277704017, -53.32212983244502],
+        ]
+    )
+    frame = gpd.GeoDataFrame(geometry=gpd.points_from_xy(*xy.T), crs="EPSG:4326")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        hulls = frame.alpha.hull(alpha=0.0)
+    geom = hulls.geometry.item()
+    assert geom.is_valid
+    assert shapely.covers(geom, frame.geometry.to_numpy()).all()
+
+
 def test_huge_coordinates_are_a_clear_error():
     p = np.array([[0, 0], [4, 0], [4, 4], [0, 4]]) * 1e120
     with pytest.raises(InvalidInputError, match=r"within \+-1e\+100"):
