@@ -564,12 +564,22 @@ def _as_xy(points):
 
 
 def _one_group(points, **kwargs) -> AlphaShapes:
-    res = alpha_shapes(_as_xy(points), None, n_groups=1, **kwargs)
+    xy = _as_xy(points)
+    res = alpha_shapes(xy, None, n_groups=1, **kwargs)
     if res.degenerate[0]:
+        if len(xy) < 3 or core.thin_groups(xy)[0]:
+            why = (
+                "are fewer than 3 or all collinear (within 1e-9 of their extent "
+                "of a line; points closer than that are one)"
+            )
+        else:  # the checks of the shape failed
+            why = (
+                "got no valid polygon holding all of them (float64 could not "
+                "build one: near-duplicates or slivers where pieces touch)"
+            )
         warnings.warn(
-            f"no alpha shape: the {res.n_distinct[0]} distinct point(s) are fewer "
-            "than 3 or all collinear (within 1e-9 of their extent of a line; "
-            "points closer than that are one); alpha is nan and the shape empty",
+            f"no alpha shape: the {res.n_distinct[0]} distinct point(s) {why}; "
+            "alpha is nan and the shape empty",
             DegenerateGroupWarning,
             stacklevel=user_stacklevel(),
         )

@@ -364,6 +364,56 @@ def test_alpha_zero_covers_every_point_in_lon_lat():
     assert shapely.covers(geom, frame.geometry.to_numpy()).all()
 
 
+def test_a_chain_of_near_duplicates_where_pieces_touch_is_named_for_what_failed():
+    # Six points plus a chain of 24 near-duplicates of one of them (merged
+    # transitively), holes=True, components=3: taking the chain in where two
+    # pieces touch gives no valid polygon of <= 3 parts in float64. The group
+    # may be degenerate (the guarantee), but not "collinear" (it is not).
+    p = np.array(
+        [
+            [72.48701777415407, 88.67564185836281],
+            [72.48701723749176, 88.67564136273235],
+            [92.86431642229985, 36.801844443163766],
+            [72.48701759526664, 88.67564169315266],
+            [47.295334859590334, 14.729254263427727],
+            [72.48701848970381, 88.67564251920342],
+            [72.48701735675004, 88.67564147287246],
+            [72.4870172971209, 88.67564141780241],
+            [72.48701807229979, 88.67564213371307],
+            [72.48701854933296, 88.67564257427348],
+            [72.48701717786261, 88.6756413076623],
+            [72.48701771452492, 88.67564180329276],
+            [72.48701825118724, 88.67564229892322],
+            [72.48701789341236, 88.67564196850292],
+            [72.4870186089621, 88.67564262934353],
+            [23.64943113045235, 18.21179677929804],
+            [72.48701831081638, 88.67564235399327],
+            [72.48701837044553, 88.67564240906333],
+            [72.48701747600833, 88.67564158301256],
+            [15.979425518097411, 42.94267179161431],
+            [72.48701741637919, 88.6756415279425],
+            [2.6769563972987687, 57.39778360170935],
+            [72.48701753563749, 88.67564163808261],
+            [72.48701783378321, 88.67564191343287],
+            [72.48701819155808, 88.67564224385318],
+            [72.48701813192893, 88.67564218878312],
+            [72.48701801267065, 88.67564207864302],
+            [72.48701843007467, 88.67564246413338],
+            [72.48701765489578, 88.67564174822272],
+            [72.4870179530415, 88.67564202357296],
+        ]
+    )
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        shape = alpha_shape(p, holes=True, components=3)
+    messages = [str(w.message) for w in caught]
+    if shape.is_empty:
+        assert any("got no valid polygon holding all of them" in m for m in messages)
+    else:
+        assert shape.is_valid and shapely.covers(shape, shapely.points(p)).all()
+    assert not any("collinear" in m for m in messages), messages
+
+
 def test_huge_coordinates_are_a_clear_error():
     p = np.array([[0, 0], [4, 0], [4, 4], [0, 4]]) * 1e120
     with pytest.raises(InvalidInputError, match=r"within \+-1e\+100"):
