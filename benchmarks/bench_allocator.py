@@ -31,7 +31,6 @@ import argparse
 import json
 import subprocess
 import sys
-import time
 import warnings
 from pathlib import Path
 
@@ -75,15 +74,7 @@ def child(warm: bool, rounds: int) -> dict[str, list[float]]:
         block = np.empty(WARM_BYTES // 8)
         block[:] = 1.0
         del block
-    for fn in fns.values():
-        fn()
-    times: dict[str, list[float]] = {name: [] for name in fns}
-    for _ in range(rounds):
-        for name, fn in fns.items():
-            t0 = time.perf_counter()
-            fn()
-            times[name].append(time.perf_counter() - t0)
-    return times
+    return bench_core.best_of(fns, rounds)
 
 
 def main(argv=None) -> None:
