@@ -1,8 +1,8 @@
 """The comparison methods of :func:`geoalpha.hull`: convex, concave and KNN hulls.
 
 ``method="convex"`` takes its alpha from :func:`geoalpha.alpha_shapes` (0) and
-its polygons from :func:`convex_hulls`, built in the output coordinates where
-they are exact. ``method="concave"`` (GEOS ``concave_hull``) and
+its polygons from :func:`geoalpha.shapes.convex_hulls`, built in the output
+coordinates where they are exact. ``method="concave"`` (GEOS ``concave_hull``) and
 ``method="knn"`` (:func:`geoalpha.knn.knn_hull`) are built in metres by
 :func:`comparison_hulls` and then given the input coordinates as vertices.
 """
@@ -16,38 +16,25 @@ import shapely
 from geoalpha.crs import Projection
 from geoalpha.errors import InvalidInputError
 from geoalpha.knn import knn_hull
-from geoalpha.shapes import EMPTY_POLYGON, cover_points, covered
+from geoalpha.shapes import EMPTY_POLYGON, cover_points, covered, each_or_none
+from geoalpha.shapes import convex_hulls as convex_hulls  # (its home until 0.1)
 
-__all__ = ["ComparisonHulls", "comparison_hulls", "convex_hulls"]
+__all__ = ["ComparisonHulls", "comparison_hulls"]
 
 
 class ComparisonHulls:
-    """Per group: ``geometry`` (output CRS), ``area``, ``labels``, ``degenerate``."""
+    """Per group: ``geometry`` (output CRS), ``area``, ``labels``, ``degenerate``.
 
-    def __init__(self, geometry, area, labels, degenerate):
+    ``without_holes``: groups whose concave hull with holes GEOS could not
+    build, which got the one without holes.
+    """
+
+    def __init__(self, geometry, area, labels, degenerate, without_holes):
         self.geometry = geometry
         self.area = area
         self.labels = labels
         self.degenerate = degenerate
-
-
-def convex_hulls(out_xy: np.ndarray, codes: np.ndarray, n_groups: int) -> np.ndarray:
-    """Convex hull of each group, built in the output coordinates ``out_xy``.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> xy = np.array([[0, 0], [2, 0], [0, 2], [1, 0.5], [5, 5]])
-    >>> [g.area for g in convex_hulls(xy, np.array([0, 0, 0, 0, 1]), 2)]
-    [2.0, 0.0]
-    """
-    order = np.argsort(codes, kind="stable")
-    hulls = np.full(n_groups, EMPTY_POLYGON, dtype=object)
-    present = np.unique(codes)
-    hulls[present] = shapely.convex_hull(
-        shapely.multipoints(out_xy[order], indices=codes[order])
-    )[present]
-    return hulls
+        self.without_holes = without_holes
 
 
 def _to_input_vertices(geoms, groups, xy, out, codes) -> np.ndarray:
@@ -62,24 +49,6 @@ def _to_input_vertices(geoms, groups, xy, out, codes) -> np.ndarray:
     if (loc < 0).any():  # pragma: no cover - GEOS keeps input coordinates
         raise RuntimeError("a hull vertex is not an input point")
     return shapely.set_coordinates(geoms.copy(), out[np.flatnonzero(first)[loc]])
-
-
-def _concave(mp: np.ndarray, ratio: float, holes: bool) -> np.ndarray:
-    """GEOS concave hull of each MultiPoint; None where GEOS raises.
-
-    A batch that raises is split in halves until the failing groups are
-    alone (as :func:`geoalpha.delaunay.triangulate_groups` does).
-    """
-    try:
-        return shapely.concave_hull(mp, ratio=ratio, allow_holes=holes)
-    except shapely.errors.GEOSException:
-        if len(mp) == 1:
-            return np.array([None], dtype=object)
-    half = len(mp) // 2
-    out = np.empty(len(mp), dtype=object)
-    out[:half] = _concave(mp[:half], ratio, holes)
-    out[half:] = _concave(mp[half:], ratio, holes)
-    return out
 
 
 def comparison_hulls(
@@ -103,15 +72,21 @@ def comparison_hulls(
     ptr = np.searchsorted(sc, np.arange(n_groups + 1))
     geoms = np.full(n_groups, EMPTY_POLYGON, dtype=object)
     labels = np.full(n_groups, method, dtype=object)
+    without_holes = np.zeros(n_groups, dtype=bool)
     if method == "concave":
         mp = shapely.multipoints(xy, indices=sc)
         present = np.unique(sc)
         labels[:] = f"concave ratio={ratio:g}"
-        hulls = _concave(mp[present], ratio, holes)
+        hulls = each_or_none(
+            shapely.concave_hull, mp[present], ratio=ratio, allow_holes=holes
+        )
         if holes:  # GEOS fails some nearly collinear groups with holes only
             failed = shapely.is_missing(hulls)
-            hulls[failed] = _concave(mp[present][failed], ratio, False)
-            labels[present[failed]] = f"concave ratio={ratio:g} (no holes)"
+            hulls[failed] = each_or_none(
+                shapely.concave_hull, mp[present][failed], ratio=ratio
+            )
+            without_holes[present[failed]] = True
+            labels[without_holes] = f"concave ratio={ratio:g} (no holes)"
         geoms[present] = hulls
         if bar is not None:
             bar.update(n_groups)
@@ -139,7 +114,4 @@ def comparison_hulls(
     if missed.any():
         lost = np.unique(codes[missed])
         out[lost], degenerate[lost], area[lost] = EMPTY_POLYGON, True, 0.0
-    invalid = present & ~degenerate & ~shapely.is_valid(out)
-    if invalid.any():
-        out[invalid], degenerate[invalid], area[invalid] = EMPTY_POLYGON, True, 0.0
-    return ComparisonHulls(out, area, labels, degenerate)
+    return ComparisonHulls(out, area, labels, degenerate, without_holes)

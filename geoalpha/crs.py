@@ -392,6 +392,11 @@ def _snap(coords: np.ndarray, x: float) -> np.ndarray:
     return coords
 
 
+def _back_east(coords: np.ndarray) -> np.ndarray:
+    """Unwrapped coordinates east of 180 degrees, shifted back by -360."""
+    return _snap(coords - (360.0, 0.0), -180.0)
+
+
 def split_antimeridian(geom: Any) -> Any:
     """Split polygons in unwrapped longitudes at the antimeridian.
 
@@ -446,7 +451,7 @@ def split_antimeridian(geom: Any) -> Any:
             sub, shapely.box(180.0, miny - 1.0, maxx + 1.0, maxy + 1.0)
         )
         west = shapely.transform(west, lambda c: _snap(c, 180.0))
-        east = shapely.transform(east, lambda c: _snap(c - (360.0, 0.0), -180.0))
+        east = shapely.transform(east, _back_east)
         west_parts, west_idx = shapely.get_parts(west, return_index=True)
         east_parts, east_idx = shapely.get_parts(east, return_index=True)
         parts = np.concatenate([west_parts, east_parts])
@@ -521,11 +526,8 @@ def restore_longitudes(
     mine = np.isin(codes, geom_group) & (lon < 0.0)
     if len(coords) == 0 or not mine.any():
         return geoms
-    # What each shifted point's longitude became: as split_antimeridian
-    # computes it.
-    shifted = _snap(
-        np.column_stack([lon[mine] + 360.0, lat[mine]]) - (360.0, 0.0), -180.0
-    )
+    # What each shifted point's longitude became in split_antimeridian.
+    shifted = _back_east(np.column_stack([lon[mine] + 360.0, lat[mine]]))
     table = np.column_stack([codes[mine].astype(np.float64), shifted])
     query = np.column_stack([geom_group[which].astype(np.float64), coords])
     _, key = np.unique(np.concatenate([table, query]), axis=0, return_inverse=True)

@@ -52,6 +52,7 @@ import numpy as np
 import shapely
 
 from geoalpha.core import hash64, radix_argsort
+from geoalpha.shapes import each_or_none
 
 __all__ = ["GroupTriangles", "triangulate_groups"]
 
@@ -158,12 +159,12 @@ def triangulate_groups(local, point_ptr, groups, progress=None) -> GroupTriangle
     xyz[:, 2] = rows
     lines = shapely.from_ragged_array(shapely.GeometryType.LINESTRING, xyz, (offsets,))
     if progress is None:
-        collections = _delaunay(lines)
+        collections = each_or_none(shapely.delaunay_triangles, lines)
     else:
         collections = np.empty(k, dtype=object)
         for s in range(0, k, PROGRESS_GROUPS):
-            collections[s : s + PROGRESS_GROUPS] = _delaunay(
-                lines[s : s + PROGRESS_GROUPS]
+            collections[s : s + PROGRESS_GROUPS] = each_or_none(
+                shapely.delaunay_triangles, lines[s : s + PROGRESS_GROUPS]
             )
             progress.update(min(PROGRESS_GROUPS, k - s))
 
@@ -221,24 +222,6 @@ def triangulate_groups(local, point_ptr, groups, progress=None) -> GroupTriangle
         n_tri[failed] = 0
         vertex[rows[failed[point_gi]]] = rows[failed[point_gi]]
     return GroupTriangles(tri, neighbors, n_tri, vertex, failed)
-
-
-def _delaunay(lines: np.ndarray) -> np.ndarray:
-    """GEOS Delaunay triangles of each line's points; None where GEOS raises.
-
-    A batch that raises is split in halves until the failing lines are alone
-    (``O(f log k)`` calls for ``f`` failures among ``k`` lines).
-    """
-    try:
-        return shapely.delaunay_triangles(lines)
-    except shapely.errors.GEOSException:
-        if len(lines) == 1:
-            return np.array([None], dtype=object)
-    half = len(lines) // 2
-    out = np.empty(len(lines), dtype=object)
-    out[:half] = _delaunay(lines[:half])
-    out[half:] = _delaunay(lines[half:])
-    return out
 
 
 def _check_corners(xy, tri, corners):

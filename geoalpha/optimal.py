@@ -483,11 +483,9 @@ def _convex_where_rings_fail(geometry, tri, inside, rings, out_xy):
     whole = np.flatnonzero(failed & ~tri.degenerate & (n_tri > 0) & (n_in == n_tri))
     if len(whole):
         take = np.flatnonzero(np.isin(tri.point_group, whole))
-        points = shapely.multipoints(
-            np.take(out_xy, take, axis=0),
-            indices=np.searchsorted(whole, tri.point_group[take]),
-        )
-        geometry[whole] = shapely.convex_hull(points)
+        geometry[whole] = shapes.convex_hulls(
+            np.take(out_xy, take, axis=0), tri.point_group[take], tri.n_groups
+        )[whole]
         failed[whole] = False
     return failed, whole
 
@@ -501,15 +499,8 @@ def _still_left_out(tri, kept, geometry, out_xy):
     Returns the distinct points left out per group (points merged as
     near-duplicates count once) and the flag of each point.
     """
-    outlier = kept.outlier.copy()
-    if not outlier.any():
-        return kept.n_outliers, outlier
-    which = np.flatnonzero(outlier)
-    inside = shapes.covered(
-        geometry, np.take(out_xy, which, axis=0), tri.point_group[which]
-    )
-    outlier[which[inside]] = False
-    if not inside.any():
+    outlier = shapes.left_outside(kept.outlier, geometry, out_xy, tri.point_group)
+    if outlier.sum() == kept.outlier.sum():
         return kept.n_outliers, outlier
     own = np.where(tri.distinct, np.arange(len(outlier)), tri.vertex)
     left = np.unique(own[outlier])

@@ -45,7 +45,7 @@ import shapely
 from geoalpha import core
 from geoalpha import crs as gcrs
 from geoalpha.checks import check_distortion, check_grouping
-from geoalpha.comparison import comparison_hulls, convex_hulls
+from geoalpha.comparison import comparison_hulls
 from geoalpha.errors import (
     AntimeridianWarning,
     DegenerateGroupWarning,
@@ -69,9 +69,11 @@ from geoalpha.progress import (
 from geoalpha.schema import RESULT_COLUMNS, result_frame, result_geometry_name
 from geoalpha.shapes import (
     EMPTY_POLYGON,
+    convex_hulls,
     cover_points,
     covered,
     enforce,
+    left_outside,
     repair_invalid,
 )
 
@@ -507,9 +509,8 @@ def compute(
             k=options.k,
             bar=bar,
         )
-        no_holes = hulls.labels == f"concave ratio={options.ratio:g} (no holes)"
-        if no_holes.any():
-            which = np.flatnonzero(no_holes)
+        if hulls.without_holes.any():
+            which = np.flatnonzero(hulls.without_holes)
             named = names(which) if names is not None else first_n(map(str, which))
             warnings.warn(
                 f"GEOS's concave hull with holes failed for {len(which)} "
@@ -571,6 +572,8 @@ def ensure_guarantee(
         components=None if fixed_alpha else components,
         exempt=shapes.outlier,
     )
+    # A repair may have grown a hull over a row left out on purpose.
+    outlier = left_outside(shapes.outlier, geometry, proj.out, points.codes)
     if failed.any():
         which = np.flatnonzero(failed)
         warnings.warn(
@@ -587,23 +590,11 @@ def ensure_guarantee(
             alpha=alpha,
             degenerate=shapes.degenerate | failed,
             checked=(shapes.checked | check) & ~failed,
-            outlier=_still_outside(shapes.outlier, geometry, proj.out, points.codes),
+            outlier=outlier,
         )
     return shapes._replace(
-        geometry=geometry,
-        checked=shapes.checked | check,
-        outlier=_still_outside(shapes.outlier, geometry, proj.out, points.codes),
+        geometry=geometry, checked=shapes.checked | check, outlier=outlier
     )
-
-
-def _still_outside(outlier, geometry, xy, codes) -> np.ndarray:
-    """Return the rows left out (``outliers=``) that a repaired hull misses."""
-    if not outlier.any():
-        return outlier
-    which = np.flatnonzero(outlier)
-    outlier = outlier.copy()
-    outlier[which] = ~covered(geometry, np.take(xy, which, axis=0), codes[which])
-    return outlier
 
 
 def degenerate_policy(
@@ -726,9 +717,7 @@ def _buffer_in_output(geometry, sel, codes, proj: gcrs.Projection) -> np.ndarray
     if not len(redo):
         return redo
     take = sel[bad[mine]]
-    hull = shapely.convex_hull(
-        shapely.multipoints(proj.out[take], indices=np.searchsorted(redo, codes[take]))
-    )
+    hull = convex_hulls(proj.out[take], codes[take], len(geometry))[redo]
     lo = np.minimum.reduceat(proj.out[take], np.searchsorted(codes[take], redo))
     hi = np.maximum.reduceat(proj.out[take], np.searchsorted(codes[take], redo))
     extent = (hi - lo).max(axis=1)

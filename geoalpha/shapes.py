@@ -17,9 +17,12 @@ from geoalpha.core import Rings
 __all__ = [
     "EMPTY_POLYGON",
     "assemble",
+    "convex_hulls",
     "cover_points",
     "covered",
+    "each_or_none",
     "enforce",
+    "left_outside",
     "polygonal",
     "repair_invalid",
 ]
@@ -75,6 +78,75 @@ def assemble(coords: np.ndarray, rings: Rings, n_groups: int) -> np.ndarray:
     multi = n_pieces[rings.piece_group] > 1
     if multi.any():
         shapely.multipolygons(polys[multi], indices=rings.piece_group[multi], out=out)
+    return out
+
+
+def convex_hulls(out_xy: np.ndarray, codes: np.ndarray, n_groups: int) -> np.ndarray:
+    """Convex hull of each group, built in the output coordinates ``out_xy``.
+
+    Groups without a point get an empty Polygon.
+
+    Examples
+    --------
+    >>> xy = np.array([[0, 0], [2, 0], [0, 2], [1, 0.5], [5, 5]])
+    >>> [g.area for g in convex_hulls(xy, np.array([0, 0, 0, 0, 1]), 2)]
+    [2.0, 0.0]
+    """
+    order = np.argsort(codes, kind="stable")
+    hulls = np.full(n_groups, EMPTY_POLYGON, dtype=object)
+    present = np.unique(codes)
+    hulls[present] = shapely.convex_hull(
+        shapely.multipoints(out_xy[order], indices=codes[order])
+    )[present]
+    return hulls
+
+
+def each_or_none(func, geoms: np.ndarray, **kwargs) -> np.ndarray:
+    """Apply a vectorised shapely ``func``; None where GEOS raises.
+
+    A batch that raises is split in halves until the failing geometries are
+    alone (``O(f log k)`` calls for ``f`` failures among ``k``), so one bad
+    geometry does not lose the batch.
+
+    Examples
+    --------
+    >>> def fussy(g):  # raises for any batch that holds an empty geometry
+    ...     if shapely.is_empty(g).any():
+    ...         raise shapely.errors.GEOSException("empty")
+    ...     return shapely.area(g)
+    >>> each_or_none(fussy, np.array([shapely.box(0, 0, 1, 1), EMPTY_POLYGON]))
+    array([1.0, None], dtype=object)
+    """
+    try:
+        return func(geoms, **kwargs)
+    except shapely.errors.GEOSException:
+        if len(geoms) == 1:
+            return np.array([None], dtype=object)
+    half = len(geoms) // 2
+    out = np.empty(len(geoms), dtype=object)
+    out[:half] = each_or_none(func, geoms[:half], **kwargs)
+    out[half:] = each_or_none(func, geoms[half:], **kwargs)
+    return out
+
+
+def left_outside(flag, geoms, xy, codes) -> np.ndarray:
+    """Of the points ``flag`` marks, those their group's geometry does not cover.
+
+    For points left out on purpose (``outliers=``): a repair that grew a
+    polygon may have taken one in, and it is then no longer left out.
+
+    Examples
+    --------
+    >>> square = np.array([shapely.box(0, 0, 1, 1)])
+    >>> xy = np.array([[0.5, 0.5], [2.0, 2.0]])
+    >>> left_outside(np.array([True, True]), square, xy, np.zeros(2, int)).tolist()
+    [False, True]
+    """
+    if not flag.any():
+        return flag
+    which = np.flatnonzero(flag)
+    out = flag.copy()
+    out[which] = ~covered(geoms, np.take(xy, which, axis=0), codes[which])
     return out
 
 
