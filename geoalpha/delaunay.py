@@ -52,9 +52,8 @@ import numpy as np
 import shapely
 
 from geoalpha.core import hash64, radix_argsort
-from geoalpha.shapes import each_or_none
 
-__all__ = ["GroupTriangles", "triangulate_groups"]
+__all__ = ["GroupTriangles", "each_or_none", "triangulate_groups"]
 
 #: Groups per GEOS call when progress is reported.
 PROGRESS_GROUPS = 256
@@ -222,6 +221,34 @@ def triangulate_groups(local, point_ptr, groups, progress=None) -> GroupTriangle
         n_tri[failed] = 0
         vertex[rows[failed[point_gi]]] = rows[failed[point_gi]]
     return GroupTriangles(tri, neighbors, n_tri, vertex, failed)
+
+
+def each_or_none(func, geoms: np.ndarray, **kwargs) -> np.ndarray:
+    """Apply a vectorised shapely ``func``; None where GEOS raises.
+
+    A batch that raises is split in halves until the failing geometries are
+    alone (``O(f log k)`` calls for ``f`` failures among ``k``), so one bad
+    geometry does not lose the batch.
+
+    Examples
+    --------
+    >>> def fussy(g):  # raises for any batch that holds an empty geometry
+    ...     if shapely.is_empty(g).any():
+    ...         raise shapely.errors.GEOSException("empty")
+    ...     return shapely.area(g)
+    >>> each_or_none(fussy, np.array([shapely.box(0, 0, 1, 1), shapely.Polygon()]))
+    array([1.0, None], dtype=object)
+    """
+    try:
+        return func(geoms, **kwargs)
+    except shapely.errors.GEOSException:
+        if len(geoms) == 1:
+            return np.array([None], dtype=object)
+    half = len(geoms) // 2
+    out = np.empty(len(geoms), dtype=object)
+    out[:half] = each_or_none(func, geoms[:half], **kwargs)
+    out[half:] = each_or_none(func, geoms[half:], **kwargs)
+    return out
 
 
 def _check_corners(xy, tri, corners):

@@ -20,7 +20,6 @@ __all__ = [
     "convex_hulls",
     "cover_points",
     "covered",
-    "each_or_none",
     "enforce",
     "left_outside",
     "polygonal",
@@ -91,42 +90,19 @@ def convex_hulls(out_xy: np.ndarray, codes: np.ndarray, n_groups: int) -> np.nda
     >>> xy = np.array([[0, 0], [2, 0], [0, 2], [1, 0.5], [5, 5]])
     >>> [g.area for g in convex_hulls(xy, np.array([0, 0, 0, 0, 1]), 2)]
     [2.0, 0.0]
+    >>> [g.area for g in convex_hulls(xy[:4], np.array([2, 2, 2, 2]), 3)]
+    [0.0, 0.0, 2.0]
     """
-    order = np.argsort(codes, kind="stable")
     hulls = np.full(n_groups, EMPTY_POLYGON, dtype=object)
-    present = np.unique(codes)
+    if len(codes) == 0:
+        return hulls
+    # Any subset of groups: multipoints wants indices 0 .. k-1, all present.
+    present, index = np.unique(codes, return_inverse=True)
+    order = np.argsort(index, kind="stable")
     hulls[present] = shapely.convex_hull(
-        shapely.multipoints(out_xy[order], indices=codes[order])
-    )[present]
+        shapely.multipoints(out_xy[order], indices=index[order])
+    )
     return hulls
-
-
-def each_or_none(func, geoms: np.ndarray, **kwargs) -> np.ndarray:
-    """Apply a vectorised shapely ``func``; None where GEOS raises.
-
-    A batch that raises is split in halves until the failing geometries are
-    alone (``O(f log k)`` calls for ``f`` failures among ``k``), so one bad
-    geometry does not lose the batch.
-
-    Examples
-    --------
-    >>> def fussy(g):  # raises for any batch that holds an empty geometry
-    ...     if shapely.is_empty(g).any():
-    ...         raise shapely.errors.GEOSException("empty")
-    ...     return shapely.area(g)
-    >>> each_or_none(fussy, np.array([shapely.box(0, 0, 1, 1), EMPTY_POLYGON]))
-    array([1.0, None], dtype=object)
-    """
-    try:
-        return func(geoms, **kwargs)
-    except shapely.errors.GEOSException:
-        if len(geoms) == 1:
-            return np.array([None], dtype=object)
-    half = len(geoms) // 2
-    out = np.empty(len(geoms), dtype=object)
-    out[:half] = each_or_none(func, geoms[:half], **kwargs)
-    out[half:] = each_or_none(func, geoms[half:], **kwargs)
-    return out
 
 
 def left_outside(flag, geoms, xy, codes) -> np.ndarray:
