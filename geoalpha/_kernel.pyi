@@ -1,0 +1,87 @@
+"""Type stub of geoalpha's compiled kernel (the Rust crate at the repository root).
+
+Call it through :func:`geoalpha.kernel.solve`, which checks the input once,
+sorts the points by group and builds the polygons from the rings.
+"""
+
+from typing import Final
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: Final[str]
+#: Version of the spade crate (exact Delaunay triangulation) the kernel uses.
+SPADE_VERSION: Final[str]
+#: Points closer than this times their group's extent are one point; a group
+#: within it of a line is degenerate.
+NEAR_RTOL: Final[float]
+#: Floor of that tolerance, in units in the last place of the largest coordinate.
+PRECISION_ULPS: Final[float]
+#: Circumradii that agree to this relative tolerance are one spectrum value.
+TIE_RTOL: Final[float]
+#: Relative slack of the solid test ``alpha * r <= 1`` for a given alpha.
+ALPHA_RTOL: Final[float]
+#: Coordinates beyond this magnitude are refused.
+MAX_COORDINATE: Final[float]
+#: Branch-and-bound nodes the best union of several pieces may visit.
+MAX_UNION_NODES: Final[int]
+
+def alpha_shapes(
+    xy: npt.NDArray[np.float64],
+    offsets: npt.NDArray[np.int64],
+    *,
+    out_xy: npt.NDArray[np.float64] | None = None,
+    holes: bool = False,
+    components: int = 1,
+    alpha: npt.NDArray[np.float64] | None = None,
+    budget: npt.NDArray[np.int64] | None = None,
+    curve: bool = False,
+    threads: int = 0,
+) -> dict[str, np.ndarray]:
+    """Optimal (or given-alpha) alpha shapes of every group, in one call.
+
+    Parameters
+    ----------
+    xy : ndarray of float64, shape (n, 2), C-contiguous
+        Points sorted by group, in the computation CRS (metres).
+    offsets : ndarray of int64, shape (G + 1,)
+        Group ``g`` is ``xy[offsets[g]:offsets[g + 1]]``.
+    out_xy : ndarray of float64, shape (n, 2), optional
+        The same points in the coordinates the result is returned in; groups
+        collinear there are degenerate too (reason 3).
+    holes : bool
+        Keep holes (the shape is the solid triangles) or fill them.
+    components : int
+        Largest number of edge-connected pieces of a valid shape (>= 1).
+    alpha : ndarray of float64, shape (G,), optional
+        A given alpha per group (>= 0; 0 is the convex hull) instead of the
+        optimum.
+    budget : ndarray of int64, shape (G,), optional
+        Rows each group may leave out (the outlier optimum where > 0).
+    curve : bool
+        Also return every group's validity curve.
+    threads : int
+        Threads to spread the groups over (0: every core). The GIL is
+        released for the whole computation.
+
+    Returns
+    -------
+    dict of ndarray
+        Per group (G): ``reason`` (uint8: 0 a shape, 1 fewer than 3 distinct
+        points, 2 collinear, 3 collinear in ``out_xy``, 4 no rings),
+        ``alpha``, ``radius``, ``n_distinct``, ``n_parts``, ``area``,
+        ``n_outliers`` (rows), ``whole``, ``capped``. Per point (n):
+        ``rep`` (index of the point that represents it), ``left_out``.
+        Rings: ``ring_vertex`` (point indices, closed rings),
+        ``ring_offsets``, ``polygon_offsets``, ``group_offsets`` (geoarrow's
+        MultiPolygon layout). Curves: ``curve_value``, ``curve_valid``,
+        ``curve_offsets``.
+
+    Raises
+    ------
+    ValueError
+        On offsets, lengths or options out of range, or a coordinate that is
+        not finite or beyond ``MAX_COORDINATE``.
+    RuntimeError
+        If the kernel failed unexpectedly (a bug; no panic crosses over).
+    """

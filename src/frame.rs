@@ -1,0 +1,193 @@
+//! A group's working frame: its extent, the exact power-of-two scale the
+//! kernel computes in, and the one near-degeneracy tolerance.
+
+/// Points closer than this times the group's extent are one point, and a group
+/// whose points all lie within it of a line is degenerate (`NEAR_RTOL` of the
+/// guarantee page).
+pub const NEAR_RTOL: f64 = 1e-9;
+
+/// Floor of the tolerance, in units in the last place of the group's largest
+/// coordinate: the resolution of its float64 coordinates.
+pub const PRECISION_ULPS: f64 = 64.0;
+
+/// A point as the kernel reads it: `(x, y)` in the computation CRS.
+pub type Xy = [f64; 2];
+
+/// Extent, scale and tolerance of one group.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Frame {
+    /// The larger side of the group's bounding box.
+    pub extent: f64,
+    /// A power of two that brings the extent into `[0.5, 1)` (1 for a zero
+    /// extent): multiplying by it is exact, so scaled coordinates are the
+    /// input coordinates in other units, bit for bit.
+    pub scale: f64,
+    /// The near-degeneracy tolerance, in the input units.
+    pub tol: f64,
+}
+
+/// The distance from `x` to the next float of larger magnitude (numpy's
+/// `spacing` for `x >= 0`).
+pub fn ulp(x: f64) -> f64 {
+    let x = x.abs();
+    if !x.is_finite() {
+        return f64::NAN;
+    }
+    f64::from_bits(x.to_bits() + 1) - x
+}
+
+/// `2^-e` where `extent = m * 2^e`, `m` in `[0.5, 1)`.
+fn power_of_two_scale(extent: f64) -> f64 {
+    if extent <= 0.0 || !extent.is_finite() {
+        return 1.0;
+    }
+    // frexp: the exponent of the leading bit, plus one.
+    let bits = extent.to_bits();
+    let biased = ((bits >> 52) & 0x7ff) as i32;
+    let e = if biased == 0 {
+        // subnormal: normalise first
+        let m = extent * 2f64.powi(64);
+        (((m.to_bits() >> 52) & 0x7ff) as i32) - 1022 - 64
+    } else {
+        biased - 1022
+    };
+    // 2^-e may not be representable as one float for |e| > 1022: build it in
+    // two steps (the product is exact; callers multiply by it once).
+    pow2(-e)
+}
+
+/// `2^k` for any `k` a float's exponent can take (saturating at the ends).
+pub fn pow2(k: i32) -> f64 {
+    if k > 1023 {
+        f64::INFINITY
+    } else if k >= -1022 {
+        f64::from_bits(((k + 1023) as u64) << 52)
+    } else if k >= -1074 {
+        f64::from_bits(1u64 << (k + 1074))
+    } else {
+        0.0
+    }
+}
+
+impl Frame {
+    /// The frame of a set of points (not empty).
+    pub fn of<'a>(points: impl IntoIterator<Item = &'a Xy>) -> Frame {
+        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        for p in points {
+            for k in 0..2 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        let extent = (hi[0] - lo[0]).max(hi[1] - lo[1]);
+        let big = lo
+            .iter()
+            .chain(hi.iter())
+            .fold(0.0f64, |m, v| m.max(v.abs()));
+        let tol = (NEAR_RTOL * extent).max(PRECISION_ULPS * ulp(big));
+        Frame {
+            extent,
+            scale: power_of_two_scale(extent),
+            tol,
+        }
+    }
+}
+
+/// Whether the points all lie within `tol` of their principal axis (the
+/// least-squares line through their centroid); fewer than 3 points are.
+///
+/// Computed relative to the first point and scaled by `frame.scale` (exact),
+/// so that large offsets and extreme scales lose no precision.
+pub fn collinear(points: &[Xy], frame: &Frame) -> bool {
+    if points.len() < 3 {
+        return true;
+    }
+    let s = frame.scale;
+    let o = points[0];
+    let n = points.len() as f64;
+    let local = |p: &Xy| [(p[0] - o[0]) * s, (p[1] - o[1]) * s];
+    let (mut cx, mut cy) = (0.0, 0.0);
+    for p in points {
+        let [x, y] = local(p);
+        cx += x;
+        cy += y;
+    }
+    cx /= n;
+    cy /= n;
+    let (mut sxx, mut syy, mut sxy) = (0.0, 0.0, 0.0);
+    for p in points {
+        let [x, y] = local(p);
+        let (dx, dy) = (x - cx, y - cy);
+        sxx += dx * dx;
+        syy += dy * dy;
+        sxy += dx * dy;
+    }
+    let theta = 0.5 * (2.0 * sxy).atan2(sxx - syy);
+    let (ux, uy) = (theta.cos(), theta.sin());
+    let mut width: f64 = 0.0;
+    for p in points {
+        let [x, y] = local(p);
+        width = width.max(((x - cx) * uy - (y - cy) * ux).abs());
+    }
+    width <= frame.tol * s
+}
+
+/// Twice the signed area of the triangle `a, b, c`, with the exact sign
+/// (positive counter-clockwise) and a magnitude accurate to a few ulps.
+pub fn orient(a: Xy, b: Xy, c: Xy) -> f64 {
+    use robust::{orient2d, Coord};
+    let k = |p: Xy| Coord { x: p[0], y: p[1] };
+    orient2d(k(a), k(b), k(c))
+}
+
+/// Circumradius of the triangle `a, b, c` (scaled coordinates), in scaled
+/// units: `|ab| |bc| |ca| / (2 |cross|)`, `inf` for a flat triangle.
+///
+/// The cross product comes from the adaptive exact orientation, so needles
+/// keep an accurate radius; each difference is rounded once.
+pub fn circumradius(a: Xy, b: Xy, c: Xy) -> f64 {
+    let cross = orient(a, b, c).abs();
+    if cross == 0.0 {
+        return f64::INFINITY;
+    }
+    let len = |p: Xy, q: Xy| (q[0] - p[0]).hypot(q[1] - p[1]);
+    len(a, b) * len(b, c) / (2.0 * cross) * len(c, a)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn scale_brings_the_extent_into_half_one() {
+        for extent in [1e-300, 3.0e-7, 0.5, 1.0, 7.5, 1e9, 1e300] {
+            let s = power_of_two_scale(extent);
+            let scaled = extent * s;
+            assert!((0.5..1.0).contains(&scaled), "{extent}: {scaled}");
+        }
+    }
+
+    #[test]
+    fn ulp_matches_numpy_spacing() {
+        assert_eq!(ulp(1.0), f64::EPSILON);
+        assert_eq!(ulp(0.0), f64::from_bits(1));
+    }
+
+    #[test]
+    fn a_right_triangle_has_half_its_hypotenuse_as_radius() {
+        let r = circumradius([0.0, 0.0], [4.0, 0.0], [0.0, 3.0]);
+        assert!((r - 2.5).abs() < 1e-15);
+        assert_eq!(
+            circumradius([0.0, 0.0], [1.0, 1.0], [2.0, 2.0]),
+            f64::INFINITY
+        );
+    }
+
+    #[test]
+    fn a_nearly_straight_set_is_collinear_within_the_tolerance() {
+        let pts = [[0.0, 0.0], [1.0, 1.0], [2.0, 2.0 + 1e-12]];
+        assert!(collinear(&pts, &Frame::of(&pts)));
+        let tri = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]];
+        assert!(!collinear(&tri, &Frame::of(&tri)));
+    }
+}

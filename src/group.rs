@@ -1,0 +1,289 @@
+//! One group, start to end: frame, triangulation, spectrum, optimum, rings.
+
+use rayon::prelude::*;
+
+use crate::frame::{circumradius, collinear, orient, Frame, Xy};
+use crate::mesh::{triangulate, NONE};
+use crate::rings::{trace, Polygons};
+use crate::spectrum::{
+    fill_radius, merge_ties, outlier_optimum, pieces, sweep, Curve, ALPHA_RTOL, PARALLEL_TRIANGLES,
+};
+
+/// Why a group has no alpha shape (0: it has one). The Python side words
+/// these once (`geoalpha.errors.DEGENERATE_REASONS`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
+pub enum Reason {
+    /// A shape was computed.
+    Ok = 0,
+    /// Fewer than 3 distinct points (after near-duplicates merged).
+    Few = 1,
+    /// All points within the tolerance of a line.
+    Collinear = 2,
+    /// All points within the tolerance of a line in the output coordinates.
+    CollinearOut = 3,
+    /// The rings of the shape could not be traced (never expected).
+    Rings = 4,
+}
+
+/// What to compute, the same for every group.
+#[derive(Clone, Copy, Debug)]
+pub struct Options {
+    /// Keep holes (the shape is the solid triangles) or fill them.
+    pub holes: bool,
+    /// Largest number of edge-connected pieces of a valid shape.
+    pub components: usize,
+    /// Return the validity curve (for the comparison searches).
+    pub curve: bool,
+}
+
+/// The result of one group.
+#[derive(Clone, Debug, Default)]
+pub struct Solved {
+    /// A [`Reason`] code.
+    pub reason: u8,
+    /// The alpha used (1 / radius; 0 for the convex hull); NaN if degenerate.
+    pub alpha: f64,
+    /// The radius threshold (the optimal spectrum value, or 1 / given alpha).
+    pub radius: f64,
+    /// Distinct points.
+    pub n_distinct: u32,
+    /// Area of the shape, in the squared units of the points.
+    pub area: f64,
+    /// Rows left out (`outliers=`).
+    pub n_outliers: u64,
+    /// Every triangle of the triangulation is in the shape.
+    pub whole: bool,
+    /// The best-union search of `outliers=` hit its node budget.
+    pub capped: bool,
+    /// Representative of each point (an index into the group).
+    pub rep: Vec<u32>,
+    /// Rows left out, per point (empty when none are).
+    pub left_out: Vec<bool>,
+    /// The polygons, one per piece.
+    pub polygons: Polygons,
+    /// The validity curve, when asked.
+    pub curve: Curve,
+}
+
+/// Solve one group.
+///
+/// `out` (same length as `points`): the same points in the coordinates the
+/// result is returned in, where collinearity is decided too. `alpha`: a
+/// given alpha instead of the optimum. `budget`: rows that may be left out.
+pub fn solve(
+    points: &[Xy],
+    out: Option<&[Xy]>,
+    alpha: Option<f64>,
+    budget: u64,
+    options: &Options,
+) -> Solved {
+    let n = points.len();
+    let mut res = Solved {
+        alpha: f64::NAN,
+        radius: f64::NAN,
+        ..Solved::default()
+    };
+    if n == 0 {
+        res.reason = Reason::Few as u8;
+        return res;
+    }
+    let frame = Frame::of(points);
+    let line = collinear(points, &frame);
+    let line_out = out.is_some_and(|o| collinear(o, &Frame::of(o)));
+    let mesh = triangulate(points, &frame, !(line || line_out));
+    res.rep = mesh.rep.clone();
+    res.n_distinct = mesh.n_distinct as u32;
+    res.reason = if mesh.n_distinct < 3 {
+        Reason::Few
+    } else if line || mesh.tri.is_empty() {
+        Reason::Collinear
+    } else if line_out {
+        Reason::CollinearOut
+    } else {
+        Reason::Ok
+    } as u8;
+    if res.reason != 0 {
+        return res;
+    }
+
+    let s = frame.scale;
+    let scaled = |v: u32| {
+        let p = points[v as usize];
+        [p[0] * s, p[1] * s]
+    };
+    let radius_of = |t: &[u32; 3]| circumradius(scaled(t[0]), scaled(t[1]), scaled(t[2])) / s;
+    let radius: Vec<f64> = if mesh.tri.len() > PARALLEL_TRIANGLES {
+        mesh.tri.par_iter().map(radius_of).collect()
+    } else {
+        mesh.tri.iter().map(radius_of).collect()
+    };
+    let merged = merge_ties(&radius);
+    let w = if options.holes {
+        merged
+    } else {
+        fill_radius(&merged, &mesh.nb)
+    };
+
+    let mut weight = vec![0u64; n];
+    for &r in &mesh.rep {
+        weight[r as usize] += 1;
+    }
+    let rows = n as u64;
+    let (threshold, mut label, n_pieces) = if let Some(a) = alpha {
+        let r = if a > 0.0 {
+            (1.0 / a) * (1.0 + ALPHA_RTOL)
+        } else {
+            f64::INFINITY
+        };
+        res.alpha = a;
+        res.radius = if a > 0.0 { 1.0 / a } else { f64::INFINITY };
+        let inside: Vec<bool> = w.iter().map(|&x| x <= r).collect();
+        let (label, count) = pieces(&inside, &mesh.nb);
+        (r, label, count)
+    } else if budget > 0 {
+        let need = rows.saturating_sub(budget);
+        let (r, cover) =
+            outlier_optimum(&w, &mesh.tri, &mesh.nb, &weight, options.components, need);
+        res.capped = cover.capped;
+        // Keep the chosen pieces only, numbered 0..
+        let mut renumber = vec![
+            NONE;
+            cover
+                .chosen
+                .iter()
+                .map(|&c| c as usize + 1)
+                .max()
+                .unwrap_or(0)
+        ];
+        for (k, &c) in cover.chosen.iter().enumerate() {
+            renumber[c as usize] = k as u32;
+        }
+        let label = cover
+            .label
+            .iter()
+            .map(|&l| {
+                if l == NONE || l as usize >= renumber.len() {
+                    NONE
+                } else {
+                    renumber[l as usize]
+                }
+            })
+            .collect();
+        res.n_outliers = rows - cover.rows;
+        (r, label, cover.chosen.len())
+    } else {
+        let (first, curve) = sweep(
+            &w,
+            &mesh.tri,
+            &mesh.nb,
+            n,
+            mesh.n_distinct,
+            options.components,
+            options.curve,
+        );
+        res.curve = curve;
+        // The whole triangulation is always valid: a Delaunay triangulation
+        // is edge-connected and has every distinct point as a vertex.
+        let r = first.unwrap_or(f64::INFINITY);
+        let inside: Vec<bool> = w.iter().map(|&x| x <= r).collect();
+        let (label, count) = pieces(&inside, &mesh.nb);
+        (r, label, count)
+    };
+    if alpha.is_none() {
+        res.radius = threshold;
+        res.alpha = if threshold.is_finite() {
+            1.0 / threshold
+        } else {
+            0.0
+        };
+    }
+    if options.curve && (alpha.is_some() || budget > 0) {
+        res.curve = sweep(
+            &w,
+            &mesh.tri,
+            &mesh.nb,
+            n,
+            mesh.n_distinct,
+            options.components,
+            true,
+        )
+        .1;
+    }
+
+    // Rows left out: points whose representative no chosen piece holds.
+    if budget > 0 && alpha.is_none() {
+        let mut held = vec![false; n];
+        for (t, &l) in label.iter().enumerate() {
+            if l != NONE {
+                for &v in &mesh.tri[t] {
+                    held[v as usize] = true;
+                }
+            }
+        }
+        res.left_out = mesh.rep.iter().map(|&r| !held[r as usize]).collect();
+    }
+
+    res.whole = label.iter().all(|&l| l != NONE);
+    let mut area = 0.0;
+    for (t, &l) in label.iter().enumerate() {
+        if l != NONE {
+            let [a, b, c] = mesh.tri[t];
+            area += orient(scaled(a), scaled(b), scaled(c)).abs();
+        }
+    }
+    res.area = area / 2.0 / s / s;
+    match trace(points, &mesh.tri, &mesh.nb, &label, n_pieces) {
+        Ok(polygons) => res.polygons = polygons,
+        Err(_) => {
+            res.reason = Reason::Rings as u8;
+            label.clear();
+        }
+    }
+    res
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const OPTIONS: Options = Options {
+        holes: false,
+        components: 1,
+        curve: false,
+    };
+
+    #[test]
+    fn the_docstring_square_with_a_notch() {
+        let pts = [[0.0, 0.0], [4.0, 0.0], [4.0, 4.0], [0.0, 4.0], [2.0, 3.5]];
+        let res = solve(&pts, None, None, 0, &OPTIONS);
+        assert_eq!(res.reason, 0);
+        assert!((res.alpha - 0.430769).abs() < 1e-6, "{}", res.alpha);
+        assert!((res.area - 15.0).abs() < 1e-12);
+        assert_eq!(res.polygons.len(), 1);
+    }
+
+    #[test]
+    fn a_stray_point_may_stay_out() {
+        let pts = [
+            [0.0, 0.0],
+            [4.0, 0.0],
+            [4.0, 4.0],
+            [0.0, 4.0],
+            [2.0, 3.5],
+            [30.0, 30.0],
+        ];
+        let res = solve(&pts, None, None, 1, &OPTIONS);
+        assert!((res.alpha - 0.430769).abs() < 1e-6, "{}", res.alpha);
+        assert_eq!(res.n_outliers, 1);
+        assert_eq!(res.left_out, vec![false, false, false, false, false, true]);
+    }
+
+    #[test]
+    fn a_line_is_degenerate() {
+        let pts = [[0.0, 0.0], [1.0, 1.0], [2.0, 2.0], [3.0, 3.0]];
+        let res = solve(&pts, None, None, 0, &OPTIONS);
+        assert_eq!(res.reason, Reason::Collinear as u8);
+        assert!(res.alpha.is_nan());
+    }
+}

@@ -1,0 +1,152 @@
+//! geoalpha's compiled kernel: exact optimal alpha shapes of many groups of
+//! points in one call.
+//!
+//! Each group is triangulated by spade (exact `orient2d`/`incircle`), its
+//! circumradius spectrum is swept with union-find, and its shape comes back as
+//! rings of input point indices. Groups run on rayon's threads with the GIL
+//! released. The Python package (`geoalpha.kernel`) checks the input, calls
+//! [`alpha_shapes`](py_alpha_shapes) once and builds the polygons with shapely.
+
+pub mod batch;
+pub mod frame;
+pub mod group;
+pub mod mesh;
+pub mod rings;
+pub mod spectrum;
+
+use std::panic::{catch_unwind, AssertUnwindSafe};
+
+use numpy::{IntoPyArray, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
+use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use crate::batch::{Input, Output};
+use crate::frame::Xy;
+use crate::group::Options;
+
+fn points<'a>(name: &str, array: &'a PyReadonlyArray2<'_, f64>) -> PyResult<&'a [Xy]> {
+    let shape = array.shape();
+    if shape.len() != 2 || shape[1] != 2 {
+        return Err(PyValueError::new_err(format!(
+            "{name} must have shape (n, 2); got {shape:?}"
+        )));
+    }
+    let flat = array
+        .as_slice()
+        .map_err(|_| PyValueError::new_err(format!("{name} must be C-contiguous")))?;
+    Ok(flat.as_chunks::<2>().0)
+}
+
+fn non_negative(name: &str, values: &[i64]) -> PyResult<()> {
+    if values.iter().any(|&v| v < 0) {
+        return Err(PyValueError::new_err(format!("{name} must be >= 0")));
+    }
+    Ok(())
+}
+
+fn to_dict<'py>(py: Python<'py>, o: Output) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("reason", o.reason.into_pyarray(py))?;
+    d.set_item("alpha", o.alpha.into_pyarray(py))?;
+    d.set_item("radius", o.radius.into_pyarray(py))?;
+    d.set_item("n_distinct", o.n_distinct.into_pyarray(py))?;
+    d.set_item("n_parts", o.n_parts.into_pyarray(py))?;
+    d.set_item("area", o.area.into_pyarray(py))?;
+    d.set_item("n_outliers", o.n_outliers.into_pyarray(py))?;
+    d.set_item("whole", o.whole.into_pyarray(py))?;
+    d.set_item("capped", o.capped.into_pyarray(py))?;
+    d.set_item("rep", o.rep.into_pyarray(py))?;
+    d.set_item("left_out", o.left_out.into_pyarray(py))?;
+    d.set_item("ring_vertex", o.ring_vertex.into_pyarray(py))?;
+    d.set_item("ring_offsets", o.ring_offsets.into_pyarray(py))?;
+    d.set_item("polygon_offsets", o.polygon_offsets.into_pyarray(py))?;
+    d.set_item("group_offsets", o.group_offsets.into_pyarray(py))?;
+    d.set_item("curve_value", o.curve_value.into_pyarray(py))?;
+    d.set_item("curve_valid", o.curve_valid.into_pyarray(py))?;
+    d.set_item("curve_offsets", o.curve_offsets.into_pyarray(py))?;
+    Ok(d)
+}
+
+/// Optimal (or given-alpha) alpha shapes of every group, in one call.
+///
+/// See `geoalpha/_kernel.pyi` for the arguments and the arrays returned.
+#[pyfunction(name = "alpha_shapes")]
+#[pyo3(signature = (
+    xy, offsets, *, out_xy=None, holes=false, components=1, alpha=None,
+    budget=None, curve=false, threads=0
+))]
+#[allow(clippy::too_many_arguments)]
+fn py_alpha_shapes<'py>(
+    py: Python<'py>,
+    xy: PyReadonlyArray2<'py, f64>,
+    offsets: PyReadonlyArray1<'py, i64>,
+    out_xy: Option<PyReadonlyArray2<'py, f64>>,
+    holes: bool,
+    components: usize,
+    alpha: Option<PyReadonlyArray1<'py, f64>>,
+    budget: Option<PyReadonlyArray1<'py, i64>>,
+    curve: bool,
+    threads: usize,
+) -> PyResult<Bound<'py, PyDict>> {
+    let xy_ = points("xy", &xy)?;
+    let out_ = match &out_xy {
+        Some(o) => Some(points("out_xy", o)?),
+        None => None,
+    };
+    let offsets_ = offsets.as_slice()?;
+    non_negative("offsets", offsets_)?;
+    let offsets_: Vec<usize> = offsets_.iter().map(|&v| v as usize).collect();
+    let alpha_ = match &alpha {
+        Some(a) => Some(a.as_slice()?),
+        None => None,
+    };
+    let budget_: Option<Vec<u64>> = match &budget {
+        Some(b) => {
+            let b = b.as_slice()?;
+            non_negative("budget", b)?;
+            Some(b.iter().map(|&v| v as u64).collect())
+        }
+        None => None,
+    };
+    let input = Input {
+        xy: xy_,
+        out: out_,
+        offsets: &offsets_,
+        alpha: alpha_,
+        budget: budget_.as_deref(),
+        options: Options {
+            holes,
+            components,
+            curve,
+        },
+    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| PyRuntimeError::new_err(format!("no thread pool: {e}")))?;
+    let result =
+        py.detach(|| catch_unwind(AssertUnwindSafe(|| pool.install(|| batch::run(&input)))));
+    match result {
+        Ok(Ok(output)) => to_dict(py, output),
+        Ok(Err(err)) => Err(PyValueError::new_err(err.to_string())),
+        Err(_) => Err(PyRuntimeError::new_err(
+            "geoalpha's kernel failed unexpectedly (a bug: please report it with the input)",
+        )),
+    }
+}
+
+/// The compiled kernel of geoalpha.
+#[pymodule]
+fn _kernel(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(py_alpha_shapes, m)?)?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add("SPADE_VERSION", env!("GEOALPHA_SPADE_VERSION"))?;
+    m.add("NEAR_RTOL", frame::NEAR_RTOL)?;
+    m.add("PRECISION_ULPS", frame::PRECISION_ULPS)?;
+    m.add("TIE_RTOL", spectrum::TIE_RTOL)?;
+    m.add("ALPHA_RTOL", spectrum::ALPHA_RTOL)?;
+    m.add("MAX_COORDINATE", batch::MAX_COORDINATE)?;
+    m.add("MAX_UNION_NODES", spectrum::MAX_UNION_NODES)?;
+    Ok(())
+}

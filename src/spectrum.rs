@@ -1,0 +1,464 @@
+//! The radius spectrum of a triangulation and the sweeps over it: tied radii,
+//! fill radii, the exact optimum, the outlier optimum.
+//!
+//! A triangle `t` with circumradius `r(t)` is solid at `alpha` when
+//! `alpha * r(t) <= 1`, i.e. `r(t) <= R` with `R = 1 / alpha`. Everything
+//! here works on the threshold `R` and on a weight `w(t)` per triangle: the
+//! (merged) radius itself with holes kept, the fill radius with holes filled.
+//! The shape at `R` is `{t : w(t) <= R}`.
+
+use std::cmp::Ordering;
+use std::collections::BinaryHeap;
+
+use rayon::prelude::*;
+
+use crate::mesh::NONE;
+
+/// Circumradii that agree to this relative tolerance are one spectrum value:
+/// cocircular points (grids, rounded coordinates) have equal radii in exact
+/// arithmetic, which rounding splits by an ulp or two.
+pub const TIE_RTOL: f64 = 1e-10;
+
+/// Relative slack of the solid test `r <= 1 / alpha` for a given alpha:
+/// `1 / (1 / r)` may differ from `r` by an ulp, and the optimal alpha fed
+/// back must give the optimal shape.
+pub const ALPHA_RTOL: f64 = 8.0 * f64::EPSILON;
+
+/// Above this many triangles, sorts and per-triangle passes use every thread.
+pub const PARALLEL_TRIANGLES: usize = 1 << 16;
+
+/// Indices `0..w.len()` sorted by `w` (ties by index).
+pub fn order_by(w: &[f64]) -> Vec<u32> {
+    let mut order: Vec<u32> = (0..w.len() as u32).collect();
+    let cmp = |a: &u32, b: &u32| w[*a as usize].total_cmp(&w[*b as usize]).then(a.cmp(b));
+    if w.len() > PARALLEL_TRIANGLES {
+        order.par_sort_unstable_by(cmp);
+    } else {
+        order.sort_unstable_by(cmp);
+    }
+    order
+}
+
+/// Give radii that agree to [`TIE_RTOL`] the largest of their values.
+///
+/// Greedy runs, one value each: a run starts at the smallest radius not yet
+/// taken and holds every radius up to `start * (1 + TIE_RTOL)`; runs do not
+/// chain, so a merged value spans at most the tolerance.
+pub fn merge_ties(radius: &[f64]) -> Vec<f64> {
+    let order = order_by(radius);
+    let mut merged = vec![0.0; radius.len()];
+    let mut i = 0;
+    while i < order.len() {
+        let limit = radius[order[i] as usize] * (1.0 + TIE_RTOL);
+        let mut j = i;
+        while j + 1 < order.len() && radius[order[j + 1] as usize] <= limit {
+            j += 1;
+        }
+        let value = radius[order[j] as usize];
+        for &t in &order[i..=j] {
+            merged[t as usize] = value;
+        }
+        i = j + 1;
+    }
+    merged
+}
+
+#[derive(PartialEq)]
+struct Key(f64, u32);
+
+impl Eq for Key {}
+
+impl PartialOrd for Key {
+    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+impl Ord for Key {
+    fn cmp(&self, other: &Self) -> Ordering {
+        self.0.total_cmp(&other.0).then(other.1.cmp(&self.1))
+    }
+}
+
+/// The fill radius of every triangle: the largest, over dual paths from the
+/// triangle to the outside of the convex hull, of the smallest radius on the
+/// path (the triangle's own included).
+///
+/// With holes filled, `t` is in the shape at `R` exactly when every such path
+/// meets a solid triangle, i.e. when its fill radius is `<= R`. A widest-path
+/// search from the outside (Dijkstra with `max`/`min`).
+pub fn fill_radius(radius: &[f64], nb: &[[u32; 3]]) -> Vec<f64> {
+    let m = radius.len();
+    let mut fill = vec![f64::NAN; m];
+    let mut done = vec![false; m];
+    let mut heap = BinaryHeap::new();
+    for (t, n) in nb.iter().enumerate() {
+        if n.contains(&NONE) {
+            heap.push(Key(radius[t], t as u32));
+        }
+    }
+    // Each triangle is pushed at most once per neighbour: at most 3m + m pops.
+    while let Some(Key(key, t)) = heap.pop() {
+        let t = t as usize;
+        if done[t] {
+            continue;
+        }
+        done[t] = true;
+        fill[t] = key;
+        for &s in &nb[t] {
+            if s != NONE && !done[s as usize] {
+                heap.push(Key(key.min(radius[s as usize]), s));
+            }
+        }
+    }
+    fill
+}
+
+/// Union-find over triangles (path halving, union by size).
+pub struct Union {
+    parent: Vec<u32>,
+    size: Vec<u32>,
+}
+
+impl Union {
+    /// `n` singletons.
+    pub fn new(n: usize) -> Self {
+        Union {
+            parent: (0..n as u32).collect(),
+            size: vec![1; n],
+        }
+    }
+
+    /// The root of `i`'s set.
+    pub fn find(&mut self, mut i: u32) -> u32 {
+        while self.parent[i as usize] != i {
+            let up = self.parent[self.parent[i as usize] as usize];
+            self.parent[i as usize] = up;
+            i = up;
+        }
+        i
+    }
+
+    /// Merge the sets of `a` and `b`; true if they were apart.
+    pub fn union(&mut self, a: u32, b: u32) -> bool {
+        let (mut ra, mut rb) = (self.find(a), self.find(b));
+        if ra == rb {
+            return false;
+        }
+        if self.size[ra as usize] < self.size[rb as usize] {
+            std::mem::swap(&mut ra, &mut rb);
+        }
+        self.parent[rb as usize] = ra;
+        self.size[ra as usize] += self.size[rb as usize];
+        true
+    }
+}
+
+/// Edge-connected pieces of the triangles with `inside[t]`: a label `0..P`
+/// per triangle inside (numbered by their first triangle), [`NONE`] outside.
+pub fn pieces(inside: &[bool], nb: &[[u32; 3]]) -> (Vec<u32>, usize) {
+    let m = inside.len();
+    let mut union = Union::new(m);
+    for t in 0..m {
+        if inside[t] {
+            for &s in &nb[t] {
+                if s != NONE && inside[s as usize] {
+                    union.union(t as u32, s);
+                }
+            }
+        }
+    }
+    let mut label = vec![NONE; m];
+    let mut of_root = vec![NONE; m];
+    let mut count = 0;
+    for t in 0..m {
+        if inside[t] {
+            let r = union.find(t as u32) as usize;
+            if of_root[r] == NONE {
+                of_root[r] = count;
+                count += 1;
+            }
+            label[t] = of_root[r];
+        }
+    }
+    (label, count as usize)
+}
+
+/// The validity curve: every distinct weight, ascending, and whether the
+/// shape at that threshold is valid (covers every distinct point in at most
+/// `components` edge-connected pieces).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Curve {
+    /// Distinct weights, ascending.
+    pub values: Vec<f64>,
+    /// Validity at each value (between two values, that of the lower one).
+    pub valid: Vec<bool>,
+}
+
+/// One union-find sweep over the triangles in increasing weight: the first
+/// valid threshold (the optimum; `None` if no threshold is valid, which a
+/// Delaunay triangulation never gives) and, if asked, the whole curve.
+///
+/// `n_distinct` is the number of distinct points, all of them triangle
+/// vertices; `tri` indexes points `0..n_points`.
+pub fn sweep(
+    w: &[f64],
+    tri: &[[u32; 3]],
+    nb: &[[u32; 3]],
+    n_points: usize,
+    n_distinct: usize,
+    components: usize,
+    want_curve: bool,
+) -> (Option<f64>, Curve) {
+    let order = order_by(w);
+    let mut union = Union::new(w.len());
+    let mut added = vec![false; w.len()];
+    let mut covered = vec![false; n_points];
+    let (mut n_covered, mut n_pieces) = (0usize, 0usize);
+    let mut curve = Curve::default();
+    let mut first = None;
+    let mut i = 0;
+    while i < order.len() {
+        let value = w[order[i] as usize];
+        while i < order.len() && w[order[i] as usize] == value {
+            let t = order[i] as usize;
+            added[t] = true;
+            n_pieces += 1;
+            for &v in &tri[t] {
+                if !covered[v as usize] {
+                    covered[v as usize] = true;
+                    n_covered += 1;
+                }
+            }
+            for &s in &nb[t] {
+                if s != NONE && added[s as usize] && union.union(t as u32, s) {
+                    n_pieces -= 1;
+                }
+            }
+            i += 1;
+        }
+        let valid = n_covered == n_distinct && n_pieces <= components;
+        if valid && first.is_none() {
+            first = Some(value);
+            if !want_curve {
+                break;
+            }
+        }
+        if want_curve {
+            curve.values.push(value);
+            curve.valid.push(valid);
+        }
+    }
+    (first, curve)
+}
+
+/// The pieces chosen at one threshold with outliers allowed.
+#[derive(Clone, Debug, Default)]
+pub struct Cover {
+    /// Rows covered by the chosen pieces.
+    pub rows: u64,
+    /// Piece label of every triangle ([`NONE`] outside the shape).
+    pub label: Vec<u32>,
+    /// The chosen pieces' labels.
+    pub chosen: Vec<u32>,
+    /// The search for the best union stopped at its node budget.
+    pub capped: bool,
+}
+
+/// Branch-and-bound nodes the best union of several pieces may visit.
+pub const MAX_UNION_NODES: usize = 1_000_000;
+
+struct BestUnion<'a> {
+    sets: &'a [Vec<u32>],
+    weight: &'a [u64],
+    set_weight: Vec<u64>,
+    count: Vec<u32>,
+    best: u64,
+    best_choice: Vec<usize>,
+    choice: Vec<usize>,
+    nodes: usize,
+}
+
+impl BestUnion<'_> {
+    fn add(&mut self, k: usize) -> u64 {
+        let mut gained = 0;
+        for &v in &self.sets[k] {
+            if self.count[v as usize] == 0 {
+                gained += self.weight[v as usize];
+            }
+            self.count[v as usize] += 1;
+        }
+        gained
+    }
+
+    fn remove(&mut self, k: usize) {
+        for &v in &self.sets[k] {
+            self.count[v as usize] -= 1;
+        }
+    }
+
+    /// Sets in decreasing weight; `from`: first set still allowed.
+    fn search(&mut self, from: usize, left: usize, current: u64) {
+        if current > self.best {
+            self.best = current;
+            self.best_choice = self.choice.clone();
+        }
+        if left == 0 {
+            return;
+        }
+        for k in from..self.sets.len() {
+            self.nodes += 1;
+            if self.nodes > MAX_UNION_NODES {
+                return;
+            }
+            // The most the rest can add: the next `left` weights.
+            let bound: u64 = self.set_weight[k..].iter().take(left).sum();
+            if current + bound <= self.best {
+                return;
+            }
+            let gained = self.add(k);
+            self.choice.push(k);
+            self.search(k + 1, left - 1, current + gained);
+            self.choice.pop();
+            self.remove(k);
+        }
+    }
+}
+
+/// The `components` pieces at threshold `R` that cover the most rows.
+///
+/// `weight[v]` is the number of rows at point `v` (0 for a point that is not
+/// a vertex). Pieces share points only where they touch at a vertex, so the
+/// union is counted exactly, by branch and bound over the pieces in
+/// decreasing weight.
+pub fn best_cover(
+    w: &[f64],
+    r: f64,
+    tri: &[[u32; 3]],
+    nb: &[[u32; 3]],
+    weight: &[u64],
+    components: usize,
+) -> Cover {
+    let inside: Vec<bool> = w.iter().map(|&x| x <= r).collect();
+    let (label, n) = pieces(&inside, nb);
+    // Each piece's points (once each).
+    let mut sets: Vec<Vec<u32>> = vec![Vec::new(); n];
+    for (t, &p) in label.iter().enumerate() {
+        if p != NONE {
+            sets[p as usize].extend_from_slice(&tri[t]);
+        }
+    }
+    let mut set_weight = Vec::with_capacity(n);
+    for s in &mut sets {
+        s.sort_unstable();
+        s.dedup();
+        set_weight.push(s.iter().map(|&v| weight[v as usize]).sum::<u64>());
+    }
+    let mut by_weight: Vec<usize> = (0..n).collect();
+    by_weight.sort_by(|&a, &b| set_weight[b].cmp(&set_weight[a]).then(a.cmp(&b)));
+    let sorted_sets: Vec<Vec<u32>> = by_weight
+        .iter()
+        .map(|&k| std::mem::take(&mut sets[k]))
+        .collect();
+    let sorted_weight: Vec<u64> = by_weight.iter().map(|&k| set_weight[k]).collect();
+    let mut search = BestUnion {
+        sets: &sorted_sets,
+        weight,
+        set_weight: sorted_weight,
+        count: vec![0; weight.len()],
+        best: 0,
+        best_choice: Vec::new(),
+        choice: Vec::new(),
+        nodes: 0,
+    };
+    search.search(0, components, 0);
+    Cover {
+        rows: search.best,
+        chosen: search
+            .best_choice
+            .iter()
+            .map(|&k| by_weight[k] as u32)
+            .collect(),
+        capped: search.nodes > MAX_UNION_NODES,
+        label,
+    }
+}
+
+/// The outlier optimum: the smallest distinct weight at which `components`
+/// pieces cover at least `need` rows, and those pieces.
+///
+/// The best coverage only grows with the threshold (pieces grow and merge),
+/// so a binary search over the distinct weights finds the first one.
+pub fn outlier_optimum(
+    w: &[f64],
+    tri: &[[u32; 3]],
+    nb: &[[u32; 3]],
+    weight: &[u64],
+    components: usize,
+    need: u64,
+) -> (f64, Cover) {
+    let mut values: Vec<f64> = w.to_vec();
+    values.sort_unstable_by(f64::total_cmp);
+    values.dedup();
+    // Invariant: values[hi] is enough (the last one: one piece, every row).
+    let (mut lo, mut hi) = (0usize, values.len() - 1);
+    while lo < hi {
+        let mid = lo + (hi - lo) / 2;
+        if best_cover(w, values[mid], tri, nb, weight, components).rows >= need {
+            hi = mid;
+        } else {
+            lo = mid + 1;
+        }
+    }
+    let cover = best_cover(w, values[hi], tri, nb, weight, components);
+    (values[hi], cover)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ties_take_the_largest_of_their_run_and_do_not_chain() {
+        let r = [2.0, 1.0, 1.0 + 1e-15, 1.0 + 0.6e-10, 1.0 + 1.2e-10];
+        let m = merge_ties(&r);
+        assert_eq!(m[1], 1.0 + 0.6e-10);
+        assert_eq!(m[2], 1.0 + 0.6e-10);
+        assert_eq!(m[4], 1.0 + 1.2e-10);
+        assert_eq!(m[0], 2.0);
+    }
+
+    #[test]
+    fn a_chain_of_close_radii_is_cut_into_runs() {
+        // 40 radii 0.6e-10 apart: runs of two (a run spans at most 1e-10).
+        let r: Vec<f64> = (0..40).map(|k| 1.0 + k as f64 * 0.6e-10).collect();
+        let m = merge_ties(&r);
+        let mut values = m.clone();
+        values.dedup();
+        assert_eq!(values.len(), 20);
+        assert!(m.iter().zip(&r).all(|(a, b)| a / b - 1.0 <= TIE_RTOL));
+    }
+
+    #[test]
+    fn fill_radius_of_an_enclosed_triangle_is_its_ring() {
+        // Triangles 0 and 2 on the hull (radii 1, 3), 1 between them (5).
+        let nb = [[1, NONE, NONE], [0, 2, 0], [1, NONE, NONE]];
+        let f = fill_radius(&[1.0, 5.0, 3.0], &nb);
+        assert_eq!(f, vec![1.0, 3.0, 3.0]);
+    }
+
+    #[test]
+    fn best_union_counts_shared_vertices_once() {
+        // Pieces {0,1,2} and {2,3,4} share point 2 (10 rows): 12 rows each,
+        // 14 together; {5,6,7} has 7 rows. Summing weights would pick the
+        // first two (24); their union is 14, and 12 + 7 = 19 is the best.
+        let tri = [[0, 1, 2], [2, 3, 4], [5, 6, 7]];
+        let nb = [[NONE; 3]; 3];
+        let weight = [1, 1, 10, 1, 1, 1, 1, 5];
+        let c = best_cover(&[1.0, 1.0, 1.0], 1.0, &tri, &nb, &weight, 2);
+        assert_eq!(c.rows, 19);
+        assert!(c.chosen.contains(&2));
+        let c = best_cover(&[1.0, 1.0, 1.0], 1.0, &tri, &nb, &weight, 1);
+        assert_eq!(c.rows, 12);
+    }
+}

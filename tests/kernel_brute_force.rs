@@ -1,0 +1,279 @@
+//! The kernel against a brute force written from DESIGN.md alone.
+//!
+//! The brute force shares nothing with the kernel but the float points: its
+//! Delaunay triangles are the triples whose circumcircle holds no other point
+//! (tested in exact rational-free form with the `robust` crate's incircle,
+//! which is an exact sign), its radii come from the circumcentre, and every
+//! spectrum value is tried in increasing order with the shape checked by its
+//! definition (coverage, edge-connected pieces by pairwise edge sharing).
+
+use _kernel::group::{solve, Options};
+use proptest::prelude::*;
+use robust::{incircle, orient2d, Coord};
+
+type Xy = [f64; 2];
+
+fn coord(p: Xy) -> Coord<f64> {
+    Coord { x: p[0], y: p[1] }
+}
+
+/// Delaunay triangles by definition: counter-clockwise triples with no point
+/// strictly inside their circumcircle (points in general position).
+fn brute_delaunay(p: &[Xy]) -> Vec<[usize; 3]> {
+    let n = p.len();
+    let mut out = Vec::new();
+    for a in 0..n {
+        for b in 0..n {
+            for c in 0..n {
+                if a >= b || a >= c || b == c {
+                    continue;
+                }
+                if orient2d(coord(p[a]), coord(p[b]), coord(p[c])) <= 0.0 {
+                    continue;
+                }
+                let empty = (0..n).all(|d| {
+                    d == a
+                        || d == b
+                        || d == c
+                        || incircle(coord(p[a]), coord(p[b]), coord(p[c]), coord(p[d])) <= 0.0
+                });
+                if empty {
+                    out.push([a, b, c]);
+                }
+            }
+        }
+    }
+    out
+}
+
+fn circumcentre_radius(a: Xy, b: Xy, c: Xy) -> f64 {
+    let (bx, by) = (b[0] - a[0], b[1] - a[1]);
+    let (cx, cy) = (c[0] - a[0], c[1] - a[1]);
+    let d = 2.0 * (bx * cy - by * cx);
+    let ux = (cy * (bx * bx + by * by) - by * (cx * cx + cy * cy)) / d;
+    let uy = (bx * (cx * cx + cy * cy) - cx * (bx * bx + by * by)) / d;
+    ux.hypot(uy)
+}
+
+fn shares_edge(s: &[usize; 3], t: &[usize; 3]) -> bool {
+    s.iter().filter(|v| t.contains(v)).count() == 2
+}
+
+fn on_hull(tris: &[[usize; 3]], t: usize) -> bool {
+    // A triangle is on the hull when one of its edges is in no other triangle.
+    let e = tris[t];
+    (0..3).any(|k| {
+        let (u, v) = (e[k], e[(k + 1) % 3]);
+        !tris
+            .iter()
+            .enumerate()
+            .any(|(s, o)| s != t && o.contains(&u) && o.contains(&v))
+    })
+}
+
+/// The shape at threshold `r`: solid triangles, plus (holes filled) every
+/// non-solid triangle not reachable from the outside through non-solid ones.
+fn shape(tris: &[[usize; 3]], radius: &[f64], r: f64, holes: bool) -> Vec<bool> {
+    let solid: Vec<bool> = radius.iter().map(|&x| x <= r).collect();
+    if holes {
+        return solid;
+    }
+    let m = tris.len();
+    let mut reach = vec![false; m];
+    let mut stack: Vec<usize> = (0..m).filter(|&t| !solid[t] && on_hull(tris, t)).collect();
+    for &t in &stack {
+        reach[t] = true;
+    }
+    while let Some(t) = stack.pop() {
+        for s in 0..m {
+            if !solid[s] && !reach[s] && shares_edge(&tris[t], &tris[s]) {
+                reach[s] = true;
+                stack.push(s);
+            }
+        }
+    }
+    reach.iter().map(|&x| !x).collect()
+}
+
+/// Vertex sets of the edge-connected pieces of the triangles in `inside`.
+fn piece_sets(tris: &[[usize; 3]], inside: &[bool]) -> Vec<Vec<usize>> {
+    let m = tris.len();
+    let mut label = vec![usize::MAX; m];
+    let mut sets = Vec::new();
+    for t0 in 0..m {
+        if !inside[t0] || label[t0] != usize::MAX {
+            continue;
+        }
+        let k = sets.len();
+        let mut verts = Vec::new();
+        let mut stack = vec![t0];
+        label[t0] = k;
+        while let Some(t) = stack.pop() {
+            verts.extend_from_slice(&tris[t]);
+            for s in 0..m {
+                if inside[s] && label[s] == usize::MAX && shares_edge(&tris[t], &tris[s]) {
+                    label[s] = k;
+                    stack.push(s);
+                }
+            }
+        }
+        verts.sort_unstable();
+        verts.dedup();
+        sets.push(verts);
+    }
+    sets
+}
+
+/// Most rows a union of at most `c` of the sets holds (every choice tried).
+fn best_union(sets: &[Vec<usize>], c: usize, rows: &[u64]) -> u64 {
+    let k = sets.len();
+    let mut best = 0;
+    for mask in 0u32..(1 << k) {
+        if mask.count_ones() as usize > c {
+            continue;
+        }
+        let mut held = vec![false; rows.len()];
+        for (i, s) in sets.iter().enumerate() {
+            if mask >> i & 1 == 1 {
+                for &v in s {
+                    held[v] = true;
+                }
+            }
+        }
+        let total = held
+            .iter()
+            .zip(rows)
+            .filter(|(h, _)| **h)
+            .map(|(_, r)| r)
+            .sum();
+        best = best.max(total);
+    }
+    best
+}
+
+/// The distinct spectrum values, ascending (the kernel merges values within
+/// 1e-10; the generated points keep them far apart, see `spread`).
+fn spectrum(radius: &[f64]) -> Vec<f64> {
+    let mut v = radius.to_vec();
+    v.sort_by(f64::total_cmp);
+    v.dedup();
+    v
+}
+
+/// The brute-force optimum: the first spectrum value at which `c` pieces
+/// hold at least `rows - k` rows (k = 0: every point, at most `c` pieces).
+fn brute_optimum(p: &[Xy], rows: &[u64], holes: bool, c: usize, k: u64) -> (f64, u64) {
+    let tris = brute_delaunay(p);
+    let radius: Vec<f64> = tris
+        .iter()
+        .map(|t| circumcentre_radius(p[t[0]], p[t[1]], p[t[2]]))
+        .collect();
+    let total: u64 = rows.iter().sum();
+    for r in spectrum(&radius) {
+        let inside = shape(&tris, &radius, r, holes);
+        let sets = piece_sets(&tris, &inside);
+        let held = if k == 0 {
+            let all: usize = {
+                let mut v: Vec<usize> = sets.iter().flatten().copied().collect();
+                v.sort_unstable();
+                v.dedup();
+                v.len()
+            };
+            if all == p.len() && sets.len() <= c {
+                total
+            } else {
+                0
+            }
+        } else {
+            best_union(&sets, c, rows)
+        };
+        if held + k >= total {
+            return (1.0 / r, total - held);
+        }
+    }
+    unreachable!("the convex hull is always valid")
+}
+
+/// Points whose pairwise distances and radii are well separated: random
+/// floats, rejected when two points are closer than 1e-3 of the extent or
+/// three nearly collinear (the kernel's tolerances then decide, not the
+/// definition this brute force implements).
+fn spread(p: &[Xy]) -> bool {
+    let n = p.len();
+    for a in 0..n {
+        for b in a + 1..n {
+            if (p[a][0] - p[b][0]).hypot(p[a][1] - p[b][1]) < 0.1 {
+                return false;
+            }
+            for c in b + 1..n {
+                if orient2d(coord(p[a]), coord(p[b]), coord(p[c])).abs() < 0.5 {
+                    return false;
+                }
+            }
+        }
+    }
+    true
+}
+
+fn points() -> impl Strategy<Value = Vec<Xy>> {
+    prop::collection::vec(
+        (0.0f64..100.0, 0.0f64..100.0).prop_map(|(x, y)| [x, y]),
+        3..9,
+    )
+    .prop_filter("well separated", |p| spread(p))
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(300))]
+
+    #[test]
+    fn the_optimum_is_the_brute_force_one(p in points(), holes in any::<bool>(), c in 1usize..4) {
+        let options = Options { holes, components: c, curve: false };
+        let res = solve(&p, None, None, 0, &options);
+        prop_assert_eq!(res.reason, 0);
+        let rows = vec![1u64; p.len()];
+        let (alpha, _) = brute_optimum(&p, &rows, holes, c, 0);
+        prop_assert!((res.alpha - alpha).abs() <= 1e-9 * alpha, "{} vs {}", res.alpha, alpha);
+        prop_assert!(res.polygons.len() <= c && !res.polygons.is_empty());
+        // Every ring is closed and made of input points.
+        for ring in res.polygons.iter().flatten() {
+            prop_assert_eq!(ring.first(), ring.last());
+            prop_assert!(ring.len() >= 4);
+        }
+    }
+
+    #[test]
+    fn the_outlier_optimum_is_the_brute_force_one(
+        p in points(),
+        holes in any::<bool>(),
+        c in 1usize..3,
+        dup in prop::collection::vec(0usize..8, 0..4),
+        k in 1u64..4,
+    ) {
+        // Repeat some points (rows at one location) and leave out up to k rows.
+        let mut all = p.clone();
+        for &i in &dup {
+            all.push(p[i % p.len()]);
+        }
+        let mut rows = vec![1u64; p.len()];
+        for &i in &dup {
+            rows[i % p.len()] += 1;
+        }
+        let options = Options { holes, components: c, curve: false };
+        let res = solve(&all, None, None, k, &options);
+        let (alpha, left) = brute_optimum(&p, &rows, holes, c, k);
+        prop_assert!((res.alpha - alpha).abs() <= 1e-9 * alpha, "{} vs {}", res.alpha, alpha);
+        prop_assert_eq!(res.n_outliers, left);
+        prop_assert!(res.n_outliers <= k);
+        prop_assert_eq!(res.left_out.iter().filter(|&&x| x).count() as u64, left);
+    }
+
+    #[test]
+    fn the_shape_at_the_optimal_alpha_is_the_optimal_shape(p in points(), holes in any::<bool>()) {
+        let options = Options { holes, components: 1, curve: false };
+        let best = solve(&p, None, None, 0, &options);
+        let again = solve(&p, None, Some(best.alpha), 0, &options);
+        prop_assert_eq!(best.area, again.area);
+        prop_assert_eq!(best.polygons, again.polygons);
+    }
+}
