@@ -14,10 +14,9 @@ import pandas as pd
 import shapely
 
 from geoalpha.crs import Projection
-from geoalpha.delaunay import each_or_none
 from geoalpha.errors import InvalidInputError
 from geoalpha.knn import knn_hull
-from geoalpha.shapes import EMPTY_POLYGON, cover_points, covered
+from geoalpha.shapes import EMPTY_POLYGON, cover_points, covered, each_or_none
 from geoalpha.shapes import convex_hulls as convex_hulls  # (its home until 0.1)
 
 __all__ = ["ComparisonHulls", "comparison_hulls"]

@@ -273,7 +273,9 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
           partition);
         - ``progress`` must not be True (use dask's own progress reporting,
           ``dask.diagnostics.ProgressBar`` or ``distributed.progress``) and
-          ``n_jobs`` must be 1: dask spreads the partitions over its workers.
+          ``n_jobs`` must be None or 1: dask spreads the partitions over its
+          workers, and each partition runs the kernel on one thread (no
+          oversubscription).
 
     Returns
     -------
@@ -285,7 +287,8 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
     ------
     InvalidInputError
         For ``by`` values that are not column names, a column that does not
-        exist, ``n_jobs != 1``, ``progress=True`` or unknown options. Errors
+        exist, ``n_jobs`` other than None or 1, ``progress=True`` or unknown
+        options. Errors
         on the data themselves (non-point geometries, coordinates out of
         range) are raised by ``.compute()``.
 
@@ -325,7 +328,7 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
             f"got {type(ddf).__name__}"
         )
     opts = Options.from_kwargs(options)
-    if opts.n_jobs != 1:
+    if opts.n_jobs not in (None, 1):
         raise InvalidInputError(
             f"n_jobs={opts.n_jobs!r} does not apply to dask-geopandas input: dask "
             "spreads the partitions over its workers (choose them with the scheduler "
@@ -336,7 +339,7 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
             "progress=True does not apply to dask-geopandas input; use "
             "dask.diagnostics.ProgressBar or distributed.progress"
         )
-    opts = opts.replace(progress=False)
+    opts = opts.replace(progress=False, n_jobs=1)
     names = _key_names(ddf, by)
     meta = _meta(ddf._meta, by, opts)
     if names:  # the eager checks of the options, on the (empty) meta frame

@@ -13,7 +13,8 @@ from typing import Literal, NamedTuple
 import numpy as np
 import shapely
 
-from geoalpha import core, coverage, delaunay, parallel, search, shapes
+from geoalpha import kernel, search, shapes
+from geoalpha.budget import outlier_budget
 from geoalpha.errors import (
     DegenerateGroupWarning,
     InvalidInputError,
@@ -52,12 +53,12 @@ class AlphaShapes(NamedTuple):
     degenerate : ndarray of bool
         Fewer than 3 distinct points, or all collinear: no triangle, no alpha.
         Both are decided with a tolerance relative to the group's extent
-        (:data:`geoalpha.core.NEAR_RTOL`), in ``points`` and in ``coords``; a
+        (:data:`geoalpha.kernel.NEAR_RTOL`), in ``points`` and in ``coords``; a
         group whose shape float geometry cannot make valid and covering is
         degenerate too (never a polygon that misses a point).
     n_outliers : ndarray of int
-        Distinct points of the group left out of the shape (``outliers=``);
-        0 without outliers.
+        Rows of the group left out of the shape (``outliers=``); 0 without
+        outliers.
     outlier : ndarray of bool, shape (n,)
         One entry per input point (not per group): True where the point was
         left out (duplicates of a left-out point too).
@@ -65,6 +66,11 @@ class AlphaShapes(NamedTuple):
         ``search="bisect"`` stopped at ``max_iterations`` and returned alpha
         0, the convex hull (:func:`alpha_shapes` names these groups in a
         :class:`SearchWarning`); False for the other searches.
+    reason : ndarray of int
+        Why a group is degenerate: 0 (it is not), or a key of
+        :data:`geoalpha.kernel.REASONS` (1: fewer than 3 distinct points, 2:
+        collinear, 3: collinear in ``coords``, 4: no rings), or 5: the
+        polygon failed the guarantee in ``coords`` and could not be repaired.
     """
 
     alpha: np.ndarray
@@ -77,6 +83,7 @@ class AlphaShapes(NamedTuple):
     n_outliers: np.ndarray | None = None
     outlier: np.ndarray | None = None
     gave_up: np.ndarray | None = None
+    reason: np.ndarray | None = None
 
 
 def _check_options(
@@ -96,58 +103,6 @@ def _check_options(
             f"with search='exact'; got alpha={alpha!r}, search={search_!r}"
         )
     return checked
-
-
-def _rank_threshold(
-    tri: core.Triangulation,
-    weight: np.ndarray,
-    alpha,
-    components: int,
-    search_: str,
-    max_iterations: int,
-    *,
-    filled: bool,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray]:
-    """Per group: the alpha, the largest solid rank, the number of pieces.
-
-    And whether ``search="bisect"`` gave up. The alpha is nan for degenerate
-    groups; the pieces are None if not counted (for a given alpha).
-    ``filled``: the weights are fill radii (see :meth:`core.Spectrum.build`).
-    """
-    G = tri.n_groups
-    gave_up = np.zeros(G, dtype=bool)
-    if alpha is not None:
-        try:
-            a = np.broadcast_to(np.asarray(alpha, dtype=float), (G,)).copy()
-        except (TypeError, ValueError) as err:
-            raise InvalidInputError(
-                f"alpha must be a number >= 0 (or one per group, {G}); got {alpha!r}"
-            ) from err
-        if not np.isfinite(a).all() or (a < 0).any():
-            raise InvalidInputError(f"alpha must be finite and >= 0; got {alpha!r}")
-        a[tri.degenerate] = np.nan
-        return a, tri.rank_of(core.radius_of_alpha(a)), None, gave_up
-
-    spectrum = core.Spectrum.build(tri, weight, filled=filled)
-    if search_ == "exact":
-        rank = spectrum.optimum(components)
-        radius = np.append(tri.values, np.inf)[rank]
-        with np.errstate(divide="ignore"):
-            a = 1.0 / radius
-        a[tri.degenerate] = np.nan
-        return a, rank, spectrum.pieces_at_rank(np.arange(G), rank), gave_up
-
-    def valid(groups, alphas):
-        return spectrum.valid(groups, core.radius_of_alpha(alphas), components)
-
-    if search_ == "ladder":
-        a, _ = search.ladder_alpha(valid, G)
-    else:
-        a, gave_up, _ = search.bisect_alpha(valid, G, max_iterations=max_iterations)
-        gave_up &= ~tri.degenerate
-    a[tri.degenerate] = np.nan
-    rank = tri.rank_of(core.radius_of_alpha(a))
-    return a, rank, spectrum.pieces_at_rank(np.arange(G), rank), gave_up
 
 
 def _warn_gave_up(gave_up: np.ndarray, max_iterations: int, names: str) -> None:
@@ -177,7 +132,7 @@ def alpha_shapes(
     coords=None,
     n_groups: int | None = None,
     progress=None,
-    n_jobs: int = 1,
+    n_jobs: int | None = None,
     outliers: float = 0,
     name_groups=None,
 ) -> AlphaShapes:
@@ -217,17 +172,19 @@ def alpha_shapes(
         Number of groups (default: largest code + 1).
     progress : object with an ``update(n)`` method, optional
         Progress of the triangulation, in groups (e.g. a ``tqdm`` bar).
-    n_jobs : int, default 1
-        Worker processes to spread the groups over (-1: one per core); see
-        :mod:`geoalpha.parallel`. The result is the same for every value.
+    n_jobs : int, optional
+        Threads of the compiled kernel, which spreads the groups over them
+        (and the radii and sorts of one large group): None (the default) or
+        -1 for every core, 1 for one. The result is the same for every value.
     outliers : float or int, default 0
-        Points each group may leave out: a float in ``[0, 1)`` is a fraction
-        of the group's distinct points (``k = floor(outliers * n)``), an int a
-        count ``k``. The optimum is then the largest alpha at which at most
-        ``components`` pieces of the shape cover at least ``n - k`` distinct
-        points; only those pieces are kept, and the points they miss are
-        reported (``n_outliers``, ``outlier``). Groups with ``k = 0`` get the
-        result without outliers. See :mod:`geoalpha.coverage`.
+        Rows each group may leave out: a float in ``[0, 1)`` is a fraction
+        of the group's rows (``k = floor(outliers * rows)``), an int a count
+        ``k``; a location holding several rows weighs as many. The optimum is
+        then the largest alpha at which at most ``components`` pieces of the
+        shape cover at least ``rows - k`` rows; only those pieces are kept,
+        and the rows they miss are reported (``n_outliers``, ``outlier``).
+        Groups with ``k = 0`` get the result without outliers. See
+        :mod:`geoalpha.budget`.
     name_groups : callable, optional
         Turns an array of group codes into the text that names those groups
         in a warning (:func:`geoalpha.hull` names them by key); default: the
@@ -272,22 +229,22 @@ def alpha_shapes(
     ([0.4308], [1], [False, False, False, False, False, True])
     """
     checked = _check_options(holes, components, search, max_iterations, outliers, alpha)
+    n_jobs = check(n_jobs=n_jobs)["n_jobs"]
     if name_groups is not None and not callable(name_groups):
         raise InvalidInputError(
             "name_groups must be a function of an array of group codes that "
             f"returns their names as text; got {type(name_groups).__name__}"
         )
-    outliers = checked.pop("outliers")
-    options = {"alpha": alpha, **checked}
-    options.update(coords=coords, n_groups=n_groups, progress=progress)
-    if outliers:  # passed on only when used, so that 0 takes today's path
-        options["outliers"] = outliers
-    if type(n_jobs) is not int or n_jobs != 1 or _batched(points, groups):
-        res = parallel.alpha_shapes_parallel(
-            points, groups, batch=_alpha_shapes_batch, n_jobs=n_jobs, **options
-        )
-    else:
-        res = _alpha_shapes_batch(points, groups, **options)
+    res = _compute(
+        points,
+        groups,
+        alpha=alpha,
+        coords=coords,
+        n_groups=n_groups,
+        progress=progress,
+        n_jobs=n_jobs,
+        **checked,
+    )
     if res.gave_up.any():
         which = np.flatnonzero(res.gave_up)
         names = f"codes {first_n(which)}" if name_groups is None else name_groups(which)
@@ -295,12 +252,44 @@ def alpha_shapes(
     return res
 
 
-def _batched(points, groups) -> bool:
-    """Whether to cut the groups into runs (large inputs fit caches better)."""
-    return groups is not None and len(points) > 2 * parallel.BATCH_POINTS
+def _given_alpha(alpha, n_groups: int) -> np.ndarray:
+    try:
+        a = np.broadcast_to(np.asarray(alpha, dtype=float), (n_groups,)).copy()
+    except (TypeError, ValueError) as err:
+        raise InvalidInputError(
+            f"alpha must be a number >= 0 (or one per group, {n_groups}); got {alpha!r}"
+        ) from err
+    if not np.isfinite(a).all() or (a < 0).any():
+        raise InvalidInputError(f"alpha must be finite and >= 0; got {alpha!r}")
+    return a
 
 
-def _alpha_shapes_batch(
+def _searched_alpha(curve, n_groups: int, search_: str, max_iterations: int):
+    """Return the alpha ``search="ladder"``/``"bisect"`` finds on the validity curves.
+
+    The kernel's curve holds, per group, every distinct weight (ascending)
+    and whether the shape at that threshold is valid; the shape at any
+    threshold is that of the largest weight below it (none below the first).
+    """
+    values, valid_at, offsets = curve
+
+    def valid(groups, alphas):
+        r = kernel.radius_of_alpha(alphas)
+        ok = np.zeros(len(groups), dtype=bool)
+        for i, (g, radius) in enumerate(zip(groups, r, strict=True)):
+            a, b = offsets[g], offsets[g + 1]
+            k = np.searchsorted(values[a:b], radius, side="right") - 1
+            ok[i] = k >= 0 and bool(valid_at[a + k])
+        return ok
+
+    if search_ == "ladder":
+        a, _ = search.ladder_alpha(valid, n_groups)
+        return a, np.zeros(n_groups, dtype=bool)
+    a, gave_up, _ = search.bisect_alpha(valid, n_groups, max_iterations=max_iterations)
+    return a, gave_up
+
+
+def _compute(
     points,
     groups,
     *,
@@ -312,206 +301,103 @@ def _alpha_shapes_batch(
     coords,
     n_groups,
     progress,
-    outliers=0,
+    n_jobs,
+    outliers,
 ) -> AlphaShapes:
-    """:func:`alpha_shapes` of all groups in one pass (no runs, no workers).
-
-    Rows that repeat an earlier row of their group exactly (in ``points`` and
-    in ``coords``) are set aside first: the shapes are those of the other
-    rows, and the per-row results are copied to the repeats.
-    """
+    """:func:`alpha_shapes` on checked options: one kernel call, then the guarantee."""
     try:
-        xy = core.check_points(points)  # (errors name rows of the input)
-        codes, n_groups = core.group_codes(groups, len(xy), n_groups)
+        xy = kernel.check_points(points)  # (errors name rows of the input)
+        codes, n_groups = kernel.group_codes(groups, len(xy), n_groups)
         out_xy = _output_coordinates(xy, coords)
     except ValueError as err:
         raise InvalidInputError(str(err)) from err
-    rep = core.exact_duplicates(xy, codes, out_xy)
-    options = dict(alpha=alpha, holes=holes, components=components, search=search)
-    options.update(max_iterations=max_iterations, progress=progress)
-    if rep is None:
-        return _distinct_shapes(xy, codes, out_xy, n_groups, outliers, **options)
-    first = rep == np.arange(len(rep))
-    rows = np.flatnonzero(first)
-    res = _distinct_shapes(
-        np.take(xy, rows, axis=0),
-        codes[rows],
-        None if out_xy is None else np.take(out_xy, rows, axis=0),
-        n_groups,
-        outliers,
-        **options,
+    rows = np.bincount(codes, minlength=n_groups)
+    given = None if alpha is None else _given_alpha(alpha, n_groups)
+    options = dict(holes=holes, components=components, n_jobs=n_jobs, out=out_xy)
+    gave_up = np.zeros(n_groups, dtype=bool)
+    if given is None and search != "exact":
+        found = kernel.solve(xy, codes, n_groups, curve=True, **options)
+        given, gave_up = _searched_alpha(found.curve, n_groups, search, max_iterations)
+    budget = None
+    if outliers and given is None:
+        budget = outlier_budget(outliers, rows)
+    res = kernel.solve(
+        xy, codes, n_groups, alpha=given, budget=budget, progress=progress, **options
     )
-    position = np.cumsum(first) - 1  # of each first row among them
-    return res._replace(
-        n_points=np.bincount(codes, minlength=n_groups),
-        outlier=res.outlier[position[rep]],
-    )
+    return _guarantee(res, xy, out_xy, rows, given, alpha is None, components, gave_up)
 
 
-def _distinct_shapes(
-    xy,
-    codes,
-    out_xy,
-    n_groups,
-    outliers,
-    *,
-    alpha,
-    holes,
-    components,
-    search,
-    max_iterations,
-    progress,
-) -> AlphaShapes:
-    """:func:`_alpha_shapes_batch` of rows without exact repeats."""
-    try:
-        tri = core.triangulate(
-            xy,
-            codes,
-            n_groups=n_groups,
-            progress=progress,
-            backend=delaunay.triangulate_groups,
-            out_coords=out_xy,
-        )
-    except ValueError as err:
-        raise InvalidInputError(str(err)) from err
-    elsewhere = out_xy is not None  # returned in other coordinates (lon/lat)
-    if out_xy is None:
-        out_xy = tri.xy
-    else:
-        order = np.empty(len(out_xy), dtype=np.int64)  # triangulation order
-        order[tri.input_point] = np.arange(len(out_xy))
-        out_xy = np.take(out_xy, order, axis=0)  # (10x out_xy[order])
-    weight = tri.rank if holes else core.fill_radius(tri)
-    a, top, n_pieces, gave_up = _rank_threshold(
-        tri, weight, alpha, components, search, max_iterations, filled=not holes
-    )
+def _guarantee(res, xy, out_xy, rows, given, optimum, components, gave_up):
+    """Check every group's polygon in the output coordinates; repair or give up.
 
-    inside = weight <= top[tri.tri_group]
-    kept = None
-    if outliers:
-        k = coverage.outlier_budget(outliers, tri.n_distinct)
-        kept = coverage.outlier_optimum(
-            tri, weight, top, k, components, filled=not holes
-        )
-        used = (k > 0) & ~tri.degenerate
-        inside, n_pieces = kept.inside, np.where(used, kept.n_pieces, n_pieces)
-        with np.errstate(divide="ignore"):
-            a = np.where(used, 1.0 / np.append(tri.values, np.inf)[kept.rank], a)
-    piece = core.piece_labels(tri, inside, n_pieces)
-    rings = core.boundary_rings(tri, inside, piece)
-    geometry = shapes.assemble(out_xy, rings, tri.n_groups)
-    ring_failed, convex = _convex_where_rings_fail(geometry, tri, inside, rings, out_xy)
-    # The guarantee: every group a valid (Multi)Polygon that covers each of
-    # its points, in the coordinates it is returned in (at the optimum), or
-    # declared degenerate. Points merged as near-duplicates are taken in here.
-    check = ~tri.degenerate & ~ring_failed
-    # Coverage needs a geometric test only where it is not certain. Every
-    # point at exactly the place of a ring vertex is a vertex of the
-    # (validity-checked) polygon, so it is covered, in any coordinates. In
-    # the coordinates of the triangulation, the other representative points
-    # are vertices of triangles in the shape, so they are covered too; in
-    # other coordinates (lon/lat) they are tested, as are points merged into
-    # another one. (shapes.enforce tests every point of a polygon it had to
-    # repair.)
-    x, y, v = out_xy[:, 0], out_xy[:, 1], tri.vertex
+    With exact predicates the kernel's rings are valid and hold every distinct
+    point in the computation coordinates; what is left to check is what
+    float coordinates elsewhere can break: points merged as near-duplicates
+    (not vertices), and, when the polygons are built in other coordinates
+    (longitude/latitude), every point that is not a ring vertex.
+    """
+    n_groups = len(rows)
+    codes = res.codes
+    sout = np.take(xy if out_xy is None else out_xy, res.order, axis=0)
+    geometry = res.geometry.copy()
+    ring_failed = res.reason == 4
+    whole = np.flatnonzero(ring_failed & res.whole)
+    if len(whole):  # the shape is the convex hull: GEOS builds it
+        take = np.isin(codes, whole)
+        geometry[whole] = shapes.convex_hulls(sout[take], codes[take], n_groups)[whole]
+    check = (res.reason == 0) | np.isin(np.arange(n_groups), whole)
+    x, y, v = sout[:, 0], sout[:, 1], res.rep
     test = (x != x[v]) | (y != y[v])
-    if elsewhere:
-        on_ring = np.zeros(len(out_xy), dtype=bool)
-        on_ring[rings.vertex] = True
-        test |= ~on_ring[v]
+    if out_xy is not None:
+        test |= ~res.on_ring
+    left_out = res.left_out if res.left_out.any() else None
+    a = res.alpha if given is None else given
     geometry, failed = shapes.enforce(
         geometry,
-        out_xy,
-        tri.point_group,
+        sout,
+        codes,
         check,
         # At a given alpha only alpha 0 (the convex hull) holds every point.
-        cover=True if alpha is None else np.asarray(a) == 0,
-        components=components if alpha is None else None,
+        cover=True if optimum else np.asarray(a) == 0,
+        components=components if optimum else None,
         test=test,
-        exempt=None if kept is None else kept.outlier,  # left out on purpose
+        exempt=left_out,
     )
-    failed |= ring_failed & ~tri.degenerate
-    degenerate = tri.degenerate | failed
-    a = np.where(degenerate, np.nan, a)
-    geometry[failed] = shapes.EMPTY_POLYGON
-    n_parts = np.bincount(rings.piece_group, minlength=tri.n_groups)
-    n_parts[convex] = 1
+    degenerate = ((res.reason != 0) & ~np.isin(np.arange(n_groups), whole)) | failed
+    alpha_out = np.where(degenerate, np.nan, a)
+    geometry[degenerate] = shapes.EMPTY_POLYGON
+    n_parts = res.n_parts.astype(np.int64)
+    n_parts[whole] = 1
     n_parts[degenerate] = 0
-    area = np.bincount(
-        tri.tri_group[inside], weights=tri.area[inside], minlength=tri.n_groups
-    )
-    area[degenerate] = 0.0
-    if kept is None:
-        n_outliers, outlier = (
-            np.zeros(tri.n_groups, np.int64),
-            np.zeros(len(codes), bool),
-        )
-    else:
-        n_outliers, outlier = _still_left_out(tri, kept, geometry, out_xy)
-        outlier = outlier[tri.input_point]
+    area = np.where(degenerate, 0.0, res.area)
+    outlier = np.zeros(len(codes), dtype=bool)
+    n_outliers = np.zeros(n_groups, dtype=np.int64)
+    if left_out is not None:
+        # A repair that took in a just-missed point may have covered one left out.
+        outlier = shapes.left_outside(left_out, geometry, sout, codes)
+        n_outliers = np.bincount(codes[outlier], minlength=n_groups)
+    back = np.empty(len(codes), dtype=np.int64)
+    back[res.order] = np.arange(len(codes))
     return AlphaShapes(
-        alpha=a,
+        alpha=alpha_out,
         geometry=geometry,
-        n_points=np.bincount(codes, minlength=tri.n_groups),
-        n_distinct=tri.n_distinct.copy(),
+        n_points=rows,
+        n_distinct=res.n_distinct.astype(np.int64),
         n_parts=n_parts,
         area=area,
         degenerate=degenerate,
         n_outliers=n_outliers,
-        outlier=outlier,
+        outlier=outlier[back],
         gave_up=gave_up & ~degenerate,
+        reason=np.where(failed & (res.reason == 0), 5, res.reason).astype(np.int64),
     )
-
-
-def _convex_where_rings_fail(geometry, tri, inside, rings, out_xy):
-    """Give the convex hull to groups whose whole triangulation is the shape.
-
-    With every triangle of a group in the shape (alpha 0, or an alpha below
-    the largest radius), the shape is the convex hull. Flat slivers along a
-    straight stretch of the hull (radii ~1e16) can keep
-    :func:`geoalpha.core.boundary_rings` from closing its rings; such a
-    group gets the convex hull of its points in the output coordinates
-    (valid, holding every point) instead of being declared degenerate.
-    Changes ``geometry`` in place; returns the groups whose rings still
-    failed, and those that got the convex hull.
-    """
-    failed = rings.failed.copy()
-    if not failed.any():
-        return failed, np.zeros(0, dtype=np.int64)
-    n_tri = np.diff(tri.tri_ptr)
-    n_in = np.bincount(tri.tri_group[inside], minlength=tri.n_groups)
-    whole = np.flatnonzero(failed & ~tri.degenerate & (n_tri > 0) & (n_in == n_tri))
-    if len(whole):
-        take = np.flatnonzero(np.isin(tri.point_group, whole))
-        geometry[whole] = shapes.convex_hulls(
-            np.take(out_xy, take, axis=0), tri.point_group[take], tri.n_groups
-        )[whole]
-        failed[whole] = False
-    return failed, whole
-
-
-def _still_left_out(tri, kept, geometry, out_xy):
-    """Return the points left out (``outliers=``) that the final polygons miss.
-
-    Taking in a point that the kept pieces just miss (a near-duplicate of
-    one of their vertices) can move an edge over a point left out; such a
-    point is then inside its shape, and no longer reported as left out.
-    Returns the distinct points left out per group (points merged as
-    near-duplicates count once) and the flag of each point.
-    """
-    outlier = shapes.left_outside(kept.outlier, geometry, out_xy, tri.point_group)
-    if outlier.sum() == kept.outlier.sum():
-        return kept.n_outliers, outlier
-    own = np.where(tri.distinct, np.arange(len(outlier)), tri.vertex)
-    left = np.unique(own[outlier])
-    return np.bincount(tri.point_group[left], minlength=tri.n_groups), outlier
 
 
 def _output_coordinates(points, coords):
     """Return the output coordinates (None: the points), checked.
 
     Degeneracy is decided in the coordinates the result is returned in, too
-    (:func:`geoalpha.core.triangulate`'s ``out_coords``): points on one
+    (the kernel's ``out_xy``): points on one
     meridian are collinear in longitude/latitude even where their image in
     metres is a hair away from a line.
     """
@@ -558,7 +444,7 @@ def _one_group(points, **kwargs) -> AlphaShapes:
     xy = _as_xy(points)
     res = alpha_shapes(xy, None, n_groups=1, **kwargs)
     if res.degenerate[0]:
-        if len(xy) < 3 or core.thin_groups(xy)[0]:
+        if res.reason[0] in (1, 2, 3):
             why = (
                 "are fewer than 3 or all collinear (within 1e-9 of their extent "
                 "of a line; points closer than that are one)"

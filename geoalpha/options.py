@@ -11,15 +11,12 @@ derived from it:
 - the check of the values (``Options(**kwargs)`` raises
   :class:`~geoalpha.errors.InvalidInputError` naming the option), which the
   array API (:func:`geoalpha.alpha_shapes`, :func:`geoalpha.optimal_alpha`,
-  ``n_jobs`` in :mod:`geoalpha.parallel`) runs on its own options with
-  :func:`check`;
+  :func:`geoalpha.alpha_shapes`) runs on its own options with :func:`check`;
 - the ``geoalpha hull`` options: :mod:`geoalpha.cli` makes one click option
   per field from its ``flags``, default, ``choices``/``low``/``high`` (as a
   ``click.Choice``/``IntRange``/``FloatRange``), ``metavar`` and ``help``;
   only how ``--outliers`` parses its text and how ``--crs none`` becomes None
-  are written in the command;
-- the defaults of the array-level calls in :mod:`geoalpha.parallel`
-  (:func:`defaults`).
+  are written in the command.
 
 The array API's signatures spell their defaults out (for readers and type
 checkers); ``tests/test_options.py`` checks that they equal these.
@@ -191,7 +188,7 @@ def _check_grow(value):
 
 
 def _check_outliers(value):
-    from geoalpha.coverage import check_outliers
+    from geoalpha.budget import check_outliers
 
     check_outliers(value)
     return value
@@ -203,14 +200,17 @@ def option(default: Any, **meta) -> Any:
 
 
 def _check_n_jobs(value):
+    if value is None:
+        return None
     if (
         _is_bool(value)
         or not isinstance(value, numbers.Integral)
         or value == 0
-        or value < -1_000_000
+        or value < -1
     ):
         raise InvalidInputError(
-            f"n_jobs must be a positive integer or -1 (all cores); got {value!r}"
+            "n_jobs must be a positive integer, or -1 or None (every core); "
+            f"got {value!r}"
         )
     return int(value)
 
@@ -405,18 +405,18 @@ class Options:
         flags=("--progress/--no-progress",),
         help="Show a progress bar [default: when there are many groups].",
     )
-    n_jobs: int = option(
-        1,
+    n_jobs: int | None = option(
+        None,
         kind="int",
-        doc="int, default 1\n    Worker processes to spread the groups over (-1: "
-        'one per core), for\n    ``method="alpha"`` and ``"convex"``; the '
-        "result is the same for every\n    value. Pays off from about 100,000 "
-        "points (see :mod:`geoalpha.parallel`).",
+        doc="int, optional\n    Threads of the compiled kernel, which spreads the "
+        "groups over them\n    (and the radii and sorts of one large group). Default "
+        "(None, or -1):\n    every core; 1: one thread. Inside a dask-geopandas "
+        "partition the\n    kernel runs on one thread (dask spreads the "
+        "partitions). The result\n    is the same for every value.",
         flags=("-j", "--jobs"),
         metavar="N",
         validate=_check_n_jobs,
-        help="Worker processes for the groups (-1: one per core); pays off from "
-        "about 100,000 points. The result is the same.",
+        help="Threads for the groups [default: every core]; the result is the same.",
     )
 
     outliers: int | float = option(
@@ -424,18 +424,19 @@ class Options:
         kind="number",
         validate=_check_outliers,
         doc="float or int, default 0\n"
-        '    Points each group may leave out (``method="alpha"``, exact search,\n'
+        '    Rows each group may leave out (``method="alpha"``, exact search,\n'
         "    no fixed ``alpha``): a float in ``[0, 1)`` is a fraction of the\n"
-        "    group's distinct points (``k = floor(outliers * n)``), an int a\n"
-        "    count ``k``. The optimum is then the largest alpha at which at\n"
-        "    most ``components`` pieces cover at least ``n - k`` distinct\n"
-        "    points; only those pieces are kept. :func:`outlier_rows` tells\n"
-        "    which input rows were left out.",
+        "    group's rows (``k = floor(outliers * rows)``), an int a count\n"
+        "    ``k``; a location holding several rows weighs as many. The optimum\n"
+        "    is then the largest alpha at which at most ``components`` pieces\n"
+        "    cover at least ``rows - k`` rows; only those pieces are kept, and\n"
+        "    ``n_outliers <= k``. :func:`outlier_rows` tells which input rows\n"
+        "    were left out.",
         flags=("--outliers",),
         metavar="FRACTION|COUNT",
-        help="Points each group may leave out: a fraction of its distinct points "
-        "(0.02) or a count (3); the hull is then the tightest shape around the "
-        "others. The output's n_outliers column counts the rows left out.",
+        help="Rows each group may leave out: a fraction of its rows (0.02) or a "
+        "count (3); the hull is then the tightest shape around the others. The "
+        "output's n_outliers column counts the rows left out.",
     )
     grow: float = option(
         0.0,

@@ -42,8 +42,8 @@ import numpy as np
 import pandas as pd
 import shapely
 
-from geoalpha import core
 from geoalpha import crs as gcrs
+from geoalpha import kernel
 from geoalpha.checks import check_distortion, check_grouping
 from geoalpha.comparison import comparison_hulls
 from geoalpha.errors import (
@@ -685,13 +685,16 @@ OUTPUT_BUFFER_RTOL = 1e-6
 def _thin(which, points: Points, proj: gcrs.Projection) -> np.ndarray:
     """Which groups of ``which`` are degenerate by their points (not by a failed check).
 
-    Fewer than 3 distinct points, or all on a line by the tolerances of
-    :func:`geoalpha.core.thin_groups`, in metres or in the output coordinates.
+    Fewer than 3 distinct points, or all on a line by the kernel's
+    tolerances (:data:`geoalpha.kernel.NEAR_RTOL`), in metres or in the output
+    coordinates: the kernel's reason codes 1 to 3.
     """
     sel = np.flatnonzero(np.isin(points.codes, which))
     code = np.searchsorted(which, points.codes[sel])
-    thin = core.thin_groups(proj.xy[sel], code, len(which))
-    return thin | core.thin_groups(proj.out[sel], code, len(which))
+    res = kernel.solve(
+        proj.xy[sel], code, len(which), out=proj.out[sel], alpha=np.zeros(len(which))
+    )
+    return np.isin(res.reason, (1, 2, 3))
 
 
 def _buffer_in_output(geometry, sel, codes, proj: gcrs.Projection) -> np.ndarray:

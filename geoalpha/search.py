@@ -1,7 +1,7 @@
 """The seed paper's integer ladder and ``alphashape``'s float bisection.
 
 Both are kept for comparison with the exact optimum and use the very same
-validity test (:meth:`geoalpha.core.Spectrum.valid`), vectorised over groups.
+validity test (the kernel's validity curve), vectorised over groups.
 Their answers depend on the coordinate units: an integer alpha in 1/metre is
 nearly always 0 (the convex hull), while in 1/degree it is a usable value.
 """

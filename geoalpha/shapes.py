@@ -1,8 +1,8 @@
-"""Shapely assembly: boundary rings of triangle sets -> valid (Multi)Polygons.
+"""The guarantee in the output coordinates, and the polygons GEOS builds.
 
-No union of triangles: the rings traced by :func:`geoalpha.core.boundary_rings`
-become LinearRings, Polygons and MultiPolygons in three vectorised shapely
-calls for all groups at once.
+The kernel's polygons (:mod:`geoalpha.kernel`) are checked here where they are
+returned: valid, and covering every point of their group (``shapely.covers``,
+distance 0), repaired where float coordinates broke them, or reported.
 """
 
 from __future__ import annotations
@@ -12,14 +12,12 @@ import inspect
 import numpy as np
 import shapely
 
-from geoalpha.core import Rings
-
 __all__ = [
     "EMPTY_POLYGON",
-    "assemble",
     "convex_hulls",
     "cover_points",
     "covered",
+    "each_or_none",
     "enforce",
     "left_outside",
     "polygonal",
@@ -35,48 +33,31 @@ EMPTY_POLYGON = shapely.Polygon()
 _MAKE_VALID_METHOD = "method" in inspect.signature(shapely.make_valid).parameters
 
 
-def assemble(coords: np.ndarray, rings: Rings, n_groups: int) -> np.ndarray:
-    """Build one geometry per group from traced rings.
+def each_or_none(func, geoms: np.ndarray, **kwargs) -> np.ndarray:
+    """Apply a vectorised shapely ``func``; None where GEOS raises.
 
-    Parameters
-    ----------
-    coords : ndarray of shape (p, 2)
-        Output coordinates of the distinct points the ring vertices index
-        (the input coordinates, so that every polygon vertex is an input
-        point).
-    rings : geoalpha.core.Rings
-        Rings with their pieces and groups.
-    n_groups : int
-        Number of groups.
-
-    Returns
-    -------
-    ndarray of shape (n_groups,), dtype object
-        A Polygon for a group of one piece, a MultiPolygon for several, an
-        empty Polygon for none.
+    A batch that raises is split in halves until the failing geometries are
+    alone (``O(f log k)`` calls for ``f`` failures among ``k``), so one bad
+    geometry does not lose the batch.
 
     Examples
     --------
-    >>> from geoalpha import core
-    >>> tri = core.triangulate([[0, 0], [2, 0], [0, 2], [2, 2]])
-    >>> inside = np.ones(len(tri.triangles), dtype=bool)
-    >>> rings = core.boundary_rings(tri, inside, core.piece_labels(tri, inside))
-    >>> assemble(tri.xy, rings, 1)[0].area
-    4.0
+    >>> def fussy(g):  # raises for any batch that holds an empty geometry
+    ...     if shapely.is_empty(g).any():
+    ...         raise shapely.errors.GEOSException("empty")
+    ...     return shapely.area(g)
+    >>> each_or_none(fussy, np.array([shapely.box(0, 0, 1, 1), shapely.Polygon()]))
+    array([1.0, None], dtype=object)
     """
-    out = np.full(n_groups, EMPTY_POLYGON, dtype=object)
-    if len(rings.vertex) == 0:
-        return out
-    ring_xy = np.take(coords, rings.vertex, axis=0)  # (10x coords[rings.vertex])
-    linear = shapely.linearrings(ring_xy, indices=rings.ring)
-    polys = shapely.polygons(linear, indices=rings.ring_piece)
-    n_pieces = np.bincount(rings.piece_group, minlength=n_groups)
-    first_piece = np.cumsum(n_pieces) - n_pieces
-    single = np.flatnonzero(n_pieces == 1)
-    out[single] = polys[first_piece[single]]
-    multi = n_pieces[rings.piece_group] > 1
-    if multi.any():
-        shapely.multipolygons(polys[multi], indices=rings.piece_group[multi], out=out)
+    try:
+        return func(geoms, **kwargs)
+    except shapely.errors.GEOSException:
+        if len(geoms) == 1:
+            return np.array([None], dtype=object)
+    half = len(geoms) // 2
+    out = np.empty(len(geoms), dtype=object)
+    out[:half] = each_or_none(func, geoms[:half], **kwargs)
+    out[half:] = each_or_none(func, geoms[half:], **kwargs)
     return out
 
 

@@ -233,7 +233,10 @@ pub fn solve(
         }
     }
     res.area = area / 2.0 / s / s;
-    match trace(points, &mesh.tri, &mesh.nb, &label, n_pieces) {
+    // Orientations in the scaled coordinates: exact, and never underflowing
+    // for groups whose coordinates are tiny (1e-300 across).
+    let scaled_points: Vec<Xy> = (0..n as u32).map(scaled).collect();
+    match trace(&scaled_points, &mesh.tri, &mesh.nb, &label, n_pieces) {
         Ok(polygons) => res.polygons = polygons,
         Err(_) => {
             res.reason = Reason::Rings as u8;

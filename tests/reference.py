@@ -131,7 +131,7 @@ TIE = 1e-10
 
 
 def merged(r):
-    """Each radius replaced by the largest of its tie run (``core.merge_ties``).
+    """Each radius replaced by the largest of its tie run (the kernel's ``merge_ties``).
 
     Runs are greedy and do not chain: a run starts at the smallest radius
     not yet taken and holds every radius up to ``start * (1 + TIE)``, so a
@@ -224,7 +224,7 @@ def graph_optimum(points, holes=False, components=1):
 
 
 # --------------------------------------------------------------------------
-# Outliers (issue #14): the best pieces cover n - k points
+# Outliers (issues #14, #24): the best pieces cover rows - k rows
 # --------------------------------------------------------------------------
 
 
@@ -264,60 +264,82 @@ def piece_sets(simplices, neighbors, mask):
     return [frozenset(simplices[t].ravel().tolist()) for t in np.split(tris, cuts)]
 
 
-def best_union(sets, components):
-    """Largest union of at most ``components`` of ``sets``, by enumeration.
+def row_weights(points, pts) -> np.ndarray:
+    """Rows of ``points`` at each distinct point ``pts`` of :func:`triangulation`.
 
-    Only sets that can beat the union ``L`` of the ``components`` largest are
-    enumerated: a set ``X`` in a better choice has ``|X| > L - S``, ``S`` the
-    total of the ``components - 1`` largest sizes (the others add at most S).
+    A row counts at the point that represents its set of near-duplicates
+    (:func:`merge_near`: the first point of the set in input order).
+    """
+    p = np.asarray(points, dtype=float)
+    label = near_labels(p)
+    _, first = np.unique(label, return_index=True)
+    where = {tuple(pts[i].tolist()): i for i in range(len(pts))}
+    weight = np.zeros(len(pts), dtype=np.int64)
+    for row in range(len(p)):
+        weight[where[tuple(p[first[label[row]]].tolist())]] += 1
+    return weight
+
+
+def best_union(sets, components, weight):
+    """Most rows a union of at most ``components`` of ``sets`` holds, by enumeration.
+
+    ``weight[v]``: rows at point ``v``. Only sets that can beat the union
+    ``L`` of the ``components`` heaviest are enumerated: a set ``X`` in a
+    better choice weighs more than ``L - S``, ``S`` the total of the
+    ``components - 1`` heaviest (the others add at most S).
     """
     if not sets:
         return 0
-    sizes = sorted((len(s) for s in sets), reverse=True)
-    top = sorted(sets, key=len, reverse=True)[:components]
-    best = len(frozenset().union(*top))
+
+    def rows(union):
+        return int(sum(weight[v] for v in union))
+
+    heavy = sorted(sets, key=rows, reverse=True)
+    sizes = [rows(s) for s in heavy]
+    best = rows(frozenset().union(*heavy[:components]))
     floor = best - sum(sizes[: components - 1])
-    candidates = [s for s in sets if len(s) > floor]
+    candidates = [s for s in sets if rows(s) > floor]
     for size in range(1, components + 1):
         for choice in itertools.combinations(candidates, size):
-            best = max(best, len(frozenset().union(*choice)))
+            best = max(best, rows(frozenset().union(*choice)))
     return best
 
 
 def coverage_curve(points, holes=False, components=(1, 2, 3)):
-    """Best coverage at every spectrum value, for several ``components``.
+    """Best coverage, in rows, at every spectrum value, for several ``components``.
 
-    Returns ``(n, radii, cover)``: the distinct points, the spectrum
-    (ascending) and ``cover[c]``, the best coverage at each radius. Stops
-    once one piece covers every point (nothing changes after that for
-    outliers).
+    Returns ``(n, radii, cover)``: the number of rows, the spectrum
+    (ascending) and ``cover[c]``, the most rows ``c`` pieces hold at each
+    radius. Stops once one piece covers every point (nothing changes after
+    that for outliers).
     """
     pts, simplices, neighbors, r = triangulation(points)
-    n = len(pts)
+    weight = row_weights(points, pts)
+    n = int(weight.sum())
     radii, cover = [], {c: [] for c in components}
     for R in spectrum(r):
         mask = (merged(r) <= R) if holes else filled_mask(neighbors, r, R)
         sets = piece_sets(simplices, neighbors, mask)
         radii.append(R)
         for c in components:
-            cover[c].append(best_union(sets, c))
-        if max(map(len, sets), default=0) == n:
+            cover[c].append(best_union(sets, c, weight))
+        if max(map(len, sets), default=0) == len(pts):
             break
     return n, np.array(radii), {c: np.array(v) for c, v in cover.items()}
 
 
 def budget(outliers, n):
-    """k for a fraction (floor of q * n, rounded to 9 decimals first) or a count."""
+    """k for a fraction of n rows (floor of q * n, to 9 decimals first) or a count."""
     if isinstance(outliers, int):
         return outliers
     return math.floor(round(outliers * n, 9))
 
 
 def outlier_optimum_from_curve(curve, components, k):
-    """Largest alpha whose best coverage is >= n - k: the first such radius.
+    """Largest alpha whose best coverage is >= n - k rows: the first such radius.
 
     The first valid radius of the whole scan, so no monotonicity is assumed.
-    Returns ``(alpha, points left out)``.
+    Returns ``(alpha, rows left out)``.
     """
     n, radii, cover = curve
     ok = np.flatnonzero(cover[components] >= n - k)
@@ -326,11 +348,11 @@ def outlier_optimum_from_curve(curve, components, k):
 
 
 def outlier_optimum(points, holes=False, components=1, outliers=0):
-    """``(alpha, points left out)`` of the outlier-tolerant optimum.
+    """``(alpha, rows left out)`` of the outlier-tolerant optimum.
 
-    A group whose budget k is 0 has the optimum without outliers.
+    A group whose budget k (in rows) is 0 has the optimum without outliers.
     """
-    k = budget(outliers, len(merge_near(points)))
+    k = budget(outliers, len(points))
     if k == 0:
         return graph_optimum(points, holes=holes, components=components), 0
     curve = coverage_curve(points, holes=holes, components=(components,))

@@ -30,13 +30,13 @@ LAYERS: list[tuple[str, ...]] = [
     ("pipeline",),
     ("comparison",),
     ("optimal",),
-    ("parallel",),
     ("options",),
-    ("io", "shapes", "search", "knn", "coverage", "delaunay", "checks"),
+    ("io", "shapes", "search", "knn", "checks"),
     ("postgis",),
     (
         "crs",
-        "core",
+        "kernel",
+        "budget",
         "schema",
         "registration",
         "datasets",
@@ -45,17 +45,19 @@ LAYERS: list[tuple[str, ...]] = [
         "progress",
     ),
     ("errors",),
+    ("_kernel",),  # compiled (src/), typed by _kernel.pyi: imports nothing of ours
 ]
 RANK = {name: rank for rank, names in enumerate(LAYERS) for name in names}
 #: Numeric code: numpy/scipy only.
-NUMERIC = ("core", "search", "parallel")
+NUMERIC = ("search",)
 #: Imported by ``geoalpha --help``: the standard library (and click) only.
 LIGHT = ("__init__", "cli", "options", "errors", "datasets")
 HEAVY = {"numpy", "scipy", "pandas", "shapely", "geopandas", "pyproj", "pyogrio"}
 
 
 def _modules() -> dict[str, ast.Module]:
-    return {p.stem: ast.parse(p.read_text()) for p in sorted(PACKAGE.glob("*.py"))}
+    files = [*sorted(PACKAGE.glob("*.py")), PACKAGE / "_kernel.pyi"]
+    return {p.stem: ast.parse(p.read_text()) for p in files}
 
 
 def _type_checking_nodes(tree: ast.Module) -> set[int]:
@@ -211,9 +213,9 @@ def _inside_function(tree: ast.Module, line: int) -> bool:
 def test_the_graph_sees_a_cycle_hidden_in_a_function():
     """The checks above can fail: a lazy import back up is an upward edge."""
     tree = ast.parse("def f():\n    from geoalpha import tools\n")
-    found = _imports("core", tree, {"tools": None})
+    found = _imports("kernel", tree, {"tools": None})
     assert found == [("geoalpha.tools", "", 2)]
-    assert RANK["core"] > RANK["tools"]
+    assert RANK["kernel"] > RANK["tools"]
 
 
 def test_geoalpha_help_and_version_import_nothing_heavy():

@@ -1,7 +1,7 @@
 """Every option of ``hull()`` reaches the computation on every path (issue #11).
 
 The paths: the eager call, the accessor, ``n_jobs`` (through
-:mod:`geoalpha.parallel`), dask-geopandas (the function and the accessor) and
+the kernel's threads), dask-geopandas (the function and the accessor) and
 the ``geoalpha hull`` command. Each option is set to a value that is not its
 default, and the test records the :class:`~geoalpha.options.Options` that the
 ``compute`` stage of :mod:`geoalpha.pipeline` receives.
@@ -22,7 +22,7 @@ from click.testing import CliRunner
 from compat import HAS_DASK, requires_dask
 
 import geoalpha
-from geoalpha import parallel, pipeline
+from geoalpha import kernel, pipeline
 from geoalpha.cli import main
 from geoalpha.errors import InvalidInputError, SearchWarning
 from geoalpha.options import FIELDS, NAMES, Options
@@ -48,8 +48,6 @@ NON_DEFAULT = {
     "outliers": 1,
     "grow": 2.0,
 }
-#: Options that reach geoalpha.parallel with n_jobs != 1.
-ARRAY_OPTIONS = ("holes", "components", "search", "max_iterations")
 
 
 def test_every_option_has_a_non_default_test_value():
@@ -70,20 +68,20 @@ def points():
 
 @pytest.fixture
 def received(monkeypatch):
-    """The Options of every compute stage, and the kwargs reaching parallel."""
-    calls = {"compute": [], "parallel": []}
-    compute, run_parallel = pipeline.compute, parallel.alpha_shapes_parallel
+    """The Options of every compute stage, and the kwargs reaching the kernel."""
+    calls = {"compute": [], "kernel": []}
+    compute, run_kernel = pipeline.compute, kernel.solve
 
     def record_compute(points, proj, n_groups, options, **kwargs):
         calls["compute"].append(options)
         return compute(points, proj, n_groups, options, **kwargs)
 
-    def record_parallel(*args, **kwargs):
-        calls["parallel"].append(kwargs)
-        return run_parallel(*args, **kwargs)
+    def record_kernel(*args, **kwargs):
+        calls["kernel"].append(kwargs)
+        return run_kernel(*args, **kwargs)
 
     monkeypatch.setattr(pipeline, "compute", record_compute)
-    monkeypatch.setattr(parallel, "alpha_shapes_parallel", record_parallel)
+    monkeypatch.setattr(kernel, "solve", record_kernel)
     return calls
 
 
@@ -184,10 +182,10 @@ def test_every_option_arrives_on_every_path(points, received, tmp_path, path, na
     for options in received["compute"]:
         assert getattr(options, name) == value, (name, options)
     if path is _n_jobs or name == "n_jobs":
-        assert received["parallel"], "n_jobs did not reach geoalpha.parallel"
-        for kwargs in received["parallel"]:
+        assert received["kernel"], "n_jobs did not reach the kernel"
+        for kwargs in received["kernel"]:
             assert kwargs["n_jobs"] == 2
-            if name in ARRAY_OPTIONS:
+            if name in ("holes", "components"):
                 assert kwargs[name] == value
 
 
@@ -270,7 +268,10 @@ def test_a_number_option_keeps_ints_and_floats_apart():
         ({"search": "fast"}, "search must be one of 'exact', 'ladder', 'bisect'"),
         ({"max_iterations": 0}, "max_iterations must be an integer >= 1; got 0"),
         ({"outliers": 1.5}, "outliers must be a fraction in [0, 1) or a count >= 0"),
-        ({"n_jobs": 0}, "n_jobs must be a positive integer or -1 (all cores); got 0"),
+        (
+            {"n_jobs": 0},
+            "n_jobs must be a positive integer, or -1 or None (every core); got 0",
+        ),
     ],
 )
 def test_the_array_api_checks_options_as_hull_does(points, option, message):
@@ -292,7 +293,7 @@ def test_the_array_api_defaults_are_those_of_options():
     """The array API (and the layers below) spell defaults out: those of Options."""
     import typing
 
-    from geoalpha import core, crs, optimal, search
+    from geoalpha import crs, optimal, search
     from geoalpha.options import SEARCHES, defaults
 
     functions = (
@@ -300,8 +301,7 @@ def test_the_array_api_defaults_are_those_of_options():
         geoalpha.optimal_alpha,
         geoalpha.alpha_shape,
         search.bisect_alpha,  # the layers below options.py: no import of it
-        core.Spectrum.valid,
-        core.Spectrum.optimum,
+        kernel.solve,
         crs.metric_crs,
     )
     for func in functions:

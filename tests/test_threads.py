@@ -1,4 +1,4 @@
-"""Tests of ``n_jobs=``: groups spread over worker processes (GitHub issue #6).
+"""Tests of ``n_jobs=``: the kernel's threads (issues #6 and #23).
 
 What a user would notice: a result that differs from ``n_jobs=1`` (values,
 geometries, dtypes, group order), a warning lost in a worker or naming the
@@ -18,7 +18,7 @@ from geopandas.testing import assert_geodataframe_equal
 from progress_output import assert_bar_covers
 
 import geoalpha
-from geoalpha import datasets, parallel
+from geoalpha import datasets, kernel
 from geoalpha.errors import InvalidInputError, SearchWarning
 from geoalpha.optimal import alpha_shapes
 
@@ -26,12 +26,6 @@ pytestmark = pytest.mark.filterwarnings(
     "ignore::geoalpha.errors.DegenerateGroupWarning",
     "ignore::geoalpha.errors.DroppedRowsWarning",
 )
-
-
-@pytest.fixture(autouse=True)
-def _small_jobs(monkeypatch):
-    """Start workers even for the small bundled datasets."""
-    monkeypatch.setattr(parallel, "MIN_POINTS_PER_JOB", 1)
 
 
 @pytest.fixture(scope="module")
@@ -56,44 +50,18 @@ def assert_same(a, b):
             np.testing.assert_array_equal(x, y, err_msg=name)
 
 
-# --- splitting the groups ------------------------------------------------------
-
-
-@pytest.mark.parametrize(
-    ("counts", "n", "expected"),
-    [
-        ([5, 5, 5, 5], 2, [0, 2, 4]),
-        ([5, 5, 5, 5], 4, [0, 1, 2, 3, 4]),
-        ([100, 1, 1, 1], 2, [0, 1, 4]),  # one big group is a run of its own
-        ([0, 0, 100, 1], 2, [0, 3, 4]),  # leading empty groups join a run
-        ([3], 4, [0, 1]),  # fewer groups than runs
-        ([1, 1, 1, 0, 0], 3, [0, 1, 2, 5]),  # trailing empty groups join a run
-        ([7, 7, 7], 1, [0, 3]),
-    ],
-)
-def test_split_groups(counts, n, expected):
-    assert parallel.split_groups(counts, n).tolist() == expected
-
-
-def test_split_groups_balances_points():
-    counts = np.random.default_rng(0).integers(1, 2000, 1000)
-    bounds = parallel.split_groups(counts, 4)
-    assert bounds[0] == 0 and bounds[-1] == 1000 and len(bounds) == 5
-    per_run = np.add.reduceat(counts, bounds[:-1])
-    assert per_run.max() - per_run.min() <= 2 * counts.max()
-
-
-@pytest.mark.parametrize("n_jobs", [0, 1.5, "2", True, None])
+@pytest.mark.parametrize("n_jobs", [0, 1.5, "2", True, -2])
 def test_bad_n_jobs_is_an_error(n_jobs):
     with pytest.raises(InvalidInputError, match="n_jobs must be a positive integer"):
         alpha_shapes([[0, 0], [1, 0], [0, 1]], n_jobs=n_jobs)
 
 
-def test_negative_n_jobs_counts_from_all_cores():
-    cores = parallel.effective_n_jobs(-1)
-    assert cores >= 1
-    assert parallel.effective_n_jobs(-2) == max(cores - 1, 1)
-    assert parallel.effective_n_jobs(-1000) == 1
+def test_the_default_is_every_core():
+    import os
+
+    cores = len(os.sched_getaffinity(0))
+    assert kernel.threads(None) == kernel.threads(-1) == cores
+    assert kernel.threads(3) == 3
 
 
 # --- identical results ---------------------------------------------------------
@@ -131,16 +99,6 @@ def test_n_jobs_with_per_group_alpha_coords_and_empty_groups(clusters):
     assert len(many.alpha) == n_groups
 
 
-def test_n_jobs_start_method_spawn(clusters, monkeypatch):
-    monkeypatch.setattr(parallel, "START_METHOD", "spawn")
-    xy, codes = clusters
-    keep = codes < 60  # spawned workers import geoalpha: keep it short
-    assert_same(
-        alpha_shapes(xy[keep], codes[keep], n_jobs=2),
-        alpha_shapes(xy[keep], codes[keep]),
-    )
-
-
 @pytest.mark.parametrize(
     ("name", "by"), [("uk_clusters", "Cluster"), ("us_airports", "state")]
 )
@@ -159,33 +117,10 @@ def test_hull_n_jobs_convex():
     )
 
 
-def test_small_inputs_run_in_this_process(clusters, monkeypatch):
-    monkeypatch.setattr(parallel, "MIN_POINTS_PER_JOB", 10**9)
-
-    def no_pool(*args, **kwargs):
-        raise AssertionError("a worker process was started")
-
-    monkeypatch.setattr(parallel, "ProcessPoolExecutor", no_pool)
-    xy, codes = clusters
-    assert_same(alpha_shapes(xy, codes, n_jobs=2), alpha_shapes(xy, codes))
-
-
-def test_batches_in_this_process_equal_one_call(clusters, monkeypatch):
-    xy, codes = clusters
-    one = alpha_shapes(xy, codes, holes=True)
-    monkeypatch.setattr(parallel, "BATCH_POINTS", 1000)
-
-    def no_pool(*args, **kwargs):
-        raise AssertionError("a worker process was started")
-
-    monkeypatch.setattr(parallel, "ProcessPoolExecutor", no_pool)
-    assert_same(alpha_shapes(xy, codes, n_jobs=1, holes=True), one)
-
-
 # --- warnings, progress, errors --------------------------------------------------
 
 
-def test_workers_warn_once_as_a_single_call_does(clusters):
+def test_threads_warn_once_as_a_single_call_does(clusters):
     xy, codes = clusters
     with warnings.catch_warnings(record=True) as one:
         warnings.simplefilter("always")
@@ -216,28 +151,22 @@ def test_progress_counts_every_group(clusters):
 
 
 @requires_tqdm
-def test_hull_progress_bar_with_workers_covers_every_phase(capsys, monkeypatch):
+def test_hull_progress_bar_with_threads_covers_every_phase(capsys):
     gdf = datasets.load("uk_clusters")
-    chunks = []
-    real = parallel.split_groups
-    monkeypatch.setattr(
-        parallel, "split_groups", lambda *a: chunks.append(real(*a)) or chunks[-1]
-    )
     geoalpha.hull(gdf, "Cluster", n_jobs=2, progress=True)
-    assert len(chunks[0]) > 2  # the groups went to the workers in several chunks
     err = capsys.readouterr().err
     assert_bar_covers(err, ["group", "project", "compute", "check"])
     assert "691 groups]" in err
 
 
-def test_bad_input_is_reported_before_workers_start():
+def test_bad_input_is_reported_before_the_kernel_runs():
     xy = np.zeros((50_000, 2))
     xy[123] = np.nan
     with pytest.raises(InvalidInputError, match=r"NaN or inf in 1 row\(s\)"):
         alpha_shapes(xy, np.arange(50_000) // 100, n_jobs=2)
 
 
-def test_errors_in_workers_reach_the_caller(clusters):
+def test_bad_options_are_reported_with_threads(clusters):
     xy, codes = clusters
     n_groups = int(codes.max()) + 1
     with pytest.raises(InvalidInputError, match="alpha must be finite"):

@@ -1,0 +1,363 @@
+"""The compiled kernel (:mod:`geoalpha._kernel`) and the polygons it returns.
+
+One call of :func:`solve` hands every group to the Rust kernel: points sorted
+by group, their offsets and the options. The kernel triangulates each group
+with exact predicates (spade), sweeps its circumradius spectrum, traces the
+rings of its shape and returns them as indices of input points with ring,
+polygon and group offsets; :func:`solve` builds every polygon from them in one
+``shapely.from_ragged_array`` call, so every vertex is an input point, bit for
+bit. The groups run on the kernel's threads with the GIL released.
+
+The tolerances the kernel decides with live in the kernel (``src/frame.rs``,
+``src/spectrum.rs``) and are exported here, for the docs and the messages.
+"""
+
+from __future__ import annotations
+
+import itertools
+import os
+from typing import NamedTuple
+
+import numpy as np
+import shapely
+
+from geoalpha import _kernel
+from geoalpha.errors import first_n
+
+__all__ = [
+    "ALPHA_RTOL",
+    "MAX_COORDINATE",
+    "NEAR_RTOL",
+    "PRECISION_ULPS",
+    "REASONS",
+    "TIE_RTOL",
+    "Solved",
+    "check_points",
+    "group_codes",
+    "radius_of_alpha",
+    "solve",
+    "threads",
+]
+
+#: Points closer than this times their group's extent are one point, and a
+#: group within it of a line is degenerate.
+NEAR_RTOL: float = _kernel.NEAR_RTOL
+#: Floor of that tolerance in units in the last place of the group's largest
+#: coordinate.
+PRECISION_ULPS: float = _kernel.PRECISION_ULPS
+#: Circumradii that agree to this relative tolerance are one spectrum value.
+TIE_RTOL: float = _kernel.TIE_RTOL
+#: Slack of the solid test ``alpha * r <= 1`` for a given alpha.
+ALPHA_RTOL: float = _kernel.ALPHA_RTOL
+#: Coordinates beyond this magnitude are refused (their squares overflow).
+MAX_COORDINATE: float = _kernel.MAX_COORDINATE
+
+#: Why a group has no shape, by the kernel's reason code (0: it has one).
+REASONS: dict[int, str] = {
+    1: "fewer than 3 distinct points",
+    2: "all points on a line",
+    3: "all points on a line in the output coordinates",
+    4: "no rings could be traced",
+}
+
+#: The geometry of a group with no shape.
+EMPTY_POLYGON = shapely.Polygon()
+
+#: Above this many groups, a shown progress bar is updated this often.
+PROGRESS_CHUNKS = 20
+
+
+def threads(n_jobs: int | None) -> int:
+    """Return the kernel's thread count for ``n_jobs`` (None or -1: every core).
+
+    Examples
+    --------
+    >>> threads(1), threads(3)
+    (1, 3)
+    >>> threads(None) == threads(-1) >= 1
+    True
+    """
+    if n_jobs is None or n_jobs == -1:
+        try:
+            return len(os.sched_getaffinity(0))
+        except AttributeError:  # pragma: no cover - not Linux
+            return os.cpu_count() or 1
+    return int(n_jobs)
+
+
+def check_points(points) -> np.ndarray:
+    """Return ``points`` as an (n, 2) float array; raise ValueError naming bad rows.
+
+    Examples
+    --------
+    >>> check_points([[0, 1], [2, 3]]).dtype
+    dtype('float64')
+    >>> check_points([[0, 1], [float("nan"), 3]])
+    Traceback (most recent call last):
+    ...
+    ValueError: points must have finite coordinates; got NaN or inf in 1 row(s) ...
+    """
+    raw = np.asarray(points)
+    if raw.size and not (
+        np.issubdtype(raw.dtype, np.integer) or np.issubdtype(raw.dtype, np.floating)
+    ):
+        raise ValueError(
+            f"points must be numbers (an (n, 2) array of x, y); got {raw.dtype} values"
+        )
+    xy = raw.astype(float, copy=False)
+    if xy.size == 0:  # no points at all, however they were spelled ([], (0, 2))
+        return np.empty((0, 2))
+    if xy.ndim != 2 or xy.shape[1] != 2:
+        raise ValueError(
+            f"points must be an (n, 2) array of x, y; got shape {xy.shape}"
+        )
+    if np.abs(xy).max() <= MAX_COORDINATE:  # False for NaN too
+        return xy
+    bad = np.flatnonzero(~np.isfinite(xy).all(axis=1))
+    if len(bad):
+        raise ValueError(
+            f"points must have finite coordinates; got NaN or inf in {len(bad)} "
+            f"row(s) (positions {first_n(bad)})"
+        )
+    huge = np.flatnonzero((np.abs(xy) > MAX_COORDINATE).any(axis=1))
+    raise ValueError(
+        f"points must have coordinates within +-{MAX_COORDINATE:g} (their "
+        f"squares would overflow); got larger values in {len(huge)} row(s) "
+        f"(positions {first_n(huge)}): rescale them"
+    )
+
+
+def group_codes(groups, n: int, n_groups: int | None) -> tuple[np.ndarray, int]:
+    """Return the group codes (int64) and the number of groups; ValueError if bad.
+
+    Examples
+    --------
+    >>> codes, n = group_codes([1, 0, 1], 3, None)
+    >>> codes.tolist(), n
+    ([1, 0, 1], 2)
+    """
+    if groups is None:
+        return np.zeros(n, dtype=np.int64), 1 if n_groups is None else n_groups
+    codes = np.asarray(groups)
+    if codes.shape != (n,) or not np.issubdtype(codes.dtype, np.integer):
+        raise ValueError(
+            f"groups must be {n} integer group codes (one per point); got "
+            f"{codes.dtype} array of shape {codes.shape}"
+        )
+    codes = codes.astype(np.int64, copy=False)
+    if n and codes.min() < 0:
+        raise ValueError("groups must be codes >= 0 (as from pandas.factorize)")
+    size = int(codes.max()) + 1 if n else 0
+    if n_groups is None:
+        n_groups = size
+    elif n_groups < size:
+        raise ValueError(f"n_groups={n_groups} but groups has code {size - 1}")
+    return codes, n_groups
+
+
+def radius_of_alpha(alpha) -> np.ndarray:
+    """Radius threshold ``1 / alpha`` (``inf`` for 0) with the kernel's slack.
+
+    Examples
+    --------
+    >>> radius_of_alpha([0.5, 0.0]).round(12).tolist()
+    [2.0, inf]
+    """
+    alpha = np.asarray(alpha, dtype=float)
+    with np.errstate(divide="ignore"):
+        return np.where(alpha > 0, (1.0 / alpha) * (1.0 + ALPHA_RTOL), np.inf)
+
+
+class Solved(NamedTuple):
+    """What the kernel returns, in the order of the points sorted by group.
+
+    Per group: ``reason`` (0, or a key of :data:`REASONS`), ``alpha``,
+    ``radius``, ``n_distinct``, ``n_parts``, ``area``, ``n_outliers`` (rows),
+    ``whole`` (every triangle is in the shape), ``capped`` (the outlier
+    search hit its node budget) and ``geometry``. Per point, sorted by group
+    (``order[i]`` is the input row of sorted point ``i``): ``codes``, ``rep``
+    (the sorted index of its representative), ``left_out`` and ``on_ring``
+    (its representative is a ring vertex). ``curve`` holds the validity
+    curves when asked: ``(values, valid, offsets)``.
+    """
+
+    order: np.ndarray
+    codes: np.ndarray
+    reason: np.ndarray
+    alpha: np.ndarray
+    radius: np.ndarray
+    n_distinct: np.ndarray
+    n_parts: np.ndarray
+    area: np.ndarray
+    n_outliers: np.ndarray
+    whole: np.ndarray
+    capped: np.ndarray
+    rep: np.ndarray
+    left_out: np.ndarray
+    on_ring: np.ndarray
+    geometry: np.ndarray
+    curve: tuple[np.ndarray, np.ndarray, np.ndarray] | None
+
+
+_PER_GROUP = ("reason", "alpha", "radius", "n_distinct", "n_parts", "area")
+_PER_GROUP += ("n_outliers", "whole", "capped")
+
+
+def _call(xy, out, offsets, alpha, budget, **kwargs) -> dict:
+    return _kernel.alpha_shapes(
+        xy, offsets, out_xy=out, alpha=alpha, budget=budget, **kwargs
+    )
+
+
+def _chunks(offsets, n_groups: int, progress) -> list[tuple[int, int]]:
+    if progress is None or n_groups < 2 * PROGRESS_CHUNKS:
+        return [(0, n_groups)]
+    cuts = np.linspace(0, n_groups, PROGRESS_CHUNKS + 1).astype(int)
+    return list(itertools.pairwise(cuts))
+
+
+def _run(xy, out, offsets, alpha, budget, progress, **kwargs) -> dict:
+    """Run the kernel on all groups, in chunks of groups when a bar is shown."""
+    n_groups = len(offsets) - 1
+    parts = []
+    for g0, g1 in _chunks(offsets, n_groups, progress):
+        a, b = offsets[g0], offsets[g1]
+        res = _call(
+            xy[a:b],
+            None if out is None else out[a:b],
+            offsets[g0 : g1 + 1] - a,
+            None if alpha is None else alpha[g0:g1],
+            None if budget is None else budget[g0:g1],
+            **kwargs,
+        )
+        parts.append((a, res))
+        if progress is not None:
+            progress.update(g1 - g0)
+    if len(parts) == 1:
+        return parts[0][1]
+    return _concat(parts)
+
+
+def _concat(parts) -> dict:
+    """Join the kernel's results of consecutive chunks of groups."""
+    joined = {}
+    for key in parts[0][1]:
+        arrays, last = [], 0
+        for k, (base, res) in enumerate(parts):
+            a = res[key]
+            if key in ("rep", "ring_vertex"):
+                a = a + base
+            elif key.endswith("_offsets"):
+                a = (a if k == 0 else a[1:]) + last
+                last = int(a[-1]) if len(a) else last
+            arrays.append(a)
+        joined[key] = np.concatenate(arrays)
+    return joined
+
+
+def _geometries(coords, res, n_groups: int) -> np.ndarray:
+    """One Polygon, MultiPolygon or empty Polygon per group, in one call."""
+    out = np.full(n_groups, EMPTY_POLYGON, dtype=object)
+    n_parts = res["n_parts"]
+    if not n_parts.any():
+        return out
+    multi = shapely.from_ragged_array(
+        shapely.GeometryType.MULTIPOLYGON,
+        np.take(coords, res["ring_vertex"], axis=0),
+        (res["ring_offsets"], res["polygon_offsets"], res["group_offsets"]),
+    )
+    one = n_parts == 1
+    out[one] = shapely.get_geometry(multi[one], 0)
+    many = n_parts > 1
+    out[many] = multi[many]
+    return out
+
+
+def solve(
+    xy: np.ndarray,
+    codes: np.ndarray,
+    n_groups: int,
+    *,
+    out: np.ndarray | None = None,
+    holes: bool = False,
+    components: int = 1,
+    alpha: np.ndarray | None = None,
+    budget: np.ndarray | None = None,
+    curve: bool = False,
+    n_jobs: int | None = None,
+    progress=None,
+) -> Solved:
+    """Run the kernel on every group and build the polygons.
+
+    Parameters
+    ----------
+    xy : ndarray of shape (n, 2)
+        Checked coordinates (:func:`check_points`) in the computation CRS.
+    codes : ndarray of int, shape (n,)
+        Checked group codes ``0 .. n_groups - 1`` (:func:`group_codes`).
+    n_groups : int
+        Number of groups.
+    out : ndarray of shape (n, 2), optional
+        The same points in the output coordinates (polygons are built from
+        them; collinearity is decided there too); default ``xy``.
+    holes, components : bool, int
+        The definition of the shape and of a valid one.
+    alpha : ndarray of shape (n_groups,), optional
+        A given alpha per group (>= 0) instead of the optimum.
+    budget : ndarray of int, shape (n_groups,), optional
+        Rows each group may leave out (``outliers=``).
+    curve : bool
+        Also return the validity curves.
+    n_jobs : int, optional
+        Threads (None or -1: every core; see :func:`threads`).
+    progress : object with ``update(n)``, optional
+        Told how many groups are done, in about 20 steps.
+
+    Returns
+    -------
+    Solved
+
+    Examples
+    --------
+    >>> xy = np.array([[0, 0], [4, 0], [4, 4], [0, 4], [2, 3.5]])
+    >>> res = solve(xy, np.zeros(5, dtype=np.int64), 1, n_jobs=1)
+    >>> res.reason.tolist(), res.n_distinct.tolist(), res.geometry[0].geom_type
+    ([0], [5], 'Polygon')
+    """
+    n = len(xy)
+    if n > 1 and (codes[1:] < codes[:-1]).any():
+        order = np.argsort(codes, kind="stable")
+    else:
+        order = np.arange(n)
+    sorted_codes = codes[order]
+    offsets = np.zeros(n_groups + 1, dtype=np.int64)
+    np.cumsum(np.bincount(codes, minlength=n_groups), out=offsets[1:])
+    sxy = np.ascontiguousarray(np.take(xy, order, axis=0), dtype=float)
+    sout = None if out is None else np.ascontiguousarray(np.take(out, order, axis=0))
+    res = _run(
+        sxy,
+        sout,
+        offsets,
+        None if alpha is None else np.ascontiguousarray(alpha, dtype=float),
+        None if budget is None else np.ascontiguousarray(budget, dtype=np.int64),
+        progress,
+        holes=bool(holes),
+        components=int(components),
+        curve=bool(curve),
+        threads=threads(n_jobs),
+    )
+    coords = sxy if sout is None else sout
+    on_ring = np.zeros(n, dtype=bool)
+    on_ring[res["ring_vertex"]] = True
+    return Solved(
+        order=order,
+        codes=sorted_codes,
+        **{k: res[k] for k in _PER_GROUP},
+        rep=res["rep"],
+        left_out=res["left_out"],
+        on_ring=on_ring[res["rep"]],
+        geometry=_geometries(coords, res, n_groups),
+        curve=(res["curve_value"], res["curve_valid"], res["curve_offsets"])
+        if curve
+        else None,
+    )
