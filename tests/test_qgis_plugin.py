@@ -618,7 +618,7 @@ def test_qgis_process_csv_path_says_it_has_no_geometry(qgis, installed, points):
     )
     text = done.stdout + done.stderr
     assert done.returncode != 0
-    assert "The input layer has no geometry" in text
+    assert f"The input layer ({csv}) has no geometry" in text
     assert "no CRS" not in text
     uri = (
         f"delimitedtext://file://{csv}?type=csv&xField=longitude&yField=latitude"

@@ -150,20 +150,26 @@ def _no_crs(crs) -> str:
 
 
 def _no_geometry(layer, source, names) -> str:
-    """Say that the layer is a table, and how to read a CSV's coordinates."""
-    path = layer.source().split("|")[0] if layer is not None else "points.csv"
-    if Path(path).exists():
+    """Say that the layer is a table, and how to read a CSV's coordinates.
+
+    The layer's file is named only when it is a file (a database source may
+    hold a password); ``names`` are the (x, y) column names geoalpha knows.
+    """
+    path = layer.source().split("|")[0] if layer is not None else ""
+    what = "The input layer"
+    if path and Path(path).is_file():
         path = str(Path(path).resolve())
+        what += f" ({path})"
         url = QUrl.fromLocalFile(path).toString()  # file:///..., spaces as %20
     else:
-        url = path
+        url = "file:///path/to/points.csv"
     fields = {f.name().lower(): f.name() for f in source.fields()}
     x, y = next(
         ((fields[x], fields[y]) for x, y in names if x in fields and y in fields),
         ("X_COLUMN", "Y_COLUMN"),
     )
     return (
-        f"The input layer has no geometry: {path} is read as a table of "
+        f"{what} has no geometry: it is read as a table of "
         f"{source.fields().count()} fields. For the points of a CSV file, give "
         "its coordinate columns and their CRS, with INPUT (qgis_process, "
         "processing.run) as\n"
@@ -322,7 +328,6 @@ class OptimalAlphaHulls(QgsProcessingAlgorithm):
         import numpy as np
         import shapely
 
-        from geoalpha.io import COORDINATE_NAMES
         from geoalpha.schema import planar_unit, with_area_unit
 
         source = self.parameterAsSource(parameters, self.INPUT, context)
@@ -333,6 +338,8 @@ class OptimalAlphaHulls(QgsProcessingAlgorithm):
         names = self.parameterAsFields(parameters, self.FIELD, context)
         options = self._options(parameters, context)
         if QgsWkbTypes.geometryType(source.wkbType()) == QgsWkbTypes.NullGeometry:
+            from geoalpha.io import COORDINATE_NAMES
+
             layer = self.parameterAsVectorLayer(parameters, self.INPUT, context)
             raise QgsProcessingException(_no_geometry(layer, source, COORDINATE_NAMES))
         crs = source.sourceCrs()
