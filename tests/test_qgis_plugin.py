@@ -29,7 +29,7 @@ import shapely
 
 import geoalpha
 from geoalpha import datasets
-from geoalpha.options import NAMES, Options
+from geoalpha.options import META, NAMES, Options
 from geoalpha.schema import DTYPES, RESULT_COLUMNS, with_area_unit
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -488,11 +488,17 @@ def test_qgis_process_parameters_are_the_options_of_hull(qgis, installed):
     assert set(params) == {"INPUT", "FIELD", "OUTPUT", *map(str.upper, offered)}
     defaults = Options()
     for name in offered:
-        param = params[name.upper()]
+        param, meta = params[name.upper()], META[name]
         assert param["default_value"] == getattr(defaults, name), name
-        choices = Options.__dataclass_fields__[name].metadata["meta"].choices
-        if choices:
-            assert param["raw_definition"]["options"] == list(choices), name
+        if meta.choices:
+            assert param["raw_definition"]["options"] == list(meta.choices), name
+        if meta.low is not None:
+            assert param["raw_definition"]["min"] == meta.low, name
+        if meta.high is not None:
+            assert param["raw_definition"]["max"] == meta.high, name
+        assert param["optional"] == meta.optional, name
+        # The option's help, in QGIS's terms (METHOD=concave, not --method).
+        assert param["help"] and "--" not in param["help"], name
     # The help (beside the dialog) says what is left out and why.
     described = run_process(qgis, "help", ALG).stdout
     for name, why in left_out.items():
