@@ -5,13 +5,13 @@
 *Plugins > Manage and Install Plugins... > Install from ZIP*. The archive holds
 one folder, ``geoalpha_qgis/``, with the plugin and the repository's LICENSE;
 entries are sorted and dated 1980-01-01, so the same sources give the same
-bytes. Only the standard library is used.
+bytes. The ZIP itself needs only the standard library.
 
 Before zipping, :func:`write_options` (re)writes the plugin's
 ``hull_options.json``, the options of ``geoalpha.hull()`` as the plugin offers
 them, from :class:`geoalpha.options.Options` (the one definition: defaults,
-choices, bounds, help); it needs this checkout's geoalpha on ``sys.path``
-(``geoalpha.options`` imports only the standard library). The file is
+choices, bounds, help), and the result columns of :mod:`geoalpha.schema`; it
+imports this checkout's geoalpha (with numpy and pandas). The file is
 committed, so that the plugin works from a checkout; ``tests/test_qgis_plugin.py``
 checks it is up to date.
 """
@@ -70,14 +70,16 @@ def options_spec() -> dict:
     Returns
     -------
     dict
-        ``{"options": {name: {...}}, "left_out": LEFT_OUT}``; each option has
-        its ``kind``, ``default``, ``choices``, ``low``, ``high``,
-        ``low_open``, ``optional`` and ``help`` (the command's help text, with
-        the flags said as the plugin's parameters: ``METHOD=concave``).
+        ``{"options": {name: {...}}, "left_out": LEFT_OUT, "result_columns":
+        geoalpha.schema.DTYPES}``; each option has its ``kind``, ``default``,
+        ``choices``, ``low``, ``high``, ``low_open``, ``optional`` and
+        ``help`` (the command's help text, with the flags said as the plugin's
+        parameters: ``METHOD=concave``).
     """
     sys.path.insert(0, str(ROOT))
     try:
         from geoalpha.options import FIELDS
+        from geoalpha.schema import DTYPES  # needs numpy and pandas
     finally:
         sys.path.pop(0)
     flags = {}
@@ -102,7 +104,7 @@ def options_spec() -> dict:
             "optional": meta.optional,
             "help": _qgis_terms(meta.help, flags),
         }
-    return {"options": options, "left_out": LEFT_OUT}
+    return {"options": options, "left_out": LEFT_OUT, "result_columns": DTYPES}
 
 
 def options_text() -> str:

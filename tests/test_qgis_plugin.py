@@ -476,6 +476,7 @@ def test_options_file_is_generated_from_options():
     )
     spec = json.loads(committed)
     assert sorted([*spec["options"], *spec["left_out"]]) == sorted(NAMES)
+    assert spec["result_columns"] == DTYPES
 
 
 def test_qgis_process_parameters_are_the_options_of_hull(qgis, installed):
@@ -503,6 +504,7 @@ def test_qgis_process_parameters_are_the_options_of_hull(qgis, installed):
     described = run_process(qgis, "help", ALG).stdout
     for name, why in left_out.items():
         assert f"<i>{name}</i>: {why}" in described
+    assert ", ".join(RESULT) in described  # the output fields, from the schema
 
 
 @pytest.mark.parametrize(

@@ -97,10 +97,10 @@ def _help() -> str:
             "no geometry are left out (the log gives the count).</p>",
             options,
             "<p><b>Output fields</b>: the group fields, then the columns of",
-            "<code>geoalpha.hull()</code>: alpha (1/metre), radius (metres),",
-            "n_points, n_outliers, n_parts, area_m2, crs_used, method; a planar",
-            "computation not in metres (CRS=none) writes area and unit instead of",
-            "area_m2.</p>",
+            "<code>geoalpha.hull()</code>'s result:",
+            ", ".join(SPEC["result_columns"]) + "; alpha is in 1/metre, radius",
+            "in metres. A planar computation not in metres (CRS=none) writes",
+            "area and unit instead of area_m2.</p>",
             f"<p>Not offered here: {left_out}.</p>",
         ]
     )
