@@ -302,13 +302,9 @@ def _progress_bar(
 
 def _planar_unit(points, work_crs) -> str | None:
     """Return the unit of a planar computation (--crs none) unless metres."""
-    if work_crs is not None:
-        return None
-    if points.crs is None:
-        return "coordinate unit"
-    info = points.crs.axis_info
-    unit = info[0].unit_name if info else "unit"
-    return None if unit == "metre" else unit
+    from geoalpha.schema import planar_unit
+
+    return planar_unit(points.crs, work_crs)
 
 
 def _summary(points, hulls, source: str, work_crs, unit: str | None) -> list[str]:
@@ -387,6 +383,7 @@ def _run(
     the hull's phases run; it is closed before the summary.
     """
     from geoalpha.io import write_hulls
+    from geoalpha.schema import with_area_unit
     from geoalpha.tools import hull
 
     if options.get("progress") is None and verbosity < 0:
@@ -399,10 +396,7 @@ def _run(
             f"no hull to write: every group of {source} was dropped"
         )
     unit = _planar_unit(points, work_crs)
-    table = hulls
-    if unit is not None:  # say the unit instead of a wrong "m2"
-        table = hulls.rename(columns={"area_m2": "area"})
-        table.insert(list(table.columns).index("area") + 1, "unit", unit)
+    table = with_area_unit(hulls, unit)  # say the unit instead of a wrong "m2"
     if bar is not None:
         bar.start("write")
     mapping = write_hulls(

@@ -20,8 +20,10 @@ __all__ = [
     "DTYPES",
     "RESULT_COLUMNS",
     "empty_result",
+    "planar_unit",
     "result_frame",
     "result_geometry_name",
+    "with_area_unit",
 ]
 
 #: Columns of the result next to the group keys (then ``geometry``), and their
@@ -45,6 +47,68 @@ def _dtype(name: str):
     if DTYPES[name] == "text":  # str (pandas 3) or object: what pandas infers
         return pd.Series(np.array([""], dtype=object)).dtype
     return np.dtype(DTYPES[name])
+
+
+def planar_unit(input_crs, crs) -> str | None:
+    """Return the unit of a planar computation (``crs=None``) unless it is metres.
+
+    ``area_m2`` is in square metres only when the computation is; with
+    ``crs=None`` it is in the input's coordinate unit, which the written
+    table then says (:func:`with_area_unit`), as ``geoalpha hull`` and the
+    QGIS plugin do.
+
+    Parameters
+    ----------
+    input_crs : CRS or None
+        The CRS of the input points (None: none).
+    crs : "auto", CRS or None
+        The ``crs`` option of :func:`geoalpha.hull`.
+
+    Returns
+    -------
+    str or None
+        ``"coordinate unit"`` for input without a CRS, the unit of its first
+        axis (``"degree"``, ``"US survey foot"``) for a planar computation in
+        a CRS not in metres, else None (``area_m2`` is in square metres).
+
+    Examples
+    --------
+    >>> planar_unit(None, None), planar_unit("EPSG:4326", None)
+    ('coordinate unit', 'degree')
+    >>> planar_unit("EPSG:4326", "auto") is None, planar_unit("EPSG:32630", None)
+    (True, None)
+    """
+    if crs is not None:
+        return None
+    if input_crs is None:
+        return "coordinate unit"
+    from pyproj import CRS
+
+    info = CRS.from_user_input(input_crs).axis_info
+    unit = info[0].unit_name if info else "unit"
+    return None if unit == "metre" else unit
+
+
+def with_area_unit(table, unit: str | None):
+    """Write ``area`` and ``unit`` instead of ``area_m2`` when ``unit`` is given.
+
+    Parameters
+    ----------
+    table : geopandas.GeoDataFrame
+        A result of :func:`geoalpha.hull`.
+    unit : str or None
+        From :func:`planar_unit`; None returns ``table`` as it is.
+
+    Returns
+    -------
+    geopandas.GeoDataFrame
+        ``area_m2`` renamed ``area``, followed by a ``unit`` column.
+    """
+    if unit is None:
+        return table
+    table = table.rename(columns={"area_m2": "area"})
+    table.insert(list(table.columns).index("area") + 1, "unit", unit)
+    return table
 
 
 def result_geometry_name(frame, keys) -> str:

@@ -5,19 +5,117 @@
 *Plugins > Manage and Install Plugins... > Install from ZIP*. The archive holds
 one folder, ``geoalpha_qgis/``, with the plugin and the repository's LICENSE;
 entries are sorted and dated 1980-01-01, so the same sources give the same
-bytes. Only the standard library is used.
+bytes. The ZIP itself needs only the standard library.
+
+Before zipping, :func:`write_options` (re)writes the plugin's
+``hull_options.json``, the options of ``geoalpha.hull()`` as the plugin offers
+them, from :class:`geoalpha.options.Options` (the one definition: defaults,
+choices, bounds, help), and the result columns of :mod:`geoalpha.schema`; it
+imports this checkout's geoalpha (with numpy and pandas). The file is
+committed, so that the plugin works from a checkout; ``tests/test_qgis_plugin.py``
+checks it is up to date.
 """
 
 from __future__ import annotations
 
 import argparse
 import configparser
+import json
+import re
 import sys
 import zipfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 PLUGIN = ROOT / "qgis_plugin" / "geoalpha_qgis"
+OPTIONS_FILE = PLUGIN / "hull_options.json"
+#: Options of hull() the plugin does not offer, and why (said in its help and
+#: docs). Every other option becomes the Processing parameter of its name in
+#: capitals; tests/test_qgis_plugin.py checks that the two cover Options.
+LEFT_OUT = {
+    "progress": "QGIS shows the progress of the algorithm itself",
+    "n_jobs": "no worker processes are started from inside QGIS (on Windows its "
+    "Python's sys.executable is the QGIS program, which multiprocessing would "
+    "start again)",
+}
+#: Command-line words in the help texts of Options that are not an option.
+_WORDS = {"--by": "FIELD"}
+#: Command-line sentences said otherwise in QGIS.
+_PHRASES = {
+    "for input without a CRS the same as --crs-in none": "the only choice for a "
+    "layer without a CRS, whose output then has area and unit instead of area_m2",
+}
+
+
+def _qgis_terms(text: str, flags: dict[str, tuple[str, tuple]]) -> str:
+    """Say ``--method concave`` as ``METHOD=concave``, ``--ratio`` as ``RATIO``."""
+
+    def term(match: re.Match) -> str:
+        flag, word = match.group(1), match.group(2)
+        if flag in _WORDS:
+            return _WORDS[flag] + (f" {word}" if word else "")
+        name, choices = flags.get(flag, (flag, ()))
+        if word and word in choices:
+            return f"{name}={word}"
+        return name + (f" {word}" if word else "")
+
+    for phrase, qgis in _PHRASES.items():
+        text = text.replace(phrase, qgis)
+    return re.sub(r"(--[a-z][a-z-]*)(?: ([a-z]+)\b)?", term, text)
+
+
+def options_spec() -> dict:
+    """Return the options of ``geoalpha.hull()`` the plugin offers, from ``Options``.
+
+    Returns
+    -------
+    dict
+        ``{"options": {name: {...}}, "left_out": LEFT_OUT, "result_columns":
+        geoalpha.schema.DTYPES}``; each option has its ``kind``, ``default``,
+        ``choices``, ``low``, ``high``, ``low_open``, ``optional`` and
+        ``help`` (the command's help text, with the flags said as the plugin's
+        parameters: ``METHOD=concave``).
+    """
+    sys.path.insert(0, str(ROOT))
+    try:
+        from geoalpha.options import FIELDS
+        from geoalpha.schema import DTYPES  # needs numpy and pandas
+    finally:
+        sys.path.pop(0)
+    flags = {}
+    for field in FIELDS:
+        meta = field.metadata["meta"]
+        choices = meta.choices + (("none", "auto") if meta.kind == "crs" else ())
+        for spelling in meta.flags:
+            for flag in spelling.split("/"):
+                flags[flag] = (field.name.upper(), choices)
+    options = {}
+    for field in FIELDS:
+        if field.name in LEFT_OUT:
+            continue
+        meta = field.metadata["meta"]
+        options[field.name] = {
+            "kind": meta.kind,
+            "default": field.default,
+            "choices": list(meta.choices),
+            "low": meta.low,
+            "high": meta.high,
+            "low_open": meta.low_open,
+            "optional": meta.optional,
+            "help": _qgis_terms(meta.help, flags),
+        }
+    return {"options": options, "left_out": LEFT_OUT, "result_columns": DTYPES}
+
+
+def options_text() -> str:
+    """Return the text of ``hull_options.json`` (see :func:`options_spec`)."""
+    return json.dumps(options_spec(), indent=1, ensure_ascii=False) + "\n"
+
+
+def write_options() -> Path:
+    """Write ``hull_options.json`` into the plugin folder and return its path."""
+    OPTIONS_FILE.write_text(options_text(), encoding="utf-8")
+    return OPTIONS_FILE
 
 
 def plugin_files() -> list[Path]:
@@ -55,6 +153,10 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--out", type=Path, default=ROOT / "dist", help="folder")
     args = parser.parse_args(argv)
+    try:
+        print(f"Wrote {write_options()}")
+    except ImportError as err:  # geoalpha's dependencies missing: the ZIP still
+        print(f"Kept {OPTIONS_FILE} as it is (cannot import geoalpha: {err})")
     target = build(args.out)
     print(f"Wrote {target} ({target.stat().st_size:,} bytes)")
     return 0

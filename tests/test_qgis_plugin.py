@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import json
 import os
+import re
+import shlex
 import shutil
 import subprocess
 import sys
@@ -27,6 +29,8 @@ import shapely
 
 import geoalpha
 from geoalpha import datasets
+from geoalpha.options import META, NAMES, Options
+from geoalpha.schema import DTYPES, RESULT_COLUMNS, with_area_unit
 
 ROOT = Path(__file__).resolve().parents[1]
 PLUGIN_DIR = ROOT / "qgis_plugin"
@@ -35,7 +39,15 @@ ALG = "geoalpha:optimalalphahulls"
 TIMEOUT = 240  # seconds for one QGIS subprocess (each takes a few seconds)
 REQUIRED = os.environ.get("GEOALPHA_REQUIRE_QGIS") == "1"
 STATES = ["NV", "UT", "HI", "DC", "GU", "VI", "AK"]
-RESULT = ["alpha", "radius", "n_points", "n_parts", "area_m2", "crs_used", "method"]
+RESULT = list(RESULT_COLUMNS)  # the fields after the group fields, as hull()'s
+#: QGIS's type name of a GeoPackage field, by dtype of the result table.
+QGIS_TYPES = {
+    "float64": "Real",
+    "int64": "Integer",
+    "int32": "Integer",
+    "text": "String",
+}
+DOCS = ROOT / "docs" / "user_guide" / "qgis_plugin.md"
 
 sys.path.insert(0, str(ROOT / "scripts"))
 import build_qgis_plugin  # noqa: E402
@@ -220,9 +232,16 @@ def test_qgis_process_one_feature_per_group_as_hull(by_state, points):
     assert got["alpha"].dtype == np.float64
     np.testing.assert_allclose(got["alpha"], want["alpha"], rtol=1e-12)
     assert got["alpha"].isna().tolist() == want["state"].isin(["DC", "GU"]).tolist()
-    for column in ("n_points", "n_parts", "crs_used", "method"):
-        assert got[column].tolist() == want[column].tolist()
-    np.testing.assert_allclose(got["area_m2"], want["area_m2"], rtol=1e-9)
+    assert_same_values(got, want)
+
+
+def assert_same_values(got, want):
+    """Every result column of ``want`` (hull()) in ``got`` (QGIS's layer), alike."""
+    for column in want.columns.drop(want.geometry.name):
+        if want[column].dtype == np.float64:
+            np.testing.assert_allclose(got[column], want[column], rtol=1e-9)
+        else:
+            assert got[column].tolist() == want[column].tolist(), column
 
 
 def test_qgis_process_logs_degenerate_groups_and_dropped_rows(by_state):
@@ -297,8 +316,7 @@ def test_pyqgis_fields_keep_the_input_types(pyqgis):
     assert list(fields) == ["state", "region", *RESULT]
     assert fields["state"] == inputs["state"] == "String"
     assert fields["region"] == inputs["region"] == "Integer64"
-    types = ["Real", "Real", "Integer", "Integer", "Real", "String", "String"]
-    assert [fields[c] for c in RESULT] == types
+    assert [fields[c] for c in RESULT] == [QGIS_TYPES[DTYPES[c]] for c in RESULT]
     assert run["layer"]["crs"] == "EPSG:4326"
 
 
@@ -444,3 +462,238 @@ def test_plugin_warns_when_shapely_needs_a_newer_geos_than_qgis():
     assert dependencies.geos_mismatch((3, 11, 4), "3.11.1-CAPI-1.17.1", "linux") is None
     assert dependencies.geos_mismatch((3, 13, 1), "3.14.0-CAPI-1.20.0", "linux") is None
     assert dependencies.geos_mismatch((3, 13, 1), "3.11.1", "darwin") is None
+
+
+# --- issue #24: the plugin at parity with hull() --------------------------
+
+
+def test_options_file_is_generated_from_options():
+    # The plugin's parameters are read from this file, which the plugin build
+    # writes from geoalpha.options.Options: it must be what the build writes now.
+    committed = build_qgis_plugin.OPTIONS_FILE.read_text(encoding="utf-8")
+    assert committed == build_qgis_plugin.options_text(), (
+        "run python scripts/build_qgis_plugin.py"
+    )
+    spec = json.loads(committed)
+    assert sorted([*spec["options"], *spec["left_out"]]) == sorted(NAMES)
+    assert spec["result_columns"] == DTYPES
+
+
+def test_qgis_process_parameters_are_the_options_of_hull(qgis, installed):
+    done = run_process(qgis, "--json", "help", ALG)
+    report = json.loads(done.stdout[done.stdout.index("{") :])
+    params = report["parameters"]
+    left_out = build_qgis_plugin.LEFT_OUT
+    offered = [name for name in NAMES if name not in left_out]
+    assert "outliers" in offered and "grow" in offered
+    assert set(params) == {"INPUT", "FIELD", "OUTPUT", *map(str.upper, offered)}
+    defaults = Options()
+    for name in offered:
+        param, meta = params[name.upper()], META[name]
+        assert param["default_value"] == getattr(defaults, name), name
+        if meta.choices:
+            assert param["raw_definition"]["options"] == list(meta.choices), name
+        if meta.low is not None:
+            assert param["raw_definition"]["min"] == meta.low, name
+        if meta.high is not None:
+            assert param["raw_definition"]["max"] == meta.high, name
+        assert param["optional"] == meta.optional, name
+        # The option's help, in QGIS's terms (METHOD=concave, not --method).
+        assert param["help"] and "--" not in param["help"], name
+    # The help (beside the dialog) says what is left out and why.
+    described = run_process(qgis, "help", ALG).stdout
+    for name, why in left_out.items():
+        assert f"<i>{name}</i>: {why}" in described
+    assert ", ".join(RESULT) in described  # the output fields, from the schema
+
+
+@pytest.mark.parametrize(
+    "options",
+    [{"outliers": 2}, {"outliers": 0.05, "grow": 1000.0}],
+    ids=["outliers-count", "outliers-fraction-grow"],
+)
+def test_qgis_process_outliers_and_grow_reach_hull(qgis, installed, points, options):
+    out = qgis.tmp / f"outliers_{len(options)}.gpkg"
+    values = [f"{name.upper()}={value}" for name, value in options.items()]
+    run_process(
+        qgis,
+        "run",
+        ALG,
+        "--",
+        f"INPUT={points.name}",
+        "FIELD=state",
+        *values,
+        f"OUTPUT={out.name}",
+    )
+    got = gpd.read_file(out)
+    want = expected(points, "state", **options)
+    assert list(got.columns) == ["state", *RESULT, "geometry"]
+    assert got["n_outliers"].sum() == want["n_outliers"].sum() > 0
+    assert_same_values(got, want)
+    for a, b in zip(got.geometry, want.geometry, strict=True):
+        if "grow" in options:  # a buffer: QGIS's GEOS may round differently
+            assert shapely.hausdorff_distance(a, b) < 1e-9  # degrees
+        else:
+            assert same_geometries(a, b)
+
+
+@pytest.fixture(scope="module")
+def km_points(qgis):
+    """Points in kilometres without a CRS, as a GeoPackage and a Shapefile.
+
+    A GeoPackage without a CRS opens in QGIS with a valid "Undefined SRS"
+    (no units); a Shapefile without .prj with an invalid CRS.
+    """
+    airports = datasets.load("us_airports")
+    sub = airports[airports["state"].isin(["NV", "UT"])].to_crs("EPSG:32612")
+    km = sub.geometry.scale(1e-3, 1e-3, origin=(0, 0))
+    frame = gpd.GeoDataFrame(
+        {"state": sub["state"].to_numpy()}, geometry=km.to_numpy(), crs=None
+    )
+    assert frame.crs is None
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)  # "'crs' was not provided"
+        frame.to_file(qgis.tmp / "km.gpkg", layer="km")
+        frame.to_file(qgis.tmp / "km.shp")
+    return frame
+
+
+@pytest.mark.parametrize("name", ["km.gpkg", "km.shp"])
+def test_qgis_process_refuses_a_layer_without_crs(qgis, installed, km_points, name):
+    out = qgis.tmp / "km_refused.gpkg"
+    done = run_process(
+        qgis,
+        "run",
+        ALG,
+        "--",
+        f"INPUT={name}",
+        "FIELD=state",
+        f"OUTPUT={out.name}",
+        check=False,
+    )
+    text = done.stdout + done.stderr
+    assert done.returncode != 0
+    assert "The input layer has no CRS" in text
+    assert "geoalpha does not guess" in text
+    assert "CRS=none in qgis_process" in text
+    assert not out.exists()
+
+
+def test_qgis_process_crs_none_writes_area_and_unit(qgis, installed, km_points):
+    out = qgis.tmp / "km_planar.gpkg"
+    run_process(
+        qgis,
+        "run",
+        ALG,
+        "--",
+        "INPUT=km.gpkg",
+        "FIELD=state",
+        "CRS=none",
+        f"OUTPUT={out.name}",
+    )
+    got = gpd.read_file(out)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", geoalpha.GeoAlphaWarning)
+        want = geoalpha.hull(km_points, by="state", crs=None)
+    planar = [
+        c for name in RESULT for c in ((name,), ("area", "unit"))[name == "area_m2"]
+    ]
+    assert list(got.columns) == ["state", *planar, "geometry"]
+    assert set(got["unit"]) == {"coordinate unit"}
+    np.testing.assert_allclose(got["area"], want["area_m2"], rtol=1e-9)  # km2
+    assert got["area"].max() < 1e6  # square km, not a value in square metres
+    assert_same_values(got, with_area_unit(want, "coordinate unit"))
+    for a, b in zip(got.geometry, want.geometry, strict=True):
+        assert same_geometries(a, b)
+
+
+def test_qgis_process_csv_path_says_it_has_no_geometry(qgis, installed, points):
+    frame = gpd.read_file(points)
+    frame = frame[frame["state"].notna() & frame.geometry.notna()]
+    csv = qgis.tmp / "airports.csv"
+    frame.assign(longitude=frame.geometry.x, latitude=frame.geometry.y)[
+        ["state", "longitude", "latitude"]
+    ].to_csv(csv, index=False)
+    done = run_process(
+        qgis,
+        "run",
+        ALG,
+        "--",
+        f"INPUT={csv.name}",
+        "FIELD=state",
+        "OUTPUT=csv.gpkg",
+        check=False,
+    )
+    text = done.stdout + done.stderr
+    assert done.returncode != 0
+    assert f"The input layer ({csv}) has no geometry" in text
+    assert "no CRS" not in text
+    uri = (
+        f"delimitedtext://file://{csv}?type=csv&xField=longitude&yField=latitude"
+        "&crs=EPSG:4326"
+    )
+    assert uri in text
+    # The form the message shows reads the file's points.
+    run_process(
+        qgis, "run", ALG, "--", f"INPUT={uri}", "FIELD=state", "OUTPUT=csv.gpkg"
+    )
+    got = gpd.read_file(qgis.tmp / "csv.gpkg")
+    want = expected(points, "state")
+    assert got["state"].tolist() == want["state"].tolist()
+    for a, b in zip(got.geometry, want.geometry, strict=True):
+        assert same_geometries(a, b)
+
+
+def test_docs_qgis_process_command_runs_from_an_activated_venv(
+    qgis, installed, points, tmp_path
+):
+    # The README leaves the user in a virtual environment (geoalpha's); there
+    # qgis_process crashed (exit 139, "Couldn't load SIP module"). The first
+    # qgis_process command of the plugin page must work from such a shell.
+    page = DOCS.read_text(encoding="utf-8")
+    command = next(
+        line.split("#")[0].strip()
+        for block in re.findall(r"^ *```bash\n(.*?)\n *```", page, re.S | re.M)
+        for line in block.splitlines()
+        if re.search(r"\bqgis_process(\.bin)? run ", line)
+    )
+    venv = tmp_path / "venv"
+    subprocess.run(
+        [sys.executable, "-m", "venv", "--without-pip", str(venv)],
+        check=True,
+        timeout=TIMEOUT,
+    )
+    env = dict(
+        qgis.env,
+        VIRTUAL_ENV=str(venv),  # as `source venv/bin/activate` leaves it
+        PATH=os.pathsep.join([str(venv / "bin"), os.environ["PATH"]]),
+    )
+    shutil.copy(points, tmp_path / "points.gpkg")
+    # This machine's qgis_process (the page names Debian's qgis_process.bin).
+    command = re.sub(
+        r"\bqgis_process(\.bin)?(?= run )", shlex.quote(qgis.process), command
+    )
+    done = subprocess.run(
+        ["bash", "-c", command],
+        env=env,
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=TIMEOUT,
+    )
+    assert done.returncode == 0, f"{command}\n{done.stdout}{done.stderr}"
+    got = gpd.read_file(tmp_path / "hulls.gpkg")
+    assert got["state"].tolist() == expected(points, "state")["state"].tolist()
+
+
+def test_docs_list_every_parameter():
+    page = DOCS.read_text(encoding="utf-8")
+    table = page[page.index("| `INPUT`") :]
+    table = table[: table.index("\n\n")]
+    spec = json.loads(build_qgis_plugin.OPTIONS_FILE.read_text(encoding="utf-8"))
+    for name in spec["options"]:
+        assert f"| `{name.upper()}` | `{name}` |" in table, name
+    for name in spec["left_out"]:
+        assert f"`{name}`" in page[page.index("Not offered") :], name
+    for column in RESULT:
+        assert f"`{column}`" in page, column

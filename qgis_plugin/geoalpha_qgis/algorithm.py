@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import json
 import math
+import numbers
 import time
 import warnings
+from pathlib import Path
 
 from qgis.core import (
     Qgis,
@@ -18,58 +21,92 @@ from qgis.core import (
     QgsProcessingAlgorithm,
     QgsProcessingException,
     QgsProcessingParameterBoolean,
+    QgsProcessingParameterDefinition,
     QgsProcessingParameterEnum,
     QgsProcessingParameterFeatureSink,
     QgsProcessingParameterFeatureSource,
     QgsProcessingParameterField,
     QgsProcessingParameterNumber,
+    QgsProcessingParameterString,
+    QgsUnitTypes,
     QgsWkbTypes,
 )
-from qgis.PyQt.QtCore import QVariant
+from qgis.PyQt.QtCore import QUrl, QVariant
 
 from . import dependencies
 
-#: METHOD choices, as ``hull(method=)`` and ``geoalpha hull --method`` take them.
-METHODS = ("alpha", "convex", "concave", "knn")
-#: DEGENERATE choices, as ``hull(degenerate=)`` takes them.
-DEGENERATE = ("buffer", "empty", "drop")
-#: Output fields after the group fields, as the ``geoalpha hull`` table.
-RESULT_FIELDS = (
-    ("alpha", QVariant.Double),
-    ("radius", QVariant.Double),
-    ("n_points", QVariant.Int),
-    ("n_parts", QVariant.Int),
-    ("area_m2", QVariant.Double),
-    ("crs_used", QVariant.String),
-    ("method", QVariant.String),
+#: The options of ``geoalpha.hull()`` the plugin offers (kind, default,
+#: choices, bounds, help) and those it leaves out, with why: written by
+#: ``scripts/build_qgis_plugin.py`` from ``geoalpha.options.Options``.
+SPEC = json.loads(
+    (Path(__file__).resolve().parent / "hull_options.json").read_text("utf-8")
 )
+#: Each option is the parameter of its name in capitals (METHOD=convex in
+#: qgis_process, as ``hull(method="convex")``). Its label in the dialog, where
+#: the option name alone would not do.
+LABELS = {
+    "alpha": "Fixed alpha (1/metre) instead of the optimum",
+    "holes": "Keep holes",
+    "components": "Largest number of parts per group",
+    "crs": "CRS of the computation (auto, a projected CRS, or none)",
+    "search": "Search of the optimal alpha",
+    "max_iterations": "Bisection steps (SEARCH=bisect)",
+    "ratio": "Concave hull ratio (METHOD=concave)",
+    "method": "Method",
+    "k": "Starting neighbours (METHOD=knn)",
+    "degenerate": "Groups without an alpha shape (1-2 points, or on a line)",
+    "buffer": "Buffer width of groups without an alpha shape (metres)",
+    "vertices": "Use the vertices of lines and polygons",
+    "dropna": "Leave out features with an empty group value",
+    "sort": "Sort the groups by value",
+    "outliers": "Outliers per group: a fraction (0.02) or a count (3)",
+    "grow": "Grow every hull by (metres)",
+}
+#: Options shown under the dialog's "Advanced Parameters".
+ADVANCED = ("alpha", "crs", "search", "max_iterations", "ratio", "k", "buffer")
+#: Output field type of each dtype of the result table (geoalpha.schema).
+_FIELD_TYPES = {"f": QVariant.Double, "i": QVariant.Int, "u": QVariant.Int}
 _CHUNK = 1000  # features between progress reports and cancellation checks
 _PLAIN = (str, int, float, bool)  # attribute types that need no conversion
 
-HELP = " ".join(
-    [
-        "<p>One polygon per group of points: the optimal alpha shape, the tightest",
-        "single polygon that contains every point of the group, with alpha chosen",
-        "exactly for each group by the geoalpha library.</p>",
-        "<p><b>Input layer</b>: points (multipoints count as their points); lines",
-        "and polygons with <i>Use the vertices of lines and polygons</i>. Lon/lat",
-        "layers are projected to a metric CRS for the computation; the hulls come",
-        "back in the layer's CRS and their vertices are input points.</p>",
-        "<p><b>Group by</b>: one hull per distinct value (several fields: per",
-        "combination); none: one hull of all points. Features with an empty group",
-        "value or no geometry are left out (the log gives the count).</p>",
-        "<p><b>Method</b>: <i>alpha</i> the optimal alpha shape; <i>convex</i> the",
-        "convex hull; <i>concave</i> GEOS concave hull (ratio 0.3); <i>knn</i>",
-        "k-nearest-neighbour hull (from k=3).</p>",
-        "<p><b>Groups without an alpha shape</b> (1-2 distinct points, or all on a",
-        "line): <i>buffer</i> a 1 m buffer around the points, <i>empty</i> a null",
-        "geometry, <i>drop</i> no feature. The log names these groups.</p>",
-        "<p><b>Output fields</b>: the group fields, <i>alpha</i> (1/metre; empty",
-        "for groups without an alpha shape and for concave/knn), <i>radius</i>",
-        "(1/alpha, metres), <i>n_points</i>, <i>n_parts</i>, <i>area_m2</i>,",
-        "<i>crs_used</i> (the metric CRS of the computation), <i>method</i>.</p>",
-    ]
-)
+
+def _help() -> str:
+    """Return the dialog's help: what the algorithm does, then each parameter's."""
+    options = "".join(
+        f"<p><b>{LABELS.get(name, name)}</b> ({name.upper()}): {spec['help']}</p>"
+        for name, spec in SPEC["options"].items()
+    )
+    left_out = "; ".join(
+        f"<i>{name}</i>: {why}" for name, why in SPEC["left_out"].items()
+    )
+    return " ".join(
+        [
+            "<p>One polygon per group of points: the optimal alpha shape, the",
+            "tightest single polygon that contains every point of the group, with",
+            "alpha chosen exactly for each group by the geoalpha library",
+            "(<code>geoalpha.hull()</code>; each parameter below is its option of",
+            "the same name).</p>",
+            "<p><b>Input layer</b> (INPUT): points (multipoints count as their",
+            "points). Lon/lat layers are projected to a metric CRS for the",
+            "computation; the hulls come back in the layer's CRS. A layer without",
+            "a CRS is refused unless CRS=none. A CSV file needs its coordinate",
+            "columns: delimitedtext://file:///path/points.csv?type=csv&amp;",
+            "xField=longitude&amp;yField=latitude&amp;crs=EPSG:4326.</p>",
+            "<p><b>Group by</b> (FIELD): one hull per distinct value (several",
+            "fields: per combination); none: one hull of all points. Features with",
+            "no geometry are left out (the log gives the count).</p>",
+            options,
+            "<p><b>Output fields</b>: the group fields, then the columns of",
+            "<code>geoalpha.hull()</code>'s result:",
+            ", ".join(SPEC["result_columns"]) + "; alpha is in 1/metre, radius",
+            "in metres. A planar computation not in metres (CRS=none) writes",
+            "area and unit instead of area_m2.</p>",
+            f"<p>Not offered here: {left_out}.</p>",
+        ]
+    )
+
+
+HELP = _help()
 
 
 def _python_value(value):
@@ -88,16 +125,102 @@ def _number(value):
     return None if math.isnan(value) else value
 
 
+def _attribute(value):
+    """Return a result value as a QGIS attribute (NaN: NULL)."""
+    if value is None or isinstance(value, str):
+        return value
+    if isinstance(value, numbers.Integral):
+        return int(value)
+    return _number(value)
+
+
+def _no_crs(crs) -> str:
+    """Say that the layer has no CRS, as ``geoalpha hull`` says it, in QGIS's terms."""
+    what = f" ({crs.description()})" if crs.isValid() and crs.description() else ""
+    return (
+        f"The input layer has no CRS{what}, and geoalpha does not guess: a hull "
+        "in metres needs to know what the coordinates are. Set it in the layer's "
+        "Properties > Source (or with Processing's 'Assign projection'), e.g. "
+        "EPSG:4326 for longitude/latitude degrees or EPSG:27700 for British "
+        "National Grid metres; or set CRS to none (CRS=none in qgis_process) to "
+        "use the coordinates as planar numbers: alpha, radius and area are then "
+        "in their unit, and the output has the fields area and unit instead of "
+        "area_m2."
+    )
+
+
+def _no_geometry(layer, source, names) -> str:
+    """Say that the layer is a table, and how to read a CSV's coordinates.
+
+    The layer's file is named only when it is a file (a database source may
+    hold a password); ``names`` are the (x, y) column names geoalpha knows.
+    """
+    path = layer.source().split("|")[0] if layer is not None else ""
+    what = "The input layer"
+    if path and Path(path).is_file():
+        path = str(Path(path).resolve())
+        what += f" ({path})"
+        url = QUrl.fromLocalFile(path).toString()  # file:///..., spaces as %20
+    else:
+        url = "file:///path/to/points.csv"
+    fields = {f.name().lower(): f.name() for f in source.fields()}
+    x, y = next(
+        ((fields[x], fields[y]) for x, y in names if x in fields and y in fields),
+        ("X_COLUMN", "Y_COLUMN"),
+    )
+    return (
+        f"{what} has no geometry: it is read as a table of "
+        f"{source.fields().count()} fields. For the points of a CSV file, give "
+        "its coordinate columns and their CRS, with INPUT (qgis_process, "
+        "processing.run) as\n"
+        f"  delimitedtext://{url}?type=csv&xField={x}&yField={y}&crs=EPSG:4326\n"
+        "(crs=EPSG:4326 for longitude/latitude degrees; the EPSG code of "
+        "projected coordinates), or in QGIS with Layer > Add Layer > Add "
+        "Delimited Text Layer."
+    )
+
+
+def _unset(value) -> bool:
+    """Tell whether an optional parameter was left empty."""
+    return (
+        value is None or value == "" or (isinstance(value, QVariant) and value.isNull())
+    )
+
+
+def _parameter(name: str, spec: dict):
+    """Return the Processing parameter of the option ``name`` of ``hull()``."""
+    key, kind, label = name.upper(), spec["kind"], LABELS.get(name, name)
+    default = spec["default"]
+    if kind == "bool":
+        return QgsProcessingParameterBoolean(key, label, default)
+    if kind == "choice":
+        param = QgsProcessingParameterEnum(key, label)
+        param.setOptions(spec["choices"])
+        param.setUsesStaticStrings(True)  # METHOD=convex, as hull() takes it
+        param.setDefaultValue(default)
+        return param
+    if kind == "crs":
+        return QgsProcessingParameterString(key, label, default)
+    number = (
+        QgsProcessingParameterNumber.Integer
+        if kind == "int"
+        else QgsProcessingParameterNumber.Double
+    )
+    param = QgsProcessingParameterNumber(
+        key, label, number, default, optional=spec["optional"]
+    )
+    if spec["low"] is not None:  # an open bound (BUFFER > 0): hull() says it
+        param.setMinimum(spec["low"])
+    if spec["high"] is not None:
+        param.setMaximum(spec["high"])
+    return param
+
+
 class OptimalAlphaHulls(QgsProcessingAlgorithm):
     """Optimal alpha hulls by group (``geoalpha.hull``) as a Processing algorithm."""
 
     INPUT = "INPUT"
-    VERTICES = "VERTICES"
     FIELD = "FIELD"
-    HOLES = "HOLES"
-    COMPONENTS = "COMPONENTS"
-    METHOD = "METHOD"
-    DEGENERATE = "DEGENERATE"
     OUTPUT = "OUTPUT"
 
     def createInstance(self):
@@ -137,15 +260,10 @@ class OptimalAlphaHulls(QgsProcessingAlgorithm):
         return True, ""
 
     def initAlgorithm(self, config=None):
-        """Declare the parameters (their names are the qgis_process keys)."""
+        """Declare the parameters: INPUT, FIELD, one per option of hull(), OUTPUT."""
         self.addParameter(
             QgsProcessingParameterFeatureSource(
                 self.INPUT, "Input layer", [QgsProcessing.TypeVectorAnyGeometry]
-            )
-        )
-        self.addParameter(
-            QgsProcessingParameterBoolean(
-                self.VERTICES, "Use the vertices of lines and polygons", False
             )
         )
         self.addParameter(
@@ -158,61 +276,47 @@ class OptimalAlphaHulls(QgsProcessingAlgorithm):
                 optional=True,
             )
         )
-        self.addParameter(
-            QgsProcessingParameterBoolean(self.HOLES, "Keep holes", False)
-        )
-        self.addParameter(
-            QgsProcessingParameterNumber(
-                self.COMPONENTS,
-                "Largest number of parts per group",
-                QgsProcessingParameterNumber.Integer,
-                1,
-                minValue=1,
-            )
-        )
-        self.addParameter(
-            self._static(
-                QgsProcessingParameterEnum(self.METHOD, "Method"),
-                METHODS,
-            )
-        )
-        # OUTLIERS goes here, once geoalpha.hull() has outliers=: a
-        # QgsProcessingParameterNumber (fraction or count of points a group may
-        # leave out) and one line in _options().
-        self.addParameter(
-            self._static(
-                QgsProcessingParameterEnum(
-                    self.DEGENERATE,
-                    "Groups without an alpha shape (1-2 points, or on a line)",
-                ),
-                DEGENERATE,
-            )
-        )
+        for name, spec in SPEC["options"].items():
+            param = _parameter(name, spec)
+            param.setHelp(spec["help"])
+            if name in ADVANCED:
+                param.setFlags(
+                    param.flags() | QgsProcessingParameterDefinition.FlagAdvanced
+                )
+            self.addParameter(param)
         self.addParameter(
             QgsProcessingParameterFeatureSink(
                 self.OUTPUT, "Alpha hulls", QgsProcessing.TypeVectorPolygon
             )
         )
 
-    @staticmethod
-    def _static(param, choices):
-        """Make the enum take its values by name (METHOD=convex), as hull() does."""
-        param.setOptions(list(choices))
-        param.setUsesStaticStrings(True)
-        param.setDefaultValue(choices[0])
-        return param
-
     def _options(self, parameters, context) -> dict:
-        """Keyword arguments of ``geoalpha.hull`` from the parameter values."""
-        return {
-            "vertices": self.parameterAsBoolean(parameters, self.VERTICES, context),
-            "holes": self.parameterAsBoolean(parameters, self.HOLES, context),
-            "components": self.parameterAsInt(parameters, self.COMPONENTS, context),
-            "method": self.parameterAsEnumString(parameters, self.METHOD, context),
-            "degenerate": self.parameterAsEnumString(
-                parameters, self.DEGENERATE, context
-            ),
-        }
+        """Keyword arguments of ``geoalpha.hull`` from the parameter values.
+
+        Each value goes to ``hull()`` as given, which checks it; only the
+        spelling is QGIS's: an empty ALPHA is None, CRS=none is None, and an
+        OUTLIERS of a whole number is a count, else a fraction.
+        """
+        options = {}
+        for name, spec in SPEC["options"].items():
+            key, kind = name.upper(), spec["kind"]
+            if kind == "bool":
+                value = self.parameterAsBoolean(parameters, key, context)
+            elif kind == "choice":
+                value = self.parameterAsEnumString(parameters, key, context)
+            elif kind == "crs":
+                value = self.parameterAsString(parameters, key, context).strip()
+                value = None if value.lower() == "none" else value or spec["default"]
+            elif spec["optional"] and _unset(parameters.get(key)):
+                value = None
+            elif kind == "int":
+                value = self.parameterAsInt(parameters, key, context)
+            else:
+                value = self.parameterAsDouble(parameters, key, context)
+                if kind == "number" and value.is_integer():
+                    value = int(value)
+            options[name] = value
+        return options
 
     def processAlgorithm(self, parameters, context, feedback):
         """Read the layer, run ``geoalpha.hull`` and write one feature per group."""
@@ -224,6 +328,8 @@ class OptimalAlphaHulls(QgsProcessingAlgorithm):
         import numpy as np
         import shapely
 
+        from geoalpha.schema import planar_unit, with_area_unit
+
         source = self.parameterAsSource(parameters, self.INPUT, context)
         if source is None:
             raise QgsProcessingException(
@@ -231,11 +337,19 @@ class OptimalAlphaHulls(QgsProcessingAlgorithm):
             )
         names = self.parameterAsFields(parameters, self.FIELD, context)
         options = self._options(parameters, context)
+        if QgsWkbTypes.geometryType(source.wkbType()) == QgsWkbTypes.NullGeometry:
+            from geoalpha.io import COORDINATE_NAMES
+
+            layer = self.parameterAsVectorLayer(parameters, self.INPUT, context)
+            raise QgsProcessingException(_no_geometry(layer, source, COORDINATE_NAMES))
         crs = source.sourceCrs()
-        if not crs.isValid():
-            raise QgsProcessingException(
-                "The input layer has no CRS; set one in its Layer Properties > Source"
-            )
+        # GeoPackages without a CRS come as a valid "Undefined SRS" without
+        # units: no CRS either (the coordinates may be in km, feet, ...).
+        planar_input = (
+            not crs.isValid() or crs.mapUnits() == QgsUnitTypes.DistanceUnknownUnit
+        )
+        if planar_input and options["crs"] is not None:
+            raise QgsProcessingException(_no_crs(crs))
 
         # 1. Read geometries (as WKB) and group values: 0-40 %.
         started = time.perf_counter()
@@ -274,7 +388,11 @@ class OptimalAlphaHulls(QgsProcessingAlgorithm):
         frame = gpd.GeoDataFrame(
             dict(zip(names, columns, strict=True)),
             geometry=shapely.from_wkb(np.array(wkb, dtype=object)),
-            crs=crs.authid() if crs.authid().startswith("EPSG:") else crs.toWkt(),
+            crs=None
+            if planar_input
+            else crs.authid()
+            if crs.authid().startswith("EPSG:")
+            else crs.toWkt(),
         )
         if feedback.isCanceled():
             return {}
@@ -313,10 +431,13 @@ class OptimalAlphaHulls(QgsProcessingAlgorithm):
         computed = time.perf_counter()
 
         # 3. One feature per group: 90-100 %.
+        table = with_area_unit(result, planar_unit(frame.crs, options["crs"]))
+        columns = [c for c in table.columns if c not in (*names, table.geometry.name)]
         fields = QgsFields()
         for name in names:
             fields.append(QgsField(in_fields.field(name)))
-        for name, kind in RESULT_FIELDS:
+        for name in columns:
+            kind = _FIELD_TYPES.get(table.dtypes[name].kind, QVariant.String)
             fields.append(QgsField(name, kind))
         sink, dest_id = self.parameterAsSink(
             parameters, self.OUTPUT, context, fields, QgsWkbTypes.MultiPolygon, crs
@@ -326,12 +447,12 @@ class OptimalAlphaHulls(QgsProcessingAlgorithm):
         shapes = shapely.to_wkb(
             np.asarray(result.geometry.values, dtype=object), output_dimension=2
         )
-        for i, row in enumerate(result.itertuples(index=False)):
+        for i, row in enumerate(table.itertuples(index=False)):
             if i % _CHUNK == 0:
                 if feedback.isCanceled():
                     return {}
-                feedback.setProgress(90.0 + 10.0 * i / max(len(result), 1))
-            values = dict(zip(result.columns, row, strict=True))
+                feedback.setProgress(90.0 + 10.0 * i / max(len(table), 1))
+            values = dict(zip(table.columns, row, strict=True))
             keys = [
                 seen.get(_python_value(values[name]), values[name])
                 for seen, name in zip(originals, names, strict=True)
@@ -343,16 +464,7 @@ class OptimalAlphaHulls(QgsProcessingAlgorithm):
                 geometry.convertToMultiType()
                 feature.setGeometry(geometry)
             feature.setAttributes(
-                [
-                    *keys,
-                    _number(values["alpha"]),
-                    _number(values["radius"]),
-                    int(values["n_points"]),
-                    int(values["n_parts"]),
-                    _number(values["area_m2"]),
-                    str(values["crs_used"]),
-                    str(values["method"]),
-                ]
+                [*keys, *(_attribute(values[name]) for name in columns)]
             )
             if not sink.addFeature(feature, QgsFeatureSink.FastInsert):
                 raise QgsProcessingException(
