@@ -34,9 +34,8 @@ OPTIONS_FILE = PLUGIN / "hull_options.json"
 #: capitals; tests/test_qgis_plugin.py checks that the two cover Options.
 LEFT_OUT = {
     "progress": "QGIS shows the progress of the algorithm itself",
-    "n_jobs": "no worker processes are started from inside QGIS (on Windows its "
-    "Python's sys.executable is the QGIS program, which multiprocessing would "
-    "start again)",
+    "n_jobs": "the compiled kernel already spreads the groups over every core, "
+    "in threads of the QGIS process",
 }
 #: Command-line words in the help texts of Options that are not an option.
 _WORDS = {"--by": "FIELD"}
