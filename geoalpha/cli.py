@@ -193,9 +193,27 @@ _quiet_option = click.option(
 )
 
 
+def _print_version(ctx: click.Context, _param, value: bool) -> None:
+    """``--version``: the package, its compiled kernel and spade (no numpy import)."""
+    if not value or ctx.resilient_parsing:
+        return
+    from geoalpha import _kernel
+
+    click.echo(
+        f"geoalpha {__version__} (kernel {_kernel.__version__}, "
+        f"spade {_kernel.SPADE_VERSION})"
+    )
+    ctx.exit()
+
+
 @click.group(context_settings=_CONTEXT)
-@click.version_option(
-    __version__, "--version", prog_name="geoalpha", message="%(prog)s %(version)s"
+@click.option(
+    "--version",
+    is_flag=True,
+    expose_value=False,
+    is_eager=True,
+    callback=_print_version,
+    help="Show the version of geoalpha, its kernel and spade, and exit.",
 )
 @_verbose_option
 @_quiet_option

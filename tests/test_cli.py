@@ -75,7 +75,14 @@ def fake_hull(monkeypatch):
 def test_version():
     result = run("--version")
     assert result.exit_code == 0
-    assert result.stdout == f"geoalpha {geoalpha.__version__}\n"
+    # The package, its kernel and the spade that Cargo.lock pins.
+    lock = (REPO / "Cargo.lock").read_text()
+    spade = lock.split('name = "spade"\nversion = "')[1].split('"')[0]
+    cargo = (REPO / "Cargo.toml").read_text()
+    kernel = cargo.split('version = "')[1].split('"')[0]
+    assert result.stdout == (
+        f"geoalpha {geoalpha.__version__} (kernel {kernel}, spade {spade})\n"
+    )
 
 
 def test_python_dash_m_geoalpha():

@@ -212,7 +212,7 @@ def test_zip_holds_the_plugin_folder(tmp_path):
     with zipfile.ZipFile(archive) as zf:
         names = zf.namelist()
         meta = zf.read("geoalpha_qgis/metadata.txt").decode()
-    assert archive.name == "geoalpha_qgis-0.1.0.zip"
+    assert archive.name == "geoalpha_qgis-0.2.0.zip"
     assert {n.split("/")[0] for n in names} == {"geoalpha_qgis"}
     assert "geoalpha_qgis/install_geoalpha.py" in names
     assert "geoalpha_qgis/LICENSE" in names
