@@ -2,7 +2,7 @@
 
 For each dataset: the median over groups of (hull area / convex hull area),
 holes filled, with every point kept and with 1 %, 2 % and 5 % of each group's
-distinct points allowed to stay out (``hull(..., outliers=q)``). Groups with
+rows allowed to stay out (``hull(..., outliers=q)``). Groups with
 fewer than 4 distinct points or no alpha shape are left out of the medians.
 
 Usage::
