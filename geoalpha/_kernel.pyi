@@ -37,6 +37,7 @@ def alpha_shapes(
     budget: npt.NDArray[np.int64] | None = None,
     curve: bool = False,
     threads: int = 0,
+    max_union_nodes: int = ...,
 ) -> dict[str, np.ndarray]:
     """Optimal (or given-alpha) alpha shapes of every group, in one call.
 
@@ -63,6 +64,10 @@ def alpha_shapes(
     threads : int
         Threads to spread the groups over (0: every core). The GIL is
         released for the whole computation.
+    max_union_nodes : int
+        Node budget of the exact best union of several pieces (outliers);
+        a group that reaches it is flagged ``capped``. Default
+        ``MAX_UNION_NODES``.
 
     Returns
     -------

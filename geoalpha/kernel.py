@@ -27,6 +27,7 @@ from geoalpha.errors import first_n
 __all__ = [
     "ALPHA_RTOL",
     "MAX_COORDINATE",
+    "MAX_UNION_NODES",
     "NEAR_RTOL",
     "PRECISION_ULPS",
     "REASONS",
@@ -62,6 +63,10 @@ REASONS: dict[int, str] = {
 
 #: The geometry of a group with no shape.
 EMPTY_POLYGON = shapely.Polygon()
+
+#: Node budget of the exact best union of several pieces (``outliers=`` with
+#: ``components > 1``); a group that reaches it gets the best union found.
+MAX_UNION_NODES: int = _kernel.MAX_UNION_NODES
 
 #: Above this many groups, a shown progress bar is updated this often.
 PROGRESS_CHUNKS = 20
@@ -345,6 +350,7 @@ def solve(
         components=int(components),
         curve=bool(curve),
         threads=threads(n_jobs),
+        max_union_nodes=MAX_UNION_NODES,
     )
     coords = sxy if sout is None else sout
     on_ring = np.zeros(n, dtype=bool)

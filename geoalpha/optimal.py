@@ -18,6 +18,7 @@ from geoalpha.budget import outlier_budget
 from geoalpha.errors import (
     DegenerateGroupWarning,
     InvalidInputError,
+    OutlierWarning,
     SearchWarning,
     first_n,
     user_stacklevel,
@@ -66,6 +67,12 @@ class AlphaShapes(NamedTuple):
         ``search="bisect"`` stopped at ``max_iterations`` and returned alpha
         0, the convex hull (:func:`alpha_shapes` names these groups in a
         :class:`SearchWarning`); False for the other searches.
+    capped : ndarray of bool
+        ``outliers=`` with several ``components``: the exact search for the
+        pieces holding the most rows stopped at its node budget
+        (:data:`geoalpha.kernel.MAX_UNION_NODES`) and kept the best union
+        found (:func:`alpha_shapes` names these groups in an
+        :class:`OutlierWarning`).
     reason : ndarray of int
         Why a group is degenerate: 0 (it is not), or a key of
         :data:`geoalpha.kernel.REASONS` (1: fewer than 3 distinct points, 2:
@@ -83,6 +90,7 @@ class AlphaShapes(NamedTuple):
     n_outliers: np.ndarray | None = None
     outlier: np.ndarray | None = None
     gave_up: np.ndarray | None = None
+    capped: np.ndarray | None = None
     reason: np.ndarray | None = None
 
 
@@ -249,6 +257,17 @@ def alpha_shapes(
         which = np.flatnonzero(res.gave_up)
         names = f"codes {first_n(which)}" if name_groups is None else name_groups(which)
         _warn_gave_up(res.gave_up, checked["max_iterations"], names)
+    if res.capped.any():
+        which = np.flatnonzero(res.capped)
+        names = f"codes {first_n(which)}" if name_groups is None else name_groups(which)
+        warnings.warn(
+            f"outliers=: the search for the {checked['components']} pieces that "
+            f"hold the most rows stopped after {kernel.MAX_UNION_NODES:,} steps "
+            f"for {len(which)} group(s) ({names}); their hulls keep the best "
+            "pieces found, which may leave out more rows than the optimum",
+            OutlierWarning,
+            stacklevel=user_stacklevel(),
+        )
     return res
 
 
@@ -389,6 +408,7 @@ def _guarantee(res, xy, out_xy, rows, given, optimum, components, gave_up):
         n_outliers=n_outliers,
         outlier=outlier[back],
         gave_up=gave_up & ~degenerate,
+        capped=res.capped & ~degenerate,
         reason=np.where(failed & (res.reason == 0), 5, res.reason).astype(np.int64),
     )
 
@@ -487,8 +507,8 @@ def optimal_alpha(
     max_iterations : int, default 10000
         For ``search="bisect"``.
     outliers : float or int, default 0
-        Points that may stay out: a fraction in ``[0, 1)`` of the distinct
-        points or a count; see :func:`alpha_shapes`.
+        Rows that may stay out: a fraction in ``[0, 1)`` of the rows or a
+        count; see :func:`alpha_shapes`.
 
     Returns
     -------

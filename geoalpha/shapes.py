@@ -246,9 +246,9 @@ def cover_points(geoms, out_xy, codes) -> np.ndarray:
     its vertices can leave a point next to a long edge just outside. Such a
     point becomes a vertex of its nearest shell edge (the edge a-b becomes
     a-p-b, all input points), which changes areas by well under 1 %. The
-    same repair takes in a point that Qhull merged with a numerically
-    coincident vertex (~1e-12 of the group's extent away) and that the
-    shape around that vertex just misses.
+    same repair takes in a point that the kernel merged with a vertex as a
+    near-duplicate (closer than the tolerance of the guarantee page) and
+    that the shape around that vertex just misses.
 
     Examples
     --------

@@ -35,6 +35,8 @@ pub struct Options {
     pub components: usize,
     /// Return the validity curve (for the comparison searches).
     pub curve: bool,
+    /// Node budget of the best union of several pieces (`outliers=`).
+    pub max_union_nodes: usize,
 }
 
 /// The result of one group.
@@ -143,8 +145,15 @@ pub fn solve(
         (r, label, count)
     } else if budget > 0 {
         let need = rows.saturating_sub(budget);
-        let (r, cover) =
-            outlier_optimum(&w, &mesh.tri, &mesh.nb, &weight, options.components, need);
+        let (r, cover) = outlier_optimum(
+            &w,
+            &mesh.tri,
+            &mesh.nb,
+            &weight,
+            options.components,
+            need,
+            options.max_union_nodes,
+        );
         res.capped = cover.capped;
         // Keep the chosen pieces only, numbered 0..
         let mut renumber = vec![
@@ -254,6 +263,7 @@ mod tests {
         holes: false,
         components: 1,
         curve: false,
+        max_union_nodes: crate::spectrum::MAX_UNION_NODES,
     };
 
     #[test]

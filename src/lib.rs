@@ -74,7 +74,7 @@ fn to_dict<'py>(py: Python<'py>, o: Output) -> PyResult<Bound<'py, PyDict>> {
 #[pyfunction(name = "alpha_shapes")]
 #[pyo3(signature = (
     xy, offsets, *, out_xy=None, holes=false, components=1, alpha=None,
-    budget=None, curve=false, threads=0
+    budget=None, curve=false, threads=0, max_union_nodes=spectrum::MAX_UNION_NODES
 ))]
 #[allow(clippy::too_many_arguments)]
 fn py_alpha_shapes<'py>(
@@ -88,6 +88,7 @@ fn py_alpha_shapes<'py>(
     budget: Option<PyReadonlyArray1<'py, i64>>,
     curve: bool,
     threads: usize,
+    max_union_nodes: usize,
 ) -> PyResult<Bound<'py, PyDict>> {
     let xy_ = points("xy", &xy)?;
     let out_ = match &out_xy {
@@ -119,6 +120,7 @@ fn py_alpha_shapes<'py>(
             holes,
             components,
             curve,
+            max_union_nodes,
         },
     };
     let pool = rayon::ThreadPoolBuilder::new()

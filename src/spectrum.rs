@@ -265,7 +265,8 @@ pub struct Cover {
     pub capped: bool,
 }
 
-/// Branch-and-bound nodes the best union of several pieces may visit.
+/// Branch-and-bound nodes the best union of several pieces may visit (the
+/// default of [`crate::group::Options::max_union_nodes`]).
 pub const MAX_UNION_NODES: usize = 1_000_000;
 
 struct BestUnion<'a> {
@@ -277,6 +278,8 @@ struct BestUnion<'a> {
     best_choice: Vec<usize>,
     choice: Vec<usize>,
     nodes: usize,
+    max_nodes: usize,
+    capped: bool,
 }
 
 impl BestUnion<'_> {
@@ -307,13 +310,14 @@ impl BestUnion<'_> {
             return;
         }
         for k in from..self.sets.len() {
-            self.nodes += 1;
-            if self.nodes > MAX_UNION_NODES {
-                return;
-            }
             // The most the rest can add: the next `left` weights.
             let bound: u64 = self.set_weight[k..].iter().take(left).sum();
             if current + bound <= self.best {
+                return;
+            }
+            self.nodes += 1;
+            if self.nodes > self.max_nodes {
+                self.capped = true;
                 return;
             }
             let gained = self.add(k);
@@ -330,7 +334,7 @@ impl BestUnion<'_> {
 /// `weight[v]` is the number of rows at point `v` (0 for a point that is not
 /// a vertex). Pieces share points only where they touch at a vertex, so the
 /// union is counted exactly, by branch and bound over the pieces in
-/// decreasing weight.
+/// decreasing weight, visiting at most `max_nodes` nodes.
 pub fn best_cover(
     w: &[f64],
     r: f64,
@@ -338,6 +342,7 @@ pub fn best_cover(
     nb: &[[u32; 3]],
     weight: &[u64],
     components: usize,
+    max_nodes: usize,
 ) -> Cover {
     let inside: Vec<bool> = w.iter().map(|&x| x <= r).collect();
     let (label, n) = pieces(&inside, nb);
@@ -370,6 +375,8 @@ pub fn best_cover(
         best_choice: Vec::new(),
         choice: Vec::new(),
         nodes: 0,
+        max_nodes,
+        capped: false,
     };
     search.search(0, components, 0);
     Cover {
@@ -379,7 +386,7 @@ pub fn best_cover(
             .iter()
             .map(|&k| by_weight[k] as u32)
             .collect(),
-        capped: search.nodes > MAX_UNION_NODES,
+        capped: search.capped,
         label,
     }
 }
@@ -396,6 +403,7 @@ pub fn outlier_optimum(
     weight: &[u64],
     components: usize,
     need: u64,
+    max_nodes: usize,
 ) -> (f64, Cover) {
     let mut values: Vec<f64> = w.to_vec();
     values.sort_unstable_by(f64::total_cmp);
@@ -404,13 +412,13 @@ pub fn outlier_optimum(
     let (mut lo, mut hi) = (0usize, values.len() - 1);
     while lo < hi {
         let mid = lo + (hi - lo) / 2;
-        if best_cover(w, values[mid], tri, nb, weight, components).rows >= need {
+        if best_cover(w, values[mid], tri, nb, weight, components, max_nodes).rows >= need {
             hi = mid;
         } else {
             lo = mid + 1;
         }
     }
-    let cover = best_cover(w, values[hi], tri, nb, weight, components);
+    let cover = best_cover(w, values[hi], tri, nb, weight, components, max_nodes);
     (values[hi], cover)
 }
 
@@ -455,10 +463,26 @@ mod tests {
         let tri = [[0, 1, 2], [2, 3, 4], [5, 6, 7]];
         let nb = [[NONE; 3]; 3];
         let weight = [1, 1, 10, 1, 1, 1, 1, 5];
-        let c = best_cover(&[1.0, 1.0, 1.0], 1.0, &tri, &nb, &weight, 2);
+        let c = best_cover(
+            &[1.0, 1.0, 1.0],
+            1.0,
+            &tri,
+            &nb,
+            &weight,
+            2,
+            MAX_UNION_NODES,
+        );
         assert_eq!(c.rows, 19);
         assert!(c.chosen.contains(&2));
-        let c = best_cover(&[1.0, 1.0, 1.0], 1.0, &tri, &nb, &weight, 1);
+        let c = best_cover(
+            &[1.0, 1.0, 1.0],
+            1.0,
+            &tri,
+            &nb,
+            &weight,
+            1,
+            MAX_UNION_NODES,
+        );
         assert_eq!(c.rows, 12);
     }
 }

@@ -1,6 +1,6 @@
 """Brute-force references for the exact optimum, straight from DESIGN.md.
 
-They share nothing with geoalpha.core but scipy's Delaunay: every spectrum
+They share nothing with geoalpha's kernel but scipy's Delaunay: every spectrum
 value is tried in increasing order of radius and the shape is checked by its
 definition.
 

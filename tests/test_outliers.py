@@ -1,10 +1,11 @@
 """Outlier-tolerant optimum (issue #14) against the brute-force reference.
 
 ``alpha_shapes(..., outliers=q)`` must give, for every group, the largest
-alpha at which at most ``components`` pieces cover at least ``n - k`` distinct
-points, as ``reference.coverage_curve`` finds by trying every spectrum value
-and counting pieces and covered points directly; the points it reports as
-left out must be exactly those the kept pieces miss.
+alpha at which at most ``components`` pieces cover at least ``rows - k`` rows
+(issue #24: a location weighs as many rows as it holds), as
+``reference.coverage_curve`` finds by trying every spectrum value and counting
+pieces and covered rows directly; the rows it reports as left out must be
+exactly those the kept pieces miss.
 """
 
 from __future__ import annotations
@@ -187,7 +188,7 @@ def test_matches_reference(kind, holes, data):
 def test_pieces_that_share_a_point(holes):
     # Two fans touching at the origin (a bow-tie) and a far triangle. With
     # two pieces allowed, the two fans (4 points each) cover 7 distinct
-    # points together, not 8: the best union is found by the exact search
+    # points (rows) together, not 8: the best union is found by the exact search
     # (here a tie with one fan and the far triangle, 4 + 3).
     fan = np.array([[0, 0], [-2, 1], [-2, -1], [-3, 0], [2, 1], [2, -1], [3, 0]])
     far = np.array([[40, 0], [41, 0], [40.5, 1]])
@@ -347,6 +348,20 @@ def test_zero_is_todays_result():
             assert (getattr(res, field) == getattr(plain, field)).all()
         assert shapely.equals_exact(res.geometry[0], plain.geometry[0], 0)
         assert res.n_outliers.tolist() == [0] and not res.outlier.any()
+
+
+def test_a_capped_union_search_is_warned(monkeypatch):
+    # Two pieces allowed and a node budget of 1: the exact union search stops
+    # at once and the group is named, never silently approximate.
+    from geoalpha import kernel
+
+    monkeypatch.setattr(kernel, "MAX_UNION_NODES", 1)
+    fan = np.array([[0, 0], [-2, 1], [-2, -1], [-3, 0], [2, 1], [2, -1], [3, 0]])
+    p = np.r_[fan, [[40, 0], [41, 0], [40.5, 1]]]
+    with pytest.warns(OutlierWarning, match=r"stopped after 1 steps for 1 group"):
+        res = alpha_shapes(p, components=2, outliers=3)
+    assert res.capped.tolist() == [True]
+    assert not alpha_shapes(p, components=1, outliers=3).capped.any()
 
 
 def test_threads_give_the_same_rows():
