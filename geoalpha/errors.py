@@ -47,7 +47,7 @@ class DegenerateGroupWarning(GeoAlphaWarning):
 
 
 class DroppedRowsWarning(GeoAlphaWarning):
-    """Input rows were left out of the result (missing or empty geometry, no group)."""
+    """Input rows were left out of the result (missing, empty, NaN geometry; no key)."""
 
 
 class AntimeridianWarning(GeoAlphaWarning):
