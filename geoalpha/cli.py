@@ -225,7 +225,7 @@ def _crs_option(value: str) -> str | None:
 
 def _group_columns(values: tuple[str, ...], columns, source: str) -> list[str]:
     """Resolve ``--by`` values (repeatable, comma-separated) to columns."""
-    from geoalpha.io import did_you_mean
+    from geoalpha.errors import did_you_mean
 
     by: list[str] = []
     for value in values:
@@ -311,8 +311,46 @@ def _planar_unit(points, work_crs) -> str | None:
     return None if unit == "metre" else unit
 
 
-def _summary(points, hulls, source: str, work_crs, unit: str | None) -> list[str]:
-    """Return a few lines that say what was read, computed and found."""
+def _left_out(points, hulls, by: list[str], options: dict) -> str:
+    """``"; 12 of 3,376 rows left out: 12 without a --by value ..."``, or ``""``.
+
+    The rows that are in no hull's ``n_points``, by reason: no point (a
+    missing, empty or NaN geometry), no ``--by`` value, or a group that
+    ``--degenerate drop`` dropped.
+    """
+    import numpy as np
+
+    from geoalpha.pipeline import scan_rows
+
+    left = len(points) - int(hulls["n_points"].sum())
+    if left <= 0:
+        return ""
+    codes = np.zeros(len(points), dtype=np.int64)
+    if by and options.get("dropna", True):
+        codes[points[by].isna().any(axis=1).to_numpy()] = -1
+    counts = scan_rows(points, codes, bool(options.get("vertices")))[0].counts
+    reasons = []
+    if counts["missing"]:
+        reasons.append(
+            f"{counts['missing']:,} without a point (a missing, empty or NaN geometry)"
+        )
+    if counts["no_key"]:
+        reasons.append(
+            f"{counts['no_key']:,} without a --by value (--no-dropna keeps them)"
+        )
+    dropped = left - counts["missing"] - counts["no_key"]
+    if dropped > 0:
+        reasons.append(f"{dropped:,} in groups without alpha shape (--degenerate drop)")
+    return f"; {left:,} of {len(points):,} rows left out: " + ", ".join(reasons)
+
+
+def _summary(
+    points, hulls, source: str, work_crs, unit: str | None, left_out: str = ""
+) -> list[str]:
+    """Return a few lines that say what was read, computed and found.
+
+    ``left_out``: :func:`_left_out`, ending the line of what was computed.
+    """
     import numpy as np
     import shapely
 
@@ -322,7 +360,10 @@ def _summary(points, hulls, source: str, work_crs, unit: str | None) -> list[str
     columns = points.attrs.get("geoalpha_coordinates")
     where = f"columns {columns[0]}/{columns[1]}" if columns else "geometries"
     in_crs = crs_name(points.crs) if points.crs is not None else "no CRS"
-    lines.append(f"Read {len(points):,} points of {source} ({where}, {in_crs})")
+    n = len(points)
+    lines.append(
+        f"Read {n:,} point{'s' if n != 1 else ''} of {source} ({where}, {in_crs})"
+    )
     used = hulls["crs_used"].astype(str).unique().tolist()
     shown = used[0] if len(used) == 1 else f"{len(used)} CRSs (one chosen per group)"
     if len(used) == 2:
@@ -336,12 +377,10 @@ def _summary(points, hulls, source: str, work_crs, unit: str | None) -> list[str
     groups = len(hulls)
     method = hulls["method"].astype(str)
     no_shape = int((hulls["alpha"].isna() & method.eq("alpha")).sum())
-    rows = int(hulls["n_points"].sum())
-    left_out = len(points) - rows
     lines.append(
         f"Computed in {shown}: {groups:,} group{'s' if groups != 1 else ''}"
         + (f", {no_shape:,} without alpha shape" if no_shape else "")
-        + (f"; {left_out:,} rows left out" if left_out else "")
+        + left_out
     )
     shaped = ~hulls["alpha"].isna() | ~method.eq("alpha")
     geoms = np.asarray(hulls.geometry.array, dtype=object)[shaped.to_numpy()]
@@ -421,7 +460,8 @@ def _run(
         bar.close()  # full, before the summary
     if verbosity < 0:
         return
-    for line in _summary(points, hulls, source, work_crs, unit):
+    left_out = _left_out(points, hulls, by, options)
+    for line in _summary(points, hulls, source, work_crs, unit, left_out):
         click.echo(line, err=True)
     for old, new in mapping.items():
         click.echo(f"Shapefile field {old!r} written as {new!r}", err=True)
@@ -436,9 +476,10 @@ def _run(
             where += "".join(f", {name!r}" for name in extra_layers)
         where += ")"
     count = len(hulls)
+    rows = int(hulls["n_points"].sum())  # the points in the hulls' groups
     click.echo(
-        f"Wrote {count:,} hull{'s' if count != 1 else ''} of {len(points):,} "
-        f"points to {redact(where)}",
+        f"Wrote {count:,} hull{'s' if count != 1 else ''} of {rows:,} "
+        f"point{'s' if rows != 1 else ''} to {redact(where)}",
         err=True,
     )
     if preview is not None:
@@ -462,7 +503,7 @@ def _check_preview(path: str | None) -> None:
         import matplotlib  # noqa: F401
     except ImportError as err:
         raise ImportError(
-            "--preview needs matplotlib: pip install 'geoalpha[plot]'"
+            '--preview needs matplotlib: pip install "geoalpha[plot]"'
         ) from err
 
 
@@ -599,7 +640,7 @@ _preview_option = click.option(
     metavar="IMAGE",
     type=click.Path(dir_okay=False),
     help="Also draw the hulls over the points to IMAGE (.png, .svg, .pdf; "
-    "needs pip install 'geoalpha[plot]').",
+    'needs pip install "geoalpha[plot]").',
 )
 
 
@@ -704,8 +745,7 @@ def hull(
     OUTPUT's extension chooses its format: .gpkg, .shp, .geojson, .fgb or
     .parquet; a postgresql:// URL with --output-layer schema.table writes a
     PostGIS table (in one transaction; --overwrite replaces it). It holds one
-    row per group: the --by columns, alpha (1/metre), radius (metres),
-    n_points, n_outliers, area_m2, crs_used, method, and the polygon, in
+    row per group: the --by columns, RESULT_COLUMNS, and the polygon, in
     INPUT's CRS (with planar input, area and unit instead of area_m2).
     Shapefile field names are cut to 10 characters; GeoPackages are version
     1.2. A short summary of what was read and computed follows the run.
@@ -758,6 +798,19 @@ def hull(
             bar=bar,
             **{**options, "crs": work_crs},
         )
+
+
+def _result_columns() -> str:
+    """Return the result columns for --help (:data:`geoalpha.schema.RESULT_COLUMNS`)."""
+    from geoalpha.schema import RESULT_COLUMNS
+
+    units = {"alpha": "1/metre", "radius": "metres"}
+    return ", ".join(
+        f"{name} ({units[name]})" if name in units else name for name in RESULT_COLUMNS
+    )
+
+
+hull.help = hull.help.replace("RESULT_COLUMNS", _result_columns())
 
 
 @main.command(context_settings=_CONTEXT)

@@ -47,7 +47,7 @@ import shapely
 from geoalpha import crs as gcrs
 from geoalpha import options as _options
 from geoalpha.checks import check_distortion, check_grouping, computation_crs
-from geoalpha.errors import InvalidInputError
+from geoalpha.errors import InvalidInputError, did_you_mean
 from geoalpha.options import Options
 from geoalpha.pipeline import group, merge_reports, report_rows, run, scan_rows
 from geoalpha.registration import attach
@@ -59,7 +59,7 @@ try:
 except ImportError as err:  # pragma: no cover - the dask extra is installed in CI
     raise ImportError(
         "geoalpha on dask-geopandas frames needs dask-geopandas: "
-        "pip install geoalpha[dask]"
+        'pip install "geoalpha[dask]"'
     ) from err
 
 __all__ = ["DaskAlphaAccessor", "hull", "register"]
@@ -83,7 +83,8 @@ def _key_names(frame, by) -> list:
             )
         if name not in frame.columns:
             raise InvalidInputError(
-                f"hull(by={by!r}): no column {name!r}; the columns are "
+                f"hull(by={by!r}): no column {name!r}"
+                f"{did_you_mean(name, frame.columns)}; the columns are "
                 f"{', '.join(map(str, frame.columns))}"
             )
     return names

@@ -54,6 +54,7 @@ from geoalpha.errors import (
     GeoAlphaWarning,
     InvalidInputError,
     OutlierWarning,
+    did_you_mean,
     first_n,
     user_stacklevel,
 )
@@ -228,7 +229,13 @@ def _stages(frame, by, options: Options, bar: Phases, checks: bool, rows: bool):
     shapes = degenerate_policy(shapes, groups, points, proj, options)
     shapes = grow(shapes, points, proj, options)
     geometry = verify_in_output_crs(
-        shapes.geometry, groups, points, proj, options, checked=shapes.checked
+        shapes.geometry,
+        groups,
+        points,
+        proj,
+        options,
+        checked=shapes.checked,
+        degenerate=shapes.degenerate,
     )
     out = table(
         groups,
@@ -292,8 +299,9 @@ def group(frame, by, options: Options) -> Groups:
         if isinstance(name, str | int | tuple) and not isinstance(name, bool):
             if name not in frame.columns and name not in levels:
                 raise InvalidInputError(
-                    f"hull(by={by!r}): no column {name!r}; the columns are "
-                    f"{', '.join(map(str, frame.columns))}"
+                    f"hull(by={by!r}): no column {name!r}"
+                    f"{did_you_mean(name, _key_choices(frame, levels))}; the columns "
+                    f"are {', '.join(map(str, frame.columns))}"
                     + (
                         f" and the index levels {', '.join(map(str, levels))}"
                         if levels
@@ -320,6 +328,12 @@ def group(frame, by, options: Options) -> Groups:
             f"(result columns: {', '.join(RESULT_COLUMNS)}, geometry)"
         )
     return groups
+
+
+def _key_choices(frame, levels: list) -> list:
+    """Return the columns and index levels a ``by`` may name (for "did you mean")."""
+    geometry = frame._geometry_column_name
+    return [c for c in frame.columns if c != geometry] + levels
 
 
 def _factorize_column(frame, by, options: Options) -> Groups | None:
@@ -764,8 +778,10 @@ def degenerate_policy(
         if len(redone):
             done += (
                 f", except {_names(groups, redone)}: that buffer is no valid polygon "
-                "holding their points in the output CRS (around a pole), so theirs is "
-                f"a buffer of {OUTPUT_BUFFER_RTOL:g} of their extent there"
+                "holding their points in the output CRS (around a pole, or across "
+                "more than 180 degrees of longitude), so theirs is the convex hull of "
+                f"their points there, widened by {OUTPUT_BUFFER_RTOL:g} of their "
+                "extent ('area_m2' is the area of the buffer in metres)"
             )
     elif policy == "empty":
         geometry[which] = EMPTY_POLYGON
@@ -781,12 +797,21 @@ def degenerate_policy(
             f"{thin.sum()} group(s) have fewer than 3 distinct points or all points "
             f"on a line, so no alpha shape: {_names(groups, which[thin], n_points)}"
         )
-    if not thin.all():
+    wide = ~thin & proj.wide[which]
+    if wide.any():
         reasons.append(
-            f"{(~thin).sum()} group(s) got no valid polygon holding all their points "
-            "in the output CRS (their shapes fold there, near a pole or across a "
-            "continent, or its coordinates are too coarse for them): "
-            f"{_names(groups, which[~thin], n_points)}"
+            f"{wide.sum()} group(s) span more than 180 degrees of longitude, so their "
+            "hull has no valid longitude/latitude polygon holding all their points "
+            f"and they have no alpha: {_names(groups, which[wide], n_points)} "
+            "(split the group, e.g. by continent, or give the points in a projected "
+            "CRS that holds them)"
+        )
+    if (~thin & ~wide).any():
+        reasons.append(
+            f"{(~thin & ~wide).sum()} group(s) got no valid polygon holding all their "
+            "points in the output CRS (their shapes fold there, near a pole or across "
+            "a continent, or its coordinates are too coarse for them): "
+            f"{_names(groups, which[~thin & ~wide], n_points)}"
         )
     warnings.warn(
         "; ".join(reasons) + f"; {done} (degenerate={policy!r})",
@@ -861,6 +886,7 @@ def verify_in_output_crs(
     proj: gcrs.Projection,
     options: Options,
     checked: np.ndarray | None = None,
+    degenerate: np.ndarray | None = None,
 ) -> np.ndarray:
     """Make every geometry valid and covering its points in the output CRS.
 
@@ -868,7 +894,9 @@ def verify_in_output_crs(
     covers points a repair or a hull built in metres left outside (methods
     other than ``"alpha"``), then splits antimeridian groups. Geometries
     already verified in the output coordinates (``checked``) are not tested
-    again.
+    again. Groups wider than 180 degrees of longitude get a warning, unless
+    they are ``degenerate`` (the warning of :func:`degenerate_policy` names
+    them).
     """
     geometry = geometry.copy()
     invalid = np.zeros(len(geometry), dtype=bool)
@@ -887,13 +915,15 @@ def verify_in_output_crs(
             )
     if proj.crossing.any():
         geometry = _split_at_antimeridian(geometry, groups, points, proj)
-    if proj.wide.any():
+    wide = proj.wide if degenerate is None else proj.wide & ~degenerate
+    if wide.any():
         warnings.warn(
-            f"{proj.wide.sum()} group(s) span more than 180 degrees of longitude: "
-            f"{_names(groups, np.flatnonzero(proj.wide))}; no longitude/latitude "
+            f"{wide.sum()} group(s) span more than 180 degrees of longitude: "
+            f"{_names(groups, np.flatnonzero(wide))}; no longitude/latitude "
             "polygon can represent their hull faithfully (it may not contain all "
-            "their points); 'area_m2' and 'alpha' are right, for the geometry use "
-            "crs= with a projected output or split the group",
+            "their points); their 'alpha' and 'area_m2' are right (in 'crs_used'); "
+            "for the geometry, give the points in a projected CRS that holds them, "
+            "or split the group",
             GeoAlphaWarning,
             stacklevel=user_stacklevel(),
         )
