@@ -82,10 +82,44 @@ _CLI_TERMS: tuple[tuple[str, str | Callable[[re.Match], str]], ...] = (
 )
 
 
+def _needle(pattern: str) -> str:
+    r"""Return the literal text every match of ``pattern`` starts with.
+
+    ``\bhull\(\) `` -> ``hull() ``: the leading literal characters, up to
+    the first one that is not literal (a class, a group, a quantifier, which
+    also takes back the character it applies to).
+    """
+    out: list[str] = []
+    i = 2 if pattern.startswith(r"\b") else 0
+    while i < len(pattern):
+        char = pattern[i]
+        if char == "\\" and i + 1 < len(pattern) and not pattern[i + 1].isalnum():
+            out.append(pattern[i + 1])
+            i += 2
+            continue
+        if char == "\\" or char in "()[]|^$.":
+            break
+        if char in "*?{+":
+            if char != "+":  # the character before may be absent
+                out = out[:-1]
+            break
+        out.append(char)
+        i += 1
+    return "".join(out)
+
+
+# Each term with the text its matches start with: a term whose text is not
+# in the message is skipped (a substring search), so a long message (a CSV
+# header of megabytes in "its columns are ...") is not scanned position by
+# position by each of the terms.
+_CLI_NEEDLES: tuple[str, ...] = tuple(_needle(p) for p, _ in _CLI_TERMS)
+
+
 def _in_cli_terms(text: str) -> str:
     """Word a library message in terms of the command's options."""
-    for pattern, replacement in _CLI_TERMS:
-        text = re.sub(pattern, replacement, text)
+    for (pattern, replacement), needle in zip(_CLI_TERMS, _CLI_NEEDLES, strict=True):
+        if needle in text:
+            text = re.sub(pattern, replacement, text)
     return text
 
 

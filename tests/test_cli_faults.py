@@ -406,6 +406,45 @@ def test_redact_is_linear_in_a_long_token():
     assert done.returncode == 0, done.stderr[-2000:]
 
 
+def test_a_csv_header_of_megabytes_is_reported_in_seconds(tmp_path):
+    # Each message is worded in the command's terms by ~50 patterns; each of
+    # them scanned a 5 MB header ("its columns are: ...") position by
+    # position (8 s), on top of the redaction (minutes).
+    token = "Ab1" * 1_700_000
+    path = tmp_path / "wide.csv"
+    path.write_text(f"lon,lat,{token}\n0,0,a\n1,0,a\n0,1,a\n")
+    done = subprocess.run(
+        [sys.executable, "-m", "geoalpha", "hull", str(path), str(tmp_path / "h.gpkg"),
+         "--by", "state"],
+        env=env(), capture_output=True, text=True, timeout=60, check=False,
+    )  # fmt: skip
+    assert done.returncode == 1
+    assert done.stderr == (
+        f"Error: --by column 'state' not found in {path}; its columns are: lon, "
+        f"lat, {token}\n"
+    )
+
+
+@pytest.mark.parametrize(
+    "message",
+    [
+        "hull(by='g') makes 47 groups; pass vertices=True (--vertices) to use them",
+        "degenerate='buffer' (degenerate='drop') with crs='auto' and crs=None",
+        "n_jobs=2 and overwrite=True, x= and y= apply; layer=x, layer=",
+        "crs= must be a projected CRS: the input's CRS, holes=True, sort=False",
+    ],
+)
+def test_skipping_terms_not_in_the_message_changes_no_wording(message):
+    import re
+
+    from geoalpha.cli import _CLI_TERMS, _in_cli_terms
+
+    plain = message
+    for pattern, replacement in _CLI_TERMS:
+        plain = re.sub(pattern, replacement, plain)
+    assert _in_cli_terms(message) == plain != message
+
+
 def test_write_error_never_names_the_staging_folder(tmp_path, monkeypatch):
     hulls = gpd.GeoDataFrame(
         {"g": ["a"]}, geometry=[shapely.box(0, 0, 1, 1)], crs="EPSG:4326"
