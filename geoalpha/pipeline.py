@@ -251,11 +251,20 @@ def _stages(frame, by, options: Options, bar: Phases, checks: bool, rows: bool):
 
 
 def _names(groups: Groups, which: np.ndarray, counts=None) -> str:
-    """Name groups by key for messages (with their row counts when given)."""
+    """Name groups by key for messages (with their row counts when given).
+
+    A missing key (``dropna=False``) is ``nan`` whatever its dtype holds
+    (``None``, ``NaN``, ``pd.NA`` of the string dtype dask gives).
+    """
     shown = which[:11]  # first_n shows 10, and "..." when there is an 11th
     columns = groups.columns
+
+    def key(value) -> str:
+        missing = pd.api.types.is_scalar(value) and pd.isna(value)
+        return "nan" if missing else str(value)
+
     names = [
-        ", ".join(str(column[i]) for column in columns) or "all points"
+        ", ".join(key(column[i]) for column in columns) or "all points"
         for i in np.asarray(shown).tolist()
     ]
     if counts is not None:

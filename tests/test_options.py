@@ -211,17 +211,24 @@ BAD_ROWS = {
         45: shapely.box(-0.1, 51.5, -0.09, 51.51),
         7: None,
     },
+    "a missing key and a None geometry": {3: None, "key": {7: None, 45: None}},
+}
+#: Options that change what becomes of bad rows (as ``(name, value)``).
+ROW_OPTIONS = {
+    "defaults": ("sort", True),
+    "vertices": ("vertices", True),
+    "no dropna": ("dropna", False),
 }
 
 
-def _outcome(path, points, tmp_path):
+def _outcome(path, points, tmp_path, option):
     """What a user sees: ("error", message) or ("result", rows, warnings)."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
             if path is _cli_file:
-                return path(points, tmp_path)
-            hulls = path(points, "sort", True)
+                return path(points, tmp_path, option)
+            hulls = path(points, *option)
         except InvalidInputError as err:
             return ("error", str(err))
     shown = [
@@ -233,21 +240,27 @@ def _outcome(path, points, tmp_path):
 
 
 def _rows_of(hulls) -> list:
+    """The result, comparable with ``==`` (a missing key or alpha as None)."""
+
+    def value(v):
+        return None if pd.isna(v) else v
+
     return [
-        (g, n, a, shapely.to_wkb(geom))
+        (value(g), n, value(a), shapely.to_wkb(geom))
         for g, n, a, geom in zip(
             hulls["g"], hulls["n_points"], hulls["alpha"], hulls.geometry, strict=True
         )
     ]
 
 
-def _cli_file(points, tmp_path):
+def _cli_file(points, tmp_path, option):
     """``geoalpha hull`` on the points in a GeoPackage (CSV holds no lines)."""
     from cli_runner import run
 
     points.to_file(tmp_path / "bad.gpkg")
     out = tmp_path / "h.gpkg"
-    result = run("hull", tmp_path / "bad.gpkg", out, "--by", "g")
+    flags = {"vertices": ["--vertices"], "dropna": ["--no-dropna"]}.get(option[0], [])
+    result = run("hull", tmp_path / "bad.gpkg", out, "--by", "g", *flags)
     lines = result.stderr.splitlines()
     errors = [line[7:] for line in lines if line.startswith("Error: ")]
     if errors:
@@ -256,11 +269,12 @@ def _cli_file(points, tmp_path):
     return ("result", _rows_of(gpd.read_file(out)), shown)
 
 
+@pytest.mark.parametrize("option", list(ROW_OPTIONS.values()), ids=list(ROW_OPTIONS))
 @pytest.mark.parametrize("bad", list(BAD_ROWS))
 @pytest.mark.parametrize(
     "path", [*list(PATHS.values())[:-1], _cli_file], ids=[*list(PATHS)[:-1], "cli"]
 )
-def test_bad_rows_get_one_behaviour_on_every_path(points, tmp_path, path, bad):
+def test_bad_rows_get_one_behaviour_on_every_path(points, tmp_path, path, bad, option):
     """NaN, infinite, empty, None and non-point rows, as the eager call treats them.
 
     ``POINT (NaN NaN)`` used to raise eagerly and be dropped (as an empty
@@ -268,10 +282,14 @@ def test_bad_rows_get_one_behaviour_on_every_path(points, tmp_path, path, bad):
     and named bad rows per partition.
     """
     for label, geometry in BAD_ROWS[bad].items():
-        points.loc[label, "geometry"] = geometry
-    expected = _outcome(_eager, points, tmp_path)
-    got = _outcome(path, points, tmp_path)
-    if bad == "NaN coordinates":
+        if label == "key":
+            for row, key in geometry.items():
+                points.loc[row, "g"] = key
+        else:
+            points.loc[label, "geometry"] = geometry
+    expected = _outcome(_eager, points, tmp_path, option)
+    got = _outcome(path, points, tmp_path, option)
+    if bad == "NaN coordinates" and option[0] == "sort":
         assert expected[0] == "result"
         assert expected[2] == [
             (
