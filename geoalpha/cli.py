@@ -82,10 +82,44 @@ _CLI_TERMS: tuple[tuple[str, str | Callable[[re.Match], str]], ...] = (
 )
 
 
+def _needle(pattern: str) -> str:
+    r"""Return the literal text every match of ``pattern`` starts with.
+
+    ``\bhull\(\) `` -> ``hull() ``: the leading literal characters, up to
+    the first one that is not literal (a class, a group, a quantifier, which
+    also takes back the character it applies to).
+    """
+    out: list[str] = []
+    i = 2 if pattern.startswith(r"\b") else 0
+    while i < len(pattern):
+        char = pattern[i]
+        if char == "\\" and i + 1 < len(pattern) and not pattern[i + 1].isalnum():
+            out.append(pattern[i + 1])
+            i += 2
+            continue
+        if char == "\\" or char in "()[]|^$.":
+            break
+        if char in "*?{+":
+            if char != "+":  # the character before may be absent
+                out = out[:-1]
+            break
+        out.append(char)
+        i += 1
+    return "".join(out)
+
+
+# Each term with the text its matches start with: a term whose text is not
+# in the message is skipped (a substring search), so a long message (a CSV
+# header of megabytes in "its columns are ...") is not scanned position by
+# position by each of the terms.
+_CLI_NEEDLES: tuple[str, ...] = tuple(_needle(p) for p, _ in _CLI_TERMS)
+
+
 def _in_cli_terms(text: str) -> str:
     """Word a library message in terms of the command's options."""
-    for pattern, replacement in _CLI_TERMS:
-        text = re.sub(pattern, replacement, text)
+    for (pattern, replacement), needle in zip(_CLI_TERMS, _CLI_NEEDLES, strict=True):
+        if needle in text:
+            text = re.sub(pattern, replacement, text)
     return text
 
 
@@ -243,7 +277,7 @@ def _crs_option(value: str) -> str | None:
 
 def _group_columns(values: tuple[str, ...], columns, source: str) -> list[str]:
     """Resolve ``--by`` values (repeatable, comma-separated) to columns."""
-    from geoalpha.io import did_you_mean
+    from geoalpha.errors import did_you_mean
 
     by: list[str] = []
     for value in values:
@@ -325,8 +359,46 @@ def _planar_unit(points, work_crs) -> str | None:
     return planar_unit(points.crs, work_crs)
 
 
-def _summary(points, hulls, source: str, work_crs, unit: str | None) -> list[str]:
-    """Return a few lines that say what was read, computed and found."""
+def _left_out(points, hulls, by: list[str], options: dict) -> str:
+    """``"; 12 of 3,376 rows left out: 12 without a --by value ..."``, or ``""``.
+
+    The rows that are in no hull's ``n_points``, by reason: no point (a
+    missing, empty or NaN geometry), no ``--by`` value, or a group that
+    ``--degenerate drop`` dropped.
+    """
+    import numpy as np
+
+    from geoalpha.pipeline import scan_rows
+
+    left = len(points) - int(hulls["n_points"].sum())
+    if left <= 0:
+        return ""
+    codes = np.zeros(len(points), dtype=np.int64)
+    if by and options.get("dropna", True):
+        codes[points[by].isna().any(axis=1).to_numpy()] = -1
+    counts = scan_rows(points, codes, bool(options.get("vertices")))[0].counts
+    reasons = []
+    if counts["missing"]:
+        reasons.append(
+            f"{counts['missing']:,} without a point (a missing, empty or NaN geometry)"
+        )
+    if counts["no_key"]:
+        reasons.append(
+            f"{counts['no_key']:,} without a --by value (--no-dropna keeps them)"
+        )
+    dropped = left - counts["missing"] - counts["no_key"]
+    if dropped > 0:
+        reasons.append(f"{dropped:,} in groups without alpha shape (--degenerate drop)")
+    return f"; {left:,} of {len(points):,} rows left out: " + ", ".join(reasons)
+
+
+def _summary(
+    points, hulls, source: str, work_crs, unit: str | None, left_out: str = ""
+) -> list[str]:
+    """Return a few lines that say what was read, computed and found.
+
+    ``left_out``: :func:`_left_out`, ending the line of what was computed.
+    """
     import numpy as np
     import shapely
 
@@ -336,7 +408,10 @@ def _summary(points, hulls, source: str, work_crs, unit: str | None) -> list[str
     columns = points.attrs.get("geoalpha_coordinates")
     where = f"columns {columns[0]}/{columns[1]}" if columns else "geometries"
     in_crs = crs_name(points.crs) if points.crs is not None else "no CRS"
-    lines.append(f"Read {len(points):,} points of {source} ({where}, {in_crs})")
+    n = len(points)
+    lines.append(
+        f"Read {n:,} point{'s' if n != 1 else ''} of {source} ({where}, {in_crs})"
+    )
     used = hulls["crs_used"].astype(str).unique().tolist()
     shown = used[0] if len(used) == 1 else f"{len(used)} CRSs (one chosen per group)"
     if len(used) == 2:
@@ -350,12 +425,10 @@ def _summary(points, hulls, source: str, work_crs, unit: str | None) -> list[str
     groups = len(hulls)
     method = hulls["method"].astype(str)
     no_shape = int((hulls["alpha"].isna() & method.eq("alpha")).sum())
-    rows = int(hulls["n_points"].sum())
-    left_out = len(points) - rows
     lines.append(
         f"Computed in {shown}: {groups:,} group{'s' if groups != 1 else ''}"
         + (f", {no_shape:,} without alpha shape" if no_shape else "")
-        + (f"; {left_out:,} rows left out" if left_out else "")
+        + left_out
     )
     shaped = ~hulls["alpha"].isna() | ~method.eq("alpha")
     geoms = np.asarray(hulls.geometry.array, dtype=object)[shaped.to_numpy()]
@@ -433,7 +506,8 @@ def _run(
         bar.close()  # full, before the summary
     if verbosity < 0:
         return
-    for line in _summary(points, hulls, source, work_crs, unit):
+    left_out = _left_out(points, hulls, by, options)
+    for line in _summary(points, hulls, source, work_crs, unit, left_out):
         click.echo(line, err=True)
     for old, new in mapping.items():
         click.echo(f"Shapefile field {old!r} written as {new!r}", err=True)
@@ -448,9 +522,10 @@ def _run(
             where += "".join(f", {name!r}" for name in extra_layers)
         where += ")"
     count = len(hulls)
+    rows = int(hulls["n_points"].sum())  # the points in the hulls' groups
     click.echo(
-        f"Wrote {count:,} hull{'s' if count != 1 else ''} of {len(points):,} "
-        f"points to {redact(where)}",
+        f"Wrote {count:,} hull{'s' if count != 1 else ''} of {rows:,} "
+        f"point{'s' if rows != 1 else ''} to {redact(where)}",
         err=True,
     )
     if preview is not None:
@@ -474,7 +549,7 @@ def _check_preview(path: str | None) -> None:
         import matplotlib  # noqa: F401
     except ImportError as err:
         raise ImportError(
-            "--preview needs matplotlib: pip install 'geoalpha[plot]'"
+            '--preview needs matplotlib: pip install "geoalpha[plot]"'
         ) from err
 
 
@@ -611,7 +686,7 @@ _preview_option = click.option(
     metavar="IMAGE",
     type=click.Path(dir_okay=False),
     help="Also draw the hulls over the points to IMAGE (.png, .svg, .pdf; "
-    "needs pip install 'geoalpha[plot]').",
+    'needs pip install "geoalpha[plot]").',
 )
 
 
@@ -716,8 +791,7 @@ def hull(
     OUTPUT's extension chooses its format: .gpkg, .shp, .geojson, .fgb or
     .parquet; a postgresql:// URL with --output-layer schema.table writes a
     PostGIS table (in one transaction; --overwrite replaces it). It holds one
-    row per group: the --by columns, alpha (1/metre), radius (metres),
-    n_points, n_outliers, area_m2, crs_used, method, and the polygon, in
+    row per group: the --by columns, RESULT_COLUMNS, and the polygon, in
     INPUT's CRS (with planar input, area and unit instead of area_m2).
     Shapefile field names are cut to 10 characters; GeoPackages are version
     1.2. A short summary of what was read and computed follows the run.
@@ -770,6 +844,19 @@ def hull(
             bar=bar,
             **{**options, "crs": work_crs},
         )
+
+
+def _result_columns() -> str:
+    """Return the result columns for --help (:data:`geoalpha.schema.RESULT_COLUMNS`)."""
+    from geoalpha.schema import RESULT_COLUMNS
+
+    units = {"alpha": "1/metre", "radius": "metres"}
+    return ", ".join(
+        f"{name} ({units[name]})" if name in units else name for name in RESULT_COLUMNS
+    )
+
+
+hull.help = hull.help.replace("RESULT_COLUMNS", _result_columns())
 
 
 @main.command(context_settings=_CONTEXT)

@@ -19,9 +19,12 @@ with dask's string dtype):
    a partition alone would see only its own points and could decide
    otherwise;
 3. the warnings about the set-up (:mod:`geoalpha.checks`: nearly one group
-   per row, a computation CRS that stretches areas) are made once, on the
-   number of distinct keys and rows and a sample of up to 1,000 points per
-   partition, when the result is computed;
+   per row, a computation CRS that stretches areas) and the errors and the
+   warning about bad rows (:func:`geoalpha.pipeline.report_rows`) are made
+   once, on the number of distinct keys and rows, the bad rows of every
+   partition and a sample of up to 1,000 points per partition, when the
+   result is computed and before the partitions' hulls, so that they count
+   and name the rows of the whole dataset as the eager call does;
 4. the stages of :func:`geoalpha.hull` (:func:`geoalpha.pipeline.run`) run on
    every partition (``map_partitions``);
 5. with ``sort=True`` the (small: one row per group) result is gathered into
@@ -44,9 +47,9 @@ import shapely
 from geoalpha import crs as gcrs
 from geoalpha import options as _options
 from geoalpha.checks import check_distortion, check_grouping, computation_crs
-from geoalpha.errors import InvalidInputError
+from geoalpha.errors import InvalidInputError, did_you_mean
 from geoalpha.options import Options
-from geoalpha.pipeline import group, run
+from geoalpha.pipeline import group, merge_reports, report_rows, run, scan_rows
 from geoalpha.registration import attach
 from geoalpha.schema import empty_result, result_geometry_name
 
@@ -56,7 +59,7 @@ try:
 except ImportError as err:  # pragma: no cover - the dask extra is installed in CI
     raise ImportError(
         "geoalpha on dask-geopandas frames needs dask-geopandas: "
-        "pip install geoalpha[dask]"
+        'pip install "geoalpha[dask]"'
     ) from err
 
 __all__ = ["DaskAlphaAccessor", "hull", "register"]
@@ -80,7 +83,8 @@ def _key_names(frame, by) -> list:
             )
         if name not in frame.columns:
             raise InvalidInputError(
-                f"hull(by={by!r}): no column {name!r}; the columns are "
+                f"hull(by={by!r}): no column {name!r}"
+                f"{did_you_mean(name, frame.columns)}; the columns are "
                 f"{', '.join(map(str, frame.columns))}"
             )
     return names
@@ -97,6 +101,7 @@ def _extent(part, names: list, dropna: bool) -> pd.DataFrame:
     if names and dropna:
         keep &= part[names].notna().all(axis=1).to_numpy()
     xy = shapely.get_coordinates(geoms[keep])
+    xy = xy[np.isfinite(xy).all(axis=1)]  # hull() drops NaN rows, refuses inf
     row = [np.nan] * len(_EXTENT)
     if len(xy):
         lon, lat = xy[:, 0], xy[:, 1]
@@ -139,6 +144,7 @@ def _sample(part) -> pd.DataFrame:
     """Up to :data:`_SAMPLE` evenly spaced point coordinates of a partition."""
     geoms = np.asarray(part.geometry.array, dtype=object)
     xy = shapely.get_coordinates(geoms[~shapely.is_missing(geoms)])
+    xy = xy[np.isfinite(xy).all(axis=1)]  # hull() drops NaN rows, refuses inf
     if len(xy) > _SAMPLE:
         xy = xy[np.linspace(0, len(xy) - 1, _SAMPLE).astype(np.intp)]
     return pd.DataFrame(xy, columns=["x", "y"])
@@ -160,12 +166,28 @@ def _keys(part, names: list, dropna: bool) -> pd.DataFrame:
     return keys.assign(__rows__=np.where(np.arange(len(keys)) == 0, len(part), 0))
 
 
-def _check(keys, sample, by, source_crs, crs) -> None:
-    """Make the warnings of :mod:`geoalpha.checks`, once for the whole dataset."""
+def _rows(part, names: list, options: Options) -> pd.DataFrame:
+    """Return the :class:`~geoalpha.pipeline.RowReport` of a partition's bad rows."""
+    codes = np.zeros(len(part), dtype=np.int64)
+    if names and options.dropna:  # as groupby(dropna=True) numbers them
+        codes[part[names].isna().any(axis=1).to_numpy()] = -1
+    report, _, _ = scan_rows(part, codes, options.vertices)
+    return pd.DataFrame({"report": pd.Series([report], dtype=object)})
+
+
+def _check(keys, rows, sample, by, source_crs, crs) -> None:
+    """Make the errors and warnings about the input, once for the whole dataset.
+
+    In the order of the eager call: nearly one group per row, then bad rows
+    (:func:`geoalpha.pipeline.report_rows`: non-point geometries and infinite
+    coordinates raise, dropped rows warn), then a stretching CRS.
+    """
     if keys is not None:
         names = [c for c in keys.columns if c not in ("__rows__", "__key__")]
         groups = keys.loc[keys["__key__"].to_numpy(bool), names].drop_duplicates()
         check_grouping(len(groups), int(keys["__rows__"].sum()), by)
+    if rows is not None:
+        report_rows(merge_reports(rows["report"].tolist()))
     if sample is not None:
         check_distortion(sample[["x", "y"]].to_numpy(), source_crs, crs)
 
@@ -173,21 +195,26 @@ def _check(keys, sample, by, source_crs, crs) -> None:
 def _checks(ddf, names: list, by, options: Options):
     """Return a lazy :func:`_check` of ``ddf``, or None when nothing can warn.
 
-    One pass over the partitions: their distinct keys and row counts, and a
-    sample of points when the computation CRS may stretch areas.
+    One pass over the partitions: their distinct keys and row counts, their
+    bad rows, and a sample of points when the computation CRS may stretch
+    areas.
     """
-    keys = sample = None
+    keys = rows = sample = None
     if names:
         meta = _keys(ddf._meta, names, options.dropna)
         keys = ddf.map_partitions(
             _keys, names, options.dropna, meta=meta, enforce_metadata=False
+        )
+        meta = pd.DataFrame({"report": pd.Series([], dtype=object)})
+        rows = ddf.map_partitions(
+            _rows, names, options, meta=meta, enforce_metadata=False
         )
     if computation_crs(ddf.crs, options.crs)[0] is not None:
         meta = pd.DataFrame({"x": pd.Series(dtype=float), "y": pd.Series(dtype=float)})
         sample = ddf.map_partitions(_sample, meta=meta)
     if keys is None and sample is None:
         return None
-    return dask.delayed(_check)(keys, sample, by, ddf.crs, options.crs)
+    return dask.delayed(_check)(keys, rows, sample, by, ddf.crs, options.crs)
 
 
 def _meta(frame_meta, by, options: Options):
@@ -207,12 +234,45 @@ def _for_shuffle(part, geometry: str, partition_info=None) -> pd.DataFrame:
     number = partition_info["number"] if partition_info else 0
     first = np.int64(number) << np.int64(_ROW_BITS)
     out = pd.DataFrame(part, copy=False)
-    out[geometry] = shapely.to_wkb(np.asarray(part[geometry].array, dtype=object))
+    out[geometry] = shapely.to_wkb(_nan_kept(part[geometry].array))
     out[_ROW] = first + np.arange(len(part), dtype=np.int64)
     return out
 
 
-def _hull_partition(part, by, crs, meta, geometry, source_crs, options: Options):
+def _nan_kept(array) -> np.ndarray:
+    """Geometries that keep their NaN coordinates through WKB.
+
+    WKB writes an empty point as ``POINT (NaN NaN)`` and reads it back as
+    ``POINT EMPTY``: a row whose ``MultiPoint`` (or collection) has such a
+    member would come back as one without it, and be kept where the eager
+    call drops it. Those rows get ``(NaN, 0)`` for ``(NaN, NaN)``, which WKB
+    keeps, and which hull() drops alike. (A ``Point (NaN NaN)`` row comes back
+    empty, and is dropped as such.)
+    """
+    geoms = np.asarray(array, dtype=object)
+    kind = shapely.get_type_id(geoms)
+    multi = np.flatnonzero((kind == 4) | (kind == 7))
+    if not len(multi):
+        return geoms
+    xy, at = shapely.get_coordinates(geoms[multi], return_index=True)
+    rows = np.unique(multi[at[np.isnan(xy).all(axis=1)]])
+    if not len(rows):
+        return geoms
+
+    def keep_nan(coords: np.ndarray) -> np.ndarray:
+        both = np.isnan(coords).all(axis=1)
+        coords = coords.copy()
+        coords[both, 1] = 0.0
+        return coords
+
+    geoms = geoms.copy()
+    geoms[rows] = shapely.transform(geoms[rows], keep_nan)
+    return geoms
+
+
+def _hull_partition(
+    part, by, crs, meta, geometry, source_crs, options: Options, checked=None
+):
     import geopandas as gpd
 
     if len(part) == 0:
@@ -225,7 +285,8 @@ def _hull_partition(part, by, crs, meta, geometry, source_crs, options: Options)
             part[geometry].to_numpy(), index=part.index, crs=source_crs
         )
     part = gpd.GeoDataFrame(part, geometry=geometry, crs=source_crs)
-    out = run(part, by, options.replace(crs=crs), checks=False)
+    # With ``by``, the dataset's bad rows were reported once (``checked``).
+    out = run(part, by, options.replace(crs=crs), checks=False, rows=by is None)
     return out.astype(dict(meta.dtypes.drop(meta.geometry.name)))
 
 
@@ -294,12 +355,13 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
 
     Notes
     -----
-    Warnings of :func:`geoalpha.hull` (dropped rows, degenerate groups) are
-    raised where the partitions are computed: in this process with the local
-    schedulers, in the worker logs with ``distributed``. Those about the
-    set-up (``by`` making nearly one group per row, a computation CRS that
-    stretches areas: :mod:`geoalpha.checks`) are raised once for the whole
-    dataset.
+    Warnings about degenerate groups are raised where the partitions are
+    computed: in this process with the local schedulers, in the worker logs
+    with ``distributed``. Those about the set-up (``by`` making nearly one
+    group per row, a computation CRS that stretches areas:
+    :mod:`geoalpha.checks`) and about bad rows (dropped rows; non-point
+    geometries and infinite coordinates are errors) are raised once for the
+    whole dataset, with the counts and row labels of the eager call.
 
     Point the same code at a cluster by creating a ``distributed.Client``
     before ``.compute()``; each worker then needs geoalpha installed.
@@ -373,6 +435,7 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
         ddf.geometry.name,
         source,
         opts,
+        checked,  # the partitions wait for it: its errors name every bad row
         meta=meta,
         enforce_metadata=False,
     )

@@ -7,6 +7,7 @@ warning derives from :class:`GeoAlphaWarning`.
 
 from __future__ import annotations
 
+import difflib
 import sys
 from collections.abc import Iterable
 
@@ -22,6 +23,7 @@ __all__ = [
     "InvalidInputError",
     "OutlierWarning",
     "SearchWarning",
+    "did_you_mean",
     "first_n",
 ]
 
@@ -47,7 +49,7 @@ class DegenerateGroupWarning(GeoAlphaWarning):
 
 
 class DroppedRowsWarning(GeoAlphaWarning):
-    """Input rows were left out of the result (missing or empty geometry, no group)."""
+    """Input rows were left out of the result (missing, empty, NaN geometry; no key)."""
 
 
 class AntimeridianWarning(GeoAlphaWarning):
@@ -107,3 +109,28 @@ def first_n(items: Iterable, limit: int = 10, sep: str = ", ") -> str:
             break
         shown.append(str(item))
     return sep.join(shown) + (", ..." if more else "")
+
+
+def did_you_mean(name: object, choices: Iterable) -> str:
+    """Return ``" (did you mean 'x'?)"`` for the choice closest to ``name``, or ``""``.
+
+    The one "did you mean" of geoalpha's messages: a column of ``by=`` or
+    ``--by``, ``--x``/``--y``; a close spelling (``difflib``), else the same
+    name in another letter case.
+
+    Examples
+    --------
+    >>> did_you_mean("stat", ["state", "code", "geometry"])
+    " (did you mean 'state'?)"
+    >>> did_you_mean("LATITUDE", ["lon", "latitude"])
+    " (did you mean 'latitude'?)"
+    >>> did_you_mean("zzz", ["state"])
+    ''
+    """
+    names = [str(c) for c in choices]
+    close = difflib.get_close_matches(str(name), names, n=1, cutoff=0.6)
+    if not close:
+        lower = {c.lower(): c for c in names}
+        if str(name).lower() in lower:
+            close = [lower[str(name).lower()]]
+    return f" (did you mean {close[0]!r}?)" if close else ""

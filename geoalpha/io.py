@@ -16,7 +16,6 @@ from __future__ import annotations
 import contextlib
 import contextvars
 import csv
-import difflib
 import errno
 import hashlib
 import os
@@ -29,7 +28,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from geoalpha.errors import CRSWarning, InvalidInputError
+from geoalpha.errors import CRSWarning, InvalidInputError, did_you_mean
 from geoalpha.postgis import gdal_connection_error, is_gdal_connection, is_postgres_url
 from geoalpha.redact import redact, secrets_in
 
@@ -105,17 +104,6 @@ def _term(python: str, cli: str) -> str:
 def _shown(source: str) -> str:
     """Return a data source as a message may show it: without credentials."""
     return redact(source)
-
-
-def did_you_mean(name: str, columns) -> str:
-    close = difflib.get_close_matches(
-        str(name), [str(c) for c in columns], n=1, cutoff=0.6
-    )
-    if not close:
-        lower = {str(c).lower(): str(c) for c in columns}
-        if str(name).lower() in lower:
-            close = [lower[str(name).lower()]]
-    return f" (did you mean {close[0]!r}?)" if close else ""
 
 
 # --------------------------------------------------------------------------
@@ -250,6 +238,11 @@ def read_input_points(
             else _read_parquet_table(source)
         )
         x, y = _find_coordinate_columns(list(frame.columns), x, y, shown)
+        if auto and not _looks_lonlat(x, y) and _looks_lonlat(y, x):
+            raise InvalidInputError(
+                f"{_term('x=', '--x ')}{x!r} and {_term('y=', '--y ')}{y!r} of "
+                f"{shown}: " + _swap_hint(x, y)
+            )
         if auto:
             if _looks_lonlat(x, y):
                 crs = parse_crs(4326)
@@ -415,7 +408,7 @@ def _import_pyarrow_parquet():
     except ImportError as err:
         raise ImportError(
             "reading and writing GeoParquet needs pyarrow: "
-            "pip install 'geoalpha[parquet]' (or pip install pyarrow)"
+            'pip install "geoalpha[parquet]" (or pip install pyarrow)'
         ) from err
     return pq
 
@@ -477,6 +470,15 @@ def _points_from_table(frame: pd.DataFrame, source, x, y, crs) -> gpd.GeoDataFra
     return gdf
 
 
+def _swap_hint(x: str, y: str) -> str:
+    """Return the hint for longitude/latitude columns given the wrong way round."""
+    return (
+        f"longitude and latitude look swapped: {x} holds latitudes? Give the "
+        f"longitude column as {_term('x=', '--x')} and the latitude column as "
+        f"{_term('y=', '--y')}"
+    )
+
+
 def _check_lonlat(xs, ys, crs, source: str, x: str, y: str) -> None:
     """Refuse lon/lat out of range; warn when projected values look like lon/lat."""
     import numpy as np
@@ -512,11 +514,7 @@ def _check_lonlat(xs, ys, crs, source: str, x: str, y: str) -> None:
                 np.abs(ys[finite]) <= 180
             ).all()
         if swapped:
-            message += (
-                f"; longitude and latitude look swapped: {x} holds latitudes? "
-                f"Give the longitude column as {_term('x=', '--x')} and the "
-                f"latitude column as {_term('y=', '--y')}"
-            )
+            message += "; " + _swap_hint(x, y)
         else:
             message += (
                 "; if they are projected coordinates, give their CRS with "

@@ -400,7 +400,7 @@ class Options:
         optional=True,
         doc="bool, optional\n    Show one progress bar through every phase (group, "
         "project, compute,\n    check; see :mod:`geoalpha.progress`; needs ``tqdm``: "
-        "``pip install\n    geoalpha[progress]``). Default: only for long runs on a "
+        '``pip install\n    "geoalpha[progress]"``). Default: only for long runs on a '
         "terminal.",
         flags=("--progress/--no-progress",),
         help="Show a progress bar [default: when there are many groups].",

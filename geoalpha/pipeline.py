@@ -10,8 +10,9 @@
   :meth:`GeoDataFrame.dissolve` groups);
 - :func:`~geoalpha.checks.check_grouping`: a warning when ``by`` makes nearly
   one group per row;
-- :func:`read_points`: the point coordinates, with missing geometries and
-  keys dropped (and counted in a warning), non-points refused;
+- :func:`read_points`: the point coordinates, with missing, empty and NaN
+  geometries and missing keys dropped (and counted in a warning), non-points
+  and infinite coordinates refused (:func:`scan_rows`, :func:`report_rows`);
 - :func:`~geoalpha.checks.check_distortion`: a warning when the computation
   CRS stretches areas where the points are;
 - :func:`project`: the metric CRS round trip (:class:`geoalpha.crs.Projection`);
@@ -53,6 +54,7 @@ from geoalpha.errors import (
     GeoAlphaWarning,
     InvalidInputError,
     OutlierWarning,
+    did_you_mean,
     first_n,
     user_stacklevel,
 )
@@ -81,15 +83,19 @@ __all__ = [
     "PROGRESS_MIN_GROUPS",
     "Groups",
     "Points",
+    "RowReport",
     "Shapes",
     "as_frame",
     "compute",
     "degenerate_policy",
     "ensure_guarantee",
     "group",
+    "merge_reports",
     "project",
     "read_points",
+    "report_rows",
     "run",
+    "scan_rows",
     "table",
     "verify_in_output_crs",
 ]
@@ -164,20 +170,21 @@ class Shapes(NamedTuple):
     checked: np.ndarray
 
 
-def run(frame, by, options: Options, *, checks: bool = True):
+def run(frame, by, options: Options, *, checks: bool = True, rows: bool = True):
     """``hull(frame, by, **options)`` on an in-memory GeoDataFrame: every stage.
 
     With a progress bar over the phases (``options.progress``), or inside the
     one of the enclosing :func:`geoalpha.progress.phases` (the command's).
     ``checks=False`` leaves out the warnings about the set-up
-    (:mod:`geoalpha.checks`), which :func:`geoalpha.dask.hull` makes once for
+    (:mod:`geoalpha.checks`), and ``rows=False`` the one about dropped rows
+    (:func:`report_rows`), which :func:`geoalpha.dask.hull` makes once for
     the whole dataset instead of once per partition.
     """
     outer = current()
     if outer is not None and options.progress is not False:
-        return _stages(frame, by, options, outer, checks)
+        return _stages(frame, by, options, outer, checks, rows)
     with phases(HULL_PHASES, options.progress) as bar:
-        return _stages(frame, by, options, bar, checks)
+        return _stages(frame, by, options, bar, checks, rows)
 
 
 def _per_group_crs(source, crs, coords: np.ndarray) -> bool:
@@ -194,14 +201,14 @@ def _per_group_crs(source, crs, coords: np.ndarray) -> bool:
     return bool(np.ptp(coords[:, 0]) > 2 * gcrs.UTM_HALF_WIDTH)
 
 
-def _stages(frame, by, options: Options, bar: Phases, checks: bool):
+def _stages(frame, by, options: Options, bar: Phases, checks: bool, rows: bool):
     bar.estimate(hull_costs(len(frame), 0, per_group_crs=False))  # groups: unknown
     bar.start("group")
     groups = group(frame, by, options)
     n_groups = groups.n_groups
     if checks:
         check_grouping(n_groups, len(frame), by)
-    points = read_points(frame, groups, options)
+    points = read_points(frame, groups, options, warn=rows)
     crs = points.crs  # (frame.crs builds a GeoSeries each time)
     per_group_crs = _per_group_crs(crs, options.crs, points.coords)
     bar.sized(len(points.codes), n_groups, per_group_crs=per_group_crs)
@@ -222,7 +229,13 @@ def _stages(frame, by, options: Options, bar: Phases, checks: bool):
     shapes = degenerate_policy(shapes, groups, points, proj, options)
     shapes = grow(shapes, points, proj, options)
     geometry = verify_in_output_crs(
-        shapes.geometry, groups, points, proj, options, checked=shapes.checked
+        shapes.geometry,
+        groups,
+        points,
+        proj,
+        options,
+        checked=shapes.checked,
+        degenerate=shapes.degenerate,
     )
     out = table(
         groups,
@@ -237,18 +250,21 @@ def _stages(frame, by, options: Options, bar: Phases, checks: bool):
     return out
 
 
-def _labels(index: pd.Index, mask: np.ndarray, limit: int = 10) -> str:
-    return first_n(
-        (repr(v) if isinstance(v, str) else str(v) for v in index[mask]), limit
-    )
-
-
 def _names(groups: Groups, which: np.ndarray, counts=None) -> str:
-    """Name groups by key for messages (with their row counts when given)."""
+    """Name groups by key for messages (with their row counts when given).
+
+    A missing key (``dropna=False``) is ``nan`` whatever its dtype holds
+    (``None``, ``NaN``, ``pd.NA`` of the string dtype dask gives).
+    """
     shown = which[:11]  # first_n shows 10, and "..." when there is an 11th
     columns = groups.columns
+
+    def key(value) -> str:
+        missing = pd.api.types.is_scalar(value) and pd.isna(value)
+        return "nan" if missing else str(value)
+
     names = [
-        ", ".join(str(column[i]) for column in columns) or "all points"
+        ", ".join(key(column[i]) for column in columns) or "all points"
         for i in np.asarray(shown).tolist()
     ]
     if counts is not None:
@@ -292,8 +308,9 @@ def group(frame, by, options: Options) -> Groups:
         if isinstance(name, str | int | tuple) and not isinstance(name, bool):
             if name not in frame.columns and name not in levels:
                 raise InvalidInputError(
-                    f"hull(by={by!r}): no column {name!r}; the columns are "
-                    f"{', '.join(map(str, frame.columns))}"
+                    f"hull(by={by!r}): no column {name!r}"
+                    f"{did_you_mean(name, _key_choices(frame, levels))}; the columns "
+                    f"are {', '.join(map(str, frame.columns))}"
                     + (
                         f" and the index levels {', '.join(map(str, levels))}"
                         if levels
@@ -320,6 +337,12 @@ def group(frame, by, options: Options) -> Groups:
             f"(result columns: {', '.join(RESULT_COLUMNS)}, geometry)"
         )
     return groups
+
+
+def _key_choices(frame, levels: list) -> list:
+    """Return the columns and index levels a ``by`` may name (for "did you mean")."""
+    geometry = frame._geometry_column_name
+    return [c for c in frame.columns if c != geometry] + levels
 
 
 def _factorize_column(frame, by, options: Options) -> Groups | None:
@@ -357,71 +380,195 @@ class _RowLabels:
         return np.asarray(self._index[self._rows[where]], dtype=object)
 
 
-def read_points(frame, groups: Groups, options: Options) -> Points:
-    """Read the coordinates of the points that take part, with their group codes.
+#: Index labels a :class:`RowReport` keeps of each kind of bad row: the
+#: messages show 10 (:func:`geoalpha.errors.first_n`), and "..." for an 11th.
+_SHOWN = 11
 
-    Rows with a missing or empty geometry, or a missing key, are dropped and
-    counted in a :class:`DroppedRowsWarning`; non-point geometries are an
-    error unless ``vertices=True``; NaN or infinite coordinates are an error.
+
+class RowReport(NamedTuple):
+    """What :func:`scan_rows` found in some rows: how many bad rows, of what kind.
+
+    The one input of the errors and the warning about bad rows
+    (:func:`report_rows`); :func:`merge_reports` adds up those of the
+    partitions of a dask-geopandas frame, so that their messages are those of
+    the eager call on the whole frame.
     """
-    # The active geometry column's array (``frame.geometry`` builds a GeoSeries)
+
+    n_rows: int  #: rows scanned
+    #: per kind ("non_point", "missing", "no_key", "infinite"): number of rows
+    counts: dict[str, int]
+    #: per kind: the first :data:`_SHOWN` index labels, in row order
+    labels: dict[str, list]
+    #: geometry type -> rows, of the non-point rows (first appearance order)
+    types: dict[str, int]
+
+
+_ROW_KINDS = ("non_point", "missing", "no_key", "infinite")
+
+
+def scan_rows(frame, codes: np.ndarray, vertices: bool):
+    """Sort the rows of ``frame`` into usable and bad ones.
+
+    A row is dropped when its geometry is missing or empty, has a NaN
+    coordinate (what ``POINT (NaN NaN)`` is in WKB and in a GeoPackage: an
+    empty point; what ``points_from_xy`` makes of a missing longitude or
+    latitude) or its group key is missing (``codes`` -1). Non-point
+    geometries (unless ``vertices``) and infinite coordinates are errors.
+
+    Returns
+    -------
+    (RowReport, numpy.ndarray, numpy.ndarray)
+        The report, the (n, 2) coordinates of the rows kept, and the row
+        position of each coordinate.
+    """
     array = frame[frame._geometry_column_name].array
     geoms = np.asarray(array, dtype=object)
     index = frame.index
-    codes = groups.codes
     kind = shapely.get_type_id(geoms)  # -1: missing
     missing = (kind < 0) | shapely.is_empty(geoms)
-    other = ~missing & (kind != _POINT_TYPES[0]) & (kind != _POINT_TYPES[1])
-    if other.any() and not options.vertices:
-        kinds = pd.Series(np.asarray(frame.geom_type)[other])
-        names = ", ".join(f"{n} {t}" for t, n in kinds.value_counts().items())
+    point = (kind == _POINT_TYPES[0]) | (kind == _POINT_TYPES[1])
+    non_point = ~missing & ~point
+    usable = np.flatnonzero(~missing & (point | vertices))
+    if (kind[usable] == _POINT_TYPES[0]).all():  # one coordinate pair per row
+        part = geoms[usable]
+        coords = np.column_stack([shapely.get_x(part), shapely.get_y(part)])
+        which = usable
+    else:
+        coords, at = shapely.get_coordinates(geoms[usable], return_index=True)
+        which = usable[at]
+    nan = np.isnan(coords).any(axis=1)
+    if nan.any():
+        missing = missing.copy()
+        missing[which[nan]] = True
+    no_key = (codes < 0) & ~missing
+    dropped = missing | no_key
+    keep = ~dropped[which]
+    if not keep.all():
+        coords, which = coords[keep], which[keep]
+    infinite = np.zeros(len(geoms), dtype=bool)
+    infinite[which[~np.isfinite(coords).all(axis=1)]] = True
+    masks = {
+        "non_point": non_point if not vertices else np.zeros_like(non_point),
+        "missing": missing,
+        "no_key": no_key,
+        "infinite": infinite,
+    }
+    types: dict[str, int] = {}
+    if masks["non_point"].any():
+        names = np.asarray(frame.geom_type)[masks["non_point"]]
+        for name in names.tolist():
+            types[name] = types.get(name, 0) + 1
+    report = RowReport(
+        n_rows=len(geoms),
+        counts={k: int(m.sum()) for k, m in masks.items()},
+        labels={
+            k: index[np.flatnonzero(m)[:_SHOWN]].tolist() if m.any() else []
+            for k, m in masks.items()
+        },
+        types=types,
+    )
+    return report, coords, which
+
+
+def merge_reports(reports) -> RowReport:
+    """Add up the :class:`RowReport` of consecutive parts of a frame (in order)."""
+    reports = list(reports)
+    types: dict[str, int] = {}
+    for report in reports:
+        for name, n in report.types.items():
+            types[name] = types.get(name, 0) + n
+    return RowReport(
+        n_rows=sum(r.n_rows for r in reports),
+        counts={k: sum(r.counts[k] for r in reports) for k in _ROW_KINDS},
+        labels={
+            k: [label for r in reports for label in r.labels[k]][:_SHOWN]
+            for k in _ROW_KINDS
+        },
+        types=types,
+    )
+
+
+def _shown_labels(labels: list) -> str:
+    return first_n(repr(v) if isinstance(v, str) else str(v) for v in labels)
+
+
+def report_rows(report: RowReport, *, warn: bool = True) -> None:
+    """Raise the error, or make the warning, that bad rows call for.
+
+    Parameters
+    ----------
+    report : RowReport
+        From :func:`scan_rows` (or :func:`merge_reports`).
+    warn : bool, default True
+        Make the :class:`DroppedRowsWarning` (False: the errors only).
+
+    Raises
+    ------
+    InvalidInputError
+        Non-point geometries (without ``vertices=True``), then infinite
+        coordinates, naming the rows by index label.
+
+    Warns
+    -----
+    DroppedRowsWarning
+        Rows dropped for a missing, empty or NaN geometry or a missing key.
+    """
+    counts, labels = report.counts, report.labels
+    if counts["non_point"]:
+        order = sorted(report.types.items(), key=lambda item: -item[1])
+        names = ", ".join(f"{n} {t}" for t, n in order)
         raise InvalidInputError(
             f"hull() needs point geometries; got {names} row(s) (index "
-            f"{_labels(index, other)}); pass vertices=True (--vertices) to use "
-            "their vertices"
+            f"{_shown_labels(labels['non_point'])}); pass vertices=True "
+            "(--vertices) to use their vertices"
         )
-    no_key = codes < 0
-    dropped = missing | no_key
-    if dropped.any():
+    dropped = counts["missing"] + counts["no_key"]
+    if dropped and warn:
         parts = []
-        if missing.any():
+        if counts["missing"]:
             parts.append(
-                f"{missing.sum()} with a missing or empty geometry (index "
-                f"{_labels(index, missing)})"
+                f"{counts['missing']} with a missing or empty geometry or NaN "
+                f"coordinates (index {_shown_labels(labels['missing'])})"
             )
-        if (no_key & ~missing).any():
+        if counts["no_key"]:
             parts.append(
-                f"{(no_key & ~missing).sum()} with a missing group key (index "
-                f"{_labels(index, no_key & ~missing)}; dropna=False keeps them)"
+                f"{counts['no_key']} with a missing group key (index "
+                f"{_shown_labels(labels['no_key'])}; dropna=False keeps them)"
             )
         warnings.warn(
-            f"hull() dropped {dropped.sum()} of {len(frame)} rows: " + "; ".join(parts),
+            f"hull() dropped {dropped} of {report.n_rows} rows: " + "; ".join(parts),
             DroppedRowsWarning,
             stacklevel=user_stacklevel(),
         )
-    kept = np.flatnonzero(~dropped)
-    if len(kept) < len(geoms):
-        geoms, kind = geoms[kept], kind[kept]
-    if (kind == _POINT_TYPES[0]).all():  # one coordinate pair per row
-        coords = np.column_stack([shapely.get_x(geoms), shapely.get_y(geoms)])
-        which = np.arange(len(kept))
-    else:
-        coords, which = shapely.get_coordinates(geoms, return_index=True)
-    bad = ~(np.isfinite(coords[:, 0]) & np.isfinite(coords[:, 1]))
-    if bad.any():
-        rows = np.zeros(len(index), dtype=bool)
-        rows[kept[which[bad]]] = True
+    if counts["infinite"]:
         raise InvalidInputError(
-            "hull() needs finite coordinates; got NaN or infinite values in "
-            f"{rows.sum()} row(s) (index {_labels(index, rows)})"
+            "hull() needs finite coordinates; got infinite values in "
+            f"{counts['infinite']} row(s) (index {_shown_labels(labels['infinite'])})"
         )
+
+
+def read_points(
+    frame, groups: Groups, options: Options, *, warn: bool = True
+) -> Points:
+    """Read the coordinates of the points that take part, with their group codes.
+
+    Rows with a missing or empty geometry, a NaN coordinate, or a missing key,
+    are dropped and counted in a :class:`DroppedRowsWarning` (``warn=False``:
+    not warned, when the caller has warned for the whole dataset); non-point
+    geometries are an error unless ``vertices=True``; infinite coordinates
+    are an error (:func:`scan_rows`, :func:`report_rows`).
+    """
+    codes = groups.codes
+    report, coords, which = scan_rows(frame, codes, options.vertices)
+    report_rows(report, warn=warn)
+    rows = which[np.diff(which, prepend=-1) != 0]  # which is non-decreasing
     return Points(
         coords=coords,
-        codes=codes[kept][which],
-        n_points=np.bincount(codes[kept], minlength=groups.n_groups),
-        labels=_RowLabels(index, kept[which]),
-        rows=kept[which],
-        crs=array.crs,
+        codes=codes[which],
+        n_points=np.bincount(codes[rows], minlength=groups.n_groups),
+        labels=_RowLabels(frame.index, which),
+        rows=which,
+        crs=frame[frame._geometry_column_name].array.crs,
     )
 
 
@@ -640,8 +787,10 @@ def degenerate_policy(
         if len(redone):
             done += (
                 f", except {_names(groups, redone)}: that buffer is no valid polygon "
-                "holding their points in the output CRS (around a pole), so theirs is "
-                f"a buffer of {OUTPUT_BUFFER_RTOL:g} of their extent there"
+                "holding their points in the output CRS (around a pole, or across "
+                "more than 180 degrees of longitude), so theirs is the convex hull of "
+                f"their points there, widened by {OUTPUT_BUFFER_RTOL:g} of their "
+                "extent ('area_m2' is the area of the buffer in metres)"
             )
     elif policy == "empty":
         geometry[which] = EMPTY_POLYGON
@@ -657,12 +806,21 @@ def degenerate_policy(
             f"{thin.sum()} group(s) have fewer than 3 distinct points or all points "
             f"on a line, so no alpha shape: {_names(groups, which[thin], n_points)}"
         )
-    if not thin.all():
+    wide = ~thin & proj.wide[which]
+    if wide.any():
         reasons.append(
-            f"{(~thin).sum()} group(s) got no valid polygon holding all their points "
-            "in the output CRS (their shapes fold there, near a pole or across a "
-            "continent, or its coordinates are too coarse for them): "
-            f"{_names(groups, which[~thin], n_points)}"
+            f"{wide.sum()} group(s) span more than 180 degrees of longitude, so their "
+            "hull has no valid longitude/latitude polygon holding all their points "
+            f"and they have no alpha: {_names(groups, which[wide], n_points)} "
+            "(split the group, e.g. by continent, or give the points in a projected "
+            "CRS that holds them)"
+        )
+    if (~thin & ~wide).any():
+        reasons.append(
+            f"{(~thin & ~wide).sum()} group(s) got no valid polygon holding all their "
+            "points in the output CRS (their shapes fold there, near a pole or across "
+            "a continent, or its coordinates are too coarse for them): "
+            f"{_names(groups, which[~thin & ~wide], n_points)}"
         )
     warnings.warn(
         "; ".join(reasons) + f"; {done} (degenerate={policy!r})",
@@ -740,6 +898,7 @@ def verify_in_output_crs(
     proj: gcrs.Projection,
     options: Options,
     checked: np.ndarray | None = None,
+    degenerate: np.ndarray | None = None,
 ) -> np.ndarray:
     """Make every geometry valid and covering its points in the output CRS.
 
@@ -747,7 +906,9 @@ def verify_in_output_crs(
     covers points a repair or a hull built in metres left outside (methods
     other than ``"alpha"``), then splits antimeridian groups. Geometries
     already verified in the output coordinates (``checked``) are not tested
-    again.
+    again. Groups wider than 180 degrees of longitude get a warning, unless
+    they are ``degenerate`` (the warning of :func:`degenerate_policy` names
+    them).
     """
     geometry = geometry.copy()
     invalid = np.zeros(len(geometry), dtype=bool)
@@ -766,13 +927,15 @@ def verify_in_output_crs(
             )
     if proj.crossing.any():
         geometry = _split_at_antimeridian(geometry, groups, points, proj)
-    if proj.wide.any():
+    wide = proj.wide if degenerate is None else proj.wide & ~degenerate
+    if wide.any():
         warnings.warn(
-            f"{proj.wide.sum()} group(s) span more than 180 degrees of longitude: "
-            f"{_names(groups, np.flatnonzero(proj.wide))}; no longitude/latitude "
+            f"{wide.sum()} group(s) span more than 180 degrees of longitude: "
+            f"{_names(groups, np.flatnonzero(wide))}; no longitude/latitude "
             "polygon can represent their hull faithfully (it may not contain all "
-            "their points); 'area_m2' and 'alpha' are right, for the geometry use "
-            "crs= with a projected output or split the group",
+            "their points); their 'alpha' and 'area_m2' are right (in 'crs_used'); "
+            "for the geometry, give the points in a projected CRS that holds them, "
+            "or split the group",
             GeoAlphaWarning,
             stacklevel=user_stacklevel(),
         )

@@ -26,6 +26,7 @@ import contextlib
 import os
 import re
 import uuid
+import warnings
 from collections.abc import Iterator
 from typing import TYPE_CHECKING, Any
 
@@ -179,7 +180,7 @@ def _import_drivers():
     except ImportError as err:
         raise ImportError(
             f"reading and writing PostGIS needs SQLAlchemy, psycopg and "
-            f"GeoAlchemy2 ({err.name} is missing): pip install 'geoalpha[postgis]'"
+            f'GeoAlchemy2 ({err.name} is missing): pip install "geoalpha[postgis]"'
         ) from err
     return sqlalchemy
 
@@ -547,7 +548,7 @@ def write_postgis(
     gdf : geopandas.GeoDataFrame
         What to write, usually the result of :func:`geoalpha.hull`. The
         geometry column keeps its name; its SRID is the EPSG code of
-        ``gdf.crs``; a mix of Polygons and MultiPolygons is written as
+        ``gdf.crs`` (0 without a CRS); a mix of Polygons and MultiPolygons is written as
         MultiPolygons (one column type, as in a GeoPackage). The index is
         not written (``reset_index()`` first to keep it).
     url : str
@@ -601,7 +602,11 @@ def write_postgis(
     temporary = f"geoalpha_tmp_{uuid.uuid4().hex}"
     with _connection(url, write=True) as conn:
         schema, exists = _check_target(conn, schema, name, table, overwrite, where)
-        frame.to_postgis(temporary, conn, schema=schema, index=False)
+        with warnings.catch_warnings():
+            # Without a CRS the table gets SRID 0, as documented: geopandas'
+            # "Could not parse CRS from the GeoDataFrame" would only repeat it.
+            warnings.filterwarnings("ignore", "Could not parse CRS", UserWarning)
+            frame.to_postgis(temporary, conn, schema=schema, index=False)
         if not _scalar(
             conn,
             "SELECT count(*) FROM pg_index i JOIN pg_class c ON c.oid = i.indexrelid "
@@ -662,5 +667,15 @@ def _rename_indexes(conn, schema: str, name: str, temporary: str) -> None:
 
 
 def _one_line(err: BaseException | str) -> str:
-    text = " ".join(str(err).split())
-    return text or type(err).__name__
+    """Return the text of ``err`` on one line, its lines joined as sentences.
+
+    libpq writes a hint on a line of its own ("Connection refused", then "Is
+    the server running..."): a line that ends without punctuation gets a full
+    stop before the next one.
+    """
+    lines = [" ".join(line.split()) for line in str(err).splitlines()]
+    lines = [line for line in lines if line]
+    for i, line in enumerate(lines[:-1]):
+        if line[-1] not in ".:;,!?":
+            lines[i] = line + "."
+    return " ".join(lines) or type(err).__name__

@@ -117,7 +117,7 @@ class Phases:
     Raises
     ------
     ImportError
-        For ``show=True`` without tqdm (``pip install geoalpha[progress]``).
+        For ``show=True`` without tqdm (``pip install "geoalpha[progress]"``).
 
     Examples
     --------
@@ -174,7 +174,7 @@ class Phases:
             from tqdm.auto import tqdm
         except ImportError as err:
             raise ImportError(
-                "progress=True needs tqdm: pip install geoalpha[progress]"
+                'progress=True needs tqdm: pip install "geoalpha[progress]"'
             ) from err
         return tqdm
 

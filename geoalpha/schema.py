@@ -11,10 +11,13 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from functools import cache
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import numpy as np
-import pandas as pd
+if TYPE_CHECKING:
+    import pandas as pd
+
+# numpy and pandas are imported where they are used: the command's --help
+# lists RESULT_COLUMNS and stays free of heavy imports.
 
 __all__ = [
     "DTYPES",
@@ -44,6 +47,9 @@ RESULT_COLUMNS: tuple[str, ...] = tuple(DTYPES)
 
 @cache
 def _dtype(name: str):
+    import numpy as np
+    import pandas as pd
+
     if DTYPES[name] == "text":  # str (pandas 3) or object: what pandas infers
         return pd.Series(np.array([""], dtype=object)).dtype
     return np.dtype(DTYPES[name])
@@ -124,6 +130,8 @@ def result_geometry_name(frame, keys) -> str:
     >>> result_geometry_name(frame, pd.DataFrame({"g": []}))
     'geom'
     """
+    import pandas as pd
+
     name = frame._geometry_column_name  # frame.geometry.name builds a GeoSeries
     name = name if name is not None else "geometry"
     taken = keys.columns if isinstance(keys, pd.DataFrame) else keys
@@ -173,6 +181,8 @@ def result_frame(
     (dtype('float64'), ['method', 'geometry'])
     """
     import geopandas as gpd
+    import numpy as np
+    import pandas as pd
 
     # One DataFrame from whole columns (assigning them one by one, or going
     # through a GeoSeries of a list, costs several times more).
@@ -202,6 +212,7 @@ def _geodataframe(columns: dict[Any, Any], geometry_name: str):
     public constructor.
     """
     import geopandas as gpd
+    import pandas as pd
 
     frame = pd.DataFrame(columns, copy=False)
     from_mgr = getattr(gpd.GeoDataFrame, "_from_mgr", None)
@@ -222,6 +233,8 @@ def empty_result(keys: pd.DataFrame, crs, geometry_name: str = "geometry"):
     >>> len(meta), meta.columns.tolist()[:3], str(meta.dtypes["n_parts"])
     (0, ['g', 'alpha', 'radius'], 'int32')
     """
+    import numpy as np
+
     values = {name: np.array([], dtype=object) for name in RESULT_COLUMNS}
     for name, dtype in DTYPES.items():
         if dtype != "text":

@@ -74,7 +74,7 @@ def hull(gdf, by=None, **options):
     OutlierWarning
         Groups that left points out (``outliers``), with their counts.
     DroppedRowsWarning
-        Rows with a missing or empty geometry or a missing group key.
+        Rows with a missing, empty or NaN geometry or a missing group key.
     DegenerateGroupWarning
         Groups with fewer than 3 distinct points or all collinear.
     AntimeridianWarning

@@ -500,7 +500,7 @@ def test_demo_default_dataset_is_visible_at_once(tmp_path):
     result = run("demo", out)
     assert result.exit_code == 0, result.stderr
     assert result.stderr.splitlines()[-1] == (
-        f"Wrote 56 hulls of 3,376 points to {out} (layer 'demo', 'points')"
+        f"Wrote 56 hulls of 3,364 points to {out} (layer 'demo', 'points')"
     )
     hulls = gpd.read_file(out, layer="demo")
     points = gpd.read_file(out, layer="points")

@@ -374,6 +374,77 @@ def test_known_secrets_are_redacted_out_of_context():
     assert redact("user=ab pw: ab, table abc", ["ab"]) == "user=*** pw: ***, table abc"
 
 
+_LONG_TOKEN = """
+import sys
+from geoalpha.redact import redact
+
+secret = sys.argv[1]
+token = "Ab1" * 1_700_000  # 5 MB of letters and digits: one field of a CSV
+url = f"postgresql://me:{secret}@db/gis?token={secret}"
+out = redact(f"no column 'g' in {token},x=1: {url}")
+assert out == (
+    f"no column 'g' in {token},x=1: postgresql://me:***@db/gis?token=***"
+), out[-80:]
+out = redact(f"cannot read https://me:{token}@host/a.csv?sig={token}&n=1")
+assert out == "cannot read https://me:***@host/a.csv?sig=***&n=1", out[-80:]
+"""
+
+
+def test_redact_is_linear_in_a_long_token():
+    # The URL pattern used to try every letter of a run of letters and digits
+    # as the start of a scheme and scan the run from there: 100 KB took 10 s,
+    # 5 MB did not finish in 300 s. Now a fraction of a second; run in a
+    # process of its own so that a regression fails instead of hanging.
+    done = subprocess.run(
+        [sys.executable, "-c", _LONG_TOKEN, SECRET],
+        env=env(),
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr[-2000:]
+
+
+def test_a_csv_header_of_megabytes_is_reported_in_seconds(tmp_path):
+    # Each message is worded in the command's terms by ~50 patterns; each of
+    # them scanned a 5 MB header ("its columns are: ...") position by
+    # position (8 s), on top of the redaction (minutes).
+    token = "Ab1" * 1_700_000
+    path = tmp_path / "wide.csv"
+    path.write_text(f"lon,lat,{token}\n0,0,a\n1,0,a\n0,1,a\n")
+    done = subprocess.run(
+        [sys.executable, "-m", "geoalpha", "hull", str(path), str(tmp_path / "h.gpkg"),
+         "--by", "state"],
+        env=env(), capture_output=True, text=True, timeout=60, check=False,
+    )  # fmt: skip
+    assert done.returncode == 1
+    assert done.stderr == (
+        f"Error: --by column 'state' not found in {path}; its columns are: lon, "
+        f"lat, {token}\n"
+    )
+
+
+@pytest.mark.parametrize(
+    "message",
+    [
+        "hull(by='g') makes 47 groups; pass vertices=True (--vertices) to use them",
+        "degenerate='buffer' (degenerate='drop') with crs='auto' and crs=None",
+        "n_jobs=2 and overwrite=True, x= and y= apply; layer=x, layer=",
+        "crs= must be a projected CRS: the input's CRS, holes=True, sort=False",
+    ],
+)
+def test_skipping_terms_not_in_the_message_changes_no_wording(message):
+    import re
+
+    from geoalpha.cli import _CLI_TERMS, _in_cli_terms
+
+    plain = message
+    for pattern, replacement in _CLI_TERMS:
+        plain = re.sub(pattern, replacement, plain)
+    assert _in_cli_terms(message) == plain != message
+
+
 def test_write_error_never_names_the_staging_folder(tmp_path, monkeypatch):
     hulls = gpd.GeoDataFrame(
         {"g": ["a"]}, geometry=[shapely.box(0, 0, 1, 1)], crs="EPSG:4326"

@@ -418,4 +418,4 @@ def test_missing_dask_says_what_to_install():
         """
     )
     assert done.returncode != 0
-    assert "pip install geoalpha[dask]" in done.stderr
+    assert 'pip install "geoalpha[dask]"' in done.stderr

@@ -960,11 +960,33 @@ def test_missing_and_empty_geometries_are_dropped_and_counted(small):
     holey.loc["r5", "geometry"] = Point()
     with pytest.warns(
         DroppedRowsWarning,
-        match=r"dropped 2 of 30 rows: 2 with a missing or empty geometry "
-        r"\(index 'r2', 'r5'\)",
+        match=r"dropped 2 of 30 rows: 2 with a missing or empty geometry or NaN "
+        r"coordinates \(index 'r2', 'r5'\)",
     ):
         hulls = geoalpha.hull(holey, by="g")
     assert hulls["n_points"].tolist() == [13, 15]
+
+
+@pytest.mark.parametrize(
+    "nan_point", [Point(np.nan, np.nan), Point(np.nan, 50.0), Point(10.0, np.nan)]
+)
+def test_nan_coordinates_are_dropped_as_missing_geometries(small, nan_point):
+    # POINT (NaN NaN) is what WKB and a GeoPackage hold for an empty point and
+    # what points_from_xy makes of a missing longitude/latitude: the dask path
+    # and the command (which read it back as POINT EMPTY) drop it, so does
+    # the eager call (it used to raise).
+    bad = small.copy()
+    bad.loc["r2", "geometry"] = None
+    bad.loc["r6", "geometry"] = nan_point
+    with pytest.warns(
+        DroppedRowsWarning,
+        match=r"^hull\(\) dropped 2 of 30 rows: 2 with a missing or empty geometry "
+        r"or NaN coordinates \(index 'r2', 'r6'\)$",
+    ):
+        hulls = geoalpha.hull(bad, by="g")
+    expected = geoalpha.hull(small.drop(index=["r2", "r6"]), by="g")
+    assert hulls["n_points"].tolist() == expected["n_points"].tolist() == [13, 15]
+    assert hulls.geom_equals_exact(expected, 0).all()
 
 
 def test_latitude_out_of_range_names_the_rows(small):
@@ -998,27 +1020,26 @@ def test_missing_by_column_lists_the_columns(small):
         geoalpha.hull(small, by=["g", "state"])
 
 
-@pytest.mark.parametrize("value", [np.nan, np.inf])
-def test_non_finite_lonlat_names_the_row(small, value):
+@pytest.mark.parametrize("value", [np.inf, -np.inf])
+def test_infinite_lonlat_names_the_row(small, value):
     bad = small.copy()
     bad.loc["r6", "geometry"] = Point(value, 50.0)
-    with pytest.raises(InvalidInputError, match=r"NaN or infinite.*index 'r6'"):
+    with pytest.raises(
+        InvalidInputError,
+        match=r"^hull\(\) needs finite coordinates; got infinite values in 1 "
+        r"row\(s\) \(index 'r6'\)$",
+    ):
         geoalpha.hull(bad, by="g")
 
 
-def test_non_finite_projected_coordinates_are_an_error(small):
-    bad = small.to_crs("EPSG:32632")
-    bad.loc["r6", "geometry"] = Point(np.nan, 5_500_000.0)
-    with pytest.raises(InvalidInputError, match="NaN or inf"):
-        geoalpha.hull(bad, by="g")
-
-
-def test_non_finite_projected_coordinates_name_the_index_label(small):
+def test_infinite_projected_coordinates_name_the_index_label(small):
     bad = small.to_crs("EPSG:32632")
     bad.loc["r1", "geometry"] = None
-    bad.loc["r6", "geometry"] = Point(np.nan, 5_500_000.0)
-    with pytest.raises(InvalidInputError, match="r6"):
-        geoalpha.hull(bad, by="g")
+    bad.loc["r3", "geometry"] = Point(np.nan, 5_500_000.0)  # dropped
+    bad.loc["r6", "geometry"] = Point(np.inf, 5_500_000.0)
+    with pytest.warns(DroppedRowsWarning, match=r"index 'r1', 'r3'"):
+        with pytest.raises(InvalidInputError, match=r"in 1 row\(s\) \(index 'r6'\)"):
+            geoalpha.hull(bad, by="g")
 
 
 @pytest.mark.parametrize(

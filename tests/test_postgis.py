@@ -373,6 +373,22 @@ def test_mixed_polygons_and_multipolygons_become_one_column_type(db, cluster):
     assert parts == _query(cluster, "SELECT sum(n_parts) FROM two_parts")
 
 
+def test_planar_hulls_are_written_without_a_geopandas_warning(db, cluster, tmp_path):
+    # "Warning: Could not parse CRS from the GeoDataFrame. Inserting data
+    # without defined CRS." leaked from geopandas: SRID 0 is what --crs-in
+    # none asks for, and the summary says "no CRS".
+    path = tmp_path / "xy.csv"
+    path.write_text("x,y,g\n0,0,a\n10,0,a\n0,10,a\n10,10,a\n5,5,a\n")
+    result = run(
+        "hull", path, db, "--crs-in", "none", "--by", "g",
+        "--output-layer", "public.planar_hulls",
+    )  # fmt: skip
+    assert result.exit_code == 0, result.stderr
+    assert "Warning" not in result.stderr, result.stderr
+    assert "(columns x/y, no CRS)" in result.stderr
+    assert _srid(cluster, "public.planar_hulls", "geometry") == "0"
+
+
 def test_python_write_and_refusal(db, cluster, uk_points):
     hulls = uk_points[uk_points["Cluster"] < 20].alpha.hull(by="Cluster")
     assert write_postgis(hulls, db, "py_hulls") == "public.py_hulls"
@@ -503,6 +519,20 @@ def test_bad_urls(cluster, tmp_path):
     missing_db = cluster.url("nodb")
     _assert_one_line_without_secret(
         run("hull", missing_db, out, "--layer", "t"), 'database "nodb" does not exist'
+    )
+
+
+def test_connection_refused_reads_as_sentences(tmp_path):
+    # libpq's "Connection refused\n\tIs the server running ..." was joined
+    # into "Connection refused Is the server ...".
+    pytest.importorskip("psycopg")
+    pytest.importorskip("sqlalchemy")
+    url = f"postgresql://geoalpha@127.0.0.1:{_closed_port()}/gadb"
+    result = run("hull", url, tmp_path / "o.gpkg", "--layer", "t")
+    assert result.exit_code == 1
+    assert result.stderr == (
+        f"Error: cannot connect to {url}: Connection refused. Is the server "
+        "running on that host and accepting TCP/IP connections?\n"
     )
 
 
