@@ -11,9 +11,15 @@ import time
 from collections.abc import Callable
 
 
-def best_of(fns: dict[str, Callable[[], object]], repeat: int) -> dict[str, float]:
-    """Best wall time of each function over ``repeat`` interleaved rounds."""
-    for fn in fns.values():
+def best_of(
+    fns: dict[str, Callable[[], object]], repeat: int, warm_up: bool = True
+) -> dict[str, float]:
+    """Best wall time of each function over ``repeat`` interleaved rounds.
+
+    ``warm_up=False`` skips the warm-up call (for baselines that take
+    minutes).
+    """
+    for fn in fns.values() if warm_up else ():
         fn()
     best = dict.fromkeys(fns, float("inf"))
     for _ in range(repeat):

@@ -208,7 +208,7 @@ fn flatten(solved: &[Solved], offsets: &[usize], n: usize) -> Output {
             o.polygon_offsets.push(o.ring_offsets.len() as i64 - 1);
         }
         o.group_offsets.push(o.polygon_offsets.len() as i64 - 1);
-        o.curve_value.extend_from_slice(&s.curve.values);
+        o.curve_value.extend_from_slice(&s.curve_values);
         o.curve_valid.extend_from_slice(&s.curve.valid);
         o.curve_offsets.push(o.curve_value.len() as i64);
     }

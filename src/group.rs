@@ -6,7 +6,7 @@ use crate::frame::{circumradius, collinear, orient, Frame, Xy};
 use crate::mesh::{triangulate, NONE};
 use crate::rings::{trace, Polygons};
 use crate::spectrum::{
-    fill_radius, merge_ties, outlier_optimum, pieces, sweep, Curve, ALPHA_RTOL, PARALLEL_TRIANGLES,
+    fill_rank, merge_ties, outlier_optimum, pieces, sweep, Curve, ALPHA_RTOL, PARALLEL_TRIANGLES,
 };
 
 /// Why a group has no alpha shape (0: it has one). The Python side words
@@ -64,8 +64,10 @@ pub struct Solved {
     pub left_out: Vec<bool>,
     /// The polygons, one per piece.
     pub polygons: Polygons,
-    /// The validity curve, when asked.
+    /// The validity curve, when asked (thresholds as ranks).
     pub curve: Curve,
+    /// The curve's thresholds as radii.
+    pub curve_values: Vec<f64>,
 }
 
 /// Solve one group.
@@ -120,19 +122,21 @@ pub fn solve(
     } else {
         mesh.tri.iter().map(radius_of).collect()
     };
-    let merged = merge_ties(&radius);
+    let spectrum = merge_ties(&radius);
+    let k = spectrum.values.len();
     let w = if options.holes {
-        merged
+        spectrum.rank.clone()
     } else {
-        fill_radius(&merged, &mesh.nb)
+        fill_rank(&spectrum.rank, k, &mesh.nb)
     };
+    let value = |rank: u32| spectrum.values[rank as usize];
 
     let mut weight = vec![0u64; n];
     for &r in &mesh.rep {
         weight[r as usize] += 1;
     }
     let rows = n as u64;
-    let (threshold, mut label, n_pieces) = if let Some(a) = alpha {
+    let (label, n_pieces) = if let Some(a) = alpha {
         let r = if a > 0.0 {
             (1.0 / a) * (1.0 + ALPHA_RTOL)
         } else {
@@ -140,9 +144,10 @@ pub fn solve(
         };
         res.alpha = a;
         res.radius = if a > 0.0 { 1.0 / a } else { f64::INFINITY };
-        let inside: Vec<bool> = w.iter().map(|&x| x <= r).collect();
-        let (label, count) = pieces(&inside, &mesh.nb);
-        (r, label, count)
+        // Solid: a merged radius <= r, i.e. a rank below the first value > r.
+        let solid = spectrum.values.partition_point(|&v| v <= r) as u32;
+        let inside: Vec<bool> = w.iter().map(|&x| x < solid).collect();
+        pieces(&inside, &mesh.nb)
     } else if budget > 0 {
         let need = rows.saturating_sub(budget);
         let (r, cover) = outlier_optimum(
@@ -155,16 +160,9 @@ pub fn solve(
             options.max_union_nodes,
         );
         res.capped = cover.capped;
+        res.radius = value(r);
         // Keep the chosen pieces only, numbered 0..
-        let mut renumber = vec![
-            NONE;
-            cover
-                .chosen
-                .iter()
-                .map(|&c| c as usize + 1)
-                .max()
-                .unwrap_or(0)
-        ];
+        let mut renumber = vec![NONE; cover.label.len()];
         for (k, &c) in cover.chosen.iter().enumerate() {
             renumber[c as usize] = k as u32;
         }
@@ -172,7 +170,7 @@ pub fn solve(
             .label
             .iter()
             .map(|&l| {
-                if l == NONE || l as usize >= renumber.len() {
+                if l == NONE {
                     NONE
                 } else {
                     renumber[l as usize]
@@ -180,10 +178,11 @@ pub fn solve(
             })
             .collect();
         res.n_outliers = rows - cover.rows;
-        (r, label, cover.chosen.len())
+        (label, cover.chosen.len())
     } else {
         let (first, curve) = sweep(
             &w,
+            k,
             &mesh.tri,
             &mesh.nb,
             n,
@@ -194,15 +193,14 @@ pub fn solve(
         res.curve = curve;
         // The whole triangulation is always valid: a Delaunay triangulation
         // is edge-connected and has every distinct point as a vertex.
-        let r = first.unwrap_or(f64::INFINITY);
+        let r = first.unwrap_or(k as u32 - 1);
+        res.radius = value(r);
         let inside: Vec<bool> = w.iter().map(|&x| x <= r).collect();
-        let (label, count) = pieces(&inside, &mesh.nb);
-        (r, label, count)
+        pieces(&inside, &mesh.nb)
     };
     if alpha.is_none() {
-        res.radius = threshold;
-        res.alpha = if threshold.is_finite() {
-            1.0 / threshold
+        res.alpha = if res.radius.is_finite() {
+            1.0 / res.radius
         } else {
             0.0
         };
@@ -210,6 +208,7 @@ pub fn solve(
     if options.curve && (alpha.is_some() || budget > 0) {
         res.curve = sweep(
             &w,
+            k,
             &mesh.tri,
             &mesh.nb,
             n,
@@ -219,6 +218,7 @@ pub fn solve(
         )
         .1;
     }
+    res.curve_values = res.curve.ranks.iter().map(|&r| value(r)).collect();
 
     // Rows left out: points whose representative no chosen piece holds.
     if budget > 0 && alpha.is_none() {
@@ -247,10 +247,7 @@ pub fn solve(
     let scaled_points: Vec<Xy> = (0..n as u32).map(scaled).collect();
     match trace(&scaled_points, &mesh.tri, &mesh.nb, &label, n_pieces) {
         Ok(polygons) => res.polygons = polygons,
-        Err(_) => {
-            res.reason = Reason::Rings as u8;
-            label.clear();
-        }
+        Err(_) => res.reason = Reason::Rings as u8,
     }
     res
 }

@@ -7,9 +7,6 @@
 //! (merged) radius itself with holes kept, the fill radius with holes filled.
 //! The shape at `R` is `{t : w(t) <= R}`.
 
-use std::cmp::Ordering;
-use std::collections::BinaryHeap;
-
 use rayon::prelude::*;
 
 use crate::mesh::NONE;
@@ -27,91 +24,122 @@ pub const ALPHA_RTOL: f64 = 8.0 * f64::EPSILON;
 /// Above this many triangles, sorts and per-triangle passes use every thread.
 pub const PARALLEL_TRIANGLES: usize = 1 << 16;
 
-/// Indices `0..w.len()` sorted by `w` (ties by index).
-pub fn order_by(w: &[f64]) -> Vec<u32> {
-    let mut order: Vec<u32> = (0..w.len() as u32).collect();
-    let cmp = |a: &u32, b: &u32| w[*a as usize].total_cmp(&w[*b as usize]).then(a.cmp(b));
-    if w.len() > PARALLEL_TRIANGLES {
-        order.par_sort_unstable_by(cmp);
-    } else {
-        order.sort_unstable_by(cmp);
-    }
-    order
+/// A triangulation's radius spectrum: the distinct (merged) radii and the
+/// rank of each triangle's radius among them. Everything after the radii runs
+/// on ranks: integers that compare as the radii do, so the sweeps sort by
+/// counting and queue by bucket.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Spectrum {
+    /// The distinct merged radii, ascending.
+    pub values: Vec<f64>,
+    /// `values[rank[t]]` is triangle `t`'s merged radius.
+    pub rank: Vec<u32>,
 }
 
-/// Give radii that agree to [`TIE_RTOL`] the largest of their values.
+/// Give radii that agree to [`TIE_RTOL`] the largest of their values, and rank
+/// them.
 ///
 /// Greedy runs, one value each: a run starts at the smallest radius not yet
 /// taken and holds every radius up to `start * (1 + TIE_RTOL)`; runs do not
-/// chain, so a merged value spans at most the tolerance.
-pub fn merge_ties(radius: &[f64]) -> Vec<f64> {
-    let order = order_by(radius);
-    let mut merged = vec![0.0; radius.len()];
+/// chain, so a merged value spans at most the tolerance. Radii are positive
+/// (or infinite), so their bit patterns sort as they do.
+pub fn merge_ties(radius: &[f64]) -> Spectrum {
+    let mut keyed: Vec<(u64, u32)> = radius
+        .iter()
+        .enumerate()
+        .map(|(t, r)| (r.to_bits(), t as u32))
+        .collect();
+    if keyed.len() > PARALLEL_TRIANGLES {
+        keyed.par_sort_unstable();
+    } else {
+        keyed.sort_unstable();
+    }
+    let value = |i: usize| f64::from_bits(keyed[i].0);
+    let mut spectrum = Spectrum {
+        values: Vec::new(),
+        rank: vec![0; radius.len()],
+    };
     let mut i = 0;
-    while i < order.len() {
-        let limit = radius[order[i] as usize] * (1.0 + TIE_RTOL);
+    while i < keyed.len() {
+        let limit = value(i) * (1.0 + TIE_RTOL);
         let mut j = i;
-        while j + 1 < order.len() && radius[order[j + 1] as usize] <= limit {
+        while j + 1 < keyed.len() && value(j + 1) <= limit {
             j += 1;
         }
-        let value = radius[order[j] as usize];
-        for &t in &order[i..=j] {
-            merged[t as usize] = value;
+        let rank = spectrum.values.len() as u32;
+        spectrum.values.push(value(j));
+        for &(_, t) in &keyed[i..=j] {
+            spectrum.rank[t as usize] = rank;
         }
         i = j + 1;
     }
-    merged
+    spectrum
 }
 
-#[derive(PartialEq)]
-struct Key(f64, u32);
-
-impl Eq for Key {}
-
-impl PartialOrd for Key {
-    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
-        Some(self.cmp(other))
-    }
-}
-
-impl Ord for Key {
-    fn cmp(&self, other: &Self) -> Ordering {
-        self.0.total_cmp(&other.0).then(other.1.cmp(&self.1))
-    }
-}
-
-/// The fill radius of every triangle: the largest, over dual paths from the
-/// triangle to the outside of the convex hull, of the smallest radius on the
+/// The fill rank of every triangle: the largest, over dual paths from the
+/// triangle to the outside of the convex hull, of the smallest rank on the
 /// path (the triangle's own included).
 ///
-/// With holes filled, `t` is in the shape at `R` exactly when every such path
-/// meets a solid triangle, i.e. when its fill radius is `<= R`. A widest-path
-/// search from the outside (Dijkstra with `max`/`min`).
-pub fn fill_radius(radius: &[f64], nb: &[[u32; 3]]) -> Vec<f64> {
-    let m = radius.len();
-    let mut fill = vec![f64::NAN; m];
-    let mut done = vec![false; m];
-    let mut heap = BinaryHeap::new();
+/// With holes filled, `t` is in the shape at rank `R` exactly when every such
+/// path meets a solid triangle, i.e. when its fill rank is `<= R`. A
+/// widest-path search from the outside on a bucket queue: the keys it takes
+/// out never increase (a neighbour's key is the min of the current one and
+/// its rank), so one downward scan of `k` buckets serves, `O(m + k)`.
+pub fn fill_rank(rank: &[u32], k: usize, nb: &[[u32; 3]]) -> Vec<u32> {
+    let m = rank.len();
+    let mut fill = vec![NONE; m];
+    // Buckets as linked lists: head[key] -> entry -> next entry.
+    let mut head = vec![NONE; k];
+    let mut entries: Vec<(u32, u32)> = Vec::with_capacity(4 * m);
+    let push = |head: &mut Vec<u32>, entries: &mut Vec<(u32, u32)>, key: u32, t: u32| {
+        entries.push((t, head[key as usize]));
+        head[key as usize] = (entries.len() - 1) as u32;
+    };
     for (t, n) in nb.iter().enumerate() {
         if n.contains(&NONE) {
-            heap.push(Key(radius[t], t as u32));
+            push(&mut head, &mut entries, rank[t], t as u32);
         }
     }
-    // Each triangle is pushed at most once per neighbour: at most 3m + m pops.
-    while let Some(Key(key, t)) = heap.pop() {
-        let t = t as usize;
-        if done[t] {
+    // At most one push per hull triangle and per directed dual edge.
+    let mut key = k;
+    while key > 0 {
+        let b = key - 1;
+        let e = head[b];
+        if e == NONE {
+            key -= 1;
             continue;
         }
-        done[t] = true;
-        fill[t] = key;
-        for &s in &nb[t] {
-            if s != NONE && !done[s as usize] {
-                heap.push(Key(key.min(radius[s as usize]), s));
+        let (t, next) = entries[e as usize];
+        head[b] = next;
+        if fill[t as usize] != NONE {
+            continue;
+        }
+        fill[t as usize] = b as u32;
+        for &s in &nb[t as usize] {
+            if s != NONE && fill[s as usize] == NONE {
+                let sk = (b as u32).min(rank[s as usize]);
+                push(&mut head, &mut entries, sk, s);
             }
         }
     }
     fill
+}
+
+/// Triangles in increasing rank (counting sort, ties by index).
+fn by_rank(w: &[u32], k: usize) -> Vec<u32> {
+    let mut start = vec![0u32; k + 1];
+    for &r in w {
+        start[r as usize + 1] += 1;
+    }
+    for i in 0..k {
+        start[i + 1] += start[i];
+    }
+    let mut order = vec![0u32; w.len()];
+    for (t, &r) in w.iter().enumerate() {
+        order[start[r as usize] as usize] = t as u32;
+        start[r as usize] += 1;
+    }
+    order
 }
 
 /// Union-find over triangles (path halving, union by size).
@@ -184,33 +212,36 @@ pub fn pieces(inside: &[bool], nb: &[[u32; 3]]) -> (Vec<u32>, usize) {
     (label, count as usize)
 }
 
-/// The validity curve: every distinct weight, ascending, and whether the
-/// shape at that threshold is valid (covers every distinct point in at most
-/// `components` edge-connected pieces).
+/// The validity curve: every distinct weight (a rank), ascending, and whether
+/// the shape at that threshold is valid (covers every distinct point in at
+/// most `components` edge-connected pieces).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Curve {
     /// Distinct weights, ascending.
-    pub values: Vec<f64>,
-    /// Validity at each value (between two values, that of the lower one).
+    pub ranks: Vec<u32>,
+    /// Validity at each (between two, that of the lower one).
     pub valid: Vec<bool>,
 }
 
-/// One union-find sweep over the triangles in increasing weight: the first
-/// valid threshold (the optimum; `None` if no threshold is valid, which a
-/// Delaunay triangulation never gives) and, if asked, the whole curve.
+/// One union-find sweep over the triangles in increasing weight `w` (ranks
+/// below `k`): the first valid threshold (the optimum; `None` if no threshold
+/// is valid, which a Delaunay triangulation never gives) and, if asked, the
+/// whole curve.
 ///
 /// `n_distinct` is the number of distinct points, all of them triangle
 /// vertices; `tri` indexes points `0..n_points`.
+#[allow(clippy::too_many_arguments)]
 pub fn sweep(
-    w: &[f64],
+    w: &[u32],
+    k: usize,
     tri: &[[u32; 3]],
     nb: &[[u32; 3]],
     n_points: usize,
     n_distinct: usize,
     components: usize,
     want_curve: bool,
-) -> (Option<f64>, Curve) {
-    let order = order_by(w);
+) -> (Option<u32>, Curve) {
+    let order = by_rank(w, k);
     let mut union = Union::new(w.len());
     let mut added = vec![false; w.len()];
     let mut covered = vec![false; n_points];
@@ -245,7 +276,7 @@ pub fn sweep(
             }
         }
         if want_curve {
-            curve.values.push(value);
+            curve.ranks.push(value);
             curve.valid.push(valid);
         }
     }
@@ -336,8 +367,8 @@ impl BestUnion<'_> {
 /// union is counted exactly, by branch and bound over the pieces in
 /// decreasing weight, visiting at most `max_nodes` nodes.
 pub fn best_cover(
-    w: &[f64],
-    r: f64,
+    w: &[u32],
+    r: u32,
     tri: &[[u32; 3]],
     nb: &[[u32; 3]],
     weight: &[u64],
@@ -397,16 +428,16 @@ pub fn best_cover(
 /// The best coverage only grows with the threshold (pieces grow and merge),
 /// so a binary search over the distinct weights finds the first one.
 pub fn outlier_optimum(
-    w: &[f64],
+    w: &[u32],
     tri: &[[u32; 3]],
     nb: &[[u32; 3]],
     weight: &[u64],
     components: usize,
     need: u64,
     max_nodes: usize,
-) -> (f64, Cover) {
-    let mut values: Vec<f64> = w.to_vec();
-    values.sort_unstable_by(f64::total_cmp);
+) -> (u32, Cover) {
+    let mut values: Vec<u32> = w.to_vec();
+    values.sort_unstable();
     values.dedup();
     // Invariant: values[hi] is enough (the last one: one piece, every row).
     let (mut lo, mut hi) = (0usize, values.len() - 1);
@@ -429,30 +460,28 @@ mod tests {
     #[test]
     fn ties_take_the_largest_of_their_run_and_do_not_chain() {
         let r = [2.0, 1.0, 1.0 + 1e-15, 1.0 + 0.6e-10, 1.0 + 1.2e-10];
-        let m = merge_ties(&r);
-        assert_eq!(m[1], 1.0 + 0.6e-10);
-        assert_eq!(m[2], 1.0 + 0.6e-10);
-        assert_eq!(m[4], 1.0 + 1.2e-10);
-        assert_eq!(m[0], 2.0);
+        let s = merge_ties(&r);
+        assert_eq!(s.values, vec![1.0 + 0.6e-10, 1.0 + 1.2e-10, 2.0]);
+        assert_eq!(s.rank, vec![2, 0, 0, 0, 1]);
     }
 
     #[test]
     fn a_chain_of_close_radii_is_cut_into_runs() {
         // 40 radii 0.6e-10 apart: runs of two (a run spans at most 1e-10).
         let r: Vec<f64> = (0..40).map(|k| 1.0 + k as f64 * 0.6e-10).collect();
-        let m = merge_ties(&r);
-        let mut values = m.clone();
-        values.dedup();
-        assert_eq!(values.len(), 20);
-        assert!(m.iter().zip(&r).all(|(a, b)| a / b - 1.0 <= TIE_RTOL));
+        let s = merge_ties(&r);
+        assert_eq!(s.values.len(), 20);
+        let merged = s.rank.iter().map(|&k| s.values[k as usize]);
+        assert!(merged.zip(&r).all(|(a, b)| a / b - 1.0 <= TIE_RTOL));
     }
 
     #[test]
-    fn fill_radius_of_an_enclosed_triangle_is_its_ring() {
+    fn fill_rank_of_an_enclosed_triangle_is_its_ring() {
         // Triangles 0 and 2 on the hull (radii 1, 3), 1 between them (5).
         let nb = [[1, NONE, NONE], [0, 2, 0], [1, NONE, NONE]];
-        let f = fill_radius(&[1.0, 5.0, 3.0], &nb);
-        assert_eq!(f, vec![1.0, 3.0, 3.0]);
+        // Ranks 0 (radius 1), 2 (radius 5), 1 (radius 3).
+        let f = fill_rank(&[0, 2, 1], 3, &nb);
+        assert_eq!(f, vec![0, 1, 1]);
     }
 
     #[test]
@@ -463,26 +492,10 @@ mod tests {
         let tri = [[0, 1, 2], [2, 3, 4], [5, 6, 7]];
         let nb = [[NONE; 3]; 3];
         let weight = [1, 1, 10, 1, 1, 1, 1, 5];
-        let c = best_cover(
-            &[1.0, 1.0, 1.0],
-            1.0,
-            &tri,
-            &nb,
-            &weight,
-            2,
-            MAX_UNION_NODES,
-        );
+        let c = best_cover(&[0, 0, 0], 0, &tri, &nb, &weight, 2, MAX_UNION_NODES);
         assert_eq!(c.rows, 19);
         assert!(c.chosen.contains(&2));
-        let c = best_cover(
-            &[1.0, 1.0, 1.0],
-            1.0,
-            &tri,
-            &nb,
-            &weight,
-            1,
-            MAX_UNION_NODES,
-        );
+        let c = best_cover(&[0, 0, 0], 0, &tri, &nb, &weight, 1, MAX_UNION_NODES);
         assert_eq!(c.rows, 12);
     }
 }

@@ -178,7 +178,7 @@ def test_defaults_passed_to_hull(fake_hull, points_csv, tmp_path):
             "vertices": False,
             "dropna": True,
             "sort": True,
-            "n_jobs": 1,
+            "n_jobs": None,
             "progress": None,
         }
     ]
@@ -430,7 +430,7 @@ def test_hull_of_polygon_vertices_with_more_options(points_csv, tmp_path):
     assert back.geometry.geom_equals_exact(expected.geometry, 1e-9).all()
     jobs = run("hull", points_csv, tmp_path / "h.gpkg", "-j", "0")
     assert jobs.exit_code == 1
-    assert "Error: --jobs must be a positive integer or -1" in jobs.stderr
+    assert "Error: --jobs must be a positive integer, or -1" in jobs.stderr
 
 
 def _csv_points(path):

@@ -429,21 +429,3 @@ def test_the_array_api_defaults_are_those_of_options():
         for name in shared:
             assert params[name].default == defaults()[name], (func, name)
     assert typing.get_args(optimal.Search) == SEARCHES
-
-
-def test_the_qgis_plugin_offers_the_choices_of_options():
-    """The plugin cannot import geoalpha when it loads; its copies must agree."""
-    import ast
-    from pathlib import Path
-
-    from geoalpha.options import DEGENERATE_POLICIES, METHODS
-
-    path = Path(__file__).parents[1] / "qgis_plugin/geoalpha_qgis/algorithm.py"
-    constants = {
-        target.id: ast.literal_eval(node.value)
-        for node in ast.parse(path.read_text()).body
-        if isinstance(node, ast.Assign)
-        for target in node.targets
-        if isinstance(target, ast.Name) and target.id in ("METHODS", "DEGENERATE")
-    }
-    assert constants == {"METHODS": METHODS, "DEGENERATE": DEGENERATE_POLICIES}
