@@ -11,7 +11,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import shapely
-from hypothesis import given, settings
+from example_counts import examples
+from hypothesis import given
 from hypothesis import strategies as st
 from scipy.spatial import Delaunay, QhullError
 from test_real_groups import EXPECTED_GROUPS, real_dataset
@@ -120,7 +121,7 @@ GROUP = st.lists(st.tuples(COORD, COORD), min_size=3, max_size=30).map(
 )
 
 
-@settings(max_examples=60)
+@examples(60)
 @given(sets=st.lists(GROUP, min_size=1, max_size=4))
 def test_triangles_neighbours_and_duplicates(sets):
     local, ptr, groups = group_arrays(sets)
@@ -273,7 +274,7 @@ def first_equal_rows(xy, codes, other=None):
     return np.array(rep)
 
 
-@settings(max_examples=150, deadline=None)
+@examples(150, deadline=None)
 @given(
     n=st.integers(0, 60),
     values=st.integers(1, 6),

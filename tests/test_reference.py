@@ -13,11 +13,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import reference
-from hypothesis import assume, given, settings
+from example_counts import examples
+from hypothesis import assume, given
 from hypothesis import strategies as st
-
-#: Profile-relative example counts (as in test_exact.py).
-SCALE = settings().max_examples / 100
 
 #: Coordinates on a coarse grid (many cocircular ties) or a fine one.
 COARSE = st.integers(0, 6).map(float)
@@ -38,7 +36,7 @@ def both(p, holes, components):
 
 @pytest.mark.parametrize("components", [1, 2, 3])
 @pytest.mark.parametrize("holes", [False, True], ids=["filled", "holes"])
-@settings(max_examples=max(1, round(150 * SCALE)))
+@examples(150)
 @given(
     rows=st.one_of(
         st.lists(st.tuples(COARSE, COARSE), min_size=3, max_size=30),
