@@ -5,7 +5,7 @@
 is fast. ``ci`` is reproducible (derandomized, no example database, no
 deadline: the machine is shared and the brute-force references are slow) and
 runs the counts the tests ask for; CI selects it for its second run,
-``HYPOTHESIS_PROFILE=ci python -m pytest -m "exhaustive or hypothesis"``.
+``HYPOTHESIS_PROFILE=ci python -m pytest -m "exhaustive or hypothesis or notebook"``.
 ``thorough`` runs ten times as many examples as ``ci``, with fresh
 randomness: ``HYPOTHESIS_PROFILE=thorough python -m pytest``.
 

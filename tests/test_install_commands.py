@@ -56,6 +56,8 @@ ELSEWHERE = {
 FENCE = re.compile(r"^```(?P<lang>[^\n]*)\n(?P<code>.*?)^```[ \t]*$", re.S | re.M)
 INLINE = re.compile(r"`((?:python -m )?pip install [^`]+)`")
 SUITE = re.compile(r"\bpython -m pytest\b")
+#: What a block's pytest command becomes: collected in this process (-n 0).
+COLLECT = "python -m pytest --collect-only -q -n 0"
 #: pip's warning for `.[name]` when the project has no extra `name`.
 NO_EXTRA = "does not provide the extra"
 
@@ -196,7 +198,7 @@ def test_command_works_in_a_new_venv(lines, tmp_path, cargo_target):
     if any("geoalpha[" in line for line in lines):
         run("pip install .", clone, env)  # the README's set-up
     for line in lines:
-        out = run(SUITE.sub("python -m pytest --collect-only -q", line), clone, env)
+        out = run(SUITE.sub(COLLECT, line), clone, env)
         if SUITE.search(line):
             assert re.search(r"\d+ tests? collected", out), out[-3000:]
         for html in re.findall(r"-b html(?: -\S+ \S+)* \S+ (\S+)", line):
