@@ -4,13 +4,17 @@
   is installed (importing it without dask is an ImportError by design).
 - ``geoalpha/progress.py``'s doctests draw a bar, so they run only when tqdm
   (``geoalpha[progress]``) is installed; CI installs it.
-- The notebooks run (nbmake, 600 s per cell) only when nbmake is installed;
-  ``.[test]`` alone runs the unit tests and doctests.
+- The notebooks run (nbmake, 600 s per cell) only when nbmake is installed,
+  and carry the ``notebook`` marker, which ``python -m pytest`` deselects (the
+  case study times the searches: minutes); CI runs them with
+  ``-m "exhaustive or hypothesis or notebook"``.
 """
 
 from __future__ import annotations
 
 import importlib.util
+
+import pytest
 
 collect_ignore = []
 if importlib.util.find_spec("dask_geopandas") is None:
@@ -24,3 +28,11 @@ def pytest_configure(config):
     if config.pluginmanager.hasplugin("nbmake") and hasattr(config.option, "nbmake"):
         config.option.nbmake = True
         config.option.nbmake_timeout = 600
+
+
+@pytest.hookimpl(tryfirst=True)  # before -m deselects by marker
+def pytest_collection_modifyitems(config, items):
+    """Mark the notebooks ``notebook``."""
+    for item in items:
+        if item.path.suffix == ".ipynb":
+            item.add_marker(pytest.mark.notebook)

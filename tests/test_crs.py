@@ -7,7 +7,8 @@ import pandas as pd
 import pyproj
 import pytest
 import shapely
-from hypothesis import given, settings
+from example_counts import examples
+from hypothesis import given
 from hypothesis import strategies as st
 from shapely.geometry import MultiPolygon, Polygon, box
 
@@ -192,7 +193,7 @@ def brute_crossing(lon):
     return bool(np.any(start + (lon - start) % 360.0 - lon > 1.0))
 
 
-@settings(max_examples=60, deadline=None)
+@examples(60, deadline=None)
 @given(
     st.lists(
         st.lists(

@@ -16,7 +16,8 @@ import numpy as np
 import pytest
 import reference
 import shapely
-from hypothesis import assume, event, given, note, settings
+from example_counts import examples
+from hypothesis import assume, event, given, note
 from hypothesis import strategies as st
 from scipy.spatial import QhullError
 
@@ -27,14 +28,6 @@ from geoalpha import (
     kernel,
     optimal_alpha,
 )
-
-#: Profile-relative example counts (100 per test in the "ci" profile).
-SCALE = settings().max_examples / 100
-
-
-def examples(n: int) -> settings:
-    return settings(max_examples=max(1, round(n * SCALE)))
-
 
 # --------------------------------------------------------------------------
 # Point-set strategies (coordinates in metres of some metric CRS)

@@ -6,7 +6,8 @@ import numpy as np
 import pyproj
 import pytest
 import shapely
-from hypothesis import given, settings
+from example_counts import examples
+from hypothesis import given
 from hypothesis import strategies as st
 from shapely.geometry import box
 
@@ -160,7 +161,7 @@ def test_random_sets_give_valid_covering_polygons(seed):
     assert 2 <= k <= len(np.unique(points, axis=0))
 
 
-@settings(max_examples=200, deadline=None)
+@examples(200, deadline=None)
 @given(
     st.lists(
         st.tuples(st.integers(-4, 4), st.integers(-4, 4)), min_size=1, max_size=40

@@ -251,6 +251,7 @@ def reference_curves(name, holes):
     return curves
 
 
+@pytest.mark.exhaustive  # every spectrum value of every real group: minutes
 @pytest.mark.parametrize("holes", [False, True], ids=["filled", "holes"])
 @pytest.mark.parametrize("name", list(EXPECTED_GROUPS))
 def test_every_real_group_matches_reference(name, holes):

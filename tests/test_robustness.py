@@ -22,6 +22,7 @@ import numpy as np
 import pytest
 import shapely
 import shapely.affinity
+from example_counts import examples as scaled_examples
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -34,13 +35,12 @@ from geoalpha import (
     optimal_alpha,
 )
 
-#: Examples per family in the default ("ci") profile; "thorough" runs 10x.
-SCALE = settings().max_examples / 100
 TEN_SECONDS = datetime.timedelta(seconds=10)
 
 
 def examples(n: int) -> settings:
-    return settings(max_examples=max(1, round(n * SCALE)), deadline=TEN_SECONDS)
+    """n examples per family in the "ci" profile (tests/example_counts.py)."""
+    return scaled_examples(n, deadline=TEN_SECONDS)
 
 
 def check_guarantee(p, **options):

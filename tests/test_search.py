@@ -16,7 +16,8 @@ import numpy as np
 import pytest
 import reference
 import shapely
-from hypothesis import assume, event, given, note, settings
+from example_counts import examples
+from hypothesis import assume, event, given, note
 from hypothesis import strategies as st
 from scipy.sparse import csr_array
 from scipy.sparse.csgraph import connected_components
@@ -149,7 +150,7 @@ TARGETS = st.builds(
 
 
 @HOLES_COMPONENTS
-@settings(max_examples=60)
+@examples(60)
 @given(p=unit_sets(), target=TARGETS)
 def test_ladder_matches_brute_force(p, target, holes, components):
     q = scaled_to(p, target, holes, components)
@@ -188,7 +189,7 @@ def test_ladder_in_metres_is_the_convex_hull():
 
 
 @HOLES_COMPONENTS
-@settings(max_examples=40)
+@examples(40)
 @given(p=unit_sets(), target=st.integers(1, 390).map(lambda i: i / 100))
 def test_bisect_below_4_converges_to_the_optimum(p, target, holes, components):
     q = scaled_to(p, target, holes, components)
