@@ -108,7 +108,7 @@ def pip_commands():
 def test_the_documented_commands_are_found():
     flat = [line for _, lines in COMMANDS for line in lines]
     assert "pip install . && geoalpha demo hulls.gpkg" in flat
-    assert 'pip install ".[test]" && python -m pytest' in flat
+    assert 'pip install -e ".[test]" && python -m pytest' in flat
     assert any("sphinx -b html docs docs/_build/html" in line for line in flat)
     assert any('pip install "geoalpha[dask]"' in line for line in flat)
 
