@@ -195,7 +195,7 @@ def test_front_page_and_readme_agree_on_set_up():
     start = (DOCS / "getting_started.md").read_text(encoding="utf-8")
     for command in (
         "pip install . && geoalpha demo hulls.gpkg",
-        'pip install ".[test]" && python -m pytest',
+        'pip install -e ".[test]" && python -m pytest',
     ):
         assert command in readme and command in start
     assert "\npython -m pytest\n" in ci  # the README's test command, as it is
