@@ -52,7 +52,7 @@ def _sphinx(builder: str, out: Path, doctrees: Path) -> subprocess.CompletedProc
 def build(tmp_path_factory):
     """The HTML build: (its folder, the finished sphinx process)."""
     if importlib.util.find_spec("sphinx") is None:
-        _missing('Sphinx (pip install ".[dask]" --group docs, pip >= 25.1)')
+        _missing('Sphinx (pip install -e ".[dask]" --group docs, pip >= 25.1)')
     base = tmp_path_factory.mktemp("docs")
     html = base / "html"
     return html, _sphinx("html", html, base / "doctrees"), base
