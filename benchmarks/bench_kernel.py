@@ -95,14 +95,18 @@ def chain(n: int) -> np.ndarray:
 
 
 def peak_memory_mb(n: int) -> float:
-    """Max RSS of a fresh process that runs alpha_shapes on n points, one group."""
+    """Peak RSS of a fresh process that runs alpha_shapes on n points, one group.
+
+    Read from ``VmHWM`` (the high-water mark of this process's own memory):
+    ``ru_maxrss`` would also count the parent's memory at the fork.
+    """
     code = textwrap.dedent(
         f"""
-        import resource, numpy as np, geoalpha
+        import numpy as np, geoalpha
         xy = np.random.default_rng(1).random(({n}, 2)) * 10_000
-        base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
         geoalpha.alpha_shapes(xy)
-        print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024)
+        status = open("/proc/self/status").read().split("VmHWM:")[1]
+        print(int(status.split()[0]) / 1024)
         """
     )
     out = subprocess.run(
