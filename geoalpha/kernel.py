@@ -68,7 +68,8 @@ EMPTY_POLYGON = shapely.Polygon()
 #: ``components > 1``); a group that reaches it gets the best union found.
 MAX_UNION_NODES: int = _kernel.MAX_UNION_NODES
 
-#: Above this many groups, a shown progress bar is updated this often.
+#: Runs of groups per kernel call when a progress bar is shown (it advances
+#: once per run); one call otherwise.
 PROGRESS_CHUNKS = 20
 
 
@@ -214,7 +215,8 @@ def _call(xy, out, offsets, alpha, budget, **kwargs) -> dict:
     )
 
 
-def _chunks(offsets, n_groups: int, progress) -> list[tuple[int, int]]:
+def _chunks(n_groups: int, progress) -> list[tuple[int, int]]:
+    """Return the runs of groups: one, or about 20 when a bar is shown."""
     if progress is None or n_groups < 2 * PROGRESS_CHUNKS:
         return [(0, n_groups)]
     cuts = np.linspace(0, n_groups, PROGRESS_CHUNKS + 1).astype(int)
@@ -225,7 +227,7 @@ def _run(xy, out, offsets, alpha, budget, progress, **kwargs) -> dict:
     """Run the kernel on all groups, in chunks of groups when a bar is shown."""
     n_groups = len(offsets) - 1
     parts = []
-    for g0, g1 in _chunks(offsets, n_groups, progress):
+    for g0, g1 in _chunks(n_groups, progress):
         a, b = offsets[g0], offsets[g1]
         res = _call(
             xy[a:b],
