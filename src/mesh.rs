@@ -1,6 +1,7 @@
 //! The Delaunay triangulation of a group's distinct points, on spade's exact
 //! predicates, as flat triangle and neighbour arrays.
 
+use rayon::prelude::*;
 use spade::{DelaunayTriangulation, HasPosition, Point2, Triangulation};
 
 use crate::frame::{Frame, Xy};
@@ -27,7 +28,10 @@ pub struct Mesh {
 #[derive(Clone, Copy)]
 struct Vertex {
     pos: Point2<f64>,
+    /// Index of the point in the group.
     id: u32,
+    /// Place along the Hilbert curve through the group's distinct points.
+    rank: u32,
 }
 
 impl HasPosition for Vertex {
@@ -75,15 +79,120 @@ fn scaled(p: Xy, s: f64) -> Point2<f64> {
     spade::mitigate_underflow(Point2::new(p[0] * s + 0.0, p[1] * s + 0.0))
 }
 
-fn delaunay(points: &[Xy], ids: &[u32], s: f64) -> Option<DelaunayTriangulation<Vertex>> {
-    let vertices = ids
+/// Position of `(x, y)` (each below 2^32) along a Hilbert curve over a
+/// 2^32 x 2^32 grid.
+fn hilbert(mut x: u32, mut y: u32) -> u64 {
+    let mut d = 0u64;
+    let mut s = 1u32 << 31;
+    while s > 0 {
+        let rx = u32::from(x & s != 0);
+        let ry = u32::from(y & s != 0);
+        d += u64::from(s) * u64::from(s) * u64::from((3 * rx) ^ ry);
+        if ry == 0 {
+            if rx == 1 {
+                x = !x;
+                y = !y;
+            }
+            std::mem::swap(&mut x, &mut y);
+        }
+        s >>= 1;
+    }
+    d
+}
+
+/// The order in which `ids` are inserted, as `(id, rank)` pairs, `rank`
+/// being the point's place along a Hilbert curve through the group: biased
+/// randomized insertion order (BRIO) with each round in Hilbert order.
+///
+/// A point's round comes from a hash of its coordinates (deterministic): half of
+/// the points go in the last round, a quarter in the one before, and so on.
+/// The random rounds keep every insertion's expected work constant whatever
+/// the shape of the group (spade's circle sweep, `bulk_load`, slows to
+/// quadratic time on nearly collinear chains, whose points share one angle
+/// from the centre); the Hilbert curve keeps each insertion next to the one
+/// before, where the walk that locates it starts.
+fn insertion_order(points: &[Xy], ids: &[u32]) -> Vec<(u32, u32)> {
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for &id in ids {
+        let p = points[id as usize];
+        for a in 0..2 {
+            lo[a] = lo[a].min(p[a]);
+            hi[a] = hi[a].max(p[a]);
+        }
+    }
+    // Grid cells of the bounding box; the cast saturates, so rounding at the
+    // top edge stays on the grid.
+    let cell = |a: usize, v: f64| {
+        let span = hi[a] - lo[a];
+        if span > 0.0 {
+            ((v - lo[a]) / span * 4_294_967_295.0) as u32
+        } else {
+            0
+        }
+    };
+    // Ties on the curve (points closer than a cell) go by coordinates: the
+    // order, and so spade's triangulation, depends on the points alone, not
+    // on the order of the rows.
+    let mut along: Vec<(u64, [u64; 2], u32)> = ids
         .iter()
-        .map(|&id| Vertex {
-            pos: scaled(points[id as usize], s),
-            id,
+        .map(|&id| {
+            let p = points[id as usize];
+            let bits = [(p[0] + 0.0).to_bits(), (p[1] + 0.0).to_bits()];
+            (hilbert(cell(0, p[0]), cell(1, p[1])), bits, id)
         })
         .collect();
-    DelaunayTriangulation::<Vertex>::bulk_load(vertices).ok()
+    if along.len() > PARALLEL_POINTS {
+        along.par_sort_unstable();
+    } else {
+        along.sort_unstable();
+    }
+    // Rounds by counting sort, each keeping the Hilbert order.
+    let round = |bits: [u64; 2]| 64 - mix(bits[0] ^ mix(bits[1])).trailing_zeros() as usize;
+    let mut start = [0usize; 66];
+    for &(_, bits, _) in &along {
+        start[round(bits) + 1] += 1;
+    }
+    for r in 0..65 {
+        start[r + 1] += start[r];
+    }
+    let mut order = vec![(0u32, 0u32); along.len()];
+    for (rank, &(_, bits, id)) in along.iter().enumerate() {
+        let r = round(bits);
+        order[start[r]] = (id, rank as u32);
+        start[r] += 1;
+    }
+    order
+}
+
+/// splitmix64's finaliser: every output bit depends on every input bit, so
+/// coordinates with many zero bits (integers, rounded values) still spread
+/// evenly over the rounds.
+fn mix(mut z: u64) -> u64 {
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// Above this many points, the insertion order is sorted on every thread.
+const PARALLEL_POINTS: usize = 1 << 16;
+
+fn delaunay(points: &[Xy], ids: &[u32], s: f64) -> Option<DelaunayTriangulation<Vertex>> {
+    let n = ids.len();
+    let mut dt = DelaunayTriangulation::<Vertex>::with_capacity(n, 3 * n, 2 * n);
+    let mut hint = None;
+    for (id, rank) in insertion_order(points, ids) {
+        let vertex = Vertex {
+            pos: scaled(points[id as usize], s),
+            id,
+            rank,
+        };
+        let inserted = match hint {
+            Some(h) => dt.insert_with_hint(vertex, h),
+            None => dt.insert(vertex),
+        };
+        hint = Some(inserted.ok()?);
+    }
+    Some(dt)
 }
 
 /// Exact duplicates (the same x and y, -0 equal to 0) into `union`.
@@ -155,19 +264,44 @@ pub fn triangulate(points: &[Xy], frame: &Frame, build: bool) -> Mesh {
     mesh
 }
 
+/// The triangle and neighbour arrays, the triangles numbered along the
+/// Hilbert curve (by the rank of their first vertex on it, with a counting
+/// sort), so that the sweeps, which visit a triangle and its neighbours, find
+/// them close in memory: spade's own numbering follows the order of creation.
 fn fill_arrays(t: &DelaunayTriangulation<Vertex>, mesh: &mut Mesh) {
     let m = t.num_inner_faces();
+    let key = |f: &spade::handles::FaceHandle<'_, spade::handles::InnerTag, Vertex, (), (), ()>| {
+        f.vertices()
+            .iter()
+            .map(|v| v.data().rank)
+            .min()
+            .unwrap_or(0) as usize
+    };
+    // Inner faces are numbered 1..=m (0 is the outer face): `place[f]` is
+    // face f's triangle index.
+    let mut place = vec![0u32; m + 1];
+    let mut start = vec![0u32; t.num_vertices() + 1];
+    for f in t.inner_faces() {
+        start[key(&f) + 1] += 1;
+    }
+    for r in 0..t.num_vertices() {
+        start[r + 1] += start[r];
+    }
+    for f in t.inner_faces() {
+        let k = key(&f);
+        place[f.fix().index()] = start[k];
+        start[k] += 1;
+    }
     mesh.tri = vec![[0; 3]; m];
     mesh.nb = vec![[NONE; 3]; m];
-    // Inner faces are numbered 1..=m (0 is the outer face).
     for f in t.inner_faces() {
-        let i = f.fix().index() - 1;
+        let i = place[f.fix().index()] as usize;
         let v = f.vertices();
         mesh.tri[i] = [v[0].data().id, v[1].data().id, v[2].data().id];
         for (j, e) in f.adjacent_edges().iter().enumerate() {
             let across = e.rev().face();
             if !across.is_outer() {
-                mesh.nb[i][j] = (across.fix().index() - 1) as u32;
+                mesh.nb[i][j] = place[across.fix().index()];
             }
         }
     }
