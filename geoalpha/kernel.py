@@ -333,7 +333,9 @@ def solve(
     """
     n = len(xy)
     if n > 1 and (codes[1:] < codes[:-1]).any():
-        order = np.argsort(codes, kind="stable")
+        # numpy sorts 16-bit keys by radix (linear), wider ones by timsort.
+        keys = codes.astype(np.uint16) if n_groups <= 1 << 16 else codes
+        order = np.argsort(keys, kind="stable")
     else:
         order = np.arange(n)
     sorted_codes = codes[order]

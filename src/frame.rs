@@ -144,13 +144,20 @@ pub fn orient(a: Xy, b: Xy, c: Xy) -> f64 {
 /// units: `|ab| |bc| |ca| / (2 |cross|)`, `inf` for a flat triangle.
 ///
 /// The cross product comes from the adaptive exact orientation, so needles
-/// keep an accurate radius; each difference is rounded once.
+/// keep an accurate radius; each difference is rounded once. Lengths are
+/// plain square roots (not `hypot`, several times slower): in the scaled
+/// frame the edges are between the tolerance (about 1e-9, near-duplicates
+/// being merged) and 2 long, so
+/// their squares neither overflow nor underflow.
 pub fn circumradius(a: Xy, b: Xy, c: Xy) -> f64 {
     let cross = orient(a, b, c).abs();
     if cross == 0.0 {
         return f64::INFINITY;
     }
-    let len = |p: Xy, q: Xy| (q[0] - p[0]).hypot(q[1] - p[1]);
+    let len = |p: Xy, q: Xy| {
+        let (dx, dy) = (q[0] - p[0], q[1] - p[1]);
+        (dx * dx + dy * dy).sqrt()
+    };
     len(a, b) * len(b, c) / (2.0 * cross) * len(c, a)
 }
 
