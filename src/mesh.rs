@@ -100,21 +100,14 @@ fn hilbert(mut x: u32, mut y: u32) -> u64 {
     d
 }
 
-/// The order in which `ids` are inserted, as `(id, rank)` pairs, `rank`
-/// being the point's place along a Hilbert curve through the group: biased
-/// randomized insertion order (BRIO) with each round in Hilbert order.
-///
-/// A point's round comes from a hash of its coordinates (deterministic): half of
-/// the points go in the last round, a quarter in the one before, and so on.
-/// The random rounds keep every insertion's expected work constant whatever
-/// the shape of the group (spade's circle sweep, `bulk_load`, slows to
-/// quadratic time on nearly collinear chains, whose points share one angle
-/// from the centre); the Hilbert curve keeps each insertion next to the one
-/// before, where the walk that locates it starts.
-fn insertion_order(points: &[Xy], ids: &[u32]) -> Vec<(u32, u32)> {
+/// The group's points along a Hilbert curve through their bounding box, as
+/// sorted `(place on the curve, coordinate bits, index)`: exact duplicates
+/// end up next to each other, and ties on the curve (points closer than a
+/// cell) go by coordinates, so that the order, and with it spade's
+/// triangulation, depends on the points alone, not on the order of the rows.
+fn along_curve(points: &[Xy]) -> Vec<(u64, [u64; 2], u32)> {
     let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-    for &id in ids {
-        let p = points[id as usize];
+    for p in points {
         for a in 0..2 {
             lo[a] = lo[a].min(p[a]);
             hi[a] = hi[a].max(p[a]);
@@ -130,15 +123,13 @@ fn insertion_order(points: &[Xy], ids: &[u32]) -> Vec<(u32, u32)> {
             0
         }
     };
-    // Ties on the curve (points closer than a cell) go by coordinates: the
-    // order, and so spade's triangulation, depends on the points alone, not
-    // on the order of the rows.
-    let mut along: Vec<(u64, [u64; 2], u32)> = ids
+    let mut along: Vec<(u64, [u64; 2], u32)> = points
         .iter()
-        .map(|&id| {
-            let p = points[id as usize];
+        .enumerate()
+        .map(|(i, p)| {
+            // -0 and 0 are one coordinate.
             let bits = [(p[0] + 0.0).to_bits(), (p[1] + 0.0).to_bits()];
-            (hilbert(cell(0, p[0]), cell(1, p[1])), bits, id)
+            (hilbert(cell(0, p[0]), cell(1, p[1])), bits, i as u32)
         })
         .collect();
     if along.len() > PARALLEL_POINTS {
@@ -146,17 +137,33 @@ fn insertion_order(points: &[Xy], ids: &[u32]) -> Vec<(u32, u32)> {
     } else {
         along.sort_unstable();
     }
-    // Rounds by counting sort, each keeping the Hilbert order.
+    along
+}
+
+/// The order in which the points with `keep[i]` are inserted, as
+/// `(index, rank)` pairs, `rank` being the point's place among them along the
+/// curve ([`along_curve`]): biased randomized insertion order (BRIO) with
+/// each round in the curve's order.
+///
+/// A point's round comes from a hash of its coordinates (deterministic): half
+/// of the points go in the last round, a quarter in the one before, and so
+/// on. The random rounds keep every insertion's expected work constant
+/// whatever the shape of the group (spade's circle sweep, `bulk_load`, slows
+/// to quadratic time on nearly collinear chains, whose points share one
+/// angle from the centre); the curve keeps each insertion next to the one
+/// before, where the walk that locates it starts.
+fn insertion_order(along: &[(u64, [u64; 2], u32)], keep: &[bool]) -> Vec<(u32, u32)> {
     let round = |bits: [u64; 2]| 64 - mix(bits[0] ^ mix(bits[1])).trailing_zeros() as usize;
+    let kept = || along.iter().filter(|e| keep[e.2 as usize]);
     let mut start = [0usize; 66];
-    for &(_, bits, _) in &along {
+    for &(_, bits, _) in kept() {
         start[round(bits) + 1] += 1;
     }
     for r in 0..65 {
         start[r + 1] += start[r];
     }
-    let mut order = vec![(0u32, 0u32); along.len()];
-    for (rank, &(_, bits, id)) in along.iter().enumerate() {
+    let mut order = vec![(0u32, 0u32); start[65]];
+    for (rank, &(_, bits, id)) in kept().enumerate() {
         let r = round(bits);
         order[start[r]] = (id, rank as u32);
         start[r] += 1;
@@ -176,11 +183,17 @@ fn mix(mut z: u64) -> u64 {
 /// Above this many points, the insertion order is sorted on every thread.
 const PARALLEL_POINTS: usize = 1 << 16;
 
-fn delaunay(points: &[Xy], ids: &[u32], s: f64) -> Option<DelaunayTriangulation<Vertex>> {
-    let n = ids.len();
+fn delaunay(
+    points: &[Xy],
+    along: &[(u64, [u64; 2], u32)],
+    keep: &[bool],
+    s: f64,
+) -> Option<DelaunayTriangulation<Vertex>> {
+    let order = insertion_order(along, keep);
+    let n = order.len();
     let mut dt = DelaunayTriangulation::<Vertex>::with_capacity(n, 3 * n, 2 * n);
     let mut hint = None;
-    for (id, rank) in insertion_order(points, ids) {
+    for (id, rank) in order {
         let vertex = Vertex {
             pos: scaled(points[id as usize], s),
             id,
@@ -195,26 +208,11 @@ fn delaunay(points: &[Xy], ids: &[u32], s: f64) -> Option<DelaunayTriangulation<
     Some(dt)
 }
 
-/// Exact duplicates (the same x and y, -0 equal to 0) into `union`.
-fn exact_duplicates(points: &[Xy], union: &mut MinUnion) {
-    let key = |i: u32| {
-        let p = points[i as usize];
-        (p[0] + 0.0, p[1] + 0.0)
-    };
-    let mut order: Vec<u32> = (0..points.len() as u32).collect();
-    order.sort_unstable_by(|&a, &b| {
-        let (ka, kb) = (key(a), key(b));
-        ka.0.total_cmp(&kb.0).then(ka.1.total_cmp(&kb.1))
-    });
-    for w in order.windows(2) {
-        if key(w[0]) == key(w[1]) {
-            union.union(w[0], w[1]);
-        }
-    }
-}
-
-fn roots(union: &mut MinUnion, n: usize) -> Vec<u32> {
-    (0..n as u32).filter(|&i| union.find(i) == i).collect()
+/// Whether each point represents its set, and how many do.
+fn roots(union: &mut MinUnion, n: usize) -> (Vec<bool>, usize) {
+    let root: Vec<bool> = (0..n as u32).map(|i| union.find(i) == i).collect();
+    let count = root.iter().filter(|&&r| r).count();
+    (root, count)
 }
 
 /// Triangulate a group's points (`frame` is theirs).
@@ -229,12 +227,17 @@ pub fn triangulate(points: &[Xy], frame: &Frame, build: bool) -> Mesh {
     let n = points.len();
     let s = frame.scale;
     let mut union = MinUnion::new(n);
-    exact_duplicates(points, &mut union);
-    let mut ids = roots(&mut union, n);
+    let along = along_curve(points);
+    for w in along.windows(2) {
+        if w[0].1 == w[1].1 {
+            union.union(w[0].2, w[1].2);
+        }
+    }
+    let (mut root, mut n_distinct) = roots(&mut union, n);
     let mut mesh = Mesh::default();
     let mut dt = None;
-    if build && ids.len() >= 3 {
-        dt = delaunay(points, &ids, s);
+    if build && n_distinct >= 3 {
+        dt = delaunay(points, &along, &root, s);
         if let Some(t) = &dt {
             let close = (frame.tol * s) * (frame.tol * s);
             let mut merged = false;
@@ -247,9 +250,9 @@ pub fn triangulate(points: &[Xy], frame: &Frame, build: bool) -> Mesh {
                 }
             }
             if merged {
-                ids = roots(&mut union, n);
-                dt = if ids.len() >= 3 {
-                    delaunay(points, &ids, s)
+                (root, n_distinct) = roots(&mut union, n);
+                dt = if n_distinct >= 3 {
+                    delaunay(points, &along, &root, s)
                 } else {
                     None
                 };
@@ -257,7 +260,7 @@ pub fn triangulate(points: &[Xy], frame: &Frame, build: bool) -> Mesh {
         }
     }
     mesh.rep = (0..n as u32).map(|i| union.find(i)).collect();
-    mesh.n_distinct = ids.len();
+    mesh.n_distinct = n_distinct;
     if let Some(t) = dt {
         fill_arrays(&t, &mut mesh);
     }
