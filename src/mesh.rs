@@ -30,7 +30,7 @@ struct Vertex {
     pos: Point2<f64>,
     /// Index of the point in the group.
     id: u32,
-    /// Place along the Hilbert curve through the group's distinct points.
+    /// Place along the Z-order curve through the group's distinct points.
     rank: u32,
 }
 
@@ -79,28 +79,21 @@ fn scaled(p: Xy, s: f64) -> Point2<f64> {
     spade::mitigate_underflow(Point2::new(p[0] * s + 0.0, p[1] * s + 0.0))
 }
 
-/// Position of `(x, y)` (each below 2^32) along a Hilbert curve over a
-/// 2^32 x 2^32 grid.
-fn hilbert(mut x: u32, mut y: u32) -> u64 {
-    let mut d = 0u64;
-    let mut s = 1u32 << 31;
-    while s > 0 {
-        let rx = u32::from(x & s != 0);
-        let ry = u32::from(y & s != 0);
-        d += u64::from(s) * u64::from(s) * u64::from((3 * rx) ^ ry);
-        if ry == 0 {
-            if rx == 1 {
-                x = !x;
-                y = !y;
-            }
-            std::mem::swap(&mut x, &mut y);
-        }
-        s >>= 1;
+/// Position of `(x, y)` along the Z-order (Morton) curve over a 2^32 x 2^32
+/// grid: the bits of `x` and `y` interleaved.
+fn morton(x: u32, y: u32) -> u64 {
+    fn spread(v: u32) -> u64 {
+        let mut v = u64::from(v);
+        v = (v | (v << 16)) & 0x0000_FFFF_0000_FFFF;
+        v = (v | (v << 8)) & 0x00FF_00FF_00FF_00FF;
+        v = (v | (v << 4)) & 0x0F0F_0F0F_0F0F_0F0F;
+        v = (v | (v << 2)) & 0x3333_3333_3333_3333;
+        (v | (v << 1)) & 0x5555_5555_5555_5555
     }
-    d
+    spread(x) | (spread(y) << 1)
 }
 
-/// The group's points along a Hilbert curve through their bounding box, as
+/// The group's points along a Z-order curve through their bounding box, as
 /// sorted `(place on the curve, coordinate bits, index)`: exact duplicates
 /// end up next to each other, and ties on the curve (points closer than a
 /// cell) go by coordinates, so that the order, and with it spade's
@@ -129,7 +122,7 @@ fn along_curve(points: &[Xy]) -> Vec<(u64, [u64; 2], u32)> {
         .map(|(i, p)| {
             // -0 and 0 are one coordinate.
             let bits = [(p[0] + 0.0).to_bits(), (p[1] + 0.0).to_bits()];
-            (hilbert(cell(0, p[0]), cell(1, p[1])), bits, i as u32)
+            (morton(cell(0, p[0]), cell(1, p[1])), bits, i as u32)
         })
         .collect();
     if along.len() > PARALLEL_POINTS {
@@ -268,7 +261,7 @@ pub fn triangulate(points: &[Xy], frame: &Frame, build: bool) -> Mesh {
 }
 
 /// The triangle and neighbour arrays, the triangles numbered along the
-/// Hilbert curve (by the rank of their first vertex on it, with a counting
+/// Z-order curve (by the rank of their first vertex on it, with a counting
 /// sort), so that the sweeps, which visit a triangle and its neighbours, find
 /// them close in memory: spade's own numbering follows the order of creation.
 fn fill_arrays(t: &DelaunayTriangulation<Vertex>, mesh: &mut Mesh) {
