@@ -307,6 +307,82 @@ fn fill_arrays(t: &DelaunayTriangulation<Vertex>, mesh: &mut Mesh) {
 mod tests {
     use super::*;
 
+    /// The nearly collinear chain of issue #23: x every 1 cm, y = 0.3 x
+    /// rounded to 3 decimals, and one point off the line.
+    fn chain(n: usize) -> Vec<Xy> {
+        let mut pts: Vec<Xy> = (0..n)
+            .map(|i| {
+                let x = i as f64 * 0.01;
+                [x, (0.3 * x * 1000.0).round() / 1000.0]
+            })
+            .collect();
+        let x = (n / 2) as f64 * 0.01;
+        pts.push([x, 0.3 * x + 1.0]);
+        pts
+    }
+
+    /// Checks a mesh against the definition, exactly: counter-clockwise
+    /// triangles, neighbours that share the edge, every interior edge
+    /// locally Delaunay (which makes the whole triangulation Delaunay), and
+    /// `2n - h - 2` triangles for `n` points with `h` on the hull.
+    fn assert_delaunay(pts: &[Xy], mesh: &Mesh) {
+        use robust::{incircle, orient2d, Coord};
+        let c = |v: u32| Coord {
+            x: pts[v as usize][0],
+            y: pts[v as usize][1],
+        };
+        let mut hull_edges = 0;
+        for (t, tri) in mesh.tri.iter().enumerate() {
+            assert!(orient2d(c(tri[0]), c(tri[1]), c(tri[2])) > 0.0);
+            for j in 0..3 {
+                let s = mesh.nb[t][j];
+                if s == NONE {
+                    hull_edges += 1;
+                    continue;
+                }
+                let (a, b) = (tri[j], tri[(j + 1) % 3]);
+                let other = mesh.tri[s as usize];
+                assert!(other.contains(&a) && other.contains(&b));
+                let d = *other.iter().find(|&&v| v != a && v != b).unwrap();
+                assert!(incircle(c(tri[0]), c(tri[1]), c(tri[2]), c(d)) <= 0.0);
+            }
+        }
+        assert_eq!(mesh.tri.len(), 2 * mesh.n_distinct - hull_edges - 2);
+    }
+
+    #[test]
+    fn a_nearly_collinear_chain_is_triangulated_exactly() {
+        let pts = chain(5_000);
+        let mesh = triangulate(&pts, &Frame::of(&pts), true);
+        assert_eq!(mesh.n_distinct, pts.len());
+        assert_delaunay(&pts, &mesh);
+    }
+
+    #[test]
+    fn the_order_of_the_rows_does_not_change_the_triangles() {
+        let pts = chain(300);
+        let mut reversed = pts.clone();
+        reversed.reverse();
+        let n = pts.len() as u32;
+        let canonical = |mesh: &Mesh, flip: bool| {
+            let mut tris: Vec<[u32; 3]> = mesh
+                .tri
+                .iter()
+                .map(|t| {
+                    let mut t = t.map(|v| if flip { n - 1 - v } else { v });
+                    t.sort_unstable();
+                    t
+                })
+                .collect();
+            tris.sort_unstable();
+            tris
+        };
+        let a = triangulate(&pts, &Frame::of(&pts), true);
+        let b = triangulate(&reversed, &Frame::of(&reversed), true);
+        assert_delaunay(&pts, &a);
+        assert_eq!(canonical(&a, false), canonical(&b, true));
+    }
+
     #[test]
     fn a_square_with_a_duplicate_has_two_triangles() {
         let pts = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0], [1.0, 1.0]];
