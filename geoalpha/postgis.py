@@ -190,6 +190,13 @@ def _engine(url: str) -> sqlalchemy.engine.Engine:
     sqlalchemy = _import_drivers()
     from sqlalchemy.pool import NullPool
 
+    parsed, args = _parse_url(url)
+    return sqlalchemy.create_engine(parsed, poolclass=NullPool, connect_args=args)
+
+
+def _parse_url(url: str) -> tuple[sqlalchemy.engine.URL, dict[str, Any]]:
+    """Check a ``postgresql://`` URL; return it (psycopg driver) and connect args."""
+    sqlalchemy = _import_drivers()
     if not is_postgres_url(url):
         raise InvalidInputError(
             f"{redact(url)} is not a postgresql://user@host:port/dbname URL"
@@ -213,7 +220,7 @@ def _engine(url: str) -> sqlalchemy.engine.Engine:
     args: dict[str, Any] = {"application_name": "geoalpha"}
     if "connect_timeout" not in parsed.query:
         args["connect_timeout"] = _CONNECT_TIMEOUT
-    return sqlalchemy.create_engine(parsed, poolclass=NullPool, connect_args=args)
+    return parsed, args
 
 
 def _display(url: str) -> str:
@@ -236,39 +243,62 @@ def _message(err: BaseException) -> str:
 def _connection(url: str, *, write: bool) -> Iterator[Any]:
     """Open a connection in one transaction (read only unless ``write``).
 
-    Commits when the block ends without error, rolls back otherwise; database
-    errors come out as one-line :class:`DatabaseError` without the password.
+    Writing runs on SQLAlchemy (``to_postgis`` needs it); reading on a bare
+    psycopg connection, without an engine, whose dialect asks the server
+    about its version, schema and types on every new engine (a sixth of a
+    small read). Commits when the block ends without error, rolls back
+    otherwise; database errors come out as one-line :class:`DatabaseError`
+    without the password.
     """
     sqlalchemy = _import_drivers()
     import psycopg
 
-    engine = _engine(url)
+    errors = (sqlalchemy.exc.DBAPIError, psycopg.Error)
+    engine = _engine(url) if write else None
     where = _display(url)
     try:
         try:
-            conn_cm = engine.begin()
+            conn_cm = engine.begin() if write else _read_only(url)
             conn = conn_cm.__enter__()
-        except sqlalchemy.exc.DBAPIError as err:
+        except errors as err:
             raise DatabaseError(f"cannot connect to {where}: {_message(err)}") from None
         try:
-            conn.exec_driver_sql(
-                "SET TRANSACTION READ WRITE" if write else "SET TRANSACTION READ ONLY"
-            )
-            conn.exec_driver_sql(f"SET LOCAL lock_timeout = '{_LOCK_TIMEOUT}'")
+            if write:
+                _execute(conn, "SET TRANSACTION READ WRITE")
+            _execute(conn, f"SET LOCAL lock_timeout = '{_LOCK_TIMEOUT}'")
             yield conn
         except BaseException as err:
             conn_cm.__exit__(type(err), err, err.__traceback__)
-            cause = _database_cause(err, (sqlalchemy.exc.DBAPIError, psycopg.Error))
+            cause = _database_cause(err, errors)
             if cause is not None:
                 raise DatabaseError(f"{where}: {_message(cause)}") from None
             raise
         else:
             try:
                 conn_cm.__exit__(None, None, None)
-            except sqlalchemy.exc.DBAPIError as err:
+            except errors as err:
                 raise DatabaseError(f"{where}: {_message(err)}") from None
     finally:
-        engine.dispose()
+        if engine is not None:
+            engine.dispose()
+
+
+@contextlib.contextmanager
+def _read_only(url: str) -> Iterator[Any]:
+    """Open a psycopg connection in a read-only transaction; close it at the end."""
+    import psycopg
+
+    parsed, args = _parse_url(url)
+    _, params = parsed.get_dialect()().create_connect_args(parsed)
+    with psycopg.connect(**params, **args) as conn:  # commits, or rolls back
+        conn.read_only = True
+        yield conn
+
+
+def _execute(conn, sql: str, params: tuple = ()):
+    """Run ``sql`` on a SQLAlchemy or a psycopg connection; return the cursor."""
+    run = getattr(conn, "exec_driver_sql", None) or conn.execute
+    return run(sql, params or None)
 
 
 def _database_cause(err: BaseException, kind) -> BaseException | None:
@@ -281,7 +311,7 @@ def _database_cause(err: BaseException, kind) -> BaseException | None:
 
 
 def _scalar(conn, sql: str, *params) -> Any:
-    row = conn.exec_driver_sql(sql, tuple(params)).fetchone()
+    row = _execute(conn, sql, params).fetchone()
     return None if row is None else row[0]
 
 
@@ -295,7 +325,8 @@ def _geometry_oid(conn, where: str) -> int:
 
 
 def _geometry_tables(conn, limit: int = 20) -> str:
-    rows = conn.exec_driver_sql(
+    rows = _execute(
+        conn,
         "SELECT f_table_schema, f_table_name FROM geometry_columns "
         "ORDER BY 1, 2 LIMIT %s",
         (limit + 1,),
@@ -390,56 +421,131 @@ def read_postgis(
         names = [c.name for c in description]
         geometries = [c.name for c in description if c.type_code == oid]
         column = _pick_geometry(geometries, names, geometry_column, source)
-        frame = _read_frame(conn, query, column, source)
+        frame = _read_frame(conn, query, description, column, source)
     if frame.crs is None and crs is not None:
         frame = frame.set_crs(crs)
     return frame
 
 
-def _read_frame(conn, query: str, column: str, source: str) -> gpd.GeoDataFrame:
-    """Run ``query``; parse its geometry column in one call (not row by row).
+def _read_frame(conn, query: str, description, column: str, source: str):
+    """Run ``query`` and return its rows as a GeoDataFrame.
 
-    ``gpd.read_postgis`` parses the WKB of every row in a Python loop; this
-    reads the same rows with pandas and hands the whole column to
-    ``shapely.from_wkb`` at once (10x faster on 100,000 points).
+    Points come as coordinate arrays (:func:`_read_points`); any other result
+    (NULL, empty, 3D or non-point geometries, other SRIDs, column types
+    outside :data:`_ARRAY_TYPES`) as rows whose geometry column is parsed in
+    one call (``gpd.read_postgis`` parses the WKB of every row in a Python
+    loop), so that every row is read and checked as it always was.
     """
     import geopandas as gpd
     import pandas as pd
     import shapely
 
-    cursor = _run_query(conn, query)
-    names = [c.name for c in cursor.description]
-    frame = pd.DataFrame.from_records(
-        cursor.fetchall(), columns=names, coerce_float=True
-    )
-    cursor.close()
-    geometry = shapely.from_wkb(frame[column].to_numpy(dtype=object))
-    srids = shapely.get_srid(geometry[~shapely.is_missing(geometry)])
-    srids = sorted(set(srids.tolist()) - {0})
+    read = _read_points(conn, query, description, column)
+    if read is None:
+        cursor = _run_query(conn, query)
+        names = [c.name for c in cursor.description]
+        frame = pd.DataFrame.from_records(
+            cursor.fetchall(), columns=names, coerce_float=True
+        )
+        cursor.close()
+        geometry = shapely.from_wkb(frame[column].to_numpy(dtype=object))
+        srids = shapely.get_srid(geometry[~shapely.is_missing(geometry)])
+        srids = sorted(set(srids.tolist()) - {0})
+    else:
+        frame, geometry, srid = read
+        srids = [srid] if srid else []
     if len(srids) > 1:
         raise InvalidInputError(
             f"{source} has geometries in {len(srids)} SRIDs ({srids[:5]}); "
             "select one, or ST_Transform them to one"
         )
     crs = _crs_of(conn, srids[0]) if srids else None
-    frame[column] = gpd.GeoSeries(geometry, index=frame.index, crs=crs)
+    series = gpd.GeoSeries(geometry, index=frame.index, crs=crs)
+    if column in frame:
+        frame[column] = series
+    else:
+        frame.insert([c.name for c in description].index(column), column, series)
     return gpd.GeoDataFrame(frame, geometry=column, crs=crs)
+
+
+# column types whose array_agg psycopg loads like the column itself: bool,
+# int8, int2, int4, text, float4, float8, bpchar, varchar, date, timestamp,
+# timestamptz, numeric
+_ARRAY_TYPES = frozenset(
+    (16, 20, 21, 23, 25, 700, 701, 1042, 1043, 1082, 1114, 1184, 1700)
+)
+_ARRAY_ROWS = 2_000_000  # more rows come as rows (a bytea holds 1 GB at most)
+
+
+def _read_points(conn, query: str, description, column: str):
+    """Read a query of 2D points as arrays: (frame, points, SRID), else None.
+
+    One aggregate row: the coordinates of all rows as one ``bytea`` of
+    doubles (``float8send(ST_X) || float8send(ST_Y)``), read with numpy, and
+    every other column as one array (``array_agg``), all aggregated over the
+    same rows in the same order. Returns None, having read nothing, when a
+    row is not a non-empty 2D point, the SRIDs differ, there are no rows or
+    more than :data:`_ARRAY_ROWS`, a column's type is not in
+    :data:`_ARRAY_TYPES` or the names repeat; a failing query is run again
+    as rows (in a savepoint), to fail as it always did.
+    """
+    import numpy as np
+    import pandas as pd
+    import psycopg
+    import shapely
+
+    names = [c.name for c in description]
+    others = [c.name for c in description if c.name != column]
+    if len(set(names)) < len(names) or {"_ga_xy", "_ga_srid"} & set(names):
+        return None
+    if any(c.type_code not in _ARRAY_TYPES for c in description if c.name != column):
+        return None
+    g = f"_ga_q.{_quote(column)}"
+    point = (
+        f"GeometryType({g}) = 'POINT' AND ST_Zmflag({g}) = 0 AND NOT ST_IsEmpty({g})"
+    )
+    sql = (
+        "SELECT count(*), count(_ga_xy), min(_ga_srid), max(_ga_srid), "
+        "string_agg(_ga_xy, ''::bytea)"
+        + "".join(f", array_agg({_quote(n)})" for n in others)
+        + f" FROM (SELECT _ga_q.*, CASE WHEN {point} THEN "
+        f"float8send(ST_X({g})) || float8send(ST_Y({g})) END AS _ga_xy, "
+        f"ST_SRID({g}) AS _ga_srid FROM ({query}) AS _ga_q LIMIT {_ARRAY_ROWS + 1})"
+        " AS _ga_r"
+    )
+    try:
+        with conn.transaction():  # a savepoint: a failure leaves the rows path
+            row = conn.cursor().execute(sql, binary=True).fetchone()
+    except psycopg.Error:
+        return None
+    n, n_points, srid, srid_max, xy, *arrays = row
+    if not 0 < n == n_points <= _ARRAY_ROWS or srid != srid_max:
+        return None
+    xy = np.frombuffer(xy, dtype=">f8").astype(np.float64).reshape(-1, 2)
+    if others:
+        frame = pd.DataFrame.from_records(
+            list(zip(*arrays, strict=True)), columns=others, coerce_float=True
+        )
+    else:
+        frame = pd.DataFrame(index=pd.RangeIndex(n))
+    return frame, shapely.points(xy), srid
 
 
 def _run_query(conn, query: str):
     """Execute the user's query as written (``%`` and ``:`` are no markers).
 
-    Runs on the DBAPI (psycopg) connection under SQLAlchemy's, in the same
-    transaction, without parameters, so psycopg parses no placeholders.
+    Runs on the psycopg connection without parameters, so psycopg parses no
+    placeholders.
     """
-    cursor = conn.connection.driver_connection.cursor()
+    cursor = conn.cursor()
     cursor.execute(query, binary=True)  # geometries as EWKB bytes, not hex text
     return cursor
 
 
 def _crs_of(conn, srid: int):
     """Return the CRS of an SRID, from the database's own ``spatial_ref_sys``."""
-    row = conn.exec_driver_sql(
+    row = _execute(
+        conn,
         "SELECT auth_name, auth_srid, srtext FROM spatial_ref_sys WHERE srid = %s",
         (srid,),
     ).fetchone()
