@@ -415,24 +415,24 @@ def read_postgis(
         else:
             query = sql.strip().rstrip(";")
             source = "the query"
-        description = _run_query(
-            conn, f"SELECT * FROM ({query}) AS _geoalpha_q LIMIT 0"
-        ).description
+        cursor = _run_query(conn, f"SELECT * FROM ({query}) AS _geoalpha_q LIMIT 0")
+        description = cursor.description
         names = [c.name for c in description]
         geometries = [c.name for c in description if c.type_code == oid]
         column = _pick_geometry(geometries, names, geometry_column, source)
-        frame = _read_frame(conn, query, description, column, source)
+        typmod = cursor.pgresult.fmod(names.index(column))  # geometry(Point, 4326)?
+        frame = _read_frame(conn, query, description, column, typmod, source)
     if frame.crs is None and crs is not None:
         frame = frame.set_crs(crs)
     return frame
 
 
-def _read_frame(conn, query: str, description, column: str, source: str):
+def _read_frame(conn, query: str, description, column: str, typmod: int, source):
     """Run ``query`` and return its rows as a GeoDataFrame.
 
     Points come as coordinate arrays (:func:`_read_points`); any other result
-    (NULL, empty, 3D or non-point geometries, other SRIDs, column types
-    outside :data:`_ARRAY_TYPES`) as rows whose geometry column is parsed in
+    (NULL, empty, 3D or non-point geometries, other SRIDs, NULL numbers,
+    column types not read as arrays) as rows whose geometry column is parsed in
     one call (``gpd.read_postgis`` parses the WKB of every row in a Python
     loop), so that every row is read and checked as it always was.
     """
@@ -440,7 +440,7 @@ def _read_frame(conn, query: str, description, column: str, source: str):
     import pandas as pd
     import shapely
 
-    read = _read_points(conn, query, description, column)
+    read = _read_points(conn, query, description, column, typmod)
     if read is None:
         cursor = _run_query(conn, query)
         names = [c.name for c in cursor.description]
@@ -468,26 +468,36 @@ def _read_frame(conn, query: str, description, column: str, source: str):
     return gpd.GeoDataFrame(frame, geometry=column, crs=crs)
 
 
-# column types whose array_agg psycopg loads like the column itself: bool,
-# int8, int2, int4, text, float4, float8, bpchar, varchar, date, timestamp,
-# timestamptz, numeric
-_ARRAY_TYPES = frozenset(
-    (16, 20, 21, 23, 25, 700, 701, 1042, 1043, 1082, 1114, 1184, 1700)
-)
+# column types read as one array each: as raw values in a bytea (the type's
+# binary send function, read with numpy) or as array_agg (loaded by psycopg
+# like the column itself)
+_SENT_TYPES = {  # oid: (send function, numpy dtype of its bytes, of the column)
+    16: ("boolsend", "?", "bool"),
+    20: ("int8send", ">i8", "int64"),
+    21: ("int2send", ">i2", "int64"),
+    23: ("int4send", ">i4", "int64"),
+    700: ("float4send", ">f4", "float64"),
+    701: ("float8send", ">f8", "float64"),
+}
+_AGGREGATED_TYPES = frozenset((25, 1042, 1043, 1082, 1114, 1184, 1700))
+# text, bpchar, varchar, date, timestamp, timestamptz, numeric
 _ARRAY_ROWS = 2_000_000  # more rows come as rows (a bytea holds 1 GB at most)
 
 
-def _read_points(conn, query: str, description, column: str):
+def _read_points(conn, query: str, description, column: str, typmod: int):
     """Read a query of 2D points as arrays: (frame, points, SRID), else None.
 
     One aggregate row: the coordinates of all rows as one ``bytea`` of
     doubles (``float8send(ST_X) || float8send(ST_Y)``), read with numpy, and
-    every other column as one array (``array_agg``), all aggregated over the
-    same rows in the same order. Returns None, having read nothing, when a
-    row is not a non-empty 2D point, the SRIDs differ, there are no rows or
-    more than :data:`_ARRAY_ROWS`, a column's type is not in
-    :data:`_ARRAY_TYPES` or the names repeat; a failing query is run again
-    as rows (in a savepoint), to fail as it always did.
+    every other column as one array, all aggregated over the same rows in the
+    same order. The rows are checked on the server: non-points fail
+    ``ST_X``, NULL and empty points give no coordinates, and, unless the
+    column's type (``typmod``) is ``geometry(Point, srid)``, ``ST_Zmflag``
+    and ``ST_SRID`` are compared. Returns None, having read nothing, when a
+    row is not a non-empty 2D point, the SRIDs differ, a number or boolean
+    is NULL, there are no rows or more than :data:`_ARRAY_ROWS`, a column's
+    type is not read as an array, or the names repeat; a failing query is run
+    again as rows (after a savepoint), to fail as it always did.
     """
     import numpy as np
     import pandas as pd
@@ -495,40 +505,73 @@ def _read_points(conn, query: str, description, column: str):
     import shapely
 
     names = [c.name for c in description]
-    others = [c.name for c in description if c.name != column]
-    if len(set(names)) < len(names) or {"_ga_xy", "_ga_srid"} & set(names):
+    others = [c for c in description if c.name != column]
+    if len(set(names)) < len(names) or any(n.startswith("_ga_") for n in names):
         return None
-    if any(c.type_code not in _ARRAY_TYPES for c in description if c.name != column):
+    if any(c.type_code not in _SENT_TYPES.keys() | _AGGREGATED_TYPES for c in others):
         return None
     g = f"_ga_q.{_quote(column)}"
-    point = (
-        f"GeometryType({g}) = 'POINT' AND ST_Zmflag({g}) = 0 AND NOT ST_IsEmpty({g})"
+    srid = _point_typmod_srid(typmod)
+    checked = (
+        ""
+        if srid is not None
+        else f", ST_Zmflag({g}) AS _ga_zm, ST_SRID({g}) AS _ga_srid"
     )
+    aggregates = ["count(*)", "count(_ga_xy)", "string_agg(_ga_xy, ''::bytea)"]
+    if srid is None:
+        aggregates += ["max(_ga_zm)", "min(_ga_srid)", "max(_ga_srid)"]
+    for c in others:
+        name = _quote(c.name)
+        if c.type_code in _SENT_TYPES:
+            send = _SENT_TYPES[c.type_code][0]
+            aggregates += [f"count({name})", f"string_agg({send}({name}), ''::bytea)"]
+        else:
+            aggregates.append(f"array_agg({name})")
     sql = (
-        "SELECT count(*), count(_ga_xy), min(_ga_srid), max(_ga_srid), "
-        "string_agg(_ga_xy, ''::bytea)"
-        + "".join(f", array_agg({_quote(n)})" for n in others)
-        + f" FROM (SELECT _ga_q.*, CASE WHEN {point} THEN "
-        f"float8send(ST_X({g})) || float8send(ST_Y({g})) END AS _ga_xy, "
-        f"ST_SRID({g}) AS _ga_srid FROM ({query}) AS _ga_q LIMIT {_ARRAY_ROWS + 1})"
-        " AS _ga_r"
+        f"SELECT {', '.join(aggregates)} FROM (SELECT _ga_q.*, "
+        f"float8send(ST_X({g})) || float8send(ST_Y({g})) AS _ga_xy{checked} "
+        f"FROM ({query}) AS _ga_q LIMIT {_ARRAY_ROWS + 1}) AS _ga_r"
     )
     try:
         with conn.transaction():  # a savepoint: a failure leaves the rows path
-            row = conn.cursor().execute(sql, binary=True).fetchone()
+            values = list(conn.cursor().execute(sql, binary=True).fetchone())
     except psycopg.Error:
         return None
-    n, n_points, srid, srid_max, xy, *arrays = row
-    if not 0 < n == n_points <= _ARRAY_ROWS or srid != srid_max:
+    n, n_points, xy = values[:3]
+    if srid is None:
+        zm, srid, srid_max = values[3:6]
+        del values[3:6]
+        if zm != 0 or srid != srid_max:
+            return None
+    if not 0 < n == n_points <= _ARRAY_ROWS:
         return None
+    columns = {}
+    rest = iter(values[3:])
+    for c in others:
+        if c.type_code in _SENT_TYPES:
+            _, raw, dtype = _SENT_TYPES[c.type_code]
+            if next(rest) < n:  # NULLs: as rows, as pandas reads them
+                return None
+            columns[c.name] = np.frombuffer(next(rest), dtype=raw).astype(dtype)
+        else:
+            columns[c.name] = pd.DataFrame.from_records(
+                [(v,) for v in next(rest)], coerce_float=True
+            )[0]
     xy = np.frombuffer(xy, dtype=">f8").astype(np.float64).reshape(-1, 2)
-    if others:
-        frame = pd.DataFrame.from_records(
-            list(zip(*arrays, strict=True)), columns=others, coerce_float=True
-        )
-    else:
-        frame = pd.DataFrame(index=pd.RangeIndex(n))
+    frame = pd.DataFrame(columns, index=pd.RangeIndex(n))
     return frame, shapely.points(xy), srid
+
+
+def _point_typmod_srid(typmod: int) -> int | None:
+    """Return the SRID of a ``geometry(Point, srid)`` column type (2D), or None.
+
+    PostGIS keeps the type in the type modifier: bits 2-7 the geometry type
+    (1 for Point), bits 0-1 M and Z, bits 8-28 the SRID; -1 for plain
+    ``geometry``. Inserted rows are checked against it.
+    """
+    if typmod is None or typmod < 0 or typmod & 0xFF != 1 << 2:
+        return None
+    return ((typmod & 0x0FFFFF00) - (typmod & 0x10000000)) >> 8
 
 
 def _run_query(conn, query: str):
