@@ -18,7 +18,8 @@ no parallel query, one BLAS/OpenMP thread):
   projections included);
 - geoalpha ``read_postgis(url, table="bench_uk")`` then ``hull`` (the full
   trip a user makes from the same table: connect, read, build the frame,
-  compute).
+  compute), and the same on an open psycopg connection (as the PostGIS
+  query runs: no login, PostGIS already loaded by its backend, also pinned).
 
 Groups without a triangle (fewer than 3 distinct points, or all collinear)
 are kept out of ``bench_uk``: PostGIS 3.3 crashes the server on 4 or more
@@ -198,7 +199,10 @@ def main(argv=None) -> int:
         conn.execute("SET max_parallel_workers_per_gather = 0")
         versions = conn.execute("SELECT postgis_full_version()").fetchone()[0]
         backend = conn.execute("SELECT pg_backend_pid()").fetchone()[0]
-        pinned = pin([os.getpid(), backend])
+        reader = psycopg.connect(url)  # read_postgis(open connection)
+        theirs = reader.execute("SELECT pg_backend_pid()").fetchone()[0]
+        reader.rollback()
+        pinned = pin([os.getpid(), backend, theirs])
 
         def postgis():
             return conn.execute(QUERY.format(table=TABLE, where="")).fetchall()
@@ -213,11 +217,16 @@ def main(argv=None) -> int:
             points = read_postgis(url, table=TABLE)
             return points.alpha.hull(by="cluster", progress=False)
 
+        def read_open_and_hull():
+            points = read_postgis(reader, table=TABLE)
+            return points.alpha.hull(by="cluster", progress=False)
+
         runs = {
             "PostGIS ST_OptimalAlphaShape GROUP BY": postgis,
             "geoalpha hull() on EPSG:27700 points": hull_metric,
             "geoalpha hull() on lon/lat points": hull_lonlat,
-            "geoalpha read_postgis() + hull()": read_and_hull,
+            "geoalpha read_postgis(url) + hull()": read_and_hull,
+            "geoalpha read_postgis(open connection) + hull()": read_open_and_hull,
         }
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
@@ -248,6 +257,7 @@ def main(argv=None) -> int:
                 conn = psycopg.connect(url, autocommit=True)
         left_out["at most 3 points, run one by one"] = separate
         conn.close()
+        reader.close()
 
     report(times, verdicts, left_out, pinned, versions, len(ids), len(metric), args)
     return 0
@@ -325,7 +335,8 @@ def report(times, verdicts, left_out, pinned, versions, n_groups, n_points, args
         f"\n{n_groups} UK clusters with a triangle ({n_points:,} distinct points "
         f"in all 691), EPSG:27700; {args.rounds} rounds, median; {pinned}; "
         f"PostGIS {'preloaded' if args.preload else 'loaded by each new backend'}; "
-        f"Python {platform.python_version()}, geoalpha {geoalpha.__version__}, "
+        f"Python {platform.python_version()}, geoalpha {geoalpha.__version__} "
+        f"({Path(geoalpha.__file__).parent}), "
         f"shapely {version('shapely')}, scipy {version('scipy')}\n{versions}\n"
     )
     print(

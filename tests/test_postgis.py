@@ -255,6 +255,19 @@ def test_every_row_read_as_geopandas_reads_it(db, cluster):
     engine.dispose()
 
 
+def test_read_on_an_open_connection(db, cluster):
+    import psycopg
+
+    cluster.psql("CREATE SEQUENCE IF NOT EXISTS counter2", "gadb")
+    with psycopg.connect(db) as conn:
+        assert len(read_postgis(conn, table="uk_clusters")) == 15255
+        with pytest.raises(DatabaseError, match="cannot execute nextval"):
+            read_postgis(conn, sql="SELECT geom, nextval('counter2') FROM uk_clusters")
+        sql = 'SELECT geom FROM uk_clusters WHERE "Cluster" = 1'
+        assert len(read_postgis(conn, sql=sql)) == 38  # still open, still usable
+        assert not conn.closed
+
+
 def test_geometry_without_srid_takes_crs_in(db):
     sql = 'SELECT "Cluster", ST_SetSRID(geom, 0) AS g FROM uk_clusters LIMIT 5'
     assert read_postgis(db, sql=sql).crs.to_epsg() == 4326
