@@ -228,7 +228,12 @@ def _display(url) -> str:
     """Return the URL without its password (for a connection, its own URL)."""
     if isinstance(url, str):
         return redact(url.strip())
-    info = url.info
+    info = getattr(url, "info", None)
+    if not hasattr(info, "dbname"):  # not a psycopg connection
+        raise InvalidInputError(
+            "give a postgresql://user@host:port/dbname URL or an open psycopg "
+            f"connection (got {type(url).__name__})"
+        )
     return redact(f"postgresql://{info.user}@{info.host}:{info.port}/{info.dbname}")
 
 
@@ -250,8 +255,8 @@ def _connection(url: str, *, write: bool) -> Iterator[Any]:
 
     Writing runs on SQLAlchemy (``to_postgis`` needs it); reading on a bare
     psycopg connection, without an engine, whose dialect asks the server
-    about its version, schema and types on every new engine (a sixth of a
-    small read). Commits when the block ends without error, rolls back
+    about its version, schema and types on every new engine (about 6 ms a
+    read). Commits when the block ends without error, rolls back
     otherwise; database errors come out as one-line :class:`DatabaseError`
     without the password.
     """

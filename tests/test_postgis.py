@@ -266,6 +266,11 @@ def test_read_on_an_open_connection(db, cluster):
         sql = 'SELECT geom FROM uk_clusters WHERE "Cluster" = 1'
         assert len(read_postgis(conn, sql=sql)) == 38  # still open, still usable
         assert not conn.closed
+    engine = _engine(db)
+    with pytest.raises(
+        InvalidInputError, match=r"open psycopg connection \(got Engine"
+    ):
+        read_postgis(engine, table="uk_clusters")
 
 
 def test_geometry_without_srid_takes_crs_in(db):
