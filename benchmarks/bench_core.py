@@ -24,7 +24,6 @@ import json
 import os
 import platform
 import sys
-import time
 import warnings
 from collections.abc import Callable, Sequence
 from importlib.metadata import version
@@ -42,6 +41,7 @@ except ImportError:  # running from a source tree without installing
     import geoalpha
 
 import peers  # noqa: E402
+from timing import fmt_time, rounds, timed  # noqa: E402
 
 DATASETS = {
     # name: (group column, x column, y column); None = project lon/lat
@@ -174,27 +174,6 @@ def triangulable(groups: Groups) -> np.ndarray:
     return np.asarray(keep, dtype=np.int64)
 
 
-def best_of(
-    fns: dict[str, Callable[[], object]], repeat: int
-) -> dict[str, list[float]]:
-    """Time each function ``repeat`` times; return every round's wall time.
-
-    The functions run interleaved (one call of each per round, after one
-    warm-up call each), so that load from other processes on a shared machine
-    hits them alike: the best (min) times and the per-round ratios stay
-    comparable.
-    """
-    for fn in fns.values():
-        fn()
-    times: dict[str, list[float]] = {key: [] for key in fns}
-    for _ in range(repeat):
-        for key, fn in fns.items():
-            start = time.perf_counter()
-            fn()
-            times[key].append(time.perf_counter() - start)
-    return times
-
-
 def run_peer(
     fn: Callable[[np.ndarray], peers.PeerResult], groups: Groups, label: str
 ) -> tuple[float, list[peers.PeerResult], list[float]]:
@@ -202,9 +181,9 @@ def run_peer(
     results, times = [], []
     n = len(groups.labels)
     for i, xy in enumerate(groups.arrays()):
-        start = time.perf_counter()
-        results.append(fn(xy))
-        times.append(time.perf_counter() - start)
+        seconds, result = timed(fn, xy)
+        results.append(result)
+        times.append(seconds)
         if sys.stderr.isatty() or (i + 1) % 25 == 0 or i + 1 == n:
             print(f"\r  {label}: {i + 1}/{n}", end="", file=sys.stderr, flush=True)
     print(file=sys.stderr)
@@ -343,8 +322,8 @@ def bench_dataset(name: str, args, api) -> tuple[list[dict], dict, list[dict]]:
                 fns[HULL] = lambda f=frame, by=by: f.alpha.hull(by=by)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # degenerate groups in "all"
-            for method, rounds in best_of(fns, args.repeat).items():
-                row(scope, method, g, min(rounds), rounds=rounds)
+            for method, times in rounds(fns, args.repeat).items():
+                row(scope, method, g, min(times), rounds=times)
             if api is not None:
                 exact[scope] = fns[EXACT]()
 
@@ -404,15 +383,6 @@ def bench_dataset(name: str, args, api) -> tuple[list[dict], dict, list[dict]]:
             )
         )
     return rows, agreement, details
-
-
-def fmt_time(seconds: float) -> str:
-    """Format a duration with a readable unit."""
-    if seconds >= 1:
-        return f"{seconds:,.1f} s"
-    if seconds >= 1e-3:
-        return f"{seconds * 1e3:.3g} ms"
-    return f"{seconds * 1e6:.3g} µs"
 
 
 def fmt_ratio(x: float | None) -> str:

@@ -11,20 +11,15 @@ measured side by side in one run (interleaved rounds, best of N).
 from __future__ import annotations
 
 import argparse
-import time
+import sys
 import warnings
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # timing.py
+from timing import best_of, fmt_time
 
 import geoalpha
 from geoalpha import datasets
-
-
-def _time(func, repeat: int) -> float:
-    best = float("inf")
-    for _ in range(repeat):
-        start = time.perf_counter()
-        func()
-        best = min(best, time.perf_counter() - start)
-    return best
 
 
 def main(argv=None) -> None:
@@ -52,16 +47,13 @@ def main(argv=None) -> None:
         "`gdf.alpha.hull(by)` (exact optimal alpha)": geoalpha_hull,
         '`gdf.alpha.hull(by, method="convex")`': geoalpha_convex,
     }
-    best = dict.fromkeys(methods, float("inf"))
-    for _ in range(args.repeat):  # interleave, so load hits all alike
-        for name, func in methods.items():
-            best[name] = min(best[name], _time(func, 1))
+    best = best_of(methods, args.repeat)
     base = best["`to_crs(estimate_utm_crs()).dissolve(by).convex_hull`"]
     print(f"{len(points):,} points (EPSG:4326) in 691 groups, best of {args.repeat}\n")
     print("| method | time | / dissolve convex hull |")
     print("|---|---:|---:|")
     for name, seconds in best.items():
-        print(f"| {name} | {seconds * 1e3:.1f} ms | {seconds / base:.2f}x |")
+        print(f"| {name} | {fmt_time(seconds)} | {seconds / base:.2f}x |")
 
 
 if __name__ == "__main__":

@@ -33,6 +33,7 @@ import subprocess
 import sys
 import textwrap
 import warnings
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -40,7 +41,7 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
-from timing import best_of, fmt_time  # noqa: E402
+from timing import best_of, fmt_time, fresh_python, peak_memory_mb  # noqa: E402
 
 import geoalpha  # noqa: E402
 from geoalpha import datasets  # noqa: E402
@@ -94,67 +95,35 @@ def chain(n: int) -> np.ndarray:
     return np.r_[xy, [[x[n // 2], 0.3 * x[n // 2] + 1.0]]]
 
 
-def peak_memory_mb(n: int) -> float:
-    """Peak RSS of a fresh process that runs alpha_shapes on n points, one group.
-
-    Read from ``VmHWM`` (the high-water mark of this process's own memory):
-    ``ru_maxrss`` would also count the parent's memory at the fork.
-    """
-    code = textwrap.dedent(
-        f"""
-        import numpy as np, geoalpha
-        xy = np.random.default_rng(1).random(({n}, 2)) * 10_000
-        geoalpha.alpha_shapes(xy)
-        status = open("/proc/self/status").read().split("VmHWM:")[1]
-        print(int(status.split()[0]) / 1024)
-        """
+def peak_memory(n: int) -> float:
+    """Peak RSS (MB) of a fresh process that runs alpha_shapes on n points."""
+    return peak_memory_mb(
+        "import numpy as np, geoalpha\n"
+        f"geoalpha.alpha_shapes(np.random.default_rng(1).random(({n}, 2)) * 10_000)"
     )
-    out = subprocess.run(
-        [sys.executable, "-c", code], capture_output=True, text=True, check=True
-    )
-    return float(out.stdout.split()[-1])
 
 
 def command_time(argv: list[str], env: dict, repeat: int) -> float:
     """Best wall time of a fresh process running ``argv``."""
-    import time
-
-    best = float("inf")
-    for _ in range(repeat):
-        start = time.perf_counter()
-        subprocess.run(argv, env=env, check=True, capture_output=True)
-        best = min(best, time.perf_counter() - start)
-    return best
+    run = partial(subprocess.run, argv, env=env, check=True, capture_output=True)
+    return best_of({"run": run}, repeat, warm_up=False)["run"]
 
 
 def before_hull(before: Path, repeat: int) -> float:
     """Best time of ``hull()`` on the UK clusters with the code in ``before``."""
     code = textwrap.dedent(
         f"""
-        import time, warnings
+        import warnings
         warnings.simplefilter("ignore")
         import geoalpha
         from geoalpha import datasets
+        from timing import best_of
         gdf = datasets.load("uk_clusters")
-        gdf.alpha.hull(by="Cluster")
-        best = min(
-            (lambda s: (gdf.alpha.hull(by="Cluster"), time.perf_counter() - s)[1])(
-                time.perf_counter()
-            )
-            for _ in range({repeat})
-        )
-        print(best)
+        print(best_of({{"h": lambda: gdf.alpha.hull(by="Cluster")}}, {repeat})["h"])
         """
     )
-    env = dict(os.environ, PYTHONPATH=str(before))
-    out = subprocess.run(
-        [sys.executable, "-c", code],
-        env=env,
-        capture_output=True,
-        text=True,
-        check=True,
-    )
-    return float(out.stdout.split()[-1])
+    out = fresh_python(code, dict(os.environ, PYTHONPATH=str(before)))
+    return float(out.split()[-1])
 
 
 #: Longest a baseline may take (Qhull on the nearly collinear chains takes
@@ -170,27 +139,16 @@ def scipy_delaunay_seconds(n: int) -> float | None:
     """
     code = textwrap.dedent(
         f"""
-        import sys, time
-        sys.path.insert(0, {str(HERE)!r})
         from bench_kernel import chain
         from scipy.spatial import Delaunay
-        c = chain({n})
-        start = time.perf_counter()
-        Delaunay(c)
-        print(time.perf_counter() - start)
+        from timing import timed
+        print(timed(Delaunay, chain({n}))[0])
         """
     )
     try:
-        out = subprocess.run(
-            [sys.executable, "-c", code],
-            capture_output=True,
-            text=True,
-            check=True,
-            timeout=BASELINE_LIMIT,
-        )
+        return float(fresh_python(code, timeout=BASELINE_LIMIT).split()[-1])
     except subprocess.TimeoutExpired:
         return None
-    return float(out.stdout.split()[-1])
 
 
 def row(rows: list, what: str, t: float, base: float, goal: str) -> None:
@@ -307,7 +265,7 @@ def main(argv=None) -> int:
     rows.append(
         (
             f"peak RSS, `alpha_shapes` of {big:,} points",
-            f"{peak_memory_mb(big):,.0f} MB",
+            f"{peak_memory(big):,.0f} MB",
             "",
             "<= 500 MB",
         )

@@ -16,14 +16,19 @@ issue's target: ``outliers > 0`` costs at most 1.3x ``outliers=0``.
 from __future__ import annotations
 
 import argparse
+import statistics
 import sys
 import time
 import warnings
+from functools import partial
 from pathlib import Path
 
 import numpy as np
 
 HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))  # timing.py
+from timing import fmt_time, paired_ratio, rounds  # noqa: E402
+
 try:
     import geoalpha
 except ImportError:  # running from a source tree without installing
@@ -56,32 +61,20 @@ def main(argv=None) -> int:
         "alpha_shapes": lambda o: geoalpha.alpha_shapes(xy, codes, outliers=o),
         "hull": lambda o: gdf.alpha.hull(by="Cluster", outliers=o),
     }
-    times = {(api, o): [] for api in calls for o in SETTINGS}
-    left_out = {}
+    fns = {(api, o): partial(call, o) for api, call in calls.items() for o in SETTINGS}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        for call in calls.values():  # warm up
-            for o in SETTINGS:
-                call(o)
-        for _ in range(args.rounds):
-            for api, call in calls.items():
-                for o in SETTINGS:
-                    start = time.process_time()
-                    res = call(o)
-                    times[api, o].append(time.process_time() - start)
-                    if api == "hull":
-                        left_out[o] = int(res["n_outliers"].sum())
+        results = {key: fn() for key, fn in fns.items()}  # the warm-up
+        times = rounds(fns, args.rounds, warm_up=False, clock=time.process_time)
+    left_out = {o: int(results["hull", o]["n_outliers"].sum()) for o in SETTINGS}
     print(f"691 UK clusters, {len(xy):,} points; {args.rounds} paired rounds\n")
     print("| call | outliers | rows left out | CPU time (median) | / outliers=0 |")
     print("|---|---:|---:|---:|---:|")
-    for api in calls:
-        base = np.array(times[api, 0])
-        for o in SETTINGS:
-            t = np.array(times[api, o])
-            print(
-                f"| `{api}` | {o} | {left_out[o]:,} | {np.median(t) * 1e3:.1f} ms "
-                f"| {np.median(t / base):.2f}x |"
-            )
+    for (api, o), t in times.items():
+        print(
+            f"| `{api}` | {o} | {left_out[o]:,} | {fmt_time(statistics.median(t))} "
+            f"| {paired_ratio(t, times[api, 0]):.2f}x |"
+        )
     return 0
 
 

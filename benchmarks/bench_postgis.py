@@ -2,27 +2,30 @@
 
 Data: the 691 bundled UK accident clusters (``Cluster``), lon/lat projected
 to EPSG:27700 (metres) and deduplicated per cluster, loaded into a PostGIS
-table ``bench_uk(cluster int, geom geometry(Point, 27700))``.
+table ``bench_uk(cluster int, geom geometry(Point, 27700))`` (the groups with
+a triangle; the others into ``bench_uk_lines``, see below).
 
 Timed, interleaved round by round on the same groups, each on one core (this
 process and the server's backend pinned to the same CPU, one after the other;
 no parallel query, one BLAS/OpenMP thread):
 
 - PostGIS: ``SELECT cluster, ST_AsBinary(ST_OptimalAlphaShape(ST_Collect(geom),
-  false, 1)) FROM bench_uk WHERE cluster = ANY(...) GROUP BY cluster``, rows
-  fetched (SFCGAL 1.4 / CGAL; its alpha is the squared circumradius);
+  false, 1)) FROM bench_uk GROUP BY cluster``, rows fetched (SFCGAL 1.4 /
+  CGAL; its alpha is the squared circumradius);
 - geoalpha ``hull(points_27700, by="Cluster")`` (``holes=False,
   components=1``, the same problem), from a GeoDataFrame in memory;
 - geoalpha ``hull`` from the lon/lat points (CRS estimation and two
   projections included);
-- geoalpha ``read_postgis`` of the table then ``hull`` (the full trip a user
-  makes from the same table).
+- geoalpha ``read_postgis(url, table="bench_uk")`` then ``hull`` (the full
+  trip a user makes from the same table: connect, read, build the frame,
+  compute), and the same on an open psycopg connection (as the PostGIS
+  query runs: no login, PostGIS already loaded by its backend, also pinned).
 
 Groups without a triangle (fewer than 3 distinct points, or all collinear)
-are left out of the timed query: PostGIS 3.3 crashes the server on 4 or more
-collinear points (the whole server restarts). Those with at most 3 points are
-run one by one afterwards, each in its own query; those with 4 or more are not
-run, and the report names them.
+are kept out of ``bench_uk``: PostGIS 3.3 crashes the server on 4 or more
+collinear points (the whole server restarts). Those with at most 3 points go
+to ``bench_uk_lines`` and are run one by one afterwards, each in its own
+query; those with 4 or more are not run, and the report names them.
 
 Exactness: every group's PostGIS polygon is compared with geoalpha's exact
 optimum (same points, same CRS; equal when the symmetric difference has area
@@ -42,6 +45,7 @@ itself (``tests/pgcluster.py``, as the tests do; as root the server runs as the
 
     python benchmarks/bench_postgis.py            # ~1 min
     python benchmarks/bench_postgis.py --rounds 9 --json out.json
+    python benchmarks/bench_postgis.py --preload  # PostGIS loaded at start-up
 """
 
 from __future__ import annotations
@@ -57,7 +61,6 @@ import json  # noqa: E402
 import platform  # noqa: E402
 import statistics  # noqa: E402
 import sys  # noqa: E402
-import time  # noqa: E402
 import warnings  # noqa: E402
 from importlib.metadata import version  # noqa: E402
 from pathlib import Path  # noqa: E402
@@ -73,13 +76,15 @@ except ImportError:  # pragma: no cover - run from a source tree
     import geoalpha
 
 import pgcluster  # noqa: E402
+from timing import paired_ratio, rounds  # noqa: E402
 
 from geoalpha import datasets  # noqa: E402
 
-TABLE = "bench_uk"
+TABLE = "bench_uk"  # the groups with a triangle
+LINES = "bench_uk_lines"  # the others with at most 3 points, one query each
 QUERY = (
     "SELECT cluster, ST_AsBinary(ST_OptimalAlphaShape(ST_Collect(geom), false, 1)) "
-    f"FROM {TABLE} WHERE cluster = ANY(%s) GROUP BY cluster ORDER BY cluster"
+    "FROM {table} {where} GROUP BY cluster ORDER BY cluster"
 )
 EQUAL_TOLERANCE = 1e-9  # symmetric difference area / polygon area
 VERDICTS = (
@@ -126,12 +131,18 @@ def triangulable(metric) -> tuple[np.ndarray, dict]:
 
 
 @contextlib.contextmanager
-def server(url: str | None):
-    """Yield a URL: ``url`` itself, or a throwaway server's database."""
+def server(url: str | None, preload: bool):
+    """Yield a URL: ``url`` itself, or a throwaway server's database.
+
+    ``preload`` starts the server with ``shared_preload_libraries =
+    'postgis-3'``: its backends start with PostGIS loaded, instead of loading
+    it at their first geometry (about 20 ms, paid by every new connection).
+    """
     if url:
         yield url
         return
-    with pgcluster.Cluster() as cluster:
+    settings = {"shared_preload_libraries": "postgis-3"} if preload else None
+    with pgcluster.Cluster(settings=settings) as cluster:
         os.environ["PGPASSWORD"] = pgcluster.PASSWORD
         yield cluster.create_database("bench", extensions=("postgis", "postgis_sfcgal"))
 
@@ -147,17 +158,16 @@ def pin(pids: list[int]) -> str:
     return f"pinned to CPU {cpu}"
 
 
-def timed(fn, *args):
-    start = time.perf_counter()
-    out = fn(*args)
-    return time.perf_counter() - start, out
-
-
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--url", help="a PostGIS database [default: start one]")
     parser.add_argument("--rounds", type=int, default=7, help="timed rounds [7]")
     parser.add_argument("--json", help="also write the results here")
+    parser.add_argument(
+        "--preload",
+        action="store_true",
+        help="start the server with shared_preload_libraries = 'postgis-3'",
+    )
     args = parser.parse_args(argv)
 
     import psycopg
@@ -170,27 +180,32 @@ def main(argv=None) -> int:
     ids, left_out = triangulable(metric)
     timed_metric = metric[metric["Cluster"].isin(ids)]
     timed_lonlat = lonlat[lonlat["Cluster"].isin(ids)]
-    sql_points = f"SELECT cluster, geom FROM {TABLE} WHERE cluster = ANY(%(ids)s)"
+    lines = metric["Cluster"].isin(left_out["at most 3 points, run one by one"])
 
-    with server(args.url) as url:
+    with server(args.url, args.preload) as url:
         engine = sqlalchemy.create_engine(
             url.replace("postgresql://", "postgresql+psycopg://", 1)
         )
         table = metric[["Cluster", "geometry"]].rename(columns={"Cluster": "cluster"})
-        table.rename_geometry("geom").to_postgis(
-            TABLE, engine, if_exists="replace", index=False
-        )
+        table = table.rename_geometry("geom")
+        for name, rows in (
+            (TABLE, table.loc[timed_metric.index]),
+            (LINES, table[lines]),
+        ):
+            rows.to_postgis(name, engine, if_exists="replace", index=False)
         engine.dispose()
         conn = psycopg.connect(url, autocommit=True)
         conn.execute(f"VACUUM ANALYZE {TABLE}")
         conn.execute("SET max_parallel_workers_per_gather = 0")
         versions = conn.execute("SELECT postgis_full_version()").fetchone()[0]
         backend = conn.execute("SELECT pg_backend_pid()").fetchone()[0]
-        pinned = pin([os.getpid(), backend])
-        id_list = [int(i) for i in ids]
+        reader = psycopg.connect(url)  # read_postgis(open connection)
+        theirs = reader.execute("SELECT pg_backend_pid()").fetchone()[0]
+        reader.rollback()
+        pinned = pin([os.getpid(), backend, theirs])
 
         def postgis():
-            return conn.execute(QUERY, (id_list,)).fetchall()
+            return conn.execute(QUERY.format(table=TABLE, where="")).fetchall()
 
         def hull_metric():
             return timed_metric.alpha.hull(by="Cluster", progress=False)
@@ -199,25 +214,24 @@ def main(argv=None) -> int:
             return timed_lonlat.alpha.hull(by="Cluster", progress=False)
 
         def read_and_hull():
-            points = read_postgis(url, sql=sql_points.replace("%(ids)s", _array(ids)))
+            points = read_postgis(url, table=TABLE)
+            return points.alpha.hull(by="cluster", progress=False)
+
+        def read_open_and_hull():
+            points = read_postgis(reader, table=TABLE)
             return points.alpha.hull(by="cluster", progress=False)
 
         runs = {
             "PostGIS ST_OptimalAlphaShape GROUP BY": postgis,
             "geoalpha hull() on EPSG:27700 points": hull_metric,
             "geoalpha hull() on lon/lat points": hull_lonlat,
-            "geoalpha read_postgis() + hull()": read_and_hull,
+            "geoalpha read_postgis(url) + hull()": read_and_hull,
+            "geoalpha read_postgis(open connection) + hull()": read_open_and_hull,
         }
-        times: dict[str, list[float]] = {name: [] for name in runs}
-        results = {}
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            for name, fn in runs.items():  # warm-up (imports, caches)
-                results[name] = fn()
-            for _ in range(args.rounds):
-                for name, fn in runs.items():
-                    seconds, _out = timed(fn)
-                    times[name].append(seconds)
+            results = {name: fn() for name, fn in runs.items()}  # the warm-up
+            times = rounds(runs, args.rounds, warm_up=False)
 
         # exactness, group by group
         rows = results["PostGIS ST_OptimalAlphaShape GROUP BY"]
@@ -234,20 +248,19 @@ def main(argv=None) -> int:
         separate = {}  # groups without a triangle and at most 3 points
         for c in left_out["at most 3 points, run one by one"]:
             try:
-                row = conn.execute(QUERY, ([int(c)],)).fetchone()
+                where = "WHERE cluster = %s"
+                row = conn.execute(QUERY.format(table=LINES, where=where), (int(c),))
+                row = row.fetchone()
                 separate[int(c)] = shapely.from_wkb(bytes(row[1])).wkt[:60]
             except psycopg.Error as err:
                 separate[int(c)] = f"error: {str(err).splitlines()[0]}"
                 conn = psycopg.connect(url, autocommit=True)
         left_out["at most 3 points, run one by one"] = separate
         conn.close()
+        reader.close()
 
     report(times, verdicts, left_out, pinned, versions, len(ids), len(metric), args)
     return 0
-
-
-def _array(ids) -> str:
-    return "ARRAY[" + ",".join(str(int(i)) for i in ids) + "]"
 
 
 def verdict(pg_shape, exact_row, points) -> str:
@@ -321,7 +334,9 @@ def report(times, verdicts, left_out, pinned, versions, n_groups, n_points, args
     print(
         f"\n{n_groups} UK clusters with a triangle ({n_points:,} distinct points "
         f"in all 691), EPSG:27700; {args.rounds} rounds, median; {pinned}; "
-        f"Python {platform.python_version()}, geoalpha {geoalpha.__version__}, "
+        f"PostGIS {'preloaded' if args.preload else 'loaded by each new backend'}; "
+        f"Python {platform.python_version()}, geoalpha {geoalpha.__version__} "
+        f"({Path(geoalpha.__file__).parent}), "
         f"shapely {version('shapely')}, scipy {version('scipy')}\n{versions}\n"
     )
     print(
@@ -330,7 +345,7 @@ def report(times, verdicts, left_out, pinned, versions, n_groups, n_points, args
     )
     print("|---|---:|---:|---:|---:|---:|")
     for name, t in times.items():
-        paired = statistics.median(x / y for x, y in zip(t, times[base], strict=True))
+        paired = paired_ratio(t, times[base])
         print(
             f"| {name} | {_fmt(medians[name])} | {medians[name] / medians[base]:.2f}x "
             f"| {paired:.2f}x | {_fmt(min(t))} | {min(t) / min(times[base]):.2f}x |"

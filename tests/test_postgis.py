@@ -223,6 +223,56 @@ def test_geometry_column_chosen_or_asked_for(db):
         read_postgis(db, sql='SELECT "Cluster" FROM uk_clusters')
 
 
+def test_every_row_read_as_geopandas_reads_it(db, cluster):
+    """Points come as arrays, other rows as WKB: the frame is the same."""
+    cluster.psql(
+        "CREATE TABLE mixed AS SELECT * FROM (VALUES "
+        "(1, 'a', 1.5, 'SRID=4326;POINT(1 2)'::geometry), (2, NULL, NULL, NULL), "
+        "(3, 'c', 2, 'SRID=4326;POINT EMPTY'), "
+        "(4, 'd', 3, 'SRID=4326;LINESTRING(0 0,1 1)'), "
+        "(5, 'e', 4, 'SRID=4326;POINT Z (1 2 3)')) AS t(id, name, v, geom)",
+        "gadb",
+    )
+    engine = _engine(cluster.url("gadb", password=True))
+    for sql in (
+        "SELECT * FROM mixed ORDER BY id",
+        "SELECT * FROM mixed WHERE id = 1",
+        'SELECT "Cluster" AS id, "Cluster"::text AS name, 1.5::numeric AS v, geom '
+        'FROM uk_clusters ORDER BY "Cluster" DESC',
+    ):
+        expected = gpd.read_postgis(sql, engine, geom_col="geom")
+        points = read_postgis(db, sql=sql)
+        assert list(points.columns) == list(expected.columns)
+        assert points.dtypes.astype(str).tolist() == [
+            "int64",
+            str(points["name"].dtype),
+            "float64",
+            "geometry",
+        ]
+        assert points["id"].tolist() == expected["id"].tolist()
+        assert points["name"].tolist() == expected["name"].tolist()
+        assert points.geometry.to_wkt().tolist() == expected.geometry.to_wkt().tolist()
+    engine.dispose()
+
+
+def test_read_on_an_open_connection(db, cluster):
+    import psycopg
+
+    cluster.psql("CREATE SEQUENCE IF NOT EXISTS counter2", "gadb")
+    with psycopg.connect(db) as conn:
+        assert len(read_postgis(conn, table="uk_clusters")) == 15255
+        with pytest.raises(DatabaseError, match="cannot execute nextval"):
+            read_postgis(conn, sql="SELECT geom, nextval('counter2') FROM uk_clusters")
+        sql = 'SELECT geom FROM uk_clusters WHERE "Cluster" = 1'
+        assert len(read_postgis(conn, sql=sql)) == 38  # still open, still usable
+        assert not conn.closed
+    engine = _engine(db)
+    with pytest.raises(
+        InvalidInputError, match=r"open psycopg connection \(got Engine"
+    ):
+        read_postgis(engine, table="uk_clusters")
+
+
 def test_geometry_without_srid_takes_crs_in(db):
     sql = 'SELECT "Cluster", ST_SetSRID(geom, 0) AS g FROM uk_clusters LIMIT 5'
     assert read_postgis(db, sql=sql).crs.to_epsg() == 4326
