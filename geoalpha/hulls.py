@@ -2,7 +2,7 @@
 
 The front door of the GeoDataFrame layer: :func:`hull` checks the options
 (:class:`geoalpha.options.Options`, where every option is defined once) and
-hands the frame to the pipeline of named stages in :mod:`geoalpha.pipeline`,
+hands the frame to the pipeline of named stages in :mod:`geoalpha.frame.pipeline`,
 or a dask-geopandas frame to :func:`geoalpha.dask.hull`.
 """
 
@@ -13,9 +13,9 @@ import warnings
 
 from geoalpha import options as _options
 from geoalpha.errors import InvalidInputError, OutlierWarning
+from geoalpha.frame.pipeline import OUTLIER_ROWS, as_frame, run
+from geoalpha.frame.schema import RESULT_COLUMNS
 from geoalpha.options import DEGENERATE_POLICIES, METHODS, Options
-from geoalpha.pipeline import OUTLIER_ROWS, as_frame, run
-from geoalpha.schema import RESULT_COLUMNS
 
 __all__ = ["DEGENERATE_POLICIES", "METHODS", "RESULT_COLUMNS", "hull", "outlier_rows"]
 
@@ -81,12 +81,12 @@ def hull(gdf, by=None, **options):
         Groups across +-180 degrees, returned as split MultiPolygons.
     GroupingWarning
         ``by`` makes more groups than half the rows (from 50 rows on): a
-        wrong column? (:func:`geoalpha.checks.check_grouping`)
+        wrong column? (:func:`geoalpha.frame.checks.check_grouping`)
     CRSWarning
         The computation CRS (a forced ``crs``, or projected input kept by
         ``crs="auto"``) stretches areas by more than 2 % where the points
         are, so ``area_m2`` and ``radius`` are not true metres
-        (:func:`geoalpha.checks.check_distortion`).
+        (:func:`geoalpha.frame.checks.check_distortion`).
 
     Notes
     -----

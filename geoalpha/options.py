@@ -22,7 +22,7 @@ The array API's signatures spell their defaults out (for readers and type
 checkers); ``tests/test_options.py`` checks that they equal these.
 
 Adding an option is one new field here (with its ``meta``); the stage of
-:mod:`geoalpha.pipeline` that uses it then reads ``options.<name>``.
+:mod:`geoalpha.frame.pipeline` that uses it then reads ``options.<name>``.
 
 This module imports only the standard library, so that ``geoalpha --help``
 stays fast.
@@ -170,7 +170,7 @@ def _shown(value):
 def _check_crs(value):
     if isinstance(value, str) and value.strip().lower() in ("auto", "auto-group"):
         return value
-    from geoalpha.crs import target_crs
+    from geoalpha.frame.crs import target_crs
 
     target_crs(value)  # raises on anything but a projected CRS
     return value
@@ -188,7 +188,7 @@ def _check_grow(value):
 
 
 def _check_outliers(value):
-    from geoalpha.budget import check_outliers
+    from geoalpha.arrays.budget import check_outliers
 
     check_outliers(value)
     return value
@@ -399,7 +399,8 @@ class Options:
         kind="bool",
         optional=True,
         doc="bool, optional\n    Show one progress bar through every phase (group, "
-        "project, compute,\n    check; see :mod:`geoalpha.progress`; needs ``tqdm``: "
+        "project, compute,\n    check; see :mod:`geoalpha.frame.progress`; needs "
+        "``tqdm``: "
         '``pip install\n    "geoalpha[progress]"``). Default: only for long runs on a '
         "terminal.",
         flags=("--progress/--no-progress",),

@@ -1,4 +1,4 @@
-"""Tests of geoalpha.crs: CRS parsing, lon/lat checks, antimeridian, metric CRS."""
+"""Tests of geoalpha.frame.crs: parsing, lon/lat checks, antimeridian, metric CRSs."""
 
 from __future__ import annotations
 
@@ -13,7 +13,8 @@ from hypothesis import strategies as st
 from shapely.geometry import MultiPolygon, Polygon, box
 
 from geoalpha import datasets
-from geoalpha.crs import (
+from geoalpha.errors import InvalidInputError
+from geoalpha.frame.crs import (
     check_lonlat,
     crosses_antimeridian,
     crs_name,
@@ -22,7 +23,6 @@ from geoalpha.crs import (
     split_antimeridian,
     unwrap_lon,
 )
-from geoalpha.errors import InvalidInputError
 
 GEOD = pyproj.Geod(ellps="WGS84")
 

@@ -1,9 +1,9 @@
 """The comparison methods of :func:`geoalpha.hull`: convex, concave and KNN hulls.
 
 ``method="convex"`` takes its alpha from :func:`geoalpha.alpha_shapes` (0) and
-its polygons from :func:`geoalpha.shapes.convex_hulls`, built in the output
+its polygons from :func:`geoalpha.arrays.guarantee.convex_hulls`, built in the output
 coordinates where they are exact. ``method="concave"`` (GEOS ``concave_hull``) and
-``method="knn"`` (:func:`geoalpha.knn.knn_hull`) are built in metres by
+``method="knn"`` (:func:`geoalpha.arrays.knn.knn_hull`) are built in metres by
 :func:`comparison_hulls` and then given the input coordinates as vertices.
 """
 
@@ -13,11 +13,13 @@ import numpy as np
 import pandas as pd
 import shapely
 
-from geoalpha.crs import Projection
+from geoalpha.arrays.guarantee import EMPTY_POLYGON, cover_points, covered, each_or_none
+from geoalpha.arrays.guarantee import (
+    convex_hulls as convex_hulls,  # (its home until 0.1)
+)
+from geoalpha.arrays.knn import knn_hull
 from geoalpha.errors import InvalidInputError
-from geoalpha.knn import knn_hull
-from geoalpha.shapes import EMPTY_POLYGON, cover_points, covered, each_or_none
-from geoalpha.shapes import convex_hulls as convex_hulls  # (its home until 0.1)
+from geoalpha.frame.crs import Projection
 
 __all__ = ["ComparisonHulls", "comparison_hulls"]
 
@@ -65,7 +67,7 @@ def comparison_hulls(
     """GEOS concave (``method="concave"``) or KNN hull per group, built in metres.
 
     The polygons come back in the output coordinates with the input points as
-    vertices, every point covered (:func:`geoalpha.shapes.cover_points`).
+    vertices, every point covered (:func:`geoalpha.arrays.guarantee.cover_points`).
     """
     order = np.argsort(codes, kind="stable")
     xy, sc = proj.xy[order], codes[order]

@@ -13,8 +13,9 @@ from typing import Literal, NamedTuple
 import numpy as np
 import shapely
 
-from geoalpha import kernel, search, shapes
-from geoalpha.budget import outlier_budget
+from geoalpha import kernel
+from geoalpha.arrays import guarantee, search
+from geoalpha.arrays.budget import outlier_budget
 from geoalpha.errors import (
     DegenerateGroupWarning,
     InvalidInputError,
@@ -192,7 +193,7 @@ def alpha_shapes(
         shape cover at least ``rows - k`` rows; only those pieces are kept,
         and the rows they miss are reported (``n_outliers``, ``outlier``).
         Groups with ``k = 0`` get the result without outliers. See
-        :mod:`geoalpha.budget`.
+        :mod:`geoalpha.arrays.budget`.
     name_groups : callable, optional
         Turns an array of group codes into the text that names those groups
         in a warning (:func:`geoalpha.hull` names them by key); default: the
@@ -363,7 +364,8 @@ def _guarantee(res, xy, out_xy, rows, given, optimum, components, gave_up):
     whole = np.flatnonzero(ring_failed & res.whole)
     if len(whole):  # the shape is the convex hull: GEOS builds it
         take = np.isin(codes, whole)
-        geometry[whole] = shapes.convex_hulls(sout[take], codes[take], n_groups)[whole]
+        hulls = guarantee.convex_hulls(sout[take], codes[take], n_groups)
+        geometry[whole] = hulls[whole]
     check = (res.reason == 0) | np.isin(np.arange(n_groups), whole)
     x, y, v = sout[:, 0], sout[:, 1], res.rep
     test = (x != x[v]) | (y != y[v])
@@ -371,7 +373,7 @@ def _guarantee(res, xy, out_xy, rows, given, optimum, components, gave_up):
         test |= ~res.on_ring
     left_out = res.left_out if res.left_out.any() else None
     a = res.alpha if given is None else given
-    geometry, failed = shapes.enforce(
+    geometry, failed = guarantee.enforce(
         geometry,
         sout,
         codes,
@@ -384,7 +386,7 @@ def _guarantee(res, xy, out_xy, rows, given, optimum, components, gave_up):
     )
     degenerate = ((res.reason != 0) & ~np.isin(np.arange(n_groups), whole)) | failed
     alpha_out = np.where(degenerate, np.nan, a)
-    geometry[degenerate] = shapes.EMPTY_POLYGON
+    geometry[degenerate] = guarantee.EMPTY_POLYGON
     n_parts = res.n_parts.astype(np.int64)
     n_parts[whole] = 1
     n_parts[degenerate] = 0
@@ -393,7 +395,7 @@ def _guarantee(res, xy, out_xy, rows, given, optimum, components, gave_up):
     n_outliers = np.zeros(n_groups, dtype=np.int64)
     if left_out is not None:
         # A repair that took in a just-missed point may have covered one left out.
-        outlier = shapes.left_outside(left_out, geometry, sout, codes)
+        outlier = guarantee.left_outside(left_out, geometry, sout, codes)
         n_outliers = np.bincount(codes[outlier], minlength=n_groups)
     back = np.empty(len(codes), dtype=np.int64)
     back[res.order] = np.arange(len(codes))

@@ -84,7 +84,7 @@ def parse_crs(crs: Any) -> pyproj.CRS | None:
 
     Examples
     --------
-    >>> from geoalpha.crs import parse_crs
+    >>> from geoalpha.frame.crs import parse_crs
     >>> parse_crs(32630).to_string()
     'EPSG:32630'
     >>> parse_crs("EPSG:4326").is_geographic
@@ -123,7 +123,7 @@ def crs_name(crs: Any) -> str:
 
     Examples
     --------
-    >>> from geoalpha.crs import crs_name
+    >>> from geoalpha.frame.crs import crs_name
     >>> crs_name(32630)
     'EPSG:32630'
     >>> crs_name("+proj=laea +lat_0=64 +lon_0=-153 +datum=WGS84 +units=m")
@@ -194,7 +194,7 @@ def check_lonlat(lon: Any, lat: Any, labels: Any = None) -> None:
 
     Examples
     --------
-    >>> from geoalpha.crs import check_lonlat
+    >>> from geoalpha.frame.crs import check_lonlat
     >>> check_lonlat([-0.1, 2.35], [51.5, 48.86])
     >>> check_lonlat([51.5, 48.86], [-0.1, 102.0])  # doctest: +ELLIPSIS
     Traceback (most recent call last):
@@ -336,7 +336,7 @@ def crosses_antimeridian(lon: Any, codes: Any, n_groups: int) -> np.ndarray:
 
     Examples
     --------
-    >>> from geoalpha.crs import crosses_antimeridian
+    >>> from geoalpha.frame.crs import crosses_antimeridian
     >>> lon = [177.5, 179.9, -179.5, -178.2, 10.0, 12.0]  # Fiji, then Italy
     >>> crosses_antimeridian(lon, [0, 0, 0, 0, 1, 1], 2)
     array([ True, False])
@@ -375,7 +375,7 @@ def unwrap_lon(lon: Any, codes: Any, crossing: Any) -> np.ndarray:
 
     Examples
     --------
-    >>> from geoalpha.crs import unwrap_lon
+    >>> from geoalpha.frame.crs import unwrap_lon
     >>> unwrap_lon([179.0, -179.0, -5.0], [0, 0, 1], [True, False]).tolist()
     [179.0, 181.0, -5.0]
     """
@@ -422,7 +422,7 @@ def split_antimeridian(geom: Any) -> Any:
     Examples
     --------
     >>> from shapely import box
-    >>> from geoalpha.crs import split_antimeridian
+    >>> from geoalpha.frame.crs import split_antimeridian
     >>> parts = split_antimeridian(box(178, -18, 182, -16))
     >>> parts.geom_type, [p.bounds for p in parts.geoms]
     ('MultiPolygon', [(178.0, -18.0, 180.0, -16.0), (-180.0, -18.0, -178.0, -16.0)])
@@ -663,7 +663,7 @@ def target_crs(crs: Any) -> pyproj.CRS:
 
     Examples
     --------
-    >>> from geoalpha.crs import target_crs
+    >>> from geoalpha.frame.crs import target_crs
     >>> target_crs("EPSG:27700").name
     'OSGB36 / British National Grid'
     >>> target_crs(4326)  # doctest: +ELLIPSIS
@@ -693,7 +693,7 @@ def unit_factor(crs: Any) -> float:
 
     Examples
     --------
-    >>> from geoalpha.crs import unit_factor
+    >>> from geoalpha.frame.crs import unit_factor
     >>> unit_factor("EPSG:32630"), round(unit_factor("EPSG:2263"), 7)
     (1.0, 0.3048006)
     """
@@ -712,7 +712,7 @@ def is_mercator(crs: Any) -> bool:
 
     Examples
     --------
-    >>> from geoalpha.crs import is_mercator
+    >>> from geoalpha.frame.crs import is_mercator
     >>> is_mercator(3857), is_mercator(3395), is_mercator(32630)
     (True, True, False)
     """
@@ -795,7 +795,7 @@ def metric_crs(
 
     Examples
     --------
-    >>> from geoalpha.crs import metric_crs, crs_name
+    >>> from geoalpha.frame.crs import metric_crs, crs_name
     >>> lon = [-0.13, -0.10, -0.12, -2.24, -2.20, -2.25]  # London, Manchester
     >>> lat = [51.50, 51.52, 51.49, 53.48, 53.47, 53.50]
     >>> xy, crs_list, crs_index = metric_crs(lon, lat, [0, 0, 0, 1, 1, 1], 2)
@@ -952,7 +952,7 @@ class Projection:
     Examples
     --------
     >>> import numpy as np
-    >>> from geoalpha.crs import Projection
+    >>> from geoalpha.frame.crs import Projection
     >>> lonlat = np.array([[-0.13, 51.50], [-0.10, 51.52], [-0.12, 51.49]])
     >>> proj = Projection(lonlat, np.zeros(3, dtype=int), 1, "EPSG:4326", "auto")
     >>> proj.names.tolist(), proj.unit, bool((proj.out == lonlat).all())

@@ -8,22 +8,22 @@
 
 - :func:`group`: a group code per row and the table of group keys (as
   :meth:`GeoDataFrame.dissolve` groups);
-- :func:`~geoalpha.checks.check_grouping`: a warning when ``by`` makes nearly
+- :func:`~geoalpha.frame.checks.check_grouping`: a warning when ``by`` makes nearly
   one group per row;
 - :func:`read_points`: the point coordinates, with missing, empty and NaN
   geometries and missing keys dropped (and counted in a warning), non-points
   and infinite coordinates refused (:func:`scan_rows`, :func:`report_rows`);
-- :func:`~geoalpha.checks.check_distortion`: a warning when the computation
+- :func:`~geoalpha.frame.checks.check_distortion`: a warning when the computation
   CRS stretches areas where the points are;
-- :func:`project`: the metric CRS round trip (:class:`geoalpha.crs.Projection`);
+- :func:`project`: the metric CRS round trip (:class:`geoalpha.frame.crs.Projection`);
 - :func:`compute`: the shapes, by method (:func:`geoalpha.alpha_shapes` in one
-  batched call, or :mod:`geoalpha.comparison`), built in the output CRS;
+  batched call, or :mod:`geoalpha.arrays.comparison`), built in the output CRS;
 - :func:`degenerate_policy`: groups without a shape, by ``degenerate=``;
 - :func:`verify_in_output_crs`: every geometry valid and covering its points
   in the output CRS, antimeridian groups split;
-- :func:`table`: the result (:mod:`geoalpha.schema`).
+- :func:`table`: the result (:mod:`geoalpha.frame.schema`).
 
-One progress bar (:mod:`geoalpha.progress`) follows the phases ``group``,
+One progress bar (:mod:`geoalpha.frame.progress`) follows the phases ``group``,
 ``project``, ``compute`` and ``check``; inside the ``geoalpha`` command, the
 command's bar, which also has ``read`` and ``write``.
 
@@ -43,10 +43,18 @@ import numpy as np
 import pandas as pd
 import shapely
 
-from geoalpha import crs as gcrs
 from geoalpha import kernel
-from geoalpha.checks import check_distortion, check_grouping
-from geoalpha.comparison import comparison_hulls
+from geoalpha.arrays.comparison import comparison_hulls
+from geoalpha.arrays.guarantee import (
+    EMPTY_POLYGON,
+    convex_hulls,
+    cover_points,
+    covered,
+    enforce,
+    left_outside,
+    repair_invalid,
+)
+from geoalpha.arrays.optimal import alpha_shapes
 from geoalpha.errors import (
     AntimeridianWarning,
     DegenerateGroupWarning,
@@ -58,9 +66,9 @@ from geoalpha.errors import (
     first_n,
     user_stacklevel,
 )
-from geoalpha.optimal import alpha_shapes
-from geoalpha.options import Options
-from geoalpha.progress import (
+from geoalpha.frame import crs as gcrs
+from geoalpha.frame.checks import check_distortion, check_grouping
+from geoalpha.frame.progress import (
     HULL_PHASES,
     PROGRESS_MIN_GROUPS,
     Phases,
@@ -68,16 +76,8 @@ from geoalpha.progress import (
     hull_costs,
     phases,
 )
-from geoalpha.schema import RESULT_COLUMNS, result_frame, result_geometry_name
-from geoalpha.shapes import (
-    EMPTY_POLYGON,
-    convex_hulls,
-    cover_points,
-    covered,
-    enforce,
-    left_outside,
-    repair_invalid,
-)
+from geoalpha.frame.schema import RESULT_COLUMNS, result_frame, result_geometry_name
+from geoalpha.options import Options
 
 __all__ = [
     "PROGRESS_MIN_GROUPS",
@@ -174,9 +174,9 @@ def run(frame, by, options: Options, *, checks: bool = True, rows: bool = True):
     """``hull(frame, by, **options)`` on an in-memory GeoDataFrame: every stage.
 
     With a progress bar over the phases (``options.progress``), or inside the
-    one of the enclosing :func:`geoalpha.progress.phases` (the command's).
+    one of the enclosing :func:`geoalpha.frame.progress.phases` (the command's).
     ``checks=False`` leaves out the warnings about the set-up
-    (:mod:`geoalpha.checks`), and ``rows=False`` the one about dropped rows
+    (:mod:`geoalpha.frame.checks`), and ``rows=False`` the one about dropped rows
     (:func:`report_rows`), which :func:`geoalpha.dask.hull` makes once for
     the whole dataset instead of once per partition.
     """
@@ -191,8 +191,8 @@ def _per_group_crs(source, crs, coords: np.ndarray) -> bool:
     """Whether groups are likely to get a metric CRS each (for the progress bar).
 
     Longitude/latitude points wider than one UTM zone takes
-    (:data:`geoalpha.crs.UTM_HALF_WIDTH` either side) with ``crs="auto"``: a
-    rough guess of the choice of :func:`geoalpha.crs.metric_crs`.
+    (:data:`geoalpha.frame.crs.UTM_HALF_WIDTH` either side) with ``crs="auto"``: a
+    rough guess of the choice of :func:`geoalpha.frame.crs.metric_crs`.
     """
     auto = isinstance(crs, str) and crs.strip().lower() in ("auto", "auto-group")
     src = gcrs.parse_crs(source) if auto else None
@@ -595,8 +595,8 @@ def compute(
 
     ``"alpha"`` and ``"convex"``: one batched :func:`geoalpha.alpha_shapes`
     call in metres whose polygons are built from the input coordinates;
-    ``"concave"`` and ``"knn"``: :func:`geoalpha.comparison.comparison_hulls`.
-    The run's progress bar (:func:`geoalpha.progress.current`, in its
+    ``"concave"`` and ``"knn"``: :func:`geoalpha.arrays.comparison.comparison_hulls`.
+    The run's progress bar (:func:`geoalpha.frame.progress.current`, in its
     ``compute`` phase), when it is shown, counts the groups done, batch by
     batch. ``names`` names groups (given their codes) in warnings.
     """
@@ -696,7 +696,7 @@ def ensure_guarantee(
     it is declared degenerate (alpha NaN, a :class:`DegenerateGroupWarning`)
     and goes to the ``degenerate=`` policy. Invalid polygons are repaired and
     points left outside are taken in as vertices first
-    (:func:`geoalpha.shapes.enforce`). Every method goes through here; the
+    (:func:`geoalpha.arrays.guarantee.enforce`). Every method goes through here; the
     points left out on purpose (``outliers=``) and, at a fixed ``alpha``
     (which need not cover every point), coverage are not checked. Groups
     wider than 180 degrees of longitude have no faithful lon/lat polygon and
@@ -1077,7 +1077,7 @@ def grow(
     return shapes._replace(geometry=geometry, area=area, checked=checked)
 
 
-#: Set by :func:`geoalpha.tools.outlier_rows` to receive the left-out rows.
+#: Set by :func:`geoalpha.hulls.outlier_rows` to receive the left-out rows.
 OUTLIER_ROWS: contextvars.ContextVar[list | None] = contextvars.ContextVar(
     "geoalpha_outlier_rows", default=None
 )
