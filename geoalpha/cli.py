@@ -402,7 +402,7 @@ def _summary(
     import numpy as np
     import shapely
 
-    from geoalpha.frame.crs import crs_name
+    from geoalpha.crs_parsing import crs_name
 
     lines = []
     columns = points.attrs.get("geoalpha_coordinates")

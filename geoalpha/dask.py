@@ -45,6 +45,7 @@ import pandas as pd
 import shapely
 
 from geoalpha import options as _options
+from geoalpha.crs_parsing import crs_name, parse_crs
 from geoalpha.errors import InvalidInputError, did_you_mean
 from geoalpha.frame import crs as gcrs
 from geoalpha.frame.checks import check_distortion, check_grouping, computation_crs
@@ -133,7 +134,7 @@ def _decide_crs(extents: pd.DataFrame, source_crs):
         return "auto-group"
     # One group: "auto" gives the dataset's UTM zone (an EPSG code) when the
     # data fit one, else a local LAEA CRS (a PROJ string).
-    return chosen[0] if gcrs.crs_name(chosen[0]).startswith("EPSG:") else "auto-group"
+    return chosen[0] if crs_name(chosen[0]).startswith("EPSG:") else "auto-group"
 
 
 #: Points per partition that the distortion check looks at.
@@ -414,7 +415,7 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
         isinstance(crs, str)
         and crs.strip().lower() == "auto"
         and source is not None
-        and gcrs.parse_crs(source).is_geographic
+        and parse_crs(source).is_geographic
     ):
         extents = ddf.map_partitions(
             _extent, names, dropna, meta=pd.DataFrame(columns=_EXTENT, dtype=float)

@@ -13,13 +13,12 @@ from hypothesis import strategies as st
 from shapely.geometry import MultiPolygon, Polygon, box
 
 from geoalpha import datasets
+from geoalpha.crs_parsing import crs_name, parse_crs
 from geoalpha.errors import InvalidInputError
 from geoalpha.frame.crs import (
     check_lonlat,
     crosses_antimeridian,
-    crs_name,
     metric_crs,
-    parse_crs,
     split_antimeridian,
     unwrap_lon,
 )

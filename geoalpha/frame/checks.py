@@ -24,8 +24,9 @@ from typing import Any
 import numpy as np
 import pyproj
 
+from geoalpha.crs_parsing import crs_name, is_mercator, parse_crs
 from geoalpha.errors import CRSWarning, GroupingWarning, user_stacklevel
-from geoalpha.frame.crs import crs_name, is_mercator, metric_crs, parse_crs
+from geoalpha.frame.crs import metric_crs
 from geoalpha.frame.distortion import AREA_TOLERANCE, area_scale
 
 __all__ = [

@@ -55,6 +55,7 @@ from geoalpha.arrays.guarantee import (
     repair_invalid,
 )
 from geoalpha.arrays.optimal import alpha_shapes
+from geoalpha.crs_parsing import parse_crs
 from geoalpha.errors import (
     AntimeridianWarning,
     DegenerateGroupWarning,
@@ -195,7 +196,7 @@ def _per_group_crs(source, crs, coords: np.ndarray) -> bool:
     rough guess of the choice of :func:`geoalpha.frame.crs.metric_crs`.
     """
     auto = isinstance(crs, str) and crs.strip().lower() in ("auto", "auto-group")
-    src = gcrs.parse_crs(source) if auto else None
+    src = parse_crs(source) if auto else None
     if src is None or not src.is_geographic or not len(coords):
         return False
     return bool(np.ptp(coords[:, 0]) > 2 * gcrs.UTM_HALF_WIDTH)
@@ -648,7 +649,8 @@ def compute(
             )
         hulls = comparison_hulls(
             method,
-            proj,
+            proj.xy,
+            proj.out,
             points.codes,
             n_groups,
             holes=options.holes,

@@ -202,7 +202,7 @@ def read_input_points(
     ``sql`` and ``geometry_column`` apply to a ``postgresql://`` source (see
     :func:`geoalpha.io.postgis.read_postgis`).
     """
-    from geoalpha.frame.crs import parse_crs
+    from geoalpha.crs_parsing import parse_crs
 
     source = os.fspath(path)
     shown = _shown(source)
@@ -306,7 +306,7 @@ def _read_database(source, x, y, crs, layer, planar_if_missing, sql, geometry_co
 
 
 def _crs_label(crs) -> str:
-    from geoalpha.frame.crs import crs_name
+    from geoalpha.crs_parsing import crs_name
 
     return crs_name(crs)
 
