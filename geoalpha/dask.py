@@ -287,7 +287,7 @@ def _hull_partition(
         )
     part = gpd.GeoDataFrame(part, geometry=geometry, crs=source_crs)
     # With ``by``, the dataset's bad rows were reported once (``checked``).
-    out = run(part, by, options.replace(crs=crs), checks=False, rows=by is None)
+    out, _ = run(part, by, options.replace(crs=crs), checks=False, rows=by is None)
     return out.astype(dict(meta.dtypes.drop(meta.geometry.name)))
 
 

@@ -11,9 +11,11 @@ from __future__ import annotations
 import sys
 import warnings
 
+import pandas as pd
+
 from geoalpha import options as _options
 from geoalpha.errors import InvalidInputError, OutlierWarning
-from geoalpha.frame.pipeline import OUTLIER_ROWS, as_frame, run
+from geoalpha.frame.pipeline import as_frame, run
 from geoalpha.frame.schema import RESULT_COLUMNS
 from geoalpha.options import DEGENERATE_POLICIES, METHODS, Options
 
@@ -115,7 +117,7 @@ def hull(gdf, by=None, **options):
         from geoalpha.dask import hull as dask_hull
 
         return dask_hull(gdf, by, **opts.as_dict())
-    return run(as_frame(gdf), by, opts)
+    return run(as_frame(gdf), by, opts)[0]
 
 
 hull.__signature__ = _options.signature(hull)
@@ -164,12 +166,9 @@ def outlier_rows(gdf, by=None, **options):
             "outlier_rows() needs an eager GeoDataFrame; call .compute() first "
             "(the lazy hull() has the n_outliers column)"
         )
-    found: list = []
-    token = OUTLIER_ROWS.set(found)
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", OutlierWarning)
-            hull(gdf, by, **options)
-    finally:
-        OUTLIER_ROWS.reset(token)
-    return found[0]
+    opts = Options.from_kwargs(options)
+    frame = as_frame(gdf)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", OutlierWarning)
+        _, left_out = run(frame, by, opts)
+    return pd.Series(left_out, index=frame.index, name="outlier")

@@ -33,7 +33,6 @@ command's bar, which also has ``read`` and ``write``.
 
 from __future__ import annotations
 
-import contextvars
 import warnings
 from collections.abc import Callable
 from functools import partial
@@ -174,6 +173,9 @@ class Shapes(NamedTuple):
 def run(frame, by, options: Options, *, checks: bool = True, rows: bool = True):
     """``hull(frame, by, **options)`` on an in-memory GeoDataFrame: every stage.
 
+    Returns the result table and, per row of ``frame``, whether it was left
+    out of its group's hull (``outliers=``; :func:`geoalpha.outlier_rows`).
+
     With a progress bar over the phases (``options.progress``), or inside the
     one of the enclosing :func:`geoalpha.frame.progress.phases` (the command's).
     ``checks=False`` leaves out the warnings about the set-up
@@ -247,8 +249,7 @@ def _stages(frame, by, options: Options, bar: Phases, checks: bool, rows: bool):
         crs,
         result_geometry_name(frame, groups.names),
     )
-    report_outliers(shapes, groups, points, frame, options)
-    return out
+    return out, report_outliers(shapes, groups, points, len(frame), options)
 
 
 def _names(groups: Groups, which: np.ndarray, counts=None) -> str:
@@ -1079,17 +1080,11 @@ def grow(
     return shapes._replace(geometry=geometry, area=area, checked=checked)
 
 
-#: Set by :func:`geoalpha.hulls.outlier_rows` to receive the left-out rows.
-OUTLIER_ROWS: contextvars.ContextVar[list | None] = contextvars.ContextVar(
-    "geoalpha_outlier_rows", default=None
-)
-
-
 def report_outliers(
-    shapes: Shapes, groups: Groups, points: Points, frame, options: Options
-) -> None:
-    """Warn about the rows left out (``outliers=``); hand them to outlier_rows()."""
-    left_out = np.zeros(len(frame), dtype=bool)
+    shapes: Shapes, groups: Groups, points: Points, n_rows: int, options: Options
+) -> np.ndarray:
+    """Warn about the rows left out (``outliers=``) and return them as a row mask."""
+    left_out = np.zeros(n_rows, dtype=bool)
     left_out[points.rows[shapes.outlier]] = True
     if left_out.any():
         n_outliers = np.bincount(
@@ -1114,6 +1109,4 @@ def report_outliers(
             OutlierWarning,
             stacklevel=user_stacklevel(),
         )
-    found = OUTLIER_ROWS.get()
-    if found is not None:
-        found.append(pd.Series(left_out, index=frame.index, name="outlier"))
+    return left_out
