@@ -626,27 +626,17 @@ def write_hulls(
             f"write_hulls() needs a GeoDataFrame; got {type(gdf).__name__}"
         )
     if _database(path, engine):
-        from geoalpha.io.postgis import write_postgis
-
-        if extra_layers:
-            raise InvalidInputError(
-                "extra layers apply to GeoPackage (.gpkg) output only, not PostGIS"
-            )
-        write_postgis(
-            _index_as_columns(gdf), os.fspath(path), layer, overwrite=overwrite
-        )
+        _write_database(gdf, path, layer, overwrite, extra_layers)
         return {}
     if engine not in _ENGINES:
         raise InvalidInputError(
             f"unknown engine {engine!r}; expected 'pyogrio', 'fiona' or None"
         )
     target, suffix, targets = _check_target(path, layer, overwrite)
-    parent = target.parent
     if extra_layers and suffix != ".gpkg":
         raise InvalidInputError(
             f"extra layers apply to GeoPackage (.gpkg) output only, not {suffix}"
         )
-
     frame = _index_as_columns(gdf)
     mapping: dict[str, str] = {}
     if suffix == ".shp":
@@ -655,30 +645,52 @@ def write_hulls(
         )
         if mapping:
             frame = frame.rename(columns=mapping)
-
+    layers = [
+        (frame, gdf, layer),
+        *((x, x, n) for n, x in (extra_layers or {}).items()),
+    ]
     staging = _make_staging(target)
     try:
-        staged = staging / target.name
-        try:
-            _write_staged(frame, gdf, staged, suffix, layer, engine)
-            for name, extra in (extra_layers or {}).items():
-                _write_staged(extra, extra, staged, suffix, name, engine)
-        except (ImportError, InvalidInputError):
-            raise
-        except Exception as err:  # name the output, never the staging folder
-            text = _one_line(err).replace(str(staging), str(parent))
-            raise OSError(f"cannot write {target}: {text}") from err
-        if suffix == ".shp" and frame.crs is not None:
-            prj = staged.with_suffix(".prj")
-            if not prj.exists():
-                raise OSError(
-                    f"the Shapefile writer did not write {prj.name} for CRS "
-                    f"{frame.crs.to_string()}; write another format instead"
-                )
+        _write_layers(layers, staging / target.name, suffix, engine, target)
         _move_into_place(staging, target, targets, overwrite)
     finally:
         shutil.rmtree(staging, ignore_errors=True)
     return mapping
+
+
+def _write_database(gdf, path, layer, overwrite: bool, extra_layers) -> None:
+    """:func:`write_hulls` to a ``postgresql://`` URL: one table, no extra layers."""
+    from geoalpha.io.postgis import write_postgis
+
+    if extra_layers:
+        raise InvalidInputError(
+            "extra layers apply to GeoPackage (.gpkg) output only, not PostGIS"
+        )
+    write_postgis(_index_as_columns(gdf), os.fspath(path), layer, overwrite=overwrite)
+
+
+def _write_layers(layers, staged: Path, suffix: str, engine, target: Path) -> None:
+    """Write ``(frame, source, layer)`` triples into the staged file.
+
+    An error names the output, never the staging folder; a Shapefile must
+    come with its ``.prj`` file when the frame has a CRS.
+    """
+    try:
+        for frame, source, layer in layers:
+            _write_staged(frame, source, staged, suffix, layer, engine)
+    except (ImportError, InvalidInputError):
+        raise
+    except Exception as err:
+        text = _one_line(err).replace(str(staged.parent), str(target.parent))
+        raise OSError(f"cannot write {target}: {text}") from err
+    crs = layers[0][0].crs
+    if suffix == ".shp" and crs is not None:
+        prj = staged.with_suffix(".prj")
+        if not prj.exists():
+            raise OSError(
+                f"the Shapefile writer did not write {prj.name} for CRS "
+                f"{crs.to_string()}; write another format instead"
+            )
 
 
 def _write_staged(frame, gdf, staged: Path, suffix: str, layer, engine) -> None:
