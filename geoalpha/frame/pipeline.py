@@ -163,6 +163,9 @@ class Shapes(NamedTuple):
     degenerate: np.ndarray  #: no shape (fewer than 3 distinct points, a line)
     keep: np.ndarray  #: groups that get a row
     outlier: np.ndarray  #: per point: left out of its group's hull (outliers=)
+    #: why a group has no shape: 0, or a code of :data:`geoalpha.kernel.REASONS`
+    #: (5: no valid polygon holding its points in the output coordinates)
+    reason: np.ndarray
     #: groups whose geometry is already verified in the output coordinates
     #: (valid; covering its points unless at a fixed alpha): :func:`compute`
     #: sets it where :func:`geoalpha.alpha_shapes` checked its own polygons,
@@ -644,6 +647,7 @@ def compute(
                 degenerate=res.degenerate,
                 keep=np.ones(n_groups, dtype=bool),
                 outlier=res.outlier,
+                reason=res.reason,
                 # alpha_shapes verified its polygons in proj.out (shapes.enforce,
                 # with the options of ensure_guarantee); convex hulls are new
                 checked=~res.degenerate & (method == "alpha"),
@@ -677,6 +681,7 @@ def compute(
             degenerate=hulls.degenerate,
             keep=np.ones(n_groups, dtype=bool),
             outlier=np.zeros(len(points.codes), dtype=bool),
+            reason=_reasons(hulls.degenerate, points, proj),
             checked=np.zeros(n_groups, dtype=bool),
         )
     finally:
@@ -739,6 +744,7 @@ def ensure_guarantee(
             geometry=geometry,
             alpha=alpha,
             degenerate=shapes.degenerate | failed,
+            reason=np.where(failed & (shapes.reason == 0), 5, shapes.reason),
             checked=(shapes.checked | check) & ~failed,
             outlier=outlier,
         )
@@ -802,7 +808,7 @@ def degenerate_policy(
     else:
         keep[which] = False
         done = f"they were dropped ({n_points[which].sum()} rows)"
-    thin = _thin(which, points, proj)
+    thin = np.isin(shapes.reason[which], (1, 2, 3)) | (n_points[which] == 0)
     reasons = []
     if thin.any():
         reasons.append(
@@ -843,19 +849,24 @@ def degenerate_policy(
 OUTPUT_BUFFER_RTOL = 1e-6
 
 
-def _thin(which, points: Points, proj: gcrs.Projection) -> np.ndarray:
-    """Which groups of ``which`` are degenerate by their points (not by a failed check).
+def _reasons(degenerate, points: Points, proj: gcrs.Projection) -> np.ndarray:
+    """Return the kernel's reason codes of the groups a comparison method left bare.
 
-    Fewer than 3 distinct points, or all on a line by the kernel's
-    tolerances (:data:`geoalpha.kernel.NEAR_RTOL`), in metres or in the output
-    coordinates: the kernel's reason codes 1 to 3.
+    Fewer than 3 distinct points (1), or all on a line by the kernel's
+    tolerances (:data:`geoalpha.kernel.NEAR_RTOL`), in metres (2) or in the
+    output coordinates (3); 5 for the others.
     """
+    which = np.flatnonzero(degenerate)
+    reason = np.zeros(len(degenerate), dtype=np.int64)
+    if not len(which):
+        return reason
     sel = np.flatnonzero(np.isin(points.codes, which))
     code = np.searchsorted(which, points.codes[sel])
     res = kernel.solve(
         proj.xy[sel], code, len(which), out=proj.out[sel], alpha=np.zeros(len(which))
     )
-    return np.isin(res.reason, (1, 2, 3))
+    reason[which] = np.where(np.isin(res.reason, (1, 2, 3)), res.reason, 5)
+    return reason
 
 
 def _buffer_in_output(geometry, sel, codes, proj: gcrs.Projection) -> np.ndarray:
