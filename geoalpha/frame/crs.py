@@ -36,6 +36,7 @@ from geoalpha.crs_parsing import (
     unit_factor,
 )
 from geoalpha.errors import InvalidInputError, first_n
+from geoalpha.kernel import ANTIMERIDIAN_SNAP
 
 __all__ = [
     "Projection",
@@ -305,8 +306,8 @@ def unwrap_lon(lon: Any, codes: Any, crossing: Any) -> np.ndarray:
 
 
 def _snap(coords: np.ndarray, x: float) -> np.ndarray:
-    """Put x coordinates within 1e-9 degrees of ``x`` exactly on ``x``."""
-    near = np.abs(coords[:, 0] - x) <= 1e-9
+    """Put x coordinates within ``ANTIMERIDIAN_SNAP`` (degrees) of ``x`` on ``x``."""
+    near = np.abs(coords[:, 0] - x) <= ANTIMERIDIAN_SNAP
     coords[near, 0] = x
     return coords
 

@@ -798,8 +798,9 @@ def degenerate_policy(
                 f", except {_names(groups, redone)}: that buffer is no valid polygon "
                 "holding their points in the output CRS (around a pole, or across "
                 "more than 180 degrees of longitude), so theirs is the convex hull of "
-                f"their points there, widened by {OUTPUT_BUFFER_RTOL:g} of their "
-                "extent ('area_m2' is the area of the buffer in metres)"
+                "their points there, widened by "
+                f"{kernel.OUTPUT_BUFFER_RTOL:g} of their extent ('area_m2' is the "
+                "area of the buffer in metres)"
             )
     elif policy == "empty":
         geometry[which] = EMPTY_POLYGON
@@ -843,12 +844,6 @@ def degenerate_policy(
     )
 
 
-#: Width of the ``degenerate="buffer"`` polygon made in the output coordinates
-#: (where the metric buffer is no valid polygon there), relative to the
-#: group's extent in those coordinates.
-OUTPUT_BUFFER_RTOL = 1e-6
-
-
 def _reasons(degenerate, points: Points, proj: gcrs.Projection) -> np.ndarray:
     """Return the kernel's reason codes of the groups a comparison method left bare.
 
@@ -876,9 +871,9 @@ def _buffer_in_output(geometry, sel, codes, proj: gcrs.Projection) -> np.ndarray
     holds the pole, which no lon/lat polygon can; such groups (and any whose
     buffer is not valid or misses a point there) get the buffer of their
     points' convex hull in the output coordinates instead,
-    :data:`OUTPUT_BUFFER_RTOL` of their extent wide (valid, and holding every
-    point), clipped to latitudes -90..90. Changes ``geometry`` in place and
-    returns the groups redone.
+    :data:`geoalpha.kernel.OUTPUT_BUFFER_RTOL` of their extent wide (valid,
+    and holding every point), clipped to latitudes -90..90. Changes
+    ``geometry`` in place and returns the groups redone.
     """
     mine = codes[sel]
     groups = np.unique(mine)
@@ -897,7 +892,8 @@ def _buffer_in_output(geometry, sel, codes, proj: gcrs.Projection) -> np.ndarray
     hi = np.maximum.reduceat(proj.out[take], np.searchsorted(codes[take], redo))
     extent = (hi - lo).max(axis=1)
     scale = np.abs(np.r_[lo, hi]).reshape(2, -1, 2).max(axis=(0, 2))
-    width = np.maximum(OUTPUT_BUFFER_RTOL * extent, 1e-9 * np.maximum(scale, 1.0))
+    rtol = kernel.OUTPUT_BUFFER_RTOL
+    width = np.maximum(rtol * extent, kernel.REPAIR_RTOL * np.maximum(scale, 1.0))
     buffered = shapely.buffer(hull, width)
     if proj.source is not None and proj.source.is_geographic:
         buffered = shapely.intersection(buffered, shapely.box(-540, -90, 540, 90))
