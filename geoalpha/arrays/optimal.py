@@ -14,8 +14,9 @@ import numpy as np
 import shapely
 
 from geoalpha import kernel
-from geoalpha.arrays import guarantee, search
+from geoalpha.arrays import guarantee
 from geoalpha.arrays.budget import outlier_budget
+from geoalpha.arrays.search import bisect_alpha, ladder_alpha
 from geoalpha.errors import (
     DegenerateGroupWarning,
     InvalidInputError,
@@ -24,7 +25,7 @@ from geoalpha.errors import (
     first_n,
     user_stacklevel,
 )
-from geoalpha.options import check
+from geoalpha.options import check as check_options
 
 __all__ = ["AlphaShapes", "alpha_shape", "alpha_shapes", "optimal_alpha"]
 
@@ -96,20 +97,20 @@ class AlphaShapes(NamedTuple):
 
 
 def _check_options(
-    holes, components, search_: str, max_iterations, outliers=0, alpha=None
+    holes, components, search: str, max_iterations, outliers=0, alpha=None
 ) -> dict:
     """Check the options as ``hull()`` does (:func:`geoalpha.options.check`)."""
-    checked = check(
+    checked = check_options(
         holes=holes,
         components=components,
-        search=search_,
+        search=search,
         max_iterations=max_iterations,
         outliers=outliers,
     )
-    if outliers and (alpha is not None or search_ != "exact"):
+    if outliers and (alpha is not None or search != "exact"):
         raise InvalidInputError(
             "outliers applies to the exact optimum: use it without alpha and "
-            f"with search='exact'; got alpha={alpha!r}, search={search_!r}"
+            f"with search='exact'; got alpha={alpha!r}, search={search!r}"
         )
     return checked
 
@@ -238,7 +239,7 @@ def alpha_shapes(
     ([0.4308], [1], [False, False, False, False, False, True])
     """
     checked = _check_options(holes, components, search, max_iterations, outliers, alpha)
-    n_jobs = check(n_jobs=n_jobs)["n_jobs"]
+    n_jobs = check_options(n_jobs=n_jobs)["n_jobs"]
     if name_groups is not None and not callable(name_groups):
         raise InvalidInputError(
             "name_groups must be a function of an array of group codes that "
@@ -284,7 +285,7 @@ def _given_alpha(alpha, n_groups: int) -> np.ndarray:
     return a
 
 
-def _searched_alpha(curve, n_groups: int, search_: str, max_iterations: int):
+def _searched_alpha(curve, n_groups: int, search: str, max_iterations: int):
     """Return the alpha ``search="ladder"``/``"bisect"`` finds on the validity curves.
 
     The kernel's curve holds, per group, every distinct weight (ascending)
@@ -302,10 +303,10 @@ def _searched_alpha(curve, n_groups: int, search_: str, max_iterations: int):
             ok[i] = k >= 0 and bool(valid_at[a + k])
         return ok
 
-    if search_ == "ladder":
-        a, _ = search.ladder_alpha(valid, n_groups)
+    if search == "ladder":
+        a, _ = ladder_alpha(valid, n_groups)
         return a, np.zeros(n_groups, dtype=bool)
-    a, gave_up, _ = search.bisect_alpha(valid, n_groups, max_iterations=max_iterations)
+    a, gave_up, _ = bisect_alpha(valid, n_groups, max_iterations=max_iterations)
     return a, gave_up
 
 
