@@ -16,7 +16,7 @@
 - :func:`~geoalpha.frame.checks.check_distortion`: a warning when the computation
   CRS stretches areas where the points are;
 - :func:`project`: the metric CRS round trip (:class:`geoalpha.frame.crs.Projection`);
-- :func:`compute`: the shapes, by method (:func:`geoalpha.alpha_shapes` in one
+- :func:`compute`: the hulls, by method (:func:`geoalpha.alpha_shapes` in one
   batched call, or :mod:`geoalpha.arrays.comparison`), built in the output CRS;
 - :func:`degenerate_policy`: groups without a shape, by ``degenerate=``;
 - :func:`verify_in_output_crs`: every geometry valid and covering its points
@@ -82,9 +82,9 @@ from geoalpha.options import Options
 __all__ = [
     "PROGRESS_MIN_GROUPS",
     "Groups",
+    "Hulls",
     "Points",
     "RowReport",
-    "Shapes",
     "as_frame",
     "compute",
     "degenerate_policy",
@@ -153,7 +153,7 @@ class Points(NamedTuple):
     crs: Any  #: the CRS of ``coords`` (the frame's; None when it has none)
 
 
-class Shapes(NamedTuple):
+class Hulls(NamedTuple):
     """Output of :func:`compute` and :func:`degenerate_policy`, one entry a group."""
 
     geometry: np.ndarray  #: in the output coordinates
@@ -223,7 +223,7 @@ def _stages(frame, by, options: Options, bar: Phases, checks: bool, rows: bool):
         check_distortion(points.coords, crs, options.crs)
     proj = project(points, crs, options)
     bar.start("compute", units=n_groups)
-    shapes = compute(
+    hulls = compute(
         points,
         proj,
         n_groups,
@@ -231,28 +231,28 @@ def _stages(frame, by, options: Options, bar: Phases, checks: bool, rows: bool):
         names=partial(_names, groups, counts=points.n_points),
     )
     bar.start("check")
-    shapes = ensure_guarantee(shapes, groups, points, proj, options)
-    shapes = degenerate_policy(shapes, groups, points, proj, options)
-    shapes = grow(shapes, points, proj, options)
+    hulls = ensure_guarantee(hulls, groups, points, proj, options)
+    hulls = degenerate_policy(hulls, groups, points, proj, options)
+    hulls = grow(hulls, points, proj, options)
     geometry = verify_in_output_crs(
-        shapes.geometry,
+        hulls.geometry,
         groups,
         points,
         proj,
         options,
-        checked=shapes.checked,
-        degenerate=shapes.degenerate,
+        checked=hulls.checked,
+        degenerate=hulls.degenerate,
     )
     out = table(
         groups,
         points,
         proj,
-        shapes,
+        hulls,
         geometry,
         crs,
         result_geometry_name(frame, groups.names),
     )
-    return out, report_outliers(shapes, groups, points, len(frame), options)
+    return out, report_outliers(hulls, groups, points, len(frame), options)
 
 
 def _names(groups: Groups, which: np.ndarray, counts=None) -> str:
@@ -595,7 +595,7 @@ def compute(
     n_groups: int,
     options: Options,
     names: Callable[[np.ndarray], str] | None = None,
-) -> Shapes:
+) -> Hulls:
     """Compute the shape of every group, by ``method``, in the output coordinates.
 
     ``"alpha"`` and ``"convex"``: one batched :func:`geoalpha.alpha_shapes`
@@ -639,7 +639,7 @@ def compute(
             # "ladder"/"bisect" name the search that gave the alpha
             exact = method == "convex" or options.search == "exact"
             label = method if exact else options.search
-            return Shapes(
+            return Hulls(
                 geometry=geometry,
                 area=res.area,
                 alpha=res.alpha,
@@ -648,11 +648,11 @@ def compute(
                 keep=np.ones(n_groups, dtype=bool),
                 outlier=res.outlier,
                 reason=res.reason,
-                # alpha_shapes verified its polygons in proj.out (shapes.enforce,
+                # alpha_shapes verified its polygons in proj.out (hulls.enforce,
                 # with the options of ensure_guarantee); convex hulls are new
                 checked=~res.degenerate & (method == "alpha"),
             )
-        hulls = comparison_hulls(
+        made = comparison_hulls(
             method,
             proj.xy,
             proj.out,
@@ -663,8 +663,8 @@ def compute(
             k=options.k,
             bar=bar,
         )
-        if hulls.without_holes.any():
-            which = np.flatnonzero(hulls.without_holes)
+        if made.without_holes.any():
+            which = np.flatnonzero(made.without_holes)
             named = names(which) if names is not None else first_n(map(str, which))
             warnings.warn(
                 f"GEOS's concave hull with holes failed for {len(which)} "
@@ -673,15 +673,15 @@ def compute(
                 GeoAlphaWarning,
                 stacklevel=user_stacklevel(),
             )
-        return Shapes(
-            geometry=hulls.geometry,
-            area=hulls.area,
+        return Hulls(
+            geometry=made.geometry,
+            area=made.area,
             alpha=np.full(n_groups, np.nan),
-            labels=hulls.labels,
-            degenerate=hulls.degenerate,
+            labels=made.labels,
+            degenerate=made.degenerate,
             keep=np.ones(n_groups, dtype=bool),
             outlier=np.zeros(len(points.codes), dtype=bool),
-            reason=_reasons(hulls.degenerate, points, proj),
+            reason=_reasons(made.degenerate, points, proj),
             checked=np.zeros(n_groups, dtype=bool),
         )
     finally:
@@ -690,12 +690,12 @@ def compute(
 
 
 def ensure_guarantee(
-    shapes: Shapes,
+    hulls: Hulls,
     groups: Groups,
     points: Points,
     proj: gcrs.Projection,
     options: Options,
-) -> Shapes:
+) -> Hulls:
     """Check every group's polygon in the output coordinates; the rest are degenerate.
 
     The guarantee of :func:`geoalpha.hull`: each group gets a valid Polygon or
@@ -712,23 +712,23 @@ def ensure_guarantee(
     :func:`compute` already verified in these coordinates (``checked``) are
     not checked twice.
     """
-    check = ~shapes.degenerate & ~proj.wide & ~shapes.checked
+    check = ~hulls.degenerate & ~proj.wide & ~hulls.checked
     if not check.any():
-        return shapes
+        return hulls
     fixed_alpha = options.method == "alpha" and options.alpha is not None
     components = options.components if options.method == "alpha" else None
     geometry, failed = enforce(
-        shapes.geometry,
+        hulls.geometry,
         proj.out,
         points.codes,
         check,
         # At a given alpha only alpha 0 (the convex hull) holds every point.
-        cover=(np.asarray(shapes.alpha) == 0) if fixed_alpha else True,
+        cover=(np.asarray(hulls.alpha) == 0) if fixed_alpha else True,
         components=None if fixed_alpha else components,
-        exempt=shapes.outlier,
+        exempt=hulls.outlier,
     )
     # A repair may have grown a hull over a row left out on purpose.
-    outlier = left_outside(shapes.outlier, geometry, proj.out, points.codes)
+    outlier = left_outside(hulls.outlier, geometry, proj.out, points.codes)
     if failed.any():
         which = np.flatnonzero(failed)
         warnings.warn(
@@ -739,39 +739,39 @@ def ensure_guarantee(
             DegenerateGroupWarning,
             stacklevel=user_stacklevel(),
         )
-        alpha = np.where(failed, np.nan, shapes.alpha)
-        return shapes._replace(
+        alpha = np.where(failed, np.nan, hulls.alpha)
+        return hulls._replace(
             geometry=geometry,
             alpha=alpha,
-            degenerate=shapes.degenerate | failed,
-            reason=np.where(failed & (shapes.reason == 0), 5, shapes.reason),
-            checked=(shapes.checked | check) & ~failed,
+            degenerate=hulls.degenerate | failed,
+            reason=np.where(failed & (hulls.reason == 0), 5, hulls.reason),
+            checked=(hulls.checked | check) & ~failed,
             outlier=outlier,
         )
-    return shapes._replace(
-        geometry=geometry, checked=shapes.checked | check, outlier=outlier
+    return hulls._replace(
+        geometry=geometry, checked=hulls.checked | check, outlier=outlier
     )
 
 
 def degenerate_policy(
-    shapes: Shapes,
+    hulls: Hulls,
     groups: Groups,
     points: Points,
     proj: gcrs.Projection,
     options: Options,
-) -> Shapes:
+) -> Hulls:
     """Apply ``degenerate=`` to the groups without a shape, and name them in a warning.
 
     A group whose rows were all dropped (no point left) is degenerate too.
     """
     n_points = points.n_points
-    degenerate = shapes.degenerate | (n_points == 0)
+    degenerate = hulls.degenerate | (n_points == 0)
     which = np.flatnonzero(degenerate)
     if not len(which):
-        return shapes
-    geometry = shapes.geometry.copy()
-    area = np.array(shapes.area, dtype=np.float64)
-    keep = shapes.keep.copy()
+        return hulls
+    geometry = hulls.geometry.copy()
+    area = np.array(hulls.area, dtype=np.float64)
+    keep = hulls.keep.copy()
     policy = options.degenerate
     if policy == "buffer":
         codes = points.codes
@@ -809,7 +809,7 @@ def degenerate_policy(
     else:
         keep[which] = False
         done = f"they were dropped ({n_points[which].sum()} rows)"
-    thin = np.isin(shapes.reason[which], (1, 2, 3)) | (n_points[which] == 0)
+    thin = np.isin(hulls.reason[which], (1, 2, 3)) | (n_points[which] == 0)
     reasons = []
     if thin.any():
         reasons.append(
@@ -837,9 +837,9 @@ def degenerate_policy(
         DegenerateGroupWarning,
         stacklevel=user_stacklevel(),
     )
-    checked = shapes.checked.copy()
+    checked = hulls.checked.copy()
     checked[which] = False
-    return shapes._replace(
+    return hulls._replace(
         geometry=geometry, area=area, degenerate=degenerate, keep=keep, checked=checked
     )
 
@@ -1013,28 +1013,28 @@ def table(
     groups: Groups,
     points: Points,
     proj: gcrs.Projection,
-    shapes: Shapes,
+    hulls: Hulls,
     geometry: np.ndarray,
     crs,
     geometry_name: str = "geometry",
 ):
     """Build the result: one row per kept group (:func:`~.schema.result_frame`)."""
     with np.errstate(divide="ignore"):
-        radius = 1.0 / shapes.alpha
-    keep = shapes.keep
+        radius = 1.0 / hulls.alpha
+    keep = hulls.keep
     values = {
-        "alpha": shapes.alpha,
+        "alpha": hulls.alpha,
         "radius": radius,
         "n_points": points.n_points,
         "n_outliers": np.bincount(
-            points.codes[shapes.outlier], minlength=len(points.n_points)
+            points.codes[hulls.outlier], minlength=len(points.n_points)
         ),
         "n_parts": np.where(
             shapely.is_empty(geometry), 0, shapely.get_num_geometries(geometry)
         ),
-        "area_m2": shapes.area,
+        "area_m2": hulls.area,
         "crs_used": proj.names,
-        "method": shapes.labels,
+        "method": hulls.labels,
     }
     if not keep.all():
         values = {name: np.asarray(v)[keep] for name, v in values.items()}
@@ -1045,8 +1045,8 @@ def table(
 
 
 def grow(
-    shapes: Shapes, points: Points, proj: gcrs.Projection, options: Options
-) -> Shapes:
+    hulls: Hulls, points: Points, proj: gcrs.Projection, options: Options
+) -> Hulls:
     """Buffer the hulls (not the degenerate buffers) by ``grow`` metres.
 
     Built in the metric CRS from the metric coordinates of the hull vertices
@@ -1054,11 +1054,11 @@ def grow(
     """
     distance = options.grow
     if not distance:
-        return shapes
-    geometry = shapes.geometry
-    sel = np.flatnonzero(~shapes.degenerate & ~shapely.is_empty(geometry))
+        return hulls
+    geometry = hulls.geometry
+    sel = np.flatnonzero(~hulls.degenerate & ~shapely.is_empty(geometry))
     if not sel.size:
-        return shapes
+        return hulls
     coords, which = shapely.get_coordinates(geometry[sel], return_index=True)
     keys = pd.MultiIndex.from_arrays([points.codes, proj.out[:, 0], proj.out[:, 1]])
     first = ~keys.duplicated()
@@ -1079,23 +1079,23 @@ def grow(
         )
     grown = shapely.buffer(metric[exact], distance, quad_segs=4)
     geometry = geometry.copy()
-    area = np.asarray(shapes.area, dtype=float).copy()
+    area = np.asarray(hulls.area, dtype=float).copy()
     area[sel[exact]] = shapely.area(grown)
     geometry[sel[exact]] = proj.to_output(grown, sel[exact])
-    checked = shapes.checked.copy()
+    checked = hulls.checked.copy()
     checked[sel[exact]] = False
-    return shapes._replace(geometry=geometry, area=area, checked=checked)
+    return hulls._replace(geometry=geometry, area=area, checked=checked)
 
 
 def report_outliers(
-    shapes: Shapes, groups: Groups, points: Points, n_rows: int, options: Options
+    hulls: Hulls, groups: Groups, points: Points, n_rows: int, options: Options
 ) -> np.ndarray:
     """Warn about the rows left out (``outliers=``) and return them as a row mask."""
     left_out = np.zeros(n_rows, dtype=bool)
-    left_out[points.rows[shapes.outlier]] = True
+    left_out[points.rows[hulls.outlier]] = True
     if left_out.any():
         n_outliers = np.bincount(
-            points.codes[shapes.outlier], minlength=len(points.n_points)
+            points.codes[hulls.outlier], minlength=len(points.n_points)
         )
         which = np.flatnonzero(n_outliers)
         shown = which[:11]  # first_n shows 10, and "..." when there is an 11th
