@@ -809,31 +809,9 @@ def degenerate_policy(
     else:
         keep[which] = False
         done = f"they were dropped ({n_points[which].sum()} rows)"
-    thin = np.isin(hulls.reason[which], (1, 2, 3)) | (n_points[which] == 0)
-    reasons = []
-    if thin.any():
-        reasons.append(
-            f"{thin.sum()} group(s) have fewer than 3 distinct points or all points "
-            f"on a line, so no alpha shape: {_names(groups, which[thin], n_points)}"
-        )
-    wide = ~thin & proj.wide[which]
-    if wide.any():
-        reasons.append(
-            f"{wide.sum()} group(s) span more than 180 degrees of longitude, so their "
-            "hull has no valid longitude/latitude polygon holding all their points "
-            f"and they have no alpha: {_names(groups, which[wide], n_points)} "
-            "(split the group, e.g. by continent, or give the points in a projected "
-            "CRS that holds them)"
-        )
-    if (~thin & ~wide).any():
-        reasons.append(
-            f"{(~thin & ~wide).sum()} group(s) got no valid polygon holding all their "
-            "points in the output CRS (their shapes fold there, near a pole or across "
-            "a continent, or its coordinates are too coarse for them): "
-            f"{_names(groups, which[~thin & ~wide], n_points)}"
-        )
     warnings.warn(
-        "; ".join(reasons) + f"; {done} (degenerate={policy!r})",
+        _why_degenerate(hulls.reason, which, groups, n_points, proj.wide)
+        + f"; {done} (degenerate={policy!r})",
         DegenerateGroupWarning,
         stacklevel=user_stacklevel(),
     )
@@ -842,6 +820,41 @@ def degenerate_policy(
     return hulls._replace(
         geometry=geometry, area=area, degenerate=degenerate, keep=keep, checked=checked
     )
+
+
+def _why_degenerate(reason, which, groups: Groups, n_points, wide) -> str:
+    """Word why the groups ``which`` have no shape, from their reason codes.
+
+    The one place a degenerate group's reason becomes words in :func:`hull`'s
+    warning: fewer than 3 distinct points or a line (the kernel's codes 1 to
+    3, and groups left without points), wider than 180 degrees of longitude
+    (``wide``), or no valid polygon in the output CRS (the others).
+    """
+    thin = np.isin(reason[which], (1, 2, 3)) | (n_points[which] == 0)
+    reasons = []
+    if thin.any():
+        reasons.append(
+            f"{thin.sum()} group(s) have fewer than 3 distinct points or all points "
+            f"on a line, so no alpha shape: {_names(groups, which[thin], n_points)}"
+        )
+    spread = ~thin & wide[which]
+    other = ~thin & ~spread
+    if spread.any():
+        reasons.append(
+            f"{spread.sum()} group(s) span more than 180 degrees of longitude, so "
+            "their hull has no valid longitude/latitude polygon holding all their "
+            f"points and they have no alpha: {_names(groups, which[spread], n_points)} "
+            "(split the group, e.g. by continent, or give the points in a projected "
+            "CRS that holds them)"
+        )
+    if other.any():
+        reasons.append(
+            f"{other.sum()} group(s) got no valid polygon holding all their "
+            "points in the output CRS (their shapes fold there, near a pole or across "
+            "a continent, or its coordinates are too coarse for them): "
+            f"{_names(groups, which[other], n_points)}"
+        )
+    return "; ".join(reasons)
 
 
 def _reasons(degenerate, points: Points, proj: gcrs.Projection) -> np.ndarray:
