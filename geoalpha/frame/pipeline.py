@@ -652,41 +652,47 @@ def compute(
                 # with the options of ensure_guarantee); convex hulls are new
                 checked=~res.degenerate & (method == "alpha"),
             )
-        made = comparison_hulls(
-            method,
-            proj.xy,
-            proj.out,
-            points.codes,
-            n_groups,
-            holes=options.holes,
-            ratio=options.ratio,
-            k=options.k,
-            bar=bar,
-        )
-        if made.without_holes.any():
-            which = np.flatnonzero(made.without_holes)
-            named = names(which) if names is not None else first_n(map(str, which))
-            warnings.warn(
-                f"GEOS's concave hull with holes failed for {len(which)} "
-                f"group(s): {named}; they got the concave hull without holes "
-                "(the 'method' column says so)",
-                GeoAlphaWarning,
-                stacklevel=user_stacklevel(),
-            )
-        return Hulls(
-            geometry=made.geometry,
-            area=made.area,
-            alpha=np.full(n_groups, np.nan),
-            labels=made.labels,
-            degenerate=made.degenerate,
-            keep=np.ones(n_groups, dtype=bool),
-            outlier=np.zeros(len(points.codes), dtype=bool),
-            reason=_reasons(made.degenerate, points, proj),
-            checked=np.zeros(n_groups, dtype=bool),
-        )
+        return _comparison(points, proj, n_groups, options, names, bar)
     finally:
         if bar is not None:  # groups of 1-2 points are done too: the phase ends full
             bar.update(n_groups)
+
+
+def _comparison(points, proj, n_groups: int, options: Options, names, bar) -> Hulls:
+    """:func:`compute` for ``"concave"`` and ``"knn"``: no alpha, no kernel sweep."""
+    method = options.method
+    made = comparison_hulls(
+        method,
+        proj.xy,
+        proj.out,
+        points.codes,
+        n_groups,
+        holes=options.holes,
+        ratio=options.ratio,
+        k=options.k,
+        bar=bar,
+    )
+    if made.without_holes.any():
+        which = np.flatnonzero(made.without_holes)
+        named = names(which) if names is not None else first_n(map(str, which))
+        warnings.warn(
+            f"GEOS's concave hull with holes failed for {len(which)} "
+            f"group(s): {named}; they got the concave hull without holes "
+            "(the 'method' column says so)",
+            GeoAlphaWarning,
+            stacklevel=user_stacklevel(),
+        )
+    return Hulls(
+        geometry=made.geometry,
+        area=made.area,
+        alpha=np.full(n_groups, np.nan),
+        labels=made.labels,
+        degenerate=made.degenerate,
+        keep=np.ones(n_groups, dtype=bool),
+        outlier=np.zeros(len(points.codes), dtype=bool),
+        reason=_reasons(made.degenerate, points, proj),
+        checked=np.zeros(n_groups, dtype=bool),
+    )
 
 
 def ensure_guarantee(
