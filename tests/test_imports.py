@@ -337,3 +337,19 @@ def test_geoalpha_help_and_version_import_nothing_heavy():
         check=False,
     )
     assert done.returncode == 0, done.stderr
+
+
+def test_public_paths_keep_working():
+    """The names users import from the documented paths, after the moves of #25."""
+    import geoalpha
+    import geoalpha.dask
+    import geoalpha.hulls
+    import geoalpha.io
+    from geoalpha import datasets
+    from geoalpha.io.postgis import read_postgis, write_postgis
+
+    assert callable(geoalpha.hull) and geoalpha.hull is geoalpha.hulls.hull
+    assert callable(geoalpha.io.read_points) and callable(geoalpha.io.write_hulls)
+    assert callable(datasets.load) and callable(geoalpha.dask.hull)
+    assert callable(read_postgis) and callable(write_postgis)
+    assert all(hasattr(geoalpha, name) for name in geoalpha.__all__)
