@@ -25,8 +25,13 @@ from geoalpha.errors import (
 )
 
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs
-    from geoalpha.optimal import AlphaShapes, alpha_shape, alpha_shapes, optimal_alpha
-    from geoalpha.tools import hull, outlier_rows
+    from geoalpha.arrays.optimal import (
+        AlphaShapes,
+        alpha_shape,
+        alpha_shapes,
+        optimal_alpha,
+    )
+    from geoalpha.hulls import hull, outlier_rows
 
 try:
     __version__ = version("geoalpha")
@@ -53,13 +58,15 @@ __all__ = [
 
 #: Public names loaded on first use, and the module that defines each.
 _LAZY = {
-    "AlphaShapes": "geoalpha.optimal",
-    "alpha_shape": "geoalpha.optimal",
-    "alpha_shapes": "geoalpha.optimal",
-    "optimal_alpha": "geoalpha.optimal",
-    "hull": "geoalpha.tools",
-    "outlier_rows": "geoalpha.tools",
+    "AlphaShapes": "geoalpha.arrays.optimal",
+    "alpha_shape": "geoalpha.arrays.optimal",
+    "alpha_shapes": "geoalpha.arrays.optimal",
+    "optimal_alpha": "geoalpha.arrays.optimal",
+    "hull": "geoalpha.hulls",
+    "outlier_rows": "geoalpha.hulls",
 }
+#: Modules reachable as ``from geoalpha import datasets`` (their home since 0.3).
+_MODULES = {"datasets": "geoalpha.io.datasets"}
 
 
 def __getattr__(name: str):
@@ -67,6 +74,8 @@ def __getattr__(name: str):
         value = getattr(importlib.import_module(_LAZY[name]), name)
         globals()[name] = value
         return value
+    if name in _MODULES:
+        return importlib.import_module(_MODULES[name])
     raise AttributeError(f"module 'geoalpha' has no attribute {name!r}")
 
 

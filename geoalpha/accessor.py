@@ -10,7 +10,7 @@ from __future__ import annotations
 import functools
 import sys
 
-from geoalpha import tools
+from geoalpha import hulls
 from geoalpha.registration import attach
 
 __all__ = ["AlphaAccessor", "register"]
@@ -31,9 +31,9 @@ class AlphaAccessor:
     def __init__(self, obj):
         self._obj = obj
 
-    @functools.wraps(tools.hull)
-    def hull(self, by=None, **options):  # noqa: D102 - documented by tools.hull
-        return tools.hull(self._obj, by, **options)
+    @functools.wraps(hulls.hull)
+    def hull(self, by=None, **options):  # noqa: D102 - documented by hulls.hull
+        return hulls.hull(self._obj, by, **options)
 
 
 def register(name: str = "alpha") -> None:

@@ -22,11 +22,11 @@ from collections.abc import Callable, Iterator
 import click
 
 from geoalpha import __version__
-from geoalpha.datasets import DATASETS
 from geoalpha.errors import GeoAlphaError, InvalidInputError
+from geoalpha.io.datasets import DATASETS
+from geoalpha.io.postgis import is_postgres_url
+from geoalpha.io.redact import redact, secrets_in
 from geoalpha.options import META, check, defaults
-from geoalpha.postgis import is_postgres_url
-from geoalpha.redact import redact, secrets_in
 
 __all__ = ["main"]
 
@@ -172,7 +172,7 @@ def _reporting(verbosity: int) -> Iterator[None]:
 
     Every line is worded in the command's terms and has credentials removed.
     """
-    from geoalpha.io import cli_terms
+    from geoalpha.io.files import cli_terms
 
     shown: set[tuple[type, str]] = set()
     secrets = _secrets()
@@ -320,9 +320,9 @@ def _progress_bar(
     ``read``, then the phases of :func:`geoalpha.hull` (which uses this bar),
     ``write`` and ``preview``; their shares of the bar are estimated from
     the input's size in bytes until it is read, then from its rows and groups
-    (:mod:`geoalpha.progress`). ``-q`` means no bar unless ``--progress``.
+    (:mod:`geoalpha.frame.progress`). ``-q`` means no bar unless ``--progress``.
     """
-    from geoalpha.progress import HULL_PHASES, hull_costs, phases
+    from geoalpha.frame.progress import HULL_PHASES, hull_costs, phases
 
     show = False if progress is None and verbosity < 0 else progress
 
@@ -354,7 +354,7 @@ def _progress_bar(
 
 def _planar_unit(points, work_crs) -> str | None:
     """Return the unit of a planar computation (--crs none) unless metres."""
-    from geoalpha.schema import planar_unit
+    from geoalpha.frame.schema import planar_unit
 
     return planar_unit(points.crs, work_crs)
 
@@ -368,7 +368,7 @@ def _left_out(points, hulls, by: list[str], options: dict) -> str:
     """
     import numpy as np
 
-    from geoalpha.pipeline import scan_rows
+    from geoalpha.frame.pipeline import scan_rows
 
     left = len(points) - int(hulls["n_points"].sum())
     if left <= 0:
@@ -402,7 +402,7 @@ def _summary(
     import numpy as np
     import shapely
 
-    from geoalpha.crs import crs_name
+    from geoalpha.crs_parsing import crs_name
 
     lines = []
     columns = points.attrs.get("geoalpha_coordinates")
@@ -473,9 +473,9 @@ def _run(
     ``bar`` is the command's progress bar (:func:`_progress_bar`), in which
     the hull's phases run; it is closed before the summary.
     """
-    from geoalpha.io import write_hulls
-    from geoalpha.schema import with_area_unit
-    from geoalpha.tools import hull
+    from geoalpha.frame.schema import with_area_unit
+    from geoalpha.hulls import hull
+    from geoalpha.io.files import write_hulls
 
     if options.get("progress") is None and verbosity < 0:
         options["progress"] = False
@@ -804,7 +804,7 @@ def hull(
         geoalpha hull postgresql://ga@localhost/gis postgresql://ga@localhost/gis
             --layer public.trees --by species --output-layer public.tree_hulls
     """  # noqa: D301
-    from geoalpha.io import check_output, read_input_points
+    from geoalpha.io.files import check_output, read_input_points
 
     verbosity = _verbosity(verbose, quiet)
     size = _input_size(input_path)  # None for a database
@@ -847,8 +847,8 @@ def hull(
 
 
 def _result_columns() -> str:
-    """Return the result columns for --help (:data:`geoalpha.schema.RESULT_COLUMNS`)."""
-    from geoalpha.schema import RESULT_COLUMNS
+    """Return the columns for --help (:data:`~geoalpha.frame.schema.RESULT_COLUMNS`)."""
+    from geoalpha.frame.schema import RESULT_COLUMNS
 
     units = {"alpha": "1/metre", "radius": "metres"}
     return ", ".join(
@@ -908,7 +908,7 @@ def demo(
         geoalpha demo accidents.shp --dataset uk_clusters
     """  # noqa: D301
     from geoalpha import datasets
-    from geoalpha.io import check_output
+    from geoalpha.io.files import check_output
 
     verbosity = _verbosity(verbose, quiet)
     gpkg = output.lower().endswith(".gpkg")

@@ -14,18 +14,18 @@ with dask's string dtype):
    since the last bits of a hull depend on the order of its group's points;
 2. with ``crs="auto"`` on longitude/latitude input, one cheap reduction of the
    longitude/latitude extent makes the whole-dataset decision of
-   :func:`geoalpha.crs.metric_crs`: the partitions get that UTM zone when the
+   :func:`geoalpha.frame.crs.metric_crs`: the partitions get that UTM zone when the
    data fit one, else ``crs="auto-group"`` (each group its own metric CRS);
    a partition alone would see only its own points and could decide
    otherwise;
-3. the warnings about the set-up (:mod:`geoalpha.checks`: nearly one group
+3. the warnings about the set-up (:mod:`geoalpha.frame.checks`: nearly one group
    per row, a computation CRS that stretches areas) and the errors and the
-   warning about bad rows (:func:`geoalpha.pipeline.report_rows`) are made
+   warning about bad rows (:func:`geoalpha.frame.pipeline.report_rows`) are made
    once, on the number of distinct keys and rows, the bad rows of every
    partition and a sample of up to 1,000 points per partition, when the
    result is computed and before the partitions' hulls, so that they count
    and name the rows of the whole dataset as the eager call does;
-4. the stages of :func:`geoalpha.hull` (:func:`geoalpha.pipeline.run`) run on
+4. the stages of :func:`geoalpha.hull` (:func:`geoalpha.frame.pipeline.run`) run on
    every partition (``map_partitions``);
 5. with ``sort=True`` the (small: one row per group) result is gathered into
    one partition sorted by key, as the eager call returns it.
@@ -44,14 +44,15 @@ import numpy as np
 import pandas as pd
 import shapely
 
-from geoalpha import crs as gcrs
 from geoalpha import options as _options
-from geoalpha.checks import check_distortion, check_grouping, computation_crs
+from geoalpha.crs_parsing import crs_name, parse_crs
 from geoalpha.errors import InvalidInputError, did_you_mean
+from geoalpha.frame import crs as gcrs
+from geoalpha.frame.checks import check_distortion, check_grouping, computation_crs
+from geoalpha.frame.pipeline import group, merge_reports, report_rows, run, scan_rows
+from geoalpha.frame.schema import empty_result, result_geometry_name
 from geoalpha.options import Options
-from geoalpha.pipeline import group, merge_reports, report_rows, run, scan_rows
 from geoalpha.registration import attach
-from geoalpha.schema import empty_result, result_geometry_name
 
 try:
     import dask
@@ -116,7 +117,7 @@ def _decide_crs(extents: pd.DataFrame, source_crs):
     The extreme longitudes (plain and in [0, 360)) and latitudes are points
     of the data, and the smallest longitude arc covering all the data, when
     it is narrow enough to fit a UTM zone, is the one covering these extreme
-    points; so :func:`geoalpha.crs.metric_crs` on them alone decides as it
+    points; so :func:`geoalpha.frame.crs.metric_crs` on them alone decides as it
     would on the whole dataset.
     """
     e = extents.dropna()
@@ -133,7 +134,7 @@ def _decide_crs(extents: pd.DataFrame, source_crs):
         return "auto-group"
     # One group: "auto" gives the dataset's UTM zone (an EPSG code) when the
     # data fit one, else a local LAEA CRS (a PROJ string).
-    return chosen[0] if gcrs.crs_name(chosen[0]).startswith("EPSG:") else "auto-group"
+    return chosen[0] if crs_name(chosen[0]).startswith("EPSG:") else "auto-group"
 
 
 #: Points per partition that the distortion check looks at.
@@ -167,7 +168,7 @@ def _keys(part, names: list, dropna: bool) -> pd.DataFrame:
 
 
 def _rows(part, names: list, options: Options) -> pd.DataFrame:
-    """Return the :class:`~geoalpha.pipeline.RowReport` of a partition's bad rows."""
+    """Return the :class:`~geoalpha.frame.pipeline.RowReport` of a partition."""
     codes = np.zeros(len(part), dtype=np.int64)
     if names and options.dropna:  # as groupby(dropna=True) numbers them
         codes[part[names].isna().any(axis=1).to_numpy()] = -1
@@ -179,7 +180,7 @@ def _check(keys, rows, sample, by, source_crs, crs) -> None:
     """Make the errors and warnings about the input, once for the whole dataset.
 
     In the order of the eager call: nearly one group per row, then bad rows
-    (:func:`geoalpha.pipeline.report_rows`: non-point geometries and infinite
+    (:func:`geoalpha.frame.pipeline.report_rows`: non-point geometries and infinite
     coordinates raise, dropped rows warn), then a stretching CRS.
     """
     if keys is not None:
@@ -286,7 +287,7 @@ def _hull_partition(
         )
     part = gpd.GeoDataFrame(part, geometry=geometry, crs=source_crs)
     # With ``by``, the dataset's bad rows were reported once (``checked``).
-    out = run(part, by, options.replace(crs=crs), checks=False, rows=by is None)
+    out, _ = run(part, by, options.replace(crs=crs), checks=False, rows=by is None)
     return out.astype(dict(meta.dtypes.drop(meta.geometry.name)))
 
 
@@ -359,7 +360,7 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
     computed: in this process with the local schedulers, in the worker logs
     with ``distributed``. Those about the set-up (``by`` making nearly one
     group per row, a computation CRS that stretches areas:
-    :mod:`geoalpha.checks`) and about bad rows (dropped rows; non-point
+    :mod:`geoalpha.frame.checks`) and about bad rows (dropped rows; non-point
     geometries and infinite coordinates are errors) are raised once for the
     whole dataset, with the counts and row labels of the eager call.
 
@@ -414,7 +415,7 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
         isinstance(crs, str)
         and crs.strip().lower() == "auto"
         and source is not None
-        and gcrs.parse_crs(source).is_geographic
+        and parse_crs(source).is_geographic
     ):
         extents = ddf.map_partitions(
             _extent, names, dropna, meta=pd.DataFrame(columns=_EXTENT, dtype=float)

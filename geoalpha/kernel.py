@@ -26,11 +26,14 @@ from geoalpha.errors import first_n
 
 __all__ = [
     "ALPHA_RTOL",
+    "ANTIMERIDIAN_SNAP",
     "MAX_COORDINATE",
     "MAX_UNION_NODES",
     "NEAR_RTOL",
+    "OUTPUT_BUFFER_RTOL",
     "PRECISION_ULPS",
     "REASONS",
+    "REPAIR_RTOL",
     "TIE_RTOL",
     "Solved",
     "check_points",
@@ -52,6 +55,21 @@ TIE_RTOL: float = _kernel.TIE_RTOL
 ALPHA_RTOL: float = _kernel.ALPHA_RTOL
 #: Coordinates beyond this magnitude are refused (their squares overflow).
 MAX_COORDINATE: float = _kernel.MAX_COORDINATE
+
+# The tolerances of the Python side, here with the kernel's so that every
+# tolerance of geoalpha is in this module (docs/user_guide/guarantee.md).
+
+#: Width of a repair in the output coordinates, relative to the polygon's
+#: extent (at least that times 1): the outline of an ear that takes in a
+#: point no other repair could (:func:`geoalpha.arrays.guarantee.cover_points`).
+REPAIR_RTOL = 1e-9
+#: Width of the ``degenerate="buffer"`` polygon made in the output coordinates
+#: (where the metric buffer is no valid polygon there), relative to the
+#: group's extent in those coordinates.
+OUTPUT_BUFFER_RTOL = 1e-6
+#: Longitudes this close (degrees) to the antimeridian are put on it when a
+#: hull is split there.
+ANTIMERIDIAN_SNAP = 1e-9
 
 #: Why a group has no shape, by the kernel's reason code (0: it has one).
 REASONS: dict[int, str] = {

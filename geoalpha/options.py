@@ -22,7 +22,7 @@ The array API's signatures spell their defaults out (for readers and type
 checkers); ``tests/test_options.py`` checks that they equal these.
 
 Adding an option is one new field here (with its ``meta``); the stage of
-:mod:`geoalpha.pipeline` that uses it then reads ``options.<name>``.
+:mod:`geoalpha.frame.pipeline` that uses it then reads ``options.<name>``.
 
 This module imports only the standard library, so that ``geoalpha --help``
 stays fast.
@@ -48,6 +48,7 @@ __all__ = [
     "OptionMeta",
     "Options",
     "check",
+    "check_outliers",
     "defaults",
     "docstring",
     "signature",
@@ -170,7 +171,7 @@ def _shown(value):
 def _check_crs(value):
     if isinstance(value, str) and value.strip().lower() in ("auto", "auto-group"):
         return value
-    from geoalpha.crs import target_crs
+    from geoalpha.crs_parsing import target_crs
 
     target_crs(value)  # raises on anything but a projected CRS
     return value
@@ -187,9 +188,40 @@ def _check_grow(value):
     return float(value)
 
 
-def _check_outliers(value):
-    from geoalpha.budget import check_outliers
+def check_outliers(outliers) -> None:
+    """Raise :class:`InvalidInputError` unless ``outliers`` is a valid budget.
 
+    Parameters
+    ----------
+    outliers : float or int
+        A float in ``[0, 1)`` (a fraction of each group's rows) or an int
+        ``>= 0`` (a count of rows per group).
+
+    Examples
+    --------
+    >>> check_outliers(0.02), check_outliers(3)
+    (None, None)
+    >>> check_outliers(1.5)
+    Traceback (most recent call last):
+    ...
+    geoalpha.errors.InvalidInputError: outliers must be a fraction in [0, 1) or ...
+    """
+    if isinstance(outliers, bool) or type(outliers).__name__ == "bool_":
+        ok = False
+    elif isinstance(outliers, numbers.Integral):
+        ok = outliers >= 0
+    elif isinstance(outliers, numbers.Real):
+        ok = 0 <= outliers < 1
+    else:
+        ok = False
+    if not ok:
+        raise InvalidInputError(
+            "outliers must be a fraction in [0, 1) or a count >= 0 (an int); "
+            f"got {outliers!r}"
+        )
+
+
+def _check_outliers(value):
     check_outliers(value)
     return value
 
@@ -399,7 +431,8 @@ class Options:
         kind="bool",
         optional=True,
         doc="bool, optional\n    Show one progress bar through every phase (group, "
-        "project, compute,\n    check; see :mod:`geoalpha.progress`; needs ``tqdm``: "
+        "project, compute,\n    check; see :mod:`geoalpha.frame.progress`; needs "
+        "``tqdm``: "
         '``pip install\n    "geoalpha[progress]"``). Default: only for long runs on a '
         "terminal.",
         flags=("--progress/--no-progress",),

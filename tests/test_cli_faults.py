@@ -18,8 +18,8 @@ import shapely
 from cli_runner import run
 
 from geoalpha import datasets
-from geoalpha.io import check_output, remove_stale_staging, write_hulls
-from geoalpha.redact import redact, secrets_in
+from geoalpha.io.files import check_output, remove_stale_staging, write_hulls
+from geoalpha.io.redact import redact, secrets_in
 
 REPO = Path(__file__).resolve().parents[1]
 GROUP = "Local_Authority_(Highway)"
@@ -73,7 +73,7 @@ def racing_hull(monkeypatch):
         out["crs_used"], out["method"] = "EPSG:32630", "alpha"
         return out
 
-    monkeypatch.setitem(sys.modules, "geoalpha.tools", types.SimpleNamespace(hull=hull))
+    monkeypatch.setitem(sys.modules, "geoalpha.hulls", types.SimpleNamespace(hull=hull))
     return state
 
 
@@ -187,7 +187,7 @@ def test_only_staging_folders_of_dead_processes_are_removed(tmp_path):
     assert finished.returncode == 0
     dead = subprocess.Popen([sys.executable, "-c", "pass"])
     dead.wait(timeout=60)
-    from geoalpha.io import _host_tag
+    from geoalpha.io.files import _host_tag
 
     host = _host_tag()
     stale = tmp_path / f".h.gpkg.geoalpha-{host}-{dead.pid}-abc"
@@ -320,7 +320,7 @@ def test_secrets_stay_out_of_warnings_and_summaries(tmp_path, monkeypatch):
         warnings.warn(f"slow server for {kwargs} {args[0]}", UserWarning, stacklevel=1)
         raise RuntimeError(f"lost connection to {args[0]}")
 
-    monkeypatch.setattr("geoalpha.io.read_input_points", read)
+    monkeypatch.setattr("geoalpha.io.files.read_input_points", read)
     source = f"PG:dbname=gis password={SECRET}"
     result = run("-v", "hull", source, tmp_path / "h.gpkg")
     assert result.exit_code == 1
@@ -376,7 +376,7 @@ def test_known_secrets_are_redacted_out_of_context():
 
 _LONG_TOKEN = """
 import sys
-from geoalpha.redact import redact
+from geoalpha.io.redact import redact
 
 secret = sys.argv[1]
 token = "Ab1" * 1_700_000  # 5 MB of letters and digits: one field of a CSV
@@ -470,7 +470,7 @@ def test_log_records_are_redacted(tmp_path, monkeypatch):
         logging.getLogger("pyogrio").warning("opening %s", args[0])
         raise OSError("cannot open it")
 
-    monkeypatch.setattr("geoalpha.io.read_input_points", read)
+    monkeypatch.setattr("geoalpha.io.files.read_input_points", read)
     for _ in range(2):  # the second run logs to its own stderr too
         result = run("hull", f"PG:dbname=gis password={SECRET}", tmp_path / "h.gpkg")
         assert result.exit_code == 1

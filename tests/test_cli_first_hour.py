@@ -20,7 +20,7 @@ from progress_output import assert_bar_covers
 import geoalpha
 from geoalpha import datasets
 from geoalpha.errors import CRSWarning, DegenerateGroupWarning, InvalidInputError
-from geoalpha.io import read_points
+from geoalpha.io.files import read_points
 
 GROUP = "Local_Authority_(Highway)"
 PYTHON_TERMS = re.compile(
@@ -332,7 +332,7 @@ def test_many_degenerate_groups_build_no_transformer_per_group(monkeypatch):
 
 
 def test_laea_pipeline_back_equals_the_database_transform():
-    from geoalpha import crs as gcrs
+    from geoalpha.frame import crs as gcrs
 
     laea = "+proj=laea +lat_0=62 +lon_0=-153 +datum=WGS84 +units=m +no_defs"
     x = np.array([-5e5, 0.0, 3e5])

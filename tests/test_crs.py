@@ -1,4 +1,4 @@
-"""Tests of geoalpha.crs: CRS parsing, lon/lat checks, antimeridian, metric CRS."""
+"""Tests of geoalpha.frame.crs: parsing, lon/lat checks, antimeridian, metric CRSs."""
 
 from __future__ import annotations
 
@@ -13,16 +13,15 @@ from hypothesis import strategies as st
 from shapely.geometry import MultiPolygon, Polygon, box
 
 from geoalpha import datasets
-from geoalpha.crs import (
+from geoalpha.crs_parsing import crs_name, parse_crs
+from geoalpha.errors import InvalidInputError
+from geoalpha.frame.crs import (
     check_lonlat,
     crosses_antimeridian,
-    crs_name,
     metric_crs,
-    parse_crs,
     split_antimeridian,
     unwrap_lon,
 )
-from geoalpha.errors import InvalidInputError
 
 GEOD = pyproj.Geod(ellps="WGS84")
 

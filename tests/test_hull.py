@@ -22,7 +22,7 @@ from progress_output import assert_bar_covers, bar_states
 from shapely.geometry import LineString, Point, Polygon
 
 import geoalpha
-import geoalpha.progress
+import geoalpha.frame.progress
 from geoalpha import datasets
 from geoalpha.errors import (
     AntimeridianWarning,
@@ -1098,7 +1098,7 @@ def test_progress_bar_by_default_on_a_terminal_from_many_groups(small, monkeypat
             return True
 
     for tty, least, shown in [(True, 2, True), (True, 3, False), (False, 2, False)]:
-        monkeypatch.setattr(geoalpha.progress, "PROGRESS_MIN_GROUPS", least)
+        monkeypatch.setattr(geoalpha.frame.progress, "PROGRESS_MIN_GROUPS", least)
         stderr = Terminal() if tty else io.StringIO()
         monkeypatch.setattr(sys, "stderr", stderr)
         geoalpha.hull(small, by="g")  # progress=None

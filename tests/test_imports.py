@@ -1,63 +1,86 @@
-"""The import graph of geoalpha: one direction, no cycles, no private names.
+"""The import rules of geoalpha: four layers, a base and a wing.
 
 Reads the source with :mod:`ast`, so imports inside functions (the lazy ones)
-count as much as those at the top of a module. The layers below are the
-architecture of ``docs/architecture.md``: a module may import only modules of
-lower layers (or, within a layer, none of the others).
+count as much as those at the top of a module. The layers are those of
+``docs/architecture.md``: data flows down from the faces to the kernel, and
+each rule below says which layer never imports which.
 """
 
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 import pytest
 
-PACKAGE = Path(__file__).resolve().parents[1] / "geoalpha"
+ROOT = Path(__file__).resolve().parents[1]
+PACKAGE = ROOT / "geoalpha"
 if not PACKAGE.is_dir():  # the installed package (CI tests the wheel)
     import geoalpha
 
     PACKAGE = Path(geoalpha.__file__).parent
 
-#: Highest first. A module imports only modules in later (lower) entries.
-LAYERS: list[tuple[str, ...]] = [
-    ("__main__",),
-    ("cli",),
-    ("__init__",),
-    ("accessor",),
-    ("tools",),
-    ("dask",),
-    ("pipeline",),
-    ("comparison",),
-    ("optimal",),
-    ("options",),
-    ("io", "shapes", "search", "knn", "checks"),
-    ("postgis",),
+#: The layer of every module outside the packages named after their layer
+#: (``geoalpha/frame/``, ``geoalpha/arrays/``, ``geoalpha/io/``).
+LAYER_OF = {
+    "__init__": "faces",
+    "__main__": "faces",
+    "cli": "faces",
+    "hulls": "faces",
+    "accessor": "faces",
+    "registration": "faces",
+    "dask": "faces",
+    "kernel": "kernel",
+    "_kernel": "kernel",
+    "options": "base",
+    "errors": "base",
+    "crs_parsing": "base",
+}
+PACKAGES = {"frame": "frame", "arrays": "arrays", "io": "io"}
+LAYERS = ("faces", "frame", "arrays", "kernel", "base", "io")
+
+#: (layer, layers it never imports, why). Data flows down: faces -> frame ->
+#: arrays -> kernel, all on the base; the I/O wing serves the faces.
+RULES = [
+    ("kernel", {"faces", "frame", "arrays", "io"}, "the kernel never imports above"),
+    ("arrays", {"faces", "frame", "io"}, "the array API never imports the frame"),
+    ("frame", {"faces", "io"}, "the frame never imports the faces or the I/O wing"),
+    ("io", {"faces", "frame", "arrays", "kernel"}, "the I/O wing uses the base only"),
     (
-        "crs",
-        "kernel",
-        "budget",
-        "schema",
-        "registration",
-        "datasets",
-        "distortion",
-        "redact",
-        "progress",
+        "base",
+        {"faces", "frame", "arrays", "kernel", "io"},
+        "the base imports nothing of ours but the base",
     ),
-    ("errors",),
-    ("_kernel",),  # compiled (src/), typed by _kernel.pyi: imports nothing of ours
 ]
-RANK = {name: rank for rank, names in enumerate(LAYERS) for name in names}
+#: Inside the base: ``errors`` imports nothing of ours, ``crs_parsing`` only
+#: ``errors``; ``_kernel`` (compiled) imports nothing of ours.
+BOTTOM = {"errors": set(), "crs_parsing": {"errors"}, "_kernel": set()}
 #: Numeric code: numpy/scipy only.
-NUMERIC = ("search",)
+NUMERIC = ("arrays.search",)
 #: Imported by ``geoalpha --help``: the standard library (and click) only.
-LIGHT = ("__init__", "cli", "options", "errors", "datasets")
+LIGHT = ("__init__", "cli", "options", "errors", "io", "io.datasets")
 HEAVY = {"numpy", "scipy", "pandas", "shapely", "geopandas", "pyproj", "pyogrio"}
 
 
+def _name(path: Path) -> str:
+    parts = list(path.relative_to(PACKAGE).with_suffix("").parts)
+    if parts[-1] == "__init__" and len(parts) > 1:
+        parts.pop()
+    return ".".join(parts)
+
+
+def layer(name: str) -> str:
+    """Return the layer of the module ``name`` (``"frame.crs"``, ``"cli"``)."""
+    return PACKAGES.get(name.split(".")[0]) or LAYER_OF[name]
+
+
+def _files() -> list[Path]:
+    return [*sorted(PACKAGE.rglob("*.py")), PACKAGE / "_kernel.pyi"]
+
+
 def _modules() -> dict[str, ast.Module]:
-    files = [*sorted(PACKAGE.glob("*.py")), PACKAGE / "_kernel.pyi"]
-    return {p.stem: ast.parse(p.read_text()) for p in files}
+    return {_name(p): ast.parse(p.read_text()) for p in _files()}
 
 
 def _type_checking_nodes(tree: ast.Module) -> set[int]:
@@ -71,6 +94,9 @@ def _type_checking_nodes(tree: ast.Module) -> set[int]:
 def _imports(name: str, tree: ast.Module, modules) -> list[tuple[str, str, int]]:
     """(imported module, imported name or "", line) of every import in ``tree``."""
     skip = _type_checking_nodes(tree)
+    package = "geoalpha" + (f".{name}" if name in PACKAGES else "")
+    if "." in name:
+        package = "geoalpha." + name.rsplit(".", 1)[0]
     found = []
     for node in ast.walk(tree):
         if id(node) in skip:
@@ -80,23 +106,33 @@ def _imports(name: str, tree: ast.Module, modules) -> list[tuple[str, str, int]]
         elif isinstance(node, ast.ImportFrom):
             base = node.module or ""
             if node.level:  # relative: from . import x / from .x import y
-                base = "geoalpha" + (f".{base}" if base else "")
+                base = package + (f".{base}" if base else "")
             for alias in node.names:
-                if base == "geoalpha" and alias.name in modules:
-                    found.append((f"geoalpha.{alias.name}", "", node.lineno))
+                sub = f"{base}.{alias.name}".removeprefix("geoalpha.")
+                if base.startswith("geoalpha") and sub in modules:
+                    found.append((f"geoalpha.{sub}", "", node.lineno))
                 else:
                     found.append((base, alias.name, node.lineno))
-    if name == "__init__":  # public names loaded on first use
-        for node in ast.walk(tree):
-            if (
-                isinstance(node, ast.Assign)
-                and getattr(node.targets[0], "id", "") == "_LAZY"
-            ):
-                found += [(v.value, "", node.lineno) for v in node.value.values]
+    for node in ast.walk(tree):  # modules loaded on first use (geoalpha, geoalpha.io)
+        if isinstance(node, ast.Assign) and isinstance(node.value, ast.Dict):
+            found += [
+                (v.value, "", node.lineno)
+                for v in node.value.values
+                if isinstance(v, ast.Constant)
+                and str(v.value).startswith("geoalpha.")
+                and str(v.value).removeprefix("geoalpha.") in modules
+            ]
+        if isinstance(node, ast.Call) and ast.unparse(node.func).endswith(
+            "import_module"
+        ):
+            arg = node.args[0] if node.args else None
+            if isinstance(arg, ast.Constant) and str(arg.value).startswith("geoalpha."):
+                found.append((arg.value, "", node.lineno))
     return found
 
 
 def _edges():
+    """(importer, imported, imported name, line) between modules of geoalpha."""
     modules = _modules()
     edges = []
     for name, tree in modules.items():
@@ -104,30 +140,58 @@ def _edges():
             if module == "geoalpha":
                 edges.append((name, "__init__", item, line))
             elif module.startswith("geoalpha."):
-                edges.append((name, module.split(".")[1], item, line))
+                target = module.removeprefix("geoalpha.")
+                while target not in modules:  # geoalpha.x.y where y is a name
+                    target = target.rsplit(".", 1)[0]
+                edges.append((name, target, item, line))
     return modules, edges
+
+
+def _path(name: str) -> str:
+    if name == "_kernel":
+        return "geoalpha/_kernel.pyi"
+    if name in PACKAGES:
+        return f"geoalpha/{name}/__init__.py"
+    return "geoalpha/" + name.replace(".", "/") + ".py"
 
 
 def test_every_module_has_a_layer():
     modules, _ = _edges()
-    assert sorted(set(modules) - set(RANK)) == []
+    missing = []
+    for name in modules:
+        try:
+            layer(name)
+        except KeyError:
+            missing.append(_path(name))
+    assert missing == []
 
 
-def test_imports_point_down_the_layers():
+@pytest.mark.parametrize(("importer", "never", "why"), RULES, ids=[r[2] for r in RULES])
+def test_layer_rules(importer, never, why):
     _, edges = _edges()
-    upward = [
-        f"geoalpha/{a}.py:{line} imports {b}"
+    broken = [
+        f"{_path(a)}:{line} imports {b} ({layer(b)})"
         for a, b, _, line in edges
-        if a != b and RANK[a] >= RANK[b] and not (a == "__main__" and b == "cli")
+        if layer(a) == importer and layer(b) in never
     ]
-    assert upward == []
+    assert broken == [], why
+
+
+def test_the_bottom_of_the_base():
+    _, edges = _edges()
+    broken = [
+        f"{_path(a)}:{line} imports {b}"
+        for a, b, _, line in edges
+        if a in BOTTOM and b != a and b not in BOTTOM[a]
+    ]
+    assert broken == []
 
 
 def test_no_import_cycle():
     _, edges = _edges()
     graph: dict[str, set[str]] = {}
     for a, b, _, _ in edges:
-        if a != b:
+        if a != b and not (a == "__main__" and b == "cli"):
             graph.setdefault(a, set()).add(b)
     state: dict[str, int] = {}
     cycles = []
@@ -150,7 +214,7 @@ def test_no_import_cycle():
 def test_no_private_name_crosses_modules():
     modules, edges = _edges()
     private = [
-        f"geoalpha/{a}.py:{line} imports {b}.{item}"
+        f"{_path(a)}:{line} imports {b}.{item}"
         for a, b, item, line in edges
         if item.startswith("_") and not item.startswith("__")
     ]
@@ -158,12 +222,16 @@ def test_no_private_name_crosses_modules():
     for name, tree in modules.items():
         aliases = {}
         for node in ast.walk(tree):
-            if isinstance(node, ast.ImportFrom) and node.module == "geoalpha":
-                aliases.update({a.asname or a.name: a.name for a in node.names})
+            if isinstance(node, ast.ImportFrom) and (node.module or "").startswith(
+                "geoalpha"
+            ):
+                for a in node.names:
+                    sub = f"{node.module}.{a.name}".removeprefix("geoalpha.")
+                    aliases[a.asname or a.name] = sub
             elif isinstance(node, ast.Import):
                 aliases.update(
                     {
-                        a.asname or a.name: a.name.split(".")[-1]
+                        a.asname or a.name: a.name.removeprefix("geoalpha.")
                         for a in node.names
                         if a.name.startswith("geoalpha.")
                     }
@@ -178,7 +246,7 @@ def test_no_private_name_crosses_modules():
                 and not node.attr.startswith("__")
             ):
                 private.append(
-                    f"geoalpha/{name}.py:{node.lineno} uses "
+                    f"{_path(name)}:{node.lineno} uses "
                     f"{aliases[node.value.id]}.{node.attr}"
                 )
     assert private == []
@@ -192,7 +260,7 @@ def test_no_private_name_crosses_modules():
 def test_modules_stay_light(group, forbidden):
     modules = _modules()
     found = [
-        f"geoalpha/{name}.py:{line} imports {module}"
+        f"{_path(name)}:{line} imports {module}"
         for name in group
         for module, _, line in _imports(name, modules[name], modules)
         if module.split(".")[0] in forbidden
@@ -210,12 +278,37 @@ def _inside_function(tree: ast.Module, line: int) -> bool:
     )
 
 
-def test_the_graph_sees_a_cycle_hidden_in_a_function():
-    """The checks above can fail: a lazy import back up is an upward edge."""
-    tree = ast.parse("def f():\n    from geoalpha import tools\n")
-    found = _imports("kernel", tree, {"tools": None})
-    assert found == [("geoalpha.tools", "", 2)]
-    assert RANK["kernel"] > RANK["tools"]
+def test_the_rules_see_an_import_hidden_in_a_function():
+    """The checks above can fail: a lazy import of the frame breaks a rule."""
+    modules = _modules()
+    tree = ast.parse("def f():\n    from geoalpha.frame import pipeline\n")
+    found = _imports("kernel", tree, modules)
+    assert found == [("geoalpha.frame.pipeline", "", 2)]
+    assert layer("frame.pipeline") in RULES[0][1]
+
+
+def _table_modules() -> list[str]:
+    """The module paths in the module table of ``docs/architecture.md``."""
+    text = (ROOT / "docs" / "architecture.md").read_text()
+    return re.findall(r"^\| [^|]* \| `(geoalpha/[\w/.]+)` \|", text, flags=re.M)
+
+
+@pytest.mark.skipif(
+    not (ROOT / "docs").is_dir(), reason="the docs are in the source checkout"
+)
+def test_the_architecture_page_lists_every_module():
+    """docs/architecture.md's module table: every module, each in its layer."""
+    rows = _table_modules()
+    files = {str(p.relative_to(PACKAGE.parent)) for p in _files()}
+    assert sorted(set(rows) - files) == [], "rows for files that do not exist"
+    assert sorted(files - set(rows)) == [], "modules missing from the table"
+    assert len(rows) == len(set(rows))
+    text = (ROOT / "docs" / "architecture.md").read_text()
+    for row_layer, path in re.findall(
+        r"^\| ([^|]*) \| `(geoalpha/[\w/.]+)` \|", text, flags=re.M
+    ):
+        name = _name(PACKAGE.parent / path) if path.endswith(".py") else "_kernel"
+        assert row_layer.strip() in ("", layer(name)), path
 
 
 def test_geoalpha_help_and_version_import_nothing_heavy():
@@ -234,7 +327,7 @@ def test_geoalpha_help_and_version_import_nothing_heavy():
         "loaded = [m for m in heavy if m in sys.modules]\n"
         "assert not loaded, loaded\n"
     )
-    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
     done = subprocess.run(
         [sys.executable, "-c", code],
         capture_output=True,
@@ -244,3 +337,19 @@ def test_geoalpha_help_and_version_import_nothing_heavy():
         check=False,
     )
     assert done.returncode == 0, done.stderr
+
+
+def test_public_paths_keep_working():
+    """The names users import from the documented paths, after the moves of #25."""
+    import geoalpha
+    import geoalpha.dask
+    import geoalpha.hulls
+    import geoalpha.io
+    from geoalpha import datasets
+    from geoalpha.io.postgis import read_postgis, write_postgis
+
+    assert callable(geoalpha.hull) and geoalpha.hull is geoalpha.hulls.hull
+    assert callable(geoalpha.io.read_points) and callable(geoalpha.io.write_hulls)
+    assert callable(datasets.load) and callable(geoalpha.dask.hull)
+    assert callable(read_postgis) and callable(write_postgis)
+    assert all(hasattr(geoalpha, name) for name in geoalpha.__all__)

@@ -1,4 +1,4 @@
-"""Reading point files and writing hull files (geoalpha.io)."""
+"""Reading point files and writing hull files (geoalpha.io.files)."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from shapely import MultiPolygon, box
 
 from geoalpha import datasets
 from geoalpha.errors import InvalidInputError
-from geoalpha.io import check_output, read_points, write_hulls
+from geoalpha.io.files import check_output, read_points, write_hulls
 
 GROUP = "Local_Authority_(Highway)"
 

@@ -20,8 +20,8 @@ from geoalpha.errors import (
     DegenerateGroupWarning,
     InvalidInputError,
 )
-from geoalpha.io import read_points
-from geoalpha.schema import RESULT_COLUMNS
+from geoalpha.frame.schema import RESULT_COLUMNS
+from geoalpha.io.files import read_points
 
 #: One city on every continent and ocean: one group spanning the globe.
 CITIES = {

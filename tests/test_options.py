@@ -4,7 +4,7 @@ The paths: the eager call, the accessor, ``n_jobs`` (through
 the kernel's threads), dask-geopandas (the function and the accessor) and
 the ``geoalpha hull`` command. Each option is set to a value that is not its
 default, and the test records the :class:`~geoalpha.options.Options` that the
-``compute`` stage of :mod:`geoalpha.pipeline` receives.
+``compute`` stage of :mod:`geoalpha.frame.pipeline` receives.
 """
 
 from __future__ import annotations
@@ -22,9 +22,10 @@ from click.testing import CliRunner
 from compat import HAS_DASK, requires_dask
 
 import geoalpha
-from geoalpha import kernel, pipeline
+from geoalpha import kernel
 from geoalpha.cli import _in_cli_terms, main
 from geoalpha.errors import InvalidInputError, SearchWarning
+from geoalpha.frame import pipeline
 from geoalpha.options import FIELDS, NAMES, Options
 
 #: A value that is not the default, for every option.
@@ -415,7 +416,8 @@ def test_the_array_api_defaults_are_those_of_options():
     """The array API (and the layers below) spell defaults out: those of Options."""
     import typing
 
-    from geoalpha import crs, optimal, search
+    from geoalpha.arrays import optimal, search
+    from geoalpha.frame import crs
     from geoalpha.options import SEARCHES, defaults
 
     functions = (

@@ -44,7 +44,7 @@ from geoalpha import (
     datasets,
     optimal_alpha,
 )
-from geoalpha.budget import outlier_budget
+from geoalpha.arrays.budget import outlier_budget
 
 # --------------------------------------------------------------------------
 # Point sets with stray points

@@ -29,8 +29,8 @@ import shapely
 
 import geoalpha
 from geoalpha import datasets
+from geoalpha.frame.schema import DTYPES, RESULT_COLUMNS, with_area_unit
 from geoalpha.options import META, NAMES, Options
-from geoalpha.schema import DTYPES, RESULT_COLUMNS, with_area_unit
 
 ROOT = Path(__file__).resolve().parents[1]
 PLUGIN_DIR = ROOT / "qgis_plugin"

@@ -562,7 +562,7 @@ def test_repairs_work_with_shapely_2_0(monkeypatch):
         return make_valid(geometry)
 
     monkeypatch.setattr(shapely, "make_valid", make_valid_2_0)
-    monkeypatch.setattr(geoalpha.shapes, "_MAKE_VALID_METHOD", False)
+    monkeypatch.setattr(geoalpha.arrays.guarantee, "_MAKE_VALID_METHOD", False)
     for got, want in zip(run(), wanted, strict=True):
         assert got.geometry.is_valid.all()
         assert got["n_parts"].tolist() == want["n_parts"].tolist()
@@ -571,7 +571,7 @@ def test_repairs_work_with_shapely_2_0(monkeypatch):
     ring = [(0, 0), (4, 0), (4, 4), (1, 4), (1, 1), (3, 1), (3, 3), (0, 3)]
     pts = np.array(ring, dtype=float)
     codes, check = np.zeros(len(pts), dtype=int), np.ones(1, dtype=bool)
-    fixed, failed = geoalpha.shapes.enforce(
+    fixed, failed = geoalpha.arrays.guarantee.enforce(
         np.array([shapely.Polygon(ring)]), pts, codes, check
     )
     assert not failed[0] and fixed[0].is_valid
@@ -585,7 +585,7 @@ def spoil_first_group(monkeypatch, make):
     (``checked``); a geometry from anywhere else is not marked, and the
     guarantee stage must check it.
     """
-    from geoalpha import pipeline
+    from geoalpha.frame import pipeline
 
     real = pipeline.compute
 
@@ -635,9 +635,9 @@ def test_enforce_takes_in_points_a_repair_left_out_even_when_not_asked_to_test()
     # point the repair left outside is taken in (not just reported).
     bow = shapely.Polygon([(0, 0), (2, 2), (2, 0), (0, 2)])  # self-crossing
     pts = np.array([[0, 0], [2, 2], [2, 0], [0, 2], [1, 0.2]])
-    repaired = geoalpha.shapes.repair_invalid(np.array([bow]))[0]
+    repaired = geoalpha.arrays.guarantee.repair_invalid(np.array([bow]))[0]
     assert not repaired.covers(shapely.Point(1, 0.2))
-    fixed, failed = geoalpha.shapes.enforce(
+    fixed, failed = geoalpha.arrays.guarantee.enforce(
         np.array([bow]),
         pts,
         np.zeros(len(pts), dtype=int),

@@ -24,8 +24,8 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import QhullError
 
 from geoalpha import SearchWarning, alpha_shape, alpha_shapes, optimal_alpha
+from geoalpha.arrays.search import LADDER, bisect_alpha, ladder_alpha
 from geoalpha.errors import InvalidInputError
-from geoalpha.search import LADDER, bisect_alpha, ladder_alpha
 
 #: The seed paper's rungs, copied from the paper, not from geoalpha.
 RUNGS = (5000, 3000, 1000, 500, 300, 100, 50, 25, 18, 10, 5, 0)

@@ -19,8 +19,8 @@ from progress_output import assert_bar_covers
 
 import geoalpha
 from geoalpha import datasets, kernel
+from geoalpha.arrays.optimal import alpha_shapes
 from geoalpha.errors import InvalidInputError, SearchWarning
-from geoalpha.optimal import alpha_shapes
 
 pytestmark = pytest.mark.filterwarnings(
     "ignore::geoalpha.errors.DegenerateGroupWarning",

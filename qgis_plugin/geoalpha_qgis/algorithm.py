@@ -64,7 +64,7 @@ LABELS = {
 }
 #: Options shown under the dialog's "Advanced Parameters".
 ADVANCED = ("alpha", "crs", "search", "max_iterations", "ratio", "k", "buffer")
-#: Output field type of each dtype of the result table (geoalpha.schema).
+#: Output field type of each dtype of the result table (geoalpha.frame.schema).
 _FIELD_TYPES = {"f": QVariant.Double, "i": QVariant.Int, "u": QVariant.Int}
 _CHUNK = 1000  # features between progress reports and cancellation checks
 _PLAIN = (str, int, float, bool)  # attribute types that need no conversion
@@ -328,7 +328,7 @@ class OptimalAlphaHulls(QgsProcessingAlgorithm):
         import numpy as np
         import shapely
 
-        from geoalpha.schema import planar_unit, with_area_unit
+        from geoalpha.frame.schema import planar_unit, with_area_unit
 
         source = self.parameterAsSource(parameters, self.INPUT, context)
         if source is None:
@@ -338,7 +338,7 @@ class OptimalAlphaHulls(QgsProcessingAlgorithm):
         names = self.parameterAsFields(parameters, self.FIELD, context)
         options = self._options(parameters, context)
         if QgsWkbTypes.geometryType(source.wkbType()) == QgsWkbTypes.NullGeometry:
-            from geoalpha.io import COORDINATE_NAMES
+            from geoalpha.io.files import COORDINATE_NAMES
 
             layer = self.parameterAsVectorLayer(parameters, self.INPUT, context)
             raise QgsProcessingException(_no_geometry(layer, source, COORDINATE_NAMES))

@@ -12,6 +12,8 @@ import inspect
 import numpy as np
 import shapely
 
+from geoalpha import kernel
+
 __all__ = [
     "EMPTY_POLYGON",
     "convex_hulls",
@@ -336,7 +338,8 @@ def _take_in(poly, p):
     if grown is None:  # fall back to adding the ear's outline, slightly widened
         e = nearest[0]
         ear = shapely.linestrings([starts[e], (p.x, p.y), ends[e]])
-        width = 1e-9 * max(np.ptp(rings[0], axis=0).max(), abs(p.x), abs(p.y), 1.0)
+        extent = max(np.ptp(rings[0], axis=0).max(), abs(p.x), abs(p.y), 1.0)
+        width = kernel.REPAIR_RTOL * extent
         grown = shapely.union(part, shapely.buffer(ear, width))
         grown = polygonal(np.array([grown], dtype=object))[0]
     parts[i] = grown

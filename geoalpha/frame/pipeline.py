@@ -8,22 +8,22 @@
 
 - :func:`group`: a group code per row and the table of group keys (as
   :meth:`GeoDataFrame.dissolve` groups);
-- :func:`~geoalpha.checks.check_grouping`: a warning when ``by`` makes nearly
+- :func:`~geoalpha.frame.checks.check_grouping`: a warning when ``by`` makes nearly
   one group per row;
 - :func:`read_points`: the point coordinates, with missing, empty and NaN
   geometries and missing keys dropped (and counted in a warning), non-points
   and infinite coordinates refused (:func:`scan_rows`, :func:`report_rows`);
-- :func:`~geoalpha.checks.check_distortion`: a warning when the computation
+- :func:`~geoalpha.frame.checks.check_distortion`: a warning when the computation
   CRS stretches areas where the points are;
-- :func:`project`: the metric CRS round trip (:class:`geoalpha.crs.Projection`);
-- :func:`compute`: the shapes, by method (:func:`geoalpha.alpha_shapes` in one
-  batched call, or :mod:`geoalpha.comparison`), built in the output CRS;
+- :func:`project`: the metric CRS round trip (:class:`geoalpha.frame.crs.Projection`);
+- :func:`compute`: the hulls, by method (:func:`geoalpha.alpha_shapes` in one
+  batched call, or :mod:`geoalpha.arrays.comparison`), built in the output CRS;
 - :func:`degenerate_policy`: groups without a shape, by ``degenerate=``;
 - :func:`verify_in_output_crs`: every geometry valid and covering its points
   in the output CRS, antimeridian groups split;
-- :func:`table`: the result (:mod:`geoalpha.schema`).
+- :func:`table`: the result (:mod:`geoalpha.frame.schema`).
 
-One progress bar (:mod:`geoalpha.progress`) follows the phases ``group``,
+One progress bar (:mod:`geoalpha.frame.progress`) follows the phases ``group``,
 ``project``, ``compute`` and ``check``; inside the ``geoalpha`` command, the
 command's bar, which also has ``read`` and ``write``.
 
@@ -33,7 +33,6 @@ command's bar, which also has ``read`` and ``write``.
 
 from __future__ import annotations
 
-import contextvars
 import warnings
 from collections.abc import Callable
 from functools import partial
@@ -43,10 +42,19 @@ import numpy as np
 import pandas as pd
 import shapely
 
-from geoalpha import crs as gcrs
 from geoalpha import kernel
-from geoalpha.checks import check_distortion, check_grouping
-from geoalpha.comparison import comparison_hulls
+from geoalpha.arrays.comparison import comparison_hulls
+from geoalpha.arrays.guarantee import (
+    EMPTY_POLYGON,
+    convex_hulls,
+    cover_points,
+    covered,
+    enforce,
+    left_outside,
+    repair_invalid,
+)
+from geoalpha.arrays.optimal import alpha_shapes
+from geoalpha.crs_parsing import parse_crs
 from geoalpha.errors import (
     AntimeridianWarning,
     DegenerateGroupWarning,
@@ -58,9 +66,9 @@ from geoalpha.errors import (
     first_n,
     user_stacklevel,
 )
-from geoalpha.optimal import alpha_shapes
-from geoalpha.options import Options
-from geoalpha.progress import (
+from geoalpha.frame import crs as gcrs
+from geoalpha.frame.checks import check_distortion, check_grouping
+from geoalpha.frame.progress import (
     HULL_PHASES,
     PROGRESS_MIN_GROUPS,
     Phases,
@@ -68,23 +76,15 @@ from geoalpha.progress import (
     hull_costs,
     phases,
 )
-from geoalpha.schema import RESULT_COLUMNS, result_frame, result_geometry_name
-from geoalpha.shapes import (
-    EMPTY_POLYGON,
-    convex_hulls,
-    cover_points,
-    covered,
-    enforce,
-    left_outside,
-    repair_invalid,
-)
+from geoalpha.frame.schema import RESULT_COLUMNS, result_frame, result_geometry_name
+from geoalpha.options import Options
 
 __all__ = [
     "PROGRESS_MIN_GROUPS",
     "Groups",
+    "Hulls",
     "Points",
     "RowReport",
-    "Shapes",
     "as_frame",
     "compute",
     "degenerate_policy",
@@ -153,7 +153,7 @@ class Points(NamedTuple):
     crs: Any  #: the CRS of ``coords`` (the frame's; None when it has none)
 
 
-class Shapes(NamedTuple):
+class Hulls(NamedTuple):
     """Output of :func:`compute` and :func:`degenerate_policy`, one entry a group."""
 
     geometry: np.ndarray  #: in the output coordinates
@@ -163,6 +163,9 @@ class Shapes(NamedTuple):
     degenerate: np.ndarray  #: no shape (fewer than 3 distinct points, a line)
     keep: np.ndarray  #: groups that get a row
     outlier: np.ndarray  #: per point: left out of its group's hull (outliers=)
+    #: why a group has no shape: 0, or a code of :data:`geoalpha.kernel.REASONS`
+    #: (5: no valid polygon holding its points in the output coordinates)
+    reason: np.ndarray
     #: groups whose geometry is already verified in the output coordinates
     #: (valid; covering its points unless at a fixed alpha): :func:`compute`
     #: sets it where :func:`geoalpha.alpha_shapes` checked its own polygons,
@@ -173,10 +176,13 @@ class Shapes(NamedTuple):
 def run(frame, by, options: Options, *, checks: bool = True, rows: bool = True):
     """``hull(frame, by, **options)`` on an in-memory GeoDataFrame: every stage.
 
+    Returns the result table and, per row of ``frame``, whether it was left
+    out of its group's hull (``outliers=``; :func:`geoalpha.outlier_rows`).
+
     With a progress bar over the phases (``options.progress``), or inside the
-    one of the enclosing :func:`geoalpha.progress.phases` (the command's).
+    one of the enclosing :func:`geoalpha.frame.progress.phases` (the command's).
     ``checks=False`` leaves out the warnings about the set-up
-    (:mod:`geoalpha.checks`), and ``rows=False`` the one about dropped rows
+    (:mod:`geoalpha.frame.checks`), and ``rows=False`` the one about dropped rows
     (:func:`report_rows`), which :func:`geoalpha.dask.hull` makes once for
     the whole dataset instead of once per partition.
     """
@@ -191,11 +197,11 @@ def _per_group_crs(source, crs, coords: np.ndarray) -> bool:
     """Whether groups are likely to get a metric CRS each (for the progress bar).
 
     Longitude/latitude points wider than one UTM zone takes
-    (:data:`geoalpha.crs.UTM_HALF_WIDTH` either side) with ``crs="auto"``: a
-    rough guess of the choice of :func:`geoalpha.crs.metric_crs`.
+    (:data:`geoalpha.frame.crs.UTM_HALF_WIDTH` either side) with ``crs="auto"``: a
+    rough guess of the choice of :func:`geoalpha.frame.crs.metric_crs`.
     """
     auto = isinstance(crs, str) and crs.strip().lower() in ("auto", "auto-group")
-    src = gcrs.parse_crs(source) if auto else None
+    src = parse_crs(source) if auto else None
     if src is None or not src.is_geographic or not len(coords):
         return False
     return bool(np.ptp(coords[:, 0]) > 2 * gcrs.UTM_HALF_WIDTH)
@@ -217,7 +223,7 @@ def _stages(frame, by, options: Options, bar: Phases, checks: bool, rows: bool):
         check_distortion(points.coords, crs, options.crs)
     proj = project(points, crs, options)
     bar.start("compute", units=n_groups)
-    shapes = compute(
+    hulls = compute(
         points,
         proj,
         n_groups,
@@ -225,29 +231,28 @@ def _stages(frame, by, options: Options, bar: Phases, checks: bool, rows: bool):
         names=partial(_names, groups, counts=points.n_points),
     )
     bar.start("check")
-    shapes = ensure_guarantee(shapes, groups, points, proj, options)
-    shapes = degenerate_policy(shapes, groups, points, proj, options)
-    shapes = grow(shapes, points, proj, options)
+    hulls = ensure_guarantee(hulls, groups, points, proj, options)
+    hulls = degenerate_policy(hulls, groups, points, proj, options)
+    hulls = grow(hulls, points, proj, options)
     geometry = verify_in_output_crs(
-        shapes.geometry,
+        hulls.geometry,
         groups,
         points,
         proj,
         options,
-        checked=shapes.checked,
-        degenerate=shapes.degenerate,
+        checked=hulls.checked,
+        degenerate=hulls.degenerate,
     )
     out = table(
         groups,
         points,
         proj,
-        shapes,
+        hulls,
         geometry,
         crs,
         result_geometry_name(frame, groups.names),
     )
-    report_outliers(shapes, groups, points, frame, options)
-    return out
+    return out, report_outliers(hulls, groups, points, len(frame), options)
 
 
 def _names(groups: Groups, which: np.ndarray, counts=None) -> str:
@@ -590,13 +595,13 @@ def compute(
     n_groups: int,
     options: Options,
     names: Callable[[np.ndarray], str] | None = None,
-) -> Shapes:
+) -> Hulls:
     """Compute the shape of every group, by ``method``, in the output coordinates.
 
     ``"alpha"`` and ``"convex"``: one batched :func:`geoalpha.alpha_shapes`
     call in metres whose polygons are built from the input coordinates;
-    ``"concave"`` and ``"knn"``: :func:`geoalpha.comparison.comparison_hulls`.
-    The run's progress bar (:func:`geoalpha.progress.current`, in its
+    ``"concave"`` and ``"knn"``: :func:`geoalpha.arrays.comparison.comparison_hulls`.
+    The run's progress bar (:func:`geoalpha.frame.progress.current`, in its
     ``compute`` phase), when it is shown, counts the groups done, batch by
     batch. ``names`` names groups (given their codes) in warnings.
     """
@@ -634,7 +639,7 @@ def compute(
             # "ladder"/"bisect" name the search that gave the alpha
             exact = method == "convex" or options.search == "exact"
             label = method if exact else options.search
-            return Shapes(
+            return Hulls(
                 geometry=geometry,
                 area=res.area,
                 alpha=res.alpha,
@@ -642,52 +647,61 @@ def compute(
                 degenerate=res.degenerate,
                 keep=np.ones(n_groups, dtype=bool),
                 outlier=res.outlier,
-                # alpha_shapes verified its polygons in proj.out (shapes.enforce,
+                reason=res.reason,
+                # alpha_shapes verified its polygons in proj.out (hulls.enforce,
                 # with the options of ensure_guarantee); convex hulls are new
                 checked=~res.degenerate & (method == "alpha"),
             )
-        hulls = comparison_hulls(
-            method,
-            proj,
-            points.codes,
-            n_groups,
-            holes=options.holes,
-            ratio=options.ratio,
-            k=options.k,
-            bar=bar,
-        )
-        if hulls.without_holes.any():
-            which = np.flatnonzero(hulls.without_holes)
-            named = names(which) if names is not None else first_n(map(str, which))
-            warnings.warn(
-                f"GEOS's concave hull with holes failed for {len(which)} "
-                f"group(s): {named}; they got the concave hull without holes "
-                "(the 'method' column says so)",
-                GeoAlphaWarning,
-                stacklevel=user_stacklevel(),
-            )
-        return Shapes(
-            geometry=hulls.geometry,
-            area=hulls.area,
-            alpha=np.full(n_groups, np.nan),
-            labels=hulls.labels,
-            degenerate=hulls.degenerate,
-            keep=np.ones(n_groups, dtype=bool),
-            outlier=np.zeros(len(points.codes), dtype=bool),
-            checked=np.zeros(n_groups, dtype=bool),
-        )
+        return _comparison(points, proj, n_groups, options, names, bar)
     finally:
         if bar is not None:  # groups of 1-2 points are done too: the phase ends full
             bar.update(n_groups)
 
 
+def _comparison(points, proj, n_groups: int, options: Options, names, bar) -> Hulls:
+    """:func:`compute` for ``"concave"`` and ``"knn"``: no alpha, no kernel sweep."""
+    method = options.method
+    made = comparison_hulls(
+        method,
+        proj.xy,
+        proj.out,
+        points.codes,
+        n_groups,
+        holes=options.holes,
+        ratio=options.ratio,
+        k=options.k,
+        bar=bar,
+    )
+    if made.without_holes.any():
+        which = np.flatnonzero(made.without_holes)
+        named = names(which) if names is not None else first_n(map(str, which))
+        warnings.warn(
+            f"GEOS's concave hull with holes failed for {len(which)} "
+            f"group(s): {named}; they got the concave hull without holes "
+            "(the 'method' column says so)",
+            GeoAlphaWarning,
+            stacklevel=user_stacklevel(),
+        )
+    return Hulls(
+        geometry=made.geometry,
+        area=made.area,
+        alpha=np.full(n_groups, np.nan),
+        labels=made.labels,
+        degenerate=made.degenerate,
+        keep=np.ones(n_groups, dtype=bool),
+        outlier=np.zeros(len(points.codes), dtype=bool),
+        reason=_reasons(made.degenerate, points, proj),
+        checked=np.zeros(n_groups, dtype=bool),
+    )
+
+
 def ensure_guarantee(
-    shapes: Shapes,
+    hulls: Hulls,
     groups: Groups,
     points: Points,
     proj: gcrs.Projection,
     options: Options,
-) -> Shapes:
+) -> Hulls:
     """Check every group's polygon in the output coordinates; the rest are degenerate.
 
     The guarantee of :func:`geoalpha.hull`: each group gets a valid Polygon or
@@ -696,7 +710,7 @@ def ensure_guarantee(
     it is declared degenerate (alpha NaN, a :class:`DegenerateGroupWarning`)
     and goes to the ``degenerate=`` policy. Invalid polygons are repaired and
     points left outside are taken in as vertices first
-    (:func:`geoalpha.shapes.enforce`). Every method goes through here; the
+    (:func:`geoalpha.arrays.guarantee.enforce`). Every method goes through here; the
     points left out on purpose (``outliers=``) and, at a fixed ``alpha``
     (which need not cover every point), coverage are not checked. Groups
     wider than 180 degrees of longitude have no faithful lon/lat polygon and
@@ -704,23 +718,23 @@ def ensure_guarantee(
     :func:`compute` already verified in these coordinates (``checked``) are
     not checked twice.
     """
-    check = ~shapes.degenerate & ~proj.wide & ~shapes.checked
+    check = ~hulls.degenerate & ~proj.wide & ~hulls.checked
     if not check.any():
-        return shapes
+        return hulls
     fixed_alpha = options.method == "alpha" and options.alpha is not None
     components = options.components if options.method == "alpha" else None
     geometry, failed = enforce(
-        shapes.geometry,
+        hulls.geometry,
         proj.out,
         points.codes,
         check,
         # At a given alpha only alpha 0 (the convex hull) holds every point.
-        cover=(np.asarray(shapes.alpha) == 0) if fixed_alpha else True,
+        cover=(np.asarray(hulls.alpha) == 0) if fixed_alpha else True,
         components=None if fixed_alpha else components,
-        exempt=shapes.outlier,
+        exempt=hulls.outlier,
     )
     # A repair may have grown a hull over a row left out on purpose.
-    outlier = left_outside(shapes.outlier, geometry, proj.out, points.codes)
+    outlier = left_outside(hulls.outlier, geometry, proj.out, points.codes)
     if failed.any():
         which = np.flatnonzero(failed)
         warnings.warn(
@@ -731,38 +745,39 @@ def ensure_guarantee(
             DegenerateGroupWarning,
             stacklevel=user_stacklevel(),
         )
-        alpha = np.where(failed, np.nan, shapes.alpha)
-        return shapes._replace(
+        alpha = np.where(failed, np.nan, hulls.alpha)
+        return hulls._replace(
             geometry=geometry,
             alpha=alpha,
-            degenerate=shapes.degenerate | failed,
-            checked=(shapes.checked | check) & ~failed,
+            degenerate=hulls.degenerate | failed,
+            reason=np.where(failed & (hulls.reason == 0), 5, hulls.reason),
+            checked=(hulls.checked | check) & ~failed,
             outlier=outlier,
         )
-    return shapes._replace(
-        geometry=geometry, checked=shapes.checked | check, outlier=outlier
+    return hulls._replace(
+        geometry=geometry, checked=hulls.checked | check, outlier=outlier
     )
 
 
 def degenerate_policy(
-    shapes: Shapes,
+    hulls: Hulls,
     groups: Groups,
     points: Points,
     proj: gcrs.Projection,
     options: Options,
-) -> Shapes:
+) -> Hulls:
     """Apply ``degenerate=`` to the groups without a shape, and name them in a warning.
 
     A group whose rows were all dropped (no point left) is degenerate too.
     """
     n_points = points.n_points
-    degenerate = shapes.degenerate | (n_points == 0)
+    degenerate = hulls.degenerate | (n_points == 0)
     which = np.flatnonzero(degenerate)
     if not len(which):
-        return shapes
-    geometry = shapes.geometry.copy()
-    area = np.array(shapes.area, dtype=np.float64)
-    keep = shapes.keep.copy()
+        return hulls
+    geometry = hulls.geometry.copy()
+    area = np.array(hulls.area, dtype=np.float64)
+    keep = hulls.keep.copy()
     policy = options.degenerate
     if policy == "buffer":
         codes = points.codes
@@ -789,8 +804,9 @@ def degenerate_policy(
                 f", except {_names(groups, redone)}: that buffer is no valid polygon "
                 "holding their points in the output CRS (around a pole, or across "
                 "more than 180 degrees of longitude), so theirs is the convex hull of "
-                f"their points there, widened by {OUTPUT_BUFFER_RTOL:g} of their "
-                "extent ('area_m2' is the area of the buffer in metres)"
+                "their points there, widened by "
+                f"{kernel.OUTPUT_BUFFER_RTOL:g} of their extent ('area_m2' is the "
+                "area of the buffer in metres)"
             )
     elif policy == "empty":
         geometry[which] = EMPTY_POLYGON
@@ -799,60 +815,72 @@ def degenerate_policy(
     else:
         keep[which] = False
         done = f"they were dropped ({n_points[which].sum()} rows)"
-    thin = _thin(which, points, proj)
+    warnings.warn(
+        _why_degenerate(hulls.reason, which, groups, n_points, proj.wide)
+        + f"; {done} (degenerate={policy!r})",
+        DegenerateGroupWarning,
+        stacklevel=user_stacklevel(),
+    )
+    checked = hulls.checked.copy()
+    checked[which] = False
+    return hulls._replace(
+        geometry=geometry, area=area, degenerate=degenerate, keep=keep, checked=checked
+    )
+
+
+def _why_degenerate(reason, which, groups: Groups, n_points, wide) -> str:
+    """Word why the groups ``which`` have no shape, from their reason codes.
+
+    The one place a degenerate group's reason becomes words in :func:`hull`'s
+    warning: fewer than 3 distinct points or a line (the kernel's codes 1 to
+    3, and groups left without points), wider than 180 degrees of longitude
+    (``wide``), or no valid polygon in the output CRS (the others).
+    """
+    thin = np.isin(reason[which], (1, 2, 3)) | (n_points[which] == 0)
     reasons = []
     if thin.any():
         reasons.append(
             f"{thin.sum()} group(s) have fewer than 3 distinct points or all points "
             f"on a line, so no alpha shape: {_names(groups, which[thin], n_points)}"
         )
-    wide = ~thin & proj.wide[which]
-    if wide.any():
+    spread = ~thin & wide[which]
+    other = ~thin & ~spread
+    if spread.any():
         reasons.append(
-            f"{wide.sum()} group(s) span more than 180 degrees of longitude, so their "
-            "hull has no valid longitude/latitude polygon holding all their points "
-            f"and they have no alpha: {_names(groups, which[wide], n_points)} "
+            f"{spread.sum()} group(s) span more than 180 degrees of longitude, so "
+            "their hull has no valid longitude/latitude polygon holding all their "
+            f"points and they have no alpha: {_names(groups, which[spread], n_points)} "
             "(split the group, e.g. by continent, or give the points in a projected "
             "CRS that holds them)"
         )
-    if (~thin & ~wide).any():
+    if other.any():
         reasons.append(
-            f"{(~thin & ~wide).sum()} group(s) got no valid polygon holding all their "
+            f"{other.sum()} group(s) got no valid polygon holding all their "
             "points in the output CRS (their shapes fold there, near a pole or across "
             "a continent, or its coordinates are too coarse for them): "
-            f"{_names(groups, which[~thin & ~wide], n_points)}"
+            f"{_names(groups, which[other], n_points)}"
         )
-    warnings.warn(
-        "; ".join(reasons) + f"; {done} (degenerate={policy!r})",
-        DegenerateGroupWarning,
-        stacklevel=user_stacklevel(),
-    )
-    checked = shapes.checked.copy()
-    checked[which] = False
-    return shapes._replace(
-        geometry=geometry, area=area, degenerate=degenerate, keep=keep, checked=checked
-    )
+    return "; ".join(reasons)
 
 
-#: Width of the ``degenerate="buffer"`` polygon made in the output coordinates
-#: (where the metric buffer is no valid polygon there), relative to the
-#: group's extent in those coordinates.
-OUTPUT_BUFFER_RTOL = 1e-6
+def _reasons(degenerate, points: Points, proj: gcrs.Projection) -> np.ndarray:
+    """Return the kernel's reason codes of the groups a comparison method left bare.
 
-
-def _thin(which, points: Points, proj: gcrs.Projection) -> np.ndarray:
-    """Which groups of ``which`` are degenerate by their points (not by a failed check).
-
-    Fewer than 3 distinct points, or all on a line by the kernel's
-    tolerances (:data:`geoalpha.kernel.NEAR_RTOL`), in metres or in the output
-    coordinates: the kernel's reason codes 1 to 3.
+    Fewer than 3 distinct points (1), or all on a line by the kernel's
+    tolerances (:data:`geoalpha.kernel.NEAR_RTOL`), in metres (2) or in the
+    output coordinates (3); 5 for the others.
     """
+    which = np.flatnonzero(degenerate)
+    reason = np.zeros(len(degenerate), dtype=np.int64)
+    if not len(which):
+        return reason
     sel = np.flatnonzero(np.isin(points.codes, which))
     code = np.searchsorted(which, points.codes[sel])
     res = kernel.solve(
         proj.xy[sel], code, len(which), out=proj.out[sel], alpha=np.zeros(len(which))
     )
-    return np.isin(res.reason, (1, 2, 3))
+    reason[which] = np.where(np.isin(res.reason, (1, 2, 3)), res.reason, 5)
+    return reason
 
 
 def _buffer_in_output(geometry, sel, codes, proj: gcrs.Projection) -> np.ndarray:
@@ -862,9 +890,9 @@ def _buffer_in_output(geometry, sel, codes, proj: gcrs.Projection) -> np.ndarray
     holds the pole, which no lon/lat polygon can; such groups (and any whose
     buffer is not valid or misses a point there) get the buffer of their
     points' convex hull in the output coordinates instead,
-    :data:`OUTPUT_BUFFER_RTOL` of their extent wide (valid, and holding every
-    point), clipped to latitudes -90..90. Changes ``geometry`` in place and
-    returns the groups redone.
+    :data:`geoalpha.kernel.OUTPUT_BUFFER_RTOL` of their extent wide (valid,
+    and holding every point), clipped to latitudes -90..90. Changes
+    ``geometry`` in place and returns the groups redone.
     """
     mine = codes[sel]
     groups = np.unique(mine)
@@ -883,7 +911,8 @@ def _buffer_in_output(geometry, sel, codes, proj: gcrs.Projection) -> np.ndarray
     hi = np.maximum.reduceat(proj.out[take], np.searchsorted(codes[take], redo))
     extent = (hi - lo).max(axis=1)
     scale = np.abs(np.r_[lo, hi]).reshape(2, -1, 2).max(axis=(0, 2))
-    width = np.maximum(OUTPUT_BUFFER_RTOL * extent, 1e-9 * np.maximum(scale, 1.0))
+    rtol = kernel.OUTPUT_BUFFER_RTOL
+    width = np.maximum(rtol * extent, kernel.REPAIR_RTOL * np.maximum(scale, 1.0))
     buffered = shapely.buffer(hull, width)
     if proj.source is not None and proj.source.is_geographic:
         buffered = shapely.intersection(buffered, shapely.box(-540, -90, 540, 90))
@@ -1003,28 +1032,28 @@ def table(
     groups: Groups,
     points: Points,
     proj: gcrs.Projection,
-    shapes: Shapes,
+    hulls: Hulls,
     geometry: np.ndarray,
     crs,
     geometry_name: str = "geometry",
 ):
     """Build the result: one row per kept group (:func:`~.schema.result_frame`)."""
     with np.errstate(divide="ignore"):
-        radius = 1.0 / shapes.alpha
-    keep = shapes.keep
+        radius = 1.0 / hulls.alpha
+    keep = hulls.keep
     values = {
-        "alpha": shapes.alpha,
+        "alpha": hulls.alpha,
         "radius": radius,
         "n_points": points.n_points,
         "n_outliers": np.bincount(
-            points.codes[shapes.outlier], minlength=len(points.n_points)
+            points.codes[hulls.outlier], minlength=len(points.n_points)
         ),
         "n_parts": np.where(
             shapely.is_empty(geometry), 0, shapely.get_num_geometries(geometry)
         ),
-        "area_m2": shapes.area,
+        "area_m2": hulls.area,
         "crs_used": proj.names,
-        "method": shapes.labels,
+        "method": hulls.labels,
     }
     if not keep.all():
         values = {name: np.asarray(v)[keep] for name, v in values.items()}
@@ -1035,8 +1064,8 @@ def table(
 
 
 def grow(
-    shapes: Shapes, points: Points, proj: gcrs.Projection, options: Options
-) -> Shapes:
+    hulls: Hulls, points: Points, proj: gcrs.Projection, options: Options
+) -> Hulls:
     """Buffer the hulls (not the degenerate buffers) by ``grow`` metres.
 
     Built in the metric CRS from the metric coordinates of the hull vertices
@@ -1044,11 +1073,11 @@ def grow(
     """
     distance = options.grow
     if not distance:
-        return shapes
-    geometry = shapes.geometry
-    sel = np.flatnonzero(~shapes.degenerate & ~shapely.is_empty(geometry))
+        return hulls
+    geometry = hulls.geometry
+    sel = np.flatnonzero(~hulls.degenerate & ~shapely.is_empty(geometry))
     if not sel.size:
-        return shapes
+        return hulls
     coords, which = shapely.get_coordinates(geometry[sel], return_index=True)
     keys = pd.MultiIndex.from_arrays([points.codes, proj.out[:, 0], proj.out[:, 1]])
     first = ~keys.duplicated()
@@ -1069,29 +1098,23 @@ def grow(
         )
     grown = shapely.buffer(metric[exact], distance, quad_segs=4)
     geometry = geometry.copy()
-    area = np.asarray(shapes.area, dtype=float).copy()
+    area = np.asarray(hulls.area, dtype=float).copy()
     area[sel[exact]] = shapely.area(grown)
     geometry[sel[exact]] = proj.to_output(grown, sel[exact])
-    checked = shapes.checked.copy()
+    checked = hulls.checked.copy()
     checked[sel[exact]] = False
-    return shapes._replace(geometry=geometry, area=area, checked=checked)
-
-
-#: Set by :func:`geoalpha.tools.outlier_rows` to receive the left-out rows.
-OUTLIER_ROWS: contextvars.ContextVar[list | None] = contextvars.ContextVar(
-    "geoalpha_outlier_rows", default=None
-)
+    return hulls._replace(geometry=geometry, area=area, checked=checked)
 
 
 def report_outliers(
-    shapes: Shapes, groups: Groups, points: Points, frame, options: Options
-) -> None:
-    """Warn about the rows left out (``outliers=``); hand them to outlier_rows()."""
-    left_out = np.zeros(len(frame), dtype=bool)
-    left_out[points.rows[shapes.outlier]] = True
+    hulls: Hulls, groups: Groups, points: Points, n_rows: int, options: Options
+) -> np.ndarray:
+    """Warn about the rows left out (``outliers=``) and return them as a row mask."""
+    left_out = np.zeros(n_rows, dtype=bool)
+    left_out[points.rows[hulls.outlier]] = True
     if left_out.any():
         n_outliers = np.bincount(
-            points.codes[shapes.outlier], minlength=len(points.n_points)
+            points.codes[hulls.outlier], minlength=len(points.n_points)
         )
         which = np.flatnonzero(n_outliers)
         shown = which[:11]  # first_n shows 10, and "..." when there is an 11th
@@ -1112,6 +1135,4 @@ def report_outliers(
             OutlierWarning,
             stacklevel=user_stacklevel(),
         )
-    found = OUTLIER_ROWS.get()
-    if found is not None:
-        found.append(pd.Series(left_out, index=frame.index, name="outlier"))
+    return left_out

@@ -46,7 +46,7 @@ def area_scale(crs: Any, x: Any, y: Any, source_crs: Any) -> np.ndarray:
 
     Examples
     --------
-    >>> from geoalpha.distortion import area_scale
+    >>> from geoalpha.frame.distortion import area_scale
     >>> float(area_scale("EPSG:3857", [-0.12], [51.5], "EPSG:4326")[0])
     ... # doctest: +ELLIPSIS
     2.58...

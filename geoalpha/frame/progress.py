@@ -77,7 +77,7 @@ def hull_costs(n_rows: int, n_groups: int, *, per_group_crs: bool) -> dict:
 
     Examples
     --------
-    >>> from geoalpha.progress import hull_costs
+    >>> from geoalpha.frame.progress import hull_costs
     >>> costs = hull_costs(400_000, 1_000, per_group_crs=False)
     >>> max(costs, key=costs.get)
     'compute'
@@ -122,7 +122,7 @@ class Phases:
     Examples
     --------
     >>> import io
-    >>> from geoalpha.progress import Phases
+    >>> from geoalpha.frame.progress import Phases
     >>> bar = Phases(["read", "compute"], show=True, file=io.StringIO())
     >>> bar.estimate({"read": 1.0, "compute": 3.0})
     >>> bar.start("read")
@@ -319,7 +319,7 @@ def phases(
     Examples
     --------
     >>> import io
-    >>> from geoalpha.progress import current, phases
+    >>> from geoalpha.frame.progress import current, phases
     >>> out = io.StringIO()
     >>> with phases(["read", "write"], show=True, file=out) as bar:
     ...     bar.start("read")

@@ -3,15 +3,15 @@
 Pure functions on numpy arrays (no pandas, no geopandas) that the GeoDataFrame
 layer calls before and after the alpha-shape computation:
 
-- :func:`parse_crs` is the one helper that parses every user CRS;
 - :func:`check_lonlat` validates coordinates given in a geographic CRS;
 - :func:`crosses_antimeridian`, :func:`unwrap_lon` and
   :func:`split_antimeridian` keep groups that span the +-180 degree meridian
   (Fiji, the Aleutians) in one piece and split their polygons back;
 - :func:`metric_crs` projects every group to a metric CRS (one UTM zone when
   the whole dataset fits one, else a UTM zone or a local Lambert azimuthal
-  equal-area CRS per group), with one cached transformer per distinct CRS;
-- :func:`crs_name` gives a short label of a CRS for the output table.
+  equal-area CRS per group), with one cached transformer per distinct CRS.
+
+Parsing and naming a CRS (:mod:`geoalpha.crs_parsing`) belong to the base.
 
 Group membership is given as integer codes ``0 .. n_groups - 1`` per point
 (what :func:`pandas.factorize` returns), so that every per-group quantity is a
@@ -27,22 +27,24 @@ from typing import Any
 import numpy as np
 import pyproj
 import shapely
-from pyproj.exceptions import CRSError
 
+from geoalpha.crs_parsing import (
+    crs_name,
+    is_mercator,
+    parse_crs,
+    target_crs,
+    unit_factor,
+)
 from geoalpha.errors import InvalidInputError, first_n
+from geoalpha.kernel import ANTIMERIDIAN_SNAP
 
 __all__ = [
     "Projection",
     "check_lonlat",
     "crosses_antimeridian",
-    "crs_name",
-    "is_mercator",
     "metric_crs",
-    "parse_crs",
     "restore_longitudes",
     "split_antimeridian",
-    "target_crs",
-    "unit_factor",
     "unwrap_lon",
 ]
 
@@ -60,88 +62,6 @@ LAEA_CENTRE_STEP = 1.0
 
 _WGS84 = "EPSG:4326"
 _MAX_POSITIONS = 5
-
-
-def parse_crs(crs: Any) -> pyproj.CRS | None:
-    """Parse any CRS a user may pass into a :class:`pyproj.CRS`.
-
-    Parameters
-    ----------
-    crs : None, pyproj.CRS, int, str, dict or object with ``to_wkt``
-        ``None`` stays ``None``; a :class:`pyproj.CRS` is returned as is;
-        anything :meth:`pyproj.CRS.from_user_input` accepts (an EPSG code such
-        as ``32630``, ``"EPSG:32630"``, WKT, a PROJ string, a PROJ JSON dict,
-        an object with a ``to_wkt`` method such as a rasterio CRS) is parsed.
-
-    Returns
-    -------
-    pyproj.CRS or None
-
-    Raises
-    ------
-    InvalidInputError
-        If the input cannot be parsed as a CRS.
-
-    Examples
-    --------
-    >>> from geoalpha.crs import parse_crs
-    >>> parse_crs(32630).to_string()
-    'EPSG:32630'
-    >>> parse_crs("EPSG:4326").is_geographic
-    True
-    >>> parse_crs(None) is None
-    True
-    """
-    if crs is None or isinstance(crs, pyproj.CRS):
-        return crs
-    try:
-        return pyproj.CRS.from_user_input(crs)
-    except (CRSError, TypeError, ValueError) as err:
-        shown = repr(crs)
-        if len(shown) > 80:
-            shown = shown[:77] + "..."
-        raise InvalidInputError(
-            f"unknown CRS {shown}: expected a CRS: an EPSG code (e.g. 32630 or "
-            "'EPSG:32630'), WKT, a PROJ string or a pyproj.CRS; got "
-            f"{type(crs).__name__} ({err})"
-        ) from err
-
-
-def crs_name(crs: Any) -> str:
-    """Return a short human-readable label of a CRS.
-
-    Parameters
-    ----------
-    crs : pyproj.CRS or anything :func:`parse_crs` accepts
-
-    Returns
-    -------
-    str
-        ``"AUTHORITY:CODE"`` (e.g. ``"EPSG:32630"``) when the CRS is exactly a
-        registered one, else its PROJ string (e.g. the local Lambert azimuthal
-        equal-area CRSs of :func:`metric_crs`), else its name.
-
-    Examples
-    --------
-    >>> from geoalpha.crs import crs_name
-    >>> crs_name(32630)
-    'EPSG:32630'
-    >>> crs_name("+proj=laea +lat_0=64 +lon_0=-153 +datum=WGS84 +units=m")
-    '+proj=laea +lat_0=64 +lon_0=-153 +datum=WGS84 +units=m'
-    """
-    parsed = parse_crs(crs)
-    if parsed is None:
-        return "None"
-    srs = parsed.srs.strip()
-    if re.fullmatch(r"[A-Za-z]+:\d+", srs):
-        return srs.upper()
-    if srs.startswith("+"):
-        # Cheap: the CRSs built here are PROJ strings; no database search.
-        return re.sub(r"\s*\+type=crs\b", "", srs).strip()
-    authority = parsed.to_authority(min_confidence=100)
-    if authority is not None:
-        return f"{authority[0]}:{authority[1]}"
-    return parsed.name
 
 
 def _positions(mask: np.ndarray, labels: Any = None) -> str:
@@ -194,7 +114,7 @@ def check_lonlat(lon: Any, lat: Any, labels: Any = None) -> None:
 
     Examples
     --------
-    >>> from geoalpha.crs import check_lonlat
+    >>> from geoalpha.frame.crs import check_lonlat
     >>> check_lonlat([-0.1, 2.35], [51.5, 48.86])
     >>> check_lonlat([51.5, 48.86], [-0.1, 102.0])  # doctest: +ELLIPSIS
     Traceback (most recent call last):
@@ -336,7 +256,7 @@ def crosses_antimeridian(lon: Any, codes: Any, n_groups: int) -> np.ndarray:
 
     Examples
     --------
-    >>> from geoalpha.crs import crosses_antimeridian
+    >>> from geoalpha.frame.crs import crosses_antimeridian
     >>> lon = [177.5, 179.9, -179.5, -178.2, 10.0, 12.0]  # Fiji, then Italy
     >>> crosses_antimeridian(lon, [0, 0, 0, 0, 1, 1], 2)
     array([ True, False])
@@ -375,7 +295,7 @@ def unwrap_lon(lon: Any, codes: Any, crossing: Any) -> np.ndarray:
 
     Examples
     --------
-    >>> from geoalpha.crs import unwrap_lon
+    >>> from geoalpha.frame.crs import unwrap_lon
     >>> unwrap_lon([179.0, -179.0, -5.0], [0, 0, 1], [True, False]).tolist()
     [179.0, 181.0, -5.0]
     """
@@ -386,8 +306,8 @@ def unwrap_lon(lon: Any, codes: Any, crossing: Any) -> np.ndarray:
 
 
 def _snap(coords: np.ndarray, x: float) -> np.ndarray:
-    """Put x coordinates within 1e-9 degrees of ``x`` exactly on ``x``."""
-    near = np.abs(coords[:, 0] - x) <= 1e-9
+    """Put x coordinates within ``ANTIMERIDIAN_SNAP`` (degrees) of ``x`` on ``x``."""
+    near = np.abs(coords[:, 0] - x) <= ANTIMERIDIAN_SNAP
     coords[near, 0] = x
     return coords
 
@@ -422,7 +342,7 @@ def split_antimeridian(geom: Any) -> Any:
     Examples
     --------
     >>> from shapely import box
-    >>> from geoalpha.crs import split_antimeridian
+    >>> from geoalpha.frame.crs import split_antimeridian
     >>> parts = split_antimeridian(box(178, -18, 182, -16))
     >>> parts.geom_type, [p.bounds for p in parts.geoms]
     ('MultiPolygon', [(178.0, -18.0, 180.0, -16.0), (-180.0, -18.0, -178.0, -16.0)])
@@ -641,89 +561,6 @@ def _laea_key(
     return 1_000_000 + (lat0 + 90) * 1000 + (lon0 + 180)
 
 
-def target_crs(crs: Any) -> pyproj.CRS:
-    """Check a ``crs=`` option that names a computation CRS: the one check.
-
-    Parameters
-    ----------
-    crs : anything :func:`parse_crs` accepts
-        The CRS the shapes are to be computed in.
-
-    Returns
-    -------
-    pyproj.CRS
-        The parsed CRS. It is projected; its unit may be another than the
-        metre (feet): :class:`Projection` and :func:`metric_crs` scale its
-        coordinates to metres (see :func:`unit_factor`), for every input.
-
-    Raises
-    ------
-    InvalidInputError
-        If ``crs`` is None, cannot be parsed, or is not a projected CRS.
-
-    Examples
-    --------
-    >>> from geoalpha.crs import target_crs
-    >>> target_crs("EPSG:27700").name
-    'OSGB36 / British National Grid'
-    >>> target_crs(4326)  # doctest: +ELLIPSIS
-    Traceback (most recent call last):
-    ...
-    geoalpha.errors.InvalidInputError: crs= must be a projected (metric) CRS, \
-got EPSG:4326 (geographic); ...
-    """
-    parsed = parse_crs(crs)
-    if parsed is None:
-        raise InvalidInputError(
-            "crs= must be 'auto' or a projected (metric) CRS here, got None"
-        )
-    if not parsed.is_projected:
-        kind = "geographic" if parsed.is_geographic else "not projected"
-        raise InvalidInputError(
-            "crs= must be a projected (metric) CRS, got "
-            f"{crs_name(parsed)} ({kind}); pass crs='auto' to let geoalpha choose "
-            "a UTM zone or a local CRS per group, or crs=None to use the "
-            "coordinates as they are"
-        )
-    return parsed
-
-
-def unit_factor(crs: Any) -> float:
-    """Return metres per coordinate unit of a projected CRS (1.0 if unknown).
-
-    Examples
-    --------
-    >>> from geoalpha.crs import unit_factor
-    >>> unit_factor("EPSG:32630"), round(unit_factor("EPSG:2263"), 7)
-    (1.0, 0.3048006)
-    """
-    parsed = parse_crs(crs)
-    if parsed is None or not parsed.axis_info:
-        return 1.0
-    return parsed.axis_info[0].unit_conversion_factor or 1.0
-
-
-def is_mercator(crs: Any) -> bool:
-    """Tell whether a CRS is a (normal aspect) Mercator projection, e.g. EPSG:3857.
-
-    Its scale grows as 1/cos(latitude) (1.6 at London), so its coordinates are
-    no metres for areas or alphas; :class:`Projection` treats such input as
-    longitude/latitude.
-
-    Examples
-    --------
-    >>> from geoalpha.crs import is_mercator
-    >>> is_mercator(3857), is_mercator(3395), is_mercator(32630)
-    (True, True, False)
-    """
-    parsed = parse_crs(crs)
-    if parsed is None or not parsed.is_projected:
-        return False
-    operation = parsed.coordinate_operation
-    method = operation.method_name.lower() if operation is not None else ""
-    return "mercator" in method and "transverse" not in method
-
-
 def metric_crs(
     lon: Any,
     lat: Any,
@@ -795,7 +632,7 @@ def metric_crs(
 
     Examples
     --------
-    >>> from geoalpha.crs import metric_crs, crs_name
+    >>> from geoalpha.frame.crs import metric_crs, crs_name
     >>> lon = [-0.13, -0.10, -0.12, -2.24, -2.20, -2.25]  # London, Manchester
     >>> lat = [51.50, 51.52, 51.49, 53.48, 53.47, 53.50]
     >>> xy, crs_list, crs_index = metric_crs(lon, lat, [0, 0, 0, 1, 1, 1], 2)
@@ -952,7 +789,7 @@ class Projection:
     Examples
     --------
     >>> import numpy as np
-    >>> from geoalpha.crs import Projection
+    >>> from geoalpha.frame.crs import Projection
     >>> lonlat = np.array([[-0.13, 51.50], [-0.10, 51.52], [-0.12, 51.49]])
     >>> proj = Projection(lonlat, np.zeros(3, dtype=int), 1, "EPSG:4326", "auto")
     >>> proj.names.tolist(), proj.unit, bool((proj.out == lonlat).all())

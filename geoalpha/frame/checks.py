@@ -1,6 +1,6 @@
 """Warnings about a run's set-up: a ``by`` that looks wrong, a CRS that stretches areas.
 
-Two stages of :func:`geoalpha.hull` (:func:`geoalpha.pipeline.run`; once
+Two stages of :func:`geoalpha.hull` (:func:`geoalpha.frame.pipeline.run`; once
 over the whole dataset in :func:`geoalpha.dask.hull`), worded in Python's
 terms (``by=``, ``crs=``); the ``geoalpha`` command rewords them in its own
 (``--by``, ``--crs``):
@@ -11,7 +11,7 @@ terms (``by=``, ``crs=``); the ``geoalpha`` command rewords them in its own
 - :func:`check_distortion`: a :class:`~geoalpha.errors.CRSWarning` when the
   computation CRS (a forced ``crs=``, or a projected input CRS kept by
   ``crs="auto"``) stretches areas where the points are
-  (:func:`geoalpha.distortion.area_scale`), so that ``area_m2`` and
+  (:func:`geoalpha.frame.distortion.area_scale`), so that ``area_m2`` and
   ``radius`` are not true square metres and metres.
 """
 
@@ -24,9 +24,10 @@ from typing import Any
 import numpy as np
 import pyproj
 
-from geoalpha.crs import crs_name, is_mercator, metric_crs, parse_crs
-from geoalpha.distortion import AREA_TOLERANCE, area_scale
+from geoalpha.crs_parsing import crs_name, is_mercator, parse_crs
 from geoalpha.errors import CRSWarning, GroupingWarning, user_stacklevel
+from geoalpha.frame.crs import metric_crs
+from geoalpha.frame.distortion import AREA_TOLERANCE, area_scale
 
 __all__ = [
     "MANY_GROUPS_MIN_ROWS",
@@ -73,7 +74,7 @@ def check_grouping(n_groups: int, n_rows: int, by: Any) -> None:
     Examples
     --------
     >>> import warnings
-    >>> from geoalpha.checks import check_grouping
+    >>> from geoalpha.frame.checks import check_grouping
     >>> with warnings.catch_warnings(record=True) as caught:
     ...     warnings.simplefilter("always")
     ...     check_grouping(47, 55, "Latitude")
@@ -112,11 +113,11 @@ def computation_crs(source: Any, crs: Any) -> tuple[pyproj.CRS | None, str]:
         CRS kept by ``crs="auto"``); ``(None, "")`` when geoalpha chooses a
         metric CRS itself (longitude/latitude or Mercator input), computes
         in the coordinates as they are (``crs=None``), or ``crs`` is not a
-        projected CRS (:class:`geoalpha.crs.Projection` reports it).
+        projected CRS (:class:`geoalpha.frame.crs.Projection` reports it).
 
     Examples
     --------
-    >>> from geoalpha.checks import computation_crs
+    >>> from geoalpha.frame.checks import computation_crs
     >>> computation_crs("EPSG:4326", "auto")
     (None, '')
     >>> crs, chosen_by = computation_crs("EPSG:4326", "EPSG:3857")
@@ -174,14 +175,14 @@ def check_distortion(coords: np.ndarray, source: Any, crs: Any) -> None:
     -----
     CRSWarning
         When the areal scale factor of the computation CRS is further than
-        :data:`geoalpha.distortion.AREA_TOLERANCE` from 1 at some point
+        :data:`geoalpha.frame.distortion.AREA_TOLERANCE` from 1 at some point
         (Web Mercator: 2.6 at London; a UTM zone far from the data).
 
     Examples
     --------
     >>> import warnings
     >>> import numpy as np
-    >>> from geoalpha.checks import check_distortion
+    >>> from geoalpha.frame.checks import check_distortion
     >>> london = np.array([[-0.12, 51.5], [-0.10, 51.52]])
     >>> with warnings.catch_warnings(record=True) as caught:
     ...     warnings.simplefilter("always")

@@ -29,8 +29,12 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from geoalpha.errors import CRSWarning, InvalidInputError, did_you_mean
-from geoalpha.postgis import gdal_connection_error, is_gdal_connection, is_postgres_url
-from geoalpha.redact import redact, secrets_in
+from geoalpha.io.postgis import (
+    gdal_connection_error,
+    is_gdal_connection,
+    is_postgres_url,
+)
+from geoalpha.io.redact import redact, secrets_in
 
 if TYPE_CHECKING:  # pragma: no cover
     import geopandas as gpd
@@ -128,7 +132,7 @@ def read_points(
         ``.txt``; the delimiter is detected) whose rows are points given by two
         coordinate columns. A ``.parquet`` file without geometry metadata is
         read as a table too. A ``postgresql://`` URL reads the PostGIS table
-        ``layer`` (``schema.table``) with :func:`geoalpha.postgis.read_postgis`.
+        ``layer`` (``schema.table``) with :func:`geoalpha.io.postgis.read_postgis`.
     x, y : str, optional
         Names of the coordinate columns of a table. When omitted, the first
         pair found among ``longitude/latitude``, ``lon/lat``, ``lng/lat``,
@@ -174,7 +178,7 @@ def read_points(
     Examples
     --------
     >>> from geoalpha import datasets
-    >>> from geoalpha.io import read_points
+    >>> from geoalpha.io.files import read_points
     >>> gdf = read_points(datasets.path("stats19"))  # Longitude/Latitude found
     >>> gdf.crs.to_epsg(), gdf.geom_type.unique().tolist()
     (4326, ['Point'])
@@ -196,9 +200,9 @@ def read_input_points(
     """:func:`read_points`; ``planar_if_missing``: no CRS means planar, no error.
 
     ``sql`` and ``geometry_column`` apply to a ``postgresql://`` source (see
-    :func:`geoalpha.postgis.read_postgis`).
+    :func:`geoalpha.io.postgis.read_postgis`).
     """
-    from geoalpha.crs import parse_crs
+    from geoalpha.crs_parsing import parse_crs
 
     source = os.fspath(path)
     shown = _shown(source)
@@ -282,7 +286,7 @@ def read_input_points(
 
 def _read_database(source, x, y, crs, layer, planar_if_missing, sql, geometry_column):
     """Read a PostGIS table or query; the CRS rules of :func:`read_points`."""
-    from geoalpha.postgis import read_postgis
+    from geoalpha.io.postgis import read_postgis
 
     if x is not None or y is not None:
         raise InvalidInputError(
@@ -302,7 +306,7 @@ def _read_database(source, x, y, crs, layer, planar_if_missing, sql, geometry_co
 
 
 def _crs_label(crs) -> str:
-    from geoalpha.crs import crs_name
+    from geoalpha.crs_parsing import crs_name
 
     return crs_name(crs)
 
@@ -556,7 +560,7 @@ def write_hulls(
         (GeoPackage), ``.shp`` (Shapefile), ``.geojson`` or ``.json``
         (GeoJSON), ``.fgb`` (FlatGeobuf), ``.parquet`` (GeoParquet). A
         ``postgresql://`` URL writes a PostGIS table instead, with
-        :func:`geoalpha.postgis.write_postgis`.
+        :func:`geoalpha.io.postgis.write_postgis`.
     layer : str, optional
         GeoPackage layer name; default the file name without extension
         (``"hulls"`` if that is empty). Only for ``.gpkg``, and required
@@ -606,7 +610,7 @@ def write_hulls(
     --------
     >>> import geopandas as gpd
     >>> from shapely import box
-    >>> from geoalpha.io import write_hulls
+    >>> from geoalpha.io.files import write_hulls
     >>> hulls = gpd.GeoDataFrame(
     ...     {"Local_Authority_(Highway)": ["E09000020"], "alpha": [0.01]},
     ...     geometry=[box(-0.2, 51.5, -0.1, 51.6)], crs="EPSG:4326")
@@ -622,27 +626,17 @@ def write_hulls(
             f"write_hulls() needs a GeoDataFrame; got {type(gdf).__name__}"
         )
     if _database(path, engine):
-        from geoalpha.postgis import write_postgis
-
-        if extra_layers:
-            raise InvalidInputError(
-                "extra layers apply to GeoPackage (.gpkg) output only, not PostGIS"
-            )
-        write_postgis(
-            _index_as_columns(gdf), os.fspath(path), layer, overwrite=overwrite
-        )
+        _write_database(gdf, path, layer, overwrite, extra_layers)
         return {}
     if engine not in _ENGINES:
         raise InvalidInputError(
             f"unknown engine {engine!r}; expected 'pyogrio', 'fiona' or None"
         )
     target, suffix, targets = _check_target(path, layer, overwrite)
-    parent = target.parent
     if extra_layers and suffix != ".gpkg":
         raise InvalidInputError(
             f"extra layers apply to GeoPackage (.gpkg) output only, not {suffix}"
         )
-
     frame = _index_as_columns(gdf)
     mapping: dict[str, str] = {}
     if suffix == ".shp":
@@ -651,30 +645,52 @@ def write_hulls(
         )
         if mapping:
             frame = frame.rename(columns=mapping)
-
+    layers = [
+        (frame, gdf, layer),
+        *((x, x, n) for n, x in (extra_layers or {}).items()),
+    ]
     staging = _make_staging(target)
     try:
-        staged = staging / target.name
-        try:
-            _write_staged(frame, gdf, staged, suffix, layer, engine)
-            for name, extra in (extra_layers or {}).items():
-                _write_staged(extra, extra, staged, suffix, name, engine)
-        except (ImportError, InvalidInputError):
-            raise
-        except Exception as err:  # name the output, never the staging folder
-            text = _one_line(err).replace(str(staging), str(parent))
-            raise OSError(f"cannot write {target}: {text}") from err
-        if suffix == ".shp" and frame.crs is not None:
-            prj = staged.with_suffix(".prj")
-            if not prj.exists():
-                raise OSError(
-                    f"the Shapefile writer did not write {prj.name} for CRS "
-                    f"{frame.crs.to_string()}; write another format instead"
-                )
+        _write_layers(layers, staging / target.name, suffix, engine, target)
         _move_into_place(staging, target, targets, overwrite)
     finally:
         shutil.rmtree(staging, ignore_errors=True)
     return mapping
+
+
+def _write_database(gdf, path, layer, overwrite: bool, extra_layers) -> None:
+    """:func:`write_hulls` to a ``postgresql://`` URL: one table, no extra layers."""
+    from geoalpha.io.postgis import write_postgis
+
+    if extra_layers:
+        raise InvalidInputError(
+            "extra layers apply to GeoPackage (.gpkg) output only, not PostGIS"
+        )
+    write_postgis(_index_as_columns(gdf), os.fspath(path), layer, overwrite=overwrite)
+
+
+def _write_layers(layers, staged: Path, suffix: str, engine, target: Path) -> None:
+    """Write ``(frame, source, layer)`` triples into the staged file.
+
+    An error names the output, never the staging folder; a Shapefile must
+    come with its ``.prj`` file when the frame has a CRS.
+    """
+    try:
+        for frame, source, layer in layers:
+            _write_staged(frame, source, staged, suffix, layer, engine)
+    except (ImportError, InvalidInputError):
+        raise
+    except Exception as err:
+        text = _one_line(err).replace(str(staged.parent), str(target.parent))
+        raise OSError(f"cannot write {target}: {text}") from err
+    crs = layers[0][0].crs
+    if suffix == ".shp" and crs is not None:
+        prj = staged.with_suffix(".prj")
+        if not prj.exists():
+            raise OSError(
+                f"the Shapefile writer did not write {prj.name} for CRS "
+                f"{crs.to_string()}; write another format instead"
+            )
 
 
 def _write_staged(frame, gdf, staged: Path, suffix: str, layer, engine) -> None:
@@ -729,7 +745,7 @@ def check_output(
 
     Examples
     --------
-    >>> from geoalpha.io import check_output
+    >>> from geoalpha.io.files import check_output
     >>> check_output("hulls.gpkg")  # doctest: +SKIP
     >>> try:
     ...     check_output("hulls.csv")
@@ -738,7 +754,7 @@ def check_output(
     cannot tell the output format of hulls.csv: its extension must be one of .gpkg, ...
     """
     if _database(path, None):
-        from geoalpha.postgis import check_postgis_output
+        from geoalpha.io.postgis import check_postgis_output
 
         check_postgis_output(os.fspath(path), layer, overwrite=overwrite)
         return
@@ -859,7 +875,7 @@ def remove_stale_staging(folder: PathLike) -> list[Path]:
     Examples
     --------
     >>> import tempfile
-    >>> from geoalpha.io import remove_stale_staging
+    >>> from geoalpha.io.files import remove_stale_staging
     >>> remove_stale_staging(tempfile.gettempdir())  # doctest: +SKIP
     []
     """

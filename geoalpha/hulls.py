@@ -2,7 +2,7 @@
 
 The front door of the GeoDataFrame layer: :func:`hull` checks the options
 (:class:`geoalpha.options.Options`, where every option is defined once) and
-hands the frame to the pipeline of named stages in :mod:`geoalpha.pipeline`,
+hands the frame to the pipeline of named stages in :mod:`geoalpha.frame.pipeline`,
 or a dask-geopandas frame to :func:`geoalpha.dask.hull`.
 """
 
@@ -11,11 +11,13 @@ from __future__ import annotations
 import sys
 import warnings
 
+import pandas as pd
+
 from geoalpha import options as _options
 from geoalpha.errors import InvalidInputError, OutlierWarning
+from geoalpha.frame.pipeline import as_frame, run
+from geoalpha.frame.schema import RESULT_COLUMNS
 from geoalpha.options import DEGENERATE_POLICIES, METHODS, Options
-from geoalpha.pipeline import OUTLIER_ROWS, as_frame, run
-from geoalpha.schema import RESULT_COLUMNS
 
 __all__ = ["DEGENERATE_POLICIES", "METHODS", "RESULT_COLUMNS", "hull", "outlier_rows"]
 
@@ -81,12 +83,12 @@ def hull(gdf, by=None, **options):
         Groups across +-180 degrees, returned as split MultiPolygons.
     GroupingWarning
         ``by`` makes more groups than half the rows (from 50 rows on): a
-        wrong column? (:func:`geoalpha.checks.check_grouping`)
+        wrong column? (:func:`geoalpha.frame.checks.check_grouping`)
     CRSWarning
         The computation CRS (a forced ``crs``, or projected input kept by
         ``crs="auto"``) stretches areas by more than 2 % where the points
         are, so ``area_m2`` and ``radius`` are not true metres
-        (:func:`geoalpha.checks.check_distortion`).
+        (:func:`geoalpha.frame.checks.check_distortion`).
 
     Notes
     -----
@@ -115,7 +117,7 @@ def hull(gdf, by=None, **options):
         from geoalpha.dask import hull as dask_hull
 
         return dask_hull(gdf, by, **opts.as_dict())
-    return run(as_frame(gdf), by, opts)
+    return run(as_frame(gdf), by, opts)[0]
 
 
 hull.__signature__ = _options.signature(hull)
@@ -164,12 +166,9 @@ def outlier_rows(gdf, by=None, **options):
             "outlier_rows() needs an eager GeoDataFrame; call .compute() first "
             "(the lazy hull() has the n_outliers column)"
         )
-    found: list = []
-    token = OUTLIER_ROWS.set(found)
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", OutlierWarning)
-            hull(gdf, by, **options)
-    finally:
-        OUTLIER_ROWS.reset(token)
-    return found[0]
+    opts = Options.from_kwargs(options)
+    frame = as_frame(gdf)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", OutlierWarning)
+        _, left_out = run(frame, by, opts)
+    return pd.Series(left_out, index=frame.index, name="outlier")

@@ -13,8 +13,10 @@ from typing import Literal, NamedTuple
 import numpy as np
 import shapely
 
-from geoalpha import kernel, search, shapes
-from geoalpha.budget import outlier_budget
+from geoalpha import kernel
+from geoalpha.arrays import guarantee
+from geoalpha.arrays.budget import outlier_budget
+from geoalpha.arrays.search import bisect_alpha, ladder_alpha
 from geoalpha.errors import (
     DegenerateGroupWarning,
     InvalidInputError,
@@ -23,7 +25,7 @@ from geoalpha.errors import (
     first_n,
     user_stacklevel,
 )
-from geoalpha.options import check
+from geoalpha.options import check as check_options
 
 __all__ = ["AlphaShapes", "alpha_shape", "alpha_shapes", "optimal_alpha"]
 
@@ -95,20 +97,20 @@ class AlphaShapes(NamedTuple):
 
 
 def _check_options(
-    holes, components, search_: str, max_iterations, outliers=0, alpha=None
+    holes, components, search: str, max_iterations, outliers=0, alpha=None
 ) -> dict:
     """Check the options as ``hull()`` does (:func:`geoalpha.options.check`)."""
-    checked = check(
+    checked = check_options(
         holes=holes,
         components=components,
-        search=search_,
+        search=search,
         max_iterations=max_iterations,
         outliers=outliers,
     )
-    if outliers and (alpha is not None or search_ != "exact"):
+    if outliers and (alpha is not None or search != "exact"):
         raise InvalidInputError(
             "outliers applies to the exact optimum: use it without alpha and "
-            f"with search='exact'; got alpha={alpha!r}, search={search_!r}"
+            f"with search='exact'; got alpha={alpha!r}, search={search!r}"
         )
     return checked
 
@@ -192,7 +194,7 @@ def alpha_shapes(
         shape cover at least ``rows - k`` rows; only those pieces are kept,
         and the rows they miss are reported (``n_outliers``, ``outlier``).
         Groups with ``k = 0`` get the result without outliers. See
-        :mod:`geoalpha.budget`.
+        :mod:`geoalpha.arrays.budget`.
     name_groups : callable, optional
         Turns an array of group codes into the text that names those groups
         in a warning (:func:`geoalpha.hull` names them by key); default: the
@@ -237,7 +239,7 @@ def alpha_shapes(
     ([0.4308], [1], [False, False, False, False, False, True])
     """
     checked = _check_options(holes, components, search, max_iterations, outliers, alpha)
-    n_jobs = check(n_jobs=n_jobs)["n_jobs"]
+    n_jobs = check_options(n_jobs=n_jobs)["n_jobs"]
     if name_groups is not None and not callable(name_groups):
         raise InvalidInputError(
             "name_groups must be a function of an array of group codes that "
@@ -283,7 +285,7 @@ def _given_alpha(alpha, n_groups: int) -> np.ndarray:
     return a
 
 
-def _searched_alpha(curve, n_groups: int, search_: str, max_iterations: int):
+def _searched_alpha(curve, n_groups: int, search: str, max_iterations: int):
     """Return the alpha ``search="ladder"``/``"bisect"`` finds on the validity curves.
 
     The kernel's curve holds, per group, every distinct weight (ascending)
@@ -301,10 +303,10 @@ def _searched_alpha(curve, n_groups: int, search_: str, max_iterations: int):
             ok[i] = k >= 0 and bool(valid_at[a + k])
         return ok
 
-    if search_ == "ladder":
-        a, _ = search.ladder_alpha(valid, n_groups)
+    if search == "ladder":
+        a, _ = ladder_alpha(valid, n_groups)
         return a, np.zeros(n_groups, dtype=bool)
-    a, gave_up, _ = search.bisect_alpha(valid, n_groups, max_iterations=max_iterations)
+    a, gave_up, _ = bisect_alpha(valid, n_groups, max_iterations=max_iterations)
     return a, gave_up
 
 
@@ -363,7 +365,8 @@ def _guarantee(res, xy, out_xy, rows, given, optimum, components, gave_up):
     whole = np.flatnonzero(ring_failed & res.whole)
     if len(whole):  # the shape is the convex hull: GEOS builds it
         take = np.isin(codes, whole)
-        geometry[whole] = shapes.convex_hulls(sout[take], codes[take], n_groups)[whole]
+        hulls = guarantee.convex_hulls(sout[take], codes[take], n_groups)
+        geometry[whole] = hulls[whole]
     check = (res.reason == 0) | np.isin(np.arange(n_groups), whole)
     x, y, v = sout[:, 0], sout[:, 1], res.rep
     test = (x != x[v]) | (y != y[v])
@@ -371,7 +374,7 @@ def _guarantee(res, xy, out_xy, rows, given, optimum, components, gave_up):
         test |= ~res.on_ring
     left_out = res.left_out if res.left_out.any() else None
     a = res.alpha if given is None else given
-    geometry, failed = shapes.enforce(
+    geometry, failed = guarantee.enforce(
         geometry,
         sout,
         codes,
@@ -384,7 +387,7 @@ def _guarantee(res, xy, out_xy, rows, given, optimum, components, gave_up):
     )
     degenerate = ((res.reason != 0) & ~np.isin(np.arange(n_groups), whole)) | failed
     alpha_out = np.where(degenerate, np.nan, a)
-    geometry[degenerate] = shapes.EMPTY_POLYGON
+    geometry[degenerate] = guarantee.EMPTY_POLYGON
     n_parts = res.n_parts.astype(np.int64)
     n_parts[whole] = 1
     n_parts[degenerate] = 0
@@ -393,7 +396,7 @@ def _guarantee(res, xy, out_xy, rows, given, optimum, components, gave_up):
     n_outliers = np.zeros(n_groups, dtype=np.int64)
     if left_out is not None:
         # A repair that took in a just-missed point may have covered one left out.
-        outlier = shapes.left_outside(left_out, geometry, sout, codes)
+        outlier = guarantee.left_outside(left_out, geometry, sout, codes)
         n_outliers = np.bincount(codes[outlier], minlength=n_groups)
     back = np.empty(len(codes), dtype=np.int64)
     back[res.order] = np.arange(len(codes))

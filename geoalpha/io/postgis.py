@@ -64,7 +64,7 @@ def is_postgres_url(text: object) -> bool:
 
     Examples
     --------
-    >>> from geoalpha.postgis import is_postgres_url
+    >>> from geoalpha.io.postgis import is_postgres_url
     >>> is_postgres_url("postgresql://ga@127.0.0.1:5432/gadb")
     True
     >>> is_postgres_url("hulls.gpkg")
@@ -91,19 +91,19 @@ def gdal_connection_error(text: str) -> InvalidInputError:
 def redact(text: object) -> str:
     """Return ``text`` with every database password replaced by ``***``.
 
-    :func:`geoalpha.redact.redact` (URL passwords, ``password=`` values), plus
+    :func:`geoalpha.io.redact.redact` (URL passwords, ``password=`` values), plus
     the value of ``PGPASSWORD`` and every password this module has read from a
     URL in this process, wherever they appear.
 
     Examples
     --------
-    >>> from geoalpha.postgis import redact
+    >>> from geoalpha.io.postgis import redact
     >>> redact("cannot connect to postgresql://ga:p%40ss@db:5432/gadb")
     'cannot connect to postgresql://ga:***@db:5432/gadb'
     >>> redact("no password here")
     'no password here'
     """
-    from geoalpha.redact import redact as redact_text
+    from geoalpha.io.redact import redact as redact_text
 
     secrets = set(_secrets)
     if os.environ.get("PGPASSWORD"):
@@ -119,7 +119,7 @@ def parse_table(name: str) -> tuple[str | None, str]:
 
     Examples
     --------
-    >>> from geoalpha.postgis import parse_table
+    >>> from geoalpha.io.postgis import parse_table
     >>> parse_table("public.hulls")
     ('public', 'hulls')
     >>> parse_table("hulls")
@@ -427,7 +427,7 @@ def read_postgis(
 
     Examples
     --------
-    >>> from geoalpha.postgis import read_postgis
+    >>> from geoalpha.io.postgis import read_postgis
     >>> points = read_postgis(
     ...     "postgresql://ga@127.0.0.1:5432/gadb", table="public.uk_clusters"
     ... )  # doctest: +SKIP
@@ -688,7 +688,7 @@ def check_postgis_output(
 
     Examples
     --------
-    >>> from geoalpha.postgis import check_postgis_output
+    >>> from geoalpha.io.postgis import check_postgis_output
     >>> check_postgis_output(
     ...     "postgresql://ga@127.0.0.1:5432/gadb", "public.hulls"
     ... )  # doctest: +SKIP
@@ -768,7 +768,7 @@ def write_postgis(
     Examples
     --------
     >>> import geoalpha
-    >>> from geoalpha.postgis import read_postgis, write_postgis
+    >>> from geoalpha.io.postgis import read_postgis, write_postgis
     >>> url = "postgresql://ga@127.0.0.1:5432/gadb"
     >>> points = read_postgis(url, table="uk_clusters")  # doctest: +SKIP
     >>> hulls = points.alpha.hull(by="cluster")  # doctest: +SKIP

@@ -8,44 +8,7 @@ users read the option.
 
 from __future__ import annotations
 
-from geoalpha.errors import InvalidInputError
-
-__all__ = ["check_outliers", "outlier_budget"]
-
-
-def check_outliers(outliers) -> None:
-    """Raise :class:`InvalidInputError` unless ``outliers`` is a valid budget.
-
-    Parameters
-    ----------
-    outliers : float or int
-        A float in ``[0, 1)`` (a fraction of each group's rows) or an int
-        ``>= 0`` (a count of rows per group).
-
-    Examples
-    --------
-    >>> check_outliers(0.02), check_outliers(3)
-    (None, None)
-    >>> check_outliers(1.5)
-    Traceback (most recent call last):
-    ...
-    geoalpha.errors.InvalidInputError: outliers must be a fraction in [0, 1) or ...
-    """
-    import numbers
-
-    if isinstance(outliers, bool) or type(outliers).__name__ == "bool_":
-        ok = False
-    elif isinstance(outliers, numbers.Integral):
-        ok = outliers >= 0
-    elif isinstance(outliers, numbers.Real):
-        ok = 0 <= outliers < 1
-    else:
-        ok = False
-    if not ok:
-        raise InvalidInputError(
-            "outliers must be a fraction in [0, 1) or a count >= 0 (an int); "
-            f"got {outliers!r}"
-        )
+__all__ = ["outlier_budget"]
 
 
 def outlier_budget(outliers, rows):
@@ -56,7 +19,8 @@ def outlier_budget(outliers, rows):
     outliers : float or int
         A float ``q`` in ``[0, 1)``: ``k = floor(q * rows)`` (``q * rows``
         rounded to 9 decimals first, so that ``0.29 * 100`` gives 29, not 28);
-        an int: ``k`` itself for every group.
+        an int: ``k`` itself for every group. Already checked
+        (:func:`geoalpha.options.check_outliers`).
     rows : array_like of int, shape (G,)
         Rows of each group.
 
@@ -75,7 +39,6 @@ def outlier_budget(outliers, rows):
 
     import numpy as np
 
-    check_outliers(outliers)
     n = np.asarray(rows, dtype=np.int64)
     if isinstance(outliers, numbers.Integral):
         return np.full(n.shape, int(outliers), dtype=np.int64)

@@ -1,9 +1,9 @@
 """The comparison methods of :func:`geoalpha.hull`: convex, concave and KNN hulls.
 
 ``method="convex"`` takes its alpha from :func:`geoalpha.alpha_shapes` (0) and
-its polygons from :func:`geoalpha.shapes.convex_hulls`, built in the output
+its polygons from :func:`geoalpha.arrays.guarantee.convex_hulls`, built in the output
 coordinates where they are exact. ``method="concave"`` (GEOS ``concave_hull``) and
-``method="knn"`` (:func:`geoalpha.knn.knn_hull`) are built in metres by
+``method="knn"`` (:func:`geoalpha.arrays.knn.knn_hull`) are built in metres by
 :func:`comparison_hulls` and then given the input coordinates as vertices.
 """
 
@@ -13,11 +13,12 @@ import numpy as np
 import pandas as pd
 import shapely
 
-from geoalpha.crs import Projection
+from geoalpha.arrays.guarantee import EMPTY_POLYGON, cover_points, covered, each_or_none
+from geoalpha.arrays.guarantee import (
+    convex_hulls as convex_hulls,  # (its home until 0.1)
+)
+from geoalpha.arrays.knn import knn_hull
 from geoalpha.errors import InvalidInputError
-from geoalpha.knn import knn_hull
-from geoalpha.shapes import EMPTY_POLYGON, cover_points, covered, each_or_none
-from geoalpha.shapes import convex_hulls as convex_hulls  # (its home until 0.1)
 
 __all__ = ["ComparisonHulls", "comparison_hulls"]
 
@@ -53,7 +54,8 @@ def _to_input_vertices(geoms, groups, xy, out, codes) -> np.ndarray:
 
 def comparison_hulls(
     method: str,
-    proj: Projection,
+    xy: np.ndarray,
+    out: np.ndarray,
     codes: np.ndarray,
     n_groups: int,
     *,
@@ -64,17 +66,19 @@ def comparison_hulls(
 ) -> ComparisonHulls:
     """GEOS concave (``method="concave"``) or KNN hull per group, built in metres.
 
-    The polygons come back in the output coordinates with the input points as
-    vertices, every point covered (:func:`geoalpha.shapes.cover_points`).
+    ``xy`` holds the points in metres, ``out`` the same points in the output
+    coordinates, one row per point of ``codes``. The polygons come back in the
+    output coordinates with the input points as vertices, every point covered
+    (:func:`geoalpha.arrays.guarantee.cover_points`).
     """
     order = np.argsort(codes, kind="stable")
-    xy, sc = proj.xy[order], codes[order]
+    sorted_xy, sc = xy[order], codes[order]
     ptr = np.searchsorted(sc, np.arange(n_groups + 1))
     geoms = np.full(n_groups, EMPTY_POLYGON, dtype=object)
     labels = np.full(n_groups, method, dtype=object)
     without_holes = np.zeros(n_groups, dtype=bool)
     if method == "concave":
-        mp = shapely.multipoints(xy, indices=sc)
+        mp = shapely.multipoints(sorted_xy, indices=sc)
         present = np.unique(sc)
         labels[:] = f"concave ratio={ratio:g}"
         hulls = each_or_none(
@@ -93,7 +97,7 @@ def comparison_hulls(
     else:
         for g in range(n_groups):
             try:
-                geoms[g], used = knn_hull(xy[ptr[g] : ptr[g + 1]], k=k)
+                geoms[g], used = knn_hull(sorted_xy[ptr[g] : ptr[g + 1]], k=k)
                 labels[g] = f"knn k={used}"
             except InvalidInputError:
                 pass
@@ -103,15 +107,15 @@ def comparison_hulls(
     geoms[degenerate] = EMPTY_POLYGON
     area = shapely.area(geoms)
     present = ~degenerate
-    out = np.full(n_groups, EMPTY_POLYGON, dtype=object)
-    out[present] = _to_input_vertices(
-        geoms[present], np.flatnonzero(present), proj.xy, proj.out, codes
+    hulls = np.full(n_groups, EMPTY_POLYGON, dtype=object)
+    hulls[present] = _to_input_vertices(
+        geoms[present], np.flatnonzero(present), xy, out, codes
     )
-    out = cover_points(out, proj.out, codes)
+    hulls = cover_points(hulls, out, codes)
     # A hull that GEOS could not grow over its points in the output
     # coordinates (around a pole, across the globe) is no hull there.
-    missed = ~covered(out, proj.out, codes) & present[codes]
+    missed = ~covered(hulls, out, codes) & present[codes]
     if missed.any():
         lost = np.unique(codes[missed])
-        out[lost], degenerate[lost], area[lost] = EMPTY_POLYGON, True, 0.0
-    return ComparisonHulls(out, area, labels, degenerate, without_holes)
+        hulls[lost], degenerate[lost], area[lost] = EMPTY_POLYGON, True, 0.0
+    return ComparisonHulls(hulls, area, labels, degenerate, without_holes)

@@ -1,0 +1,184 @@
+"""What a ``crs=`` value means: parse it, name it, check a computation CRS.
+
+The base of geoalpha (with :mod:`geoalpha.options` and :mod:`geoalpha.errors`):
+pyproj and the error classes only, so that the option checks
+(:mod:`geoalpha.options`), the frame layer (:mod:`geoalpha.frame.crs`) and the
+I/O wing (:mod:`geoalpha.io.files`) read a CRS the same way.
+"""
+
+from __future__ import annotations
+
+import re
+from typing import Any
+
+import pyproj
+from pyproj.exceptions import CRSError
+
+from geoalpha.errors import InvalidInputError
+
+__all__ = ["crs_name", "is_mercator", "parse_crs", "target_crs", "unit_factor"]
+
+
+def parse_crs(crs: Any) -> pyproj.CRS | None:
+    """Parse any CRS a user may pass into a :class:`pyproj.CRS`.
+
+    Parameters
+    ----------
+    crs : None, pyproj.CRS, int, str, dict or object with ``to_wkt``
+        ``None`` stays ``None``; a :class:`pyproj.CRS` is returned as is;
+        anything :meth:`pyproj.CRS.from_user_input` accepts (an EPSG code such
+        as ``32630``, ``"EPSG:32630"``, WKT, a PROJ string, a PROJ JSON dict,
+        an object with a ``to_wkt`` method such as a rasterio CRS) is parsed.
+
+    Returns
+    -------
+    pyproj.CRS or None
+
+    Raises
+    ------
+    InvalidInputError
+        If the input cannot be parsed as a CRS.
+
+    Examples
+    --------
+    >>> from geoalpha.crs_parsing import parse_crs
+    >>> parse_crs(32630).to_string()
+    'EPSG:32630'
+    >>> parse_crs("EPSG:4326").is_geographic
+    True
+    >>> parse_crs(None) is None
+    True
+    """
+    if crs is None or isinstance(crs, pyproj.CRS):
+        return crs
+    try:
+        return pyproj.CRS.from_user_input(crs)
+    except (CRSError, TypeError, ValueError) as err:
+        shown = repr(crs)
+        if len(shown) > 80:
+            shown = shown[:77] + "..."
+        raise InvalidInputError(
+            f"unknown CRS {shown}: expected a CRS: an EPSG code (e.g. 32630 or "
+            "'EPSG:32630'), WKT, a PROJ string or a pyproj.CRS; got "
+            f"{type(crs).__name__} ({err})"
+        ) from err
+
+
+def crs_name(crs: Any) -> str:
+    """Return a short human-readable label of a CRS.
+
+    Parameters
+    ----------
+    crs : pyproj.CRS or anything :func:`parse_crs` accepts
+
+    Returns
+    -------
+    str
+        ``"AUTHORITY:CODE"`` (e.g. ``"EPSG:32630"``) when the CRS is exactly a
+        registered one, else its PROJ string (e.g. the local Lambert azimuthal
+        equal-area CRSs of :func:`metric_crs`), else its name.
+
+    Examples
+    --------
+    >>> from geoalpha.crs_parsing import crs_name
+    >>> crs_name(32630)
+    'EPSG:32630'
+    >>> crs_name("+proj=laea +lat_0=64 +lon_0=-153 +datum=WGS84 +units=m")
+    '+proj=laea +lat_0=64 +lon_0=-153 +datum=WGS84 +units=m'
+    """
+    parsed = parse_crs(crs)
+    if parsed is None:
+        return "None"
+    srs = parsed.srs.strip()
+    if re.fullmatch(r"[A-Za-z]+:\d+", srs):
+        return srs.upper()
+    if srs.startswith("+"):
+        # Cheap: the CRSs built here are PROJ strings; no database search.
+        return re.sub(r"\s*\+type=crs\b", "", srs).strip()
+    authority = parsed.to_authority(min_confidence=100)
+    if authority is not None:
+        return f"{authority[0]}:{authority[1]}"
+    return parsed.name
+
+
+def target_crs(crs: Any) -> pyproj.CRS:
+    """Check a ``crs=`` option that names a computation CRS: the one check.
+
+    Parameters
+    ----------
+    crs : anything :func:`parse_crs` accepts
+        The CRS the shapes are to be computed in.
+
+    Returns
+    -------
+    pyproj.CRS
+        The parsed CRS. It is projected; its unit may be another than the
+        metre (feet): :class:`Projection` and :func:`metric_crs` scale its
+        coordinates to metres (see :func:`unit_factor`), for every input.
+
+    Raises
+    ------
+    InvalidInputError
+        If ``crs`` is None, cannot be parsed, or is not a projected CRS.
+
+    Examples
+    --------
+    >>> from geoalpha.crs_parsing import target_crs
+    >>> target_crs("EPSG:27700").name
+    'OSGB36 / British National Grid'
+    >>> target_crs(4326)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    geoalpha.errors.InvalidInputError: crs= must be a projected (metric) CRS, \
+got EPSG:4326 (geographic); ...
+    """
+    parsed = parse_crs(crs)
+    if parsed is None:
+        raise InvalidInputError(
+            "crs= must be 'auto' or a projected (metric) CRS here, got None"
+        )
+    if not parsed.is_projected:
+        kind = "geographic" if parsed.is_geographic else "not projected"
+        raise InvalidInputError(
+            "crs= must be a projected (metric) CRS, got "
+            f"{crs_name(parsed)} ({kind}); pass crs='auto' to let geoalpha choose "
+            "a UTM zone or a local CRS per group, or crs=None to use the "
+            "coordinates as they are"
+        )
+    return parsed
+
+
+def unit_factor(crs: Any) -> float:
+    """Return metres per coordinate unit of a projected CRS (1.0 if unknown).
+
+    Examples
+    --------
+    >>> from geoalpha.crs_parsing import unit_factor
+    >>> unit_factor("EPSG:32630"), round(unit_factor("EPSG:2263"), 7)
+    (1.0, 0.3048006)
+    """
+    parsed = parse_crs(crs)
+    if parsed is None or not parsed.axis_info:
+        return 1.0
+    return parsed.axis_info[0].unit_conversion_factor or 1.0
+
+
+def is_mercator(crs: Any) -> bool:
+    """Tell whether a CRS is a (normal aspect) Mercator projection, e.g. EPSG:3857.
+
+    Its scale grows as 1/cos(latitude) (1.6 at London), so its coordinates are
+    no metres for areas or alphas; :class:`Projection` treats such input as
+    longitude/latitude.
+
+    Examples
+    --------
+    >>> from geoalpha.crs_parsing import is_mercator
+    >>> is_mercator(3857), is_mercator(3395), is_mercator(32630)
+    (True, True, False)
+    """
+    parsed = parse_crs(crs)
+    if parsed is None or not parsed.is_projected:
+        return False
+    operation = parsed.coordinate_operation
+    method = operation.method_name.lower() if operation is not None else ""
+    return "mercator" in method and "transverse" not in method
