@@ -229,7 +229,7 @@ proptest! {
 
     #[test]
     fn the_optimum_is_the_brute_force_one(p in points(), holes in any::<bool>(), c in 1usize..4) {
-        let options = Options { holes, components: c, curve: false, max_union_nodes: MAX_UNION_NODES };
+        let options = Options { holes, components: c, curve: false, max_union_nodes: MAX_UNION_NODES, sphere: false };
         let res = solve(&p, None, None, 0, &options);
         prop_assert_eq!(res.reason, 0);
         let rows = vec![1u64; p.len()];
@@ -260,7 +260,7 @@ proptest! {
         for &i in &dup {
             rows[i % p.len()] += 1;
         }
-        let options = Options { holes, components: c, curve: false, max_union_nodes: MAX_UNION_NODES };
+        let options = Options { holes, components: c, curve: false, max_union_nodes: MAX_UNION_NODES, sphere: false };
         let res = solve(&all, None, None, k, &options);
         let (alpha, left) = brute_optimum(&p, &rows, holes, c, k);
         prop_assert!((res.alpha - alpha).abs() <= 1e-9 * alpha, "{} vs {}", res.alpha, alpha);
@@ -271,7 +271,7 @@ proptest! {
 
     #[test]
     fn the_shape_at_the_optimal_alpha_is_the_optimal_shape(p in points(), holes in any::<bool>()) {
-        let options = Options { holes, components: 1, curve: false, max_union_nodes: MAX_UNION_NODES };
+        let options = Options { holes, components: 1, curve: false, max_union_nodes: MAX_UNION_NODES, sphere: false };
         let best = solve(&p, None, None, 0, &options);
         let again = solve(&p, None, Some(best.alpha), 0, &options);
         prop_assert_eq!(best.area, again.area);
