@@ -891,6 +891,57 @@ def _choose_auto(
     return crs_list, crs_index.astype(np.intp).ravel()
 
 
+def output_lonlat(
+    coords: np.ndarray, codes: np.ndarray, n_groups: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Longitude/latitude points as the output polygons are built from them.
+
+    Returns ``(out, crossing, wide)``: the coordinates with the longitudes of
+    antimeridian-crossing groups unwrapped (:func:`unwrap_lon`; ``coords``
+    itself when no group crosses), the crossing groups, and the groups that
+    span more than 180 degrees of longitude.
+    """
+    lon = coords[:, 0]
+    # crosses_antimeridian(lon, codes, n_groups), keeping its ranges
+    arcs = _group_arcs(lon, None, codes, n_groups)
+    crossing = arcs["crossing"]
+    low, high = arcs["west"], arcs["east"]
+    out = coords
+    if crossing.any():
+        out = coords.copy()
+        out[:, 0] = unwrap_lon(lon, codes, crossing)
+        low, high = _group_min_max(out[:, 0], codes, n_groups)
+    with np.errstate(invalid="ignore"):
+        wide = high - low > 180.0
+    return out, crossing, wide
+
+
+def to_wgs84(source: Any, x: Any, y: Any, labels: Any = None):
+    """Return the longitudes and latitudes (EPSG:4326) of points in ``source``.
+
+    Raises
+    ------
+    InvalidInputError
+        Naming the rows (by ``labels``) that cannot be moved.
+    """
+    src = parse_crs(source)
+    to = _transformer(_crs_key(src), "EPSG:4326")
+    lon, lat = to.transform(np.asarray(x, dtype=float), np.asarray(y, dtype=float))
+    lon, lat = np.asarray(lon, dtype=float), np.asarray(lat, dtype=float)
+    failed = ~(np.isfinite(lon) & np.isfinite(lat))
+    if failed.any():
+        raise InvalidInputError(
+            f"could not move {_positions(failed, labels)} to longitude/latitude "
+            "(EPSG:4326)"
+        )
+    return lon, lat
+
+
+def is_sphere(crs: Any) -> bool:
+    """Whether a ``crs=`` option is ``"sphere"`` (computed on the sphere)."""
+    return isinstance(crs, str) and crs.strip().lower() == "sphere"
+
+
 class Projection:
     """The whole CRS round trip of :func:`geoalpha.hull`: input -> metres -> input.
 
@@ -997,16 +1048,7 @@ class Projection:
             self.xy, self._crs_list, self._crs_index = metric_crs(
                 lon, lat, codes, n_groups, crs=crs, source_crs=src, labels=labels
             )
-            # crosses_antimeridian(lon, codes, n_groups), keeping its ranges
-            arcs = _group_arcs(lon, None, codes, n_groups)
-            self.crossing = arcs["crossing"]
-            low, high = arcs["west"], arcs["east"]
-            if self.crossing.any():
-                self.out = coords.copy()
-                self.out[:, 0] = unwrap_lon(lon, codes, self.crossing)
-                low, high = _group_min_max(self.out[:, 0], codes, n_groups)
-            with np.errstate(invalid="ignore"):
-                self.wide = high - low > 180.0
+            self.out, self.crossing, self.wide = output_lonlat(coords, codes, n_groups)
         elif auto and is_mercator(src):
             geodetic = src.geodetic_crs
             to_lonlat = _transformer(_crs_key(src), _crs_key(geodetic))

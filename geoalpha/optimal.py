@@ -13,6 +13,7 @@ from typing import Literal, NamedTuple
 import numpy as np
 import shapely
 
+from geoalpha import crs as gcrs
 from geoalpha import kernel, search, shapes
 from geoalpha.budget import outlier_budget
 from geoalpha.errors import (
@@ -24,6 +25,12 @@ from geoalpha.errors import (
     user_stacklevel,
 )
 from geoalpha.options import check
+from geoalpha.sphere import (
+    REFUSED,
+    close_around_poles,
+    polar_groups,
+    refused_message,
+)
 
 __all__ = ["AlphaShapes", "alpha_shape", "alpha_shapes", "optimal_alpha"]
 
@@ -143,6 +150,8 @@ def alpha_shapes(
     n_jobs: int | None = None,
     outliers: float = 0,
     name_groups=None,
+    sphere: bool = False,
+    polar=None,
 ) -> AlphaShapes:
     """Optimal alpha shapes of many groups of points in one call.
 
@@ -197,6 +206,19 @@ def alpha_shapes(
         Turns an array of group codes into the text that names those groups
         in a warning (:func:`geoalpha.hull` names them by key); default: the
         codes.
+    sphere : bool, default False
+        ``points`` are longitudes and latitudes in degrees (EPSG:4326) and
+        every group is computed on the sphere (``crs="sphere"`` of
+        :func:`geoalpha.hull`; see :mod:`geoalpha.sphere`): alpha in 1/metre,
+        areas in square metres on the sphere. A group with a point farther
+        than :data:`geoalpha.sphere.MAX_SPHERE_DEGREES` from its centre is an
+        error naming it.
+    polar : array_like of bool, shape (n_groups,), optional
+        With ``sphere``: the groups whose spherical hull holds a pole, whose
+        polygons are closed along the pole in longitude/latitude
+        (:func:`geoalpha.sphere.close_around_poles`). Default: found from
+        ``points`` when ``coords`` is not given (the polygons are then in
+        longitude/latitude), none otherwise.
 
     Returns
     -------
@@ -251,8 +273,14 @@ def alpha_shapes(
         n_groups=n_groups,
         progress=progress,
         n_jobs=n_jobs,
+        sphere=bool(sphere),
+        polar=polar,
         **checked,
     )
+    if sphere and (res.reason == REFUSED).any():
+        which = np.flatnonzero(res.reason == REFUSED)
+        names = f"codes {first_n(which)}" if name_groups is None else name_groups(which)
+        raise InvalidInputError(refused_message(names, len(which)))
     if res.gave_up.any():
         which = np.flatnonzero(res.gave_up)
         names = f"codes {first_n(which)}" if name_groups is None else name_groups(which)
@@ -322,6 +350,8 @@ def _compute(
     progress,
     n_jobs,
     outliers,
+    sphere=False,
+    polar=None,
 ) -> AlphaShapes:
     """:func:`alpha_shapes` on checked options: one kernel call, then the guarantee."""
     try:
@@ -332,7 +362,9 @@ def _compute(
         raise InvalidInputError(str(err)) from err
     rows = np.bincount(codes, minlength=n_groups)
     given = None if alpha is None else _given_alpha(alpha, n_groups)
-    options = dict(holes=holes, components=components, n_jobs=n_jobs, out=out_xy)
+    options = dict(
+        holes=holes, components=components, n_jobs=n_jobs, out=out_xy, sphere=sphere
+    )
     gave_up = np.zeros(n_groups, dtype=bool)
     if given is None and search != "exact":
         found = kernel.solve(xy, codes, n_groups, curve=True, **options)
@@ -343,6 +375,29 @@ def _compute(
     res = kernel.solve(
         xy, codes, n_groups, alpha=given, budget=budget, progress=progress, **options
     )
+    if sphere:
+        if polar is None and out_xy is None:
+            polar = np.zeros(n_groups, dtype=bool)
+            maybe = np.flatnonzero(_lon_span(xy[:, 0], codes, n_groups) > 180.0)
+            polar[maybe] = polar_groups(xy, codes, maybe)
+        if polar is not None and np.any(polar):
+            geometry = res.geometry.copy()
+            which = np.flatnonzero(polar)
+            sout = np.take(xy if out_xy is None else out_xy, res.order, axis=0)
+            geometry[which] = gcrs.restore_longitudes(
+                close_around_poles(geometry[which]),
+                which,
+                sout[:, 0],
+                sout[:, 1],
+                res.codes,
+            )
+            # Their vertices moved (cut at +-180, shifted): test every point.
+            res = res._replace(
+                geometry=geometry, on_ring=res.on_ring & ~np.asarray(polar)[res.codes]
+            )
+        # The polygons are built in longitude/latitude, whose straight edges
+        # are not the sphere's: every point that is not a vertex is tested.
+        out_xy = xy if out_xy is None else out_xy
     return _guarantee(res, xy, out_xy, rows, given, alpha is None, components, gave_up)
 
 
@@ -411,6 +466,16 @@ def _guarantee(res, xy, out_xy, rows, given, optimum, components, gave_up):
         capped=res.capped & ~degenerate,
         reason=np.where(failed & (res.reason == 0), 5, res.reason).astype(np.int64),
     )
+
+
+def _lon_span(lon, codes, n_groups) -> np.ndarray:
+    """Largest minus smallest longitude of each group (NaN for empty groups)."""
+    low = np.full(n_groups, np.inf)
+    high = np.full(n_groups, -np.inf)
+    np.minimum.at(low, codes, lon)
+    np.maximum.at(high, codes, lon)
+    with np.errstate(invalid="ignore"):
+        return high - low
 
 
 def _output_coordinates(points, coords):

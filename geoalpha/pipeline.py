@@ -78,6 +78,7 @@ from geoalpha.shapes import (
     left_outside,
     repair_invalid,
 )
+from geoalpha.sphere import SphereProjection
 
 __all__ = [
     "PROGRESS_MIN_GROUPS",
@@ -573,7 +574,19 @@ def read_points(
 
 
 def project(points: Points, source, options: Options) -> gcrs.Projection:
-    """Project the points to metres, with the way back (:class:`~.crs.Projection`)."""
+    """Project the points to metres, with the way back (:class:`~.crs.Projection`).
+
+    ``crs="sphere"``: :class:`~.sphere.SphereProjection` (longitudes and
+    latitudes for the kernel, metres made only if another stage needs them).
+    """
+    if gcrs.is_sphere(options.crs):
+        return SphereProjection(
+            points.coords,
+            points.codes,
+            len(points.n_points),
+            source,
+            labels=points.labels,
+        )
     return gcrs.Projection(
         points.coords,
         points.codes,
@@ -610,8 +623,9 @@ def compute(
         bar = None  # nobody to tell: one batch, not one per PROGRESS_GROUPS groups
     try:
         if method in ("alpha", "convex"):
+            sphere = getattr(proj, "sphere", False)
             res = alpha_shapes(
-                proj.xy,
+                proj.lonlat if sphere else proj.xy,
                 points.codes,
                 alpha=0.0 if method == "convex" else options.alpha,
                 holes=options.holes,
@@ -620,15 +634,17 @@ def compute(
                 max_iterations=options.max_iterations,
                 # None: the computation coordinates are the output ones
                 # (projected input used as it is), nothing to map or recheck
-                coords=None if proj.out is proj.xy else proj.out,
+                coords=proj.out if sphere or proj.out is not proj.xy else None,
                 n_groups=n_groups,
                 progress=bar,
                 n_jobs=options.n_jobs,
                 outliers=options.outliers,
                 name_groups=names,
+                sphere=sphere,
+                polar=getattr(proj, "polar", None),
             )
             geometry = res.geometry
-            if method == "convex":
+            if method == "convex" and not sphere:  # (the sphere's is the kernel's)
                 convex = convex_hulls(proj.out, points.codes, n_groups)
                 geometry = np.where(res.degenerate, geometry, convex)
             # "ladder"/"bisect" name the search that gave the alpha

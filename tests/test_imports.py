@@ -31,7 +31,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("comparison",),
     ("optimal",),
     ("options",),
-    ("io", "shapes", "search", "knn", "checks"),
+    ("io", "shapes", "search", "knn", "checks", "sphere"),
     ("postgis",),
     (
         "crs",

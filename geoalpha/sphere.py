@@ -1,0 +1,239 @@
+"""``crs="sphere"``: alpha shapes computed on the sphere, with no projection.
+
+The compiled kernel does the geometry (``src/sphere.rs``: the spherical
+Delaunay triangulation of each group's unit vectors, radii as geodesic radii
+of circumscribed small circles on the sphere of WGS84's authalic radius,
+:data:`EARTH_RADIUS`). This module is the frame path's side of it:
+:class:`SphereProjection` gives the kernel longitudes and latitudes in
+EPSG:4326 and keeps the input coordinates to build the polygons from, and
+:func:`refused_groups` words the groups the kernel refuses (a point farther
+than :data:`MAX_SPHERE_DEGREES` from the group's centre).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import shapely
+
+from geoalpha import _kernel
+from geoalpha import crs as gcrs
+from geoalpha.errors import InvalidInputError
+
+__all__ = [
+    "EARTH_RADIUS",
+    "MAX_SPHERE_DEGREES",
+    "REFUSED",
+    "SphereProjection",
+    "close_around_poles",
+    "polar_groups",
+    "refused_message",
+]
+
+#: Radius of the sphere (metres): the authalic radius of WGS84, the sphere
+#: with the ellipsoid's area.
+EARTH_RADIUS: float = _kernel.EARTH_RADIUS
+#: Largest angle (degrees) from a group's centre to one of its points.
+MAX_SPHERE_DEGREES: float = _kernel.MAX_SPHERE_DEGREES
+#: The kernel's reason code of a group it refuses on the sphere.
+REFUSED = 6
+_WGS84 = gcrs.parse_crs("EPSG:4326")
+
+
+def refused_message(names: str, count: int) -> str:
+    """Word the error of groups too wide for the sphere's kernel, naming them."""
+    return (
+        f"crs='sphere' handles groups whose points all lie within "
+        f"{MAX_SPHERE_DEGREES:g} degrees of their centre (well inside a "
+        f"hemisphere); {count} group(s) do not: {names}. Split them (by= with a "
+        "finer key) or compute them with crs='auto'"
+    )
+
+
+class SphereProjection(gcrs.Projection):
+    """The CRS round trip of ``crs="sphere"``.
+
+    :attr:`lonlat` holds the longitudes and latitudes (EPSG:4326, degrees)
+    the kernel computes in; :attr:`out` the input coordinates the polygons
+    are built from (longitudes of antimeridian-crossing groups unwrapped, as
+    with ``crs="auto"``). The stages that need metres for other things than
+    the alpha shape (buffers of degenerate groups, ``grow=``, the comparison
+    methods) get them from :attr:`xy`, the ``crs="auto"`` projection, made on
+    first use.
+
+    Parameters
+    ----------
+    coords, codes, n_groups, source, labels
+        As for :class:`geoalpha.crs.Projection`.
+
+    Raises
+    ------
+    InvalidInputError
+        Input without a CRS, coordinates out of range, or points that cannot
+        be moved to longitude/latitude.
+    """
+
+    sphere = True
+
+    def __init__(
+        self,
+        coords: np.ndarray,
+        codes: np.ndarray,
+        n_groups: int,
+        source: Any,
+        labels: Any = None,
+    ) -> None:
+        src = gcrs.parse_crs(source)
+        if src is None:
+            raise InvalidInputError(
+                "the input has no CRS, so its points cannot be put on the sphere; "
+                "set it with gdf.set_crs(...)"
+            )
+        self.source = src
+        self._args = (coords, codes, n_groups, source, labels)
+        self._auto: gcrs.Projection | None = None
+        self.unit = "m"
+        self.names = np.full(n_groups, "sphere", dtype=object)
+        self.out = coords
+        self.crossing = np.zeros(n_groups, dtype=bool)
+        self.wide = np.zeros(n_groups, dtype=bool)
+        self.polar = np.zeros(n_groups, dtype=bool)
+        if src.is_geographic:
+            lon, lat = coords[:, 0], coords[:, 1]
+            gcrs.check_lonlat(lon, lat, labels)
+            self.out, self.crossing, self.wide = gcrs.output_lonlat(
+                coords, codes, n_groups
+            )
+            # Groups around a pole: polygons closed along it (close_around_poles),
+            # from the input longitudes as they are.
+            maybe = np.flatnonzero(self.crossing | self.wide)
+            self.polar = np.zeros(n_groups, dtype=bool)
+            if len(maybe):
+                self.polar[maybe] = polar_groups(coords, codes, maybe)
+            if self.polar.any():
+                mine = self.polar[codes]
+                if self.out is not coords:
+                    self.out = self.out.copy()
+                    self.out[mine] = coords[mine]
+                self.crossing &= ~self.polar
+                self.wide &= ~self.polar
+            if src != _WGS84:
+                lon, lat = gcrs.to_wgs84(src, lon, lat, labels)
+        else:
+            lon, lat = gcrs.to_wgs84(src, coords[:, 0], coords[:, 1], labels)
+        self.lonlat = np.ascontiguousarray(np.column_stack([lon, lat]), dtype=float)
+
+    def _metric(self) -> gcrs.Projection:
+        if self._auto is None:
+            coords, codes, n_groups, source, labels = self._args
+            self._auto = gcrs.Projection(
+                coords, codes, n_groups, source, "auto", labels
+            )
+        return self._auto
+
+    @property
+    def xy(self) -> np.ndarray:  # type: ignore[override]
+        """Metres (``crs="auto"``'s projection), for stages other than the shape."""
+        return self._metric().xy
+
+    @property
+    def _crs_list(self):  # the way back of :attr:`xy`
+        return self._metric()._crs_list
+
+    @property
+    def _crs_index(self):
+        return self._metric()._crs_index
+
+
+def polar_groups(
+    lonlat: np.ndarray, codes: np.ndarray, which: np.ndarray
+) -> np.ndarray:
+    """Of the groups ``which``, those whose spherical convex hull holds a pole.
+
+    The pole is in the hull when its gnomonic image (from the group's centre,
+    the normalised mean of its unit vectors) is in the convex hull of the
+    points' images: the gnomonic projection maps great circles to lines.
+    """
+    lon, lat = np.radians(lonlat[:, 0]), np.radians(lonlat[:, 1])
+    unit = np.column_stack(
+        [np.cos(lat) * np.cos(lon), np.cos(lat) * np.sin(lon), np.sin(lat)]
+    )
+    out = np.zeros(len(which), dtype=bool)
+    for k, g in enumerate(which):
+        u = unit[codes == g]
+        c = u.sum(axis=0)
+        if not np.linalg.norm(c) > 0:
+            continue
+        c /= np.linalg.norm(c)
+        axis = np.array([0.0, 0.0, 1.0]) if abs(c[2]) < 0.9 else np.array([1.0, 0, 0])
+        e1 = np.cross(axis, c)
+        e1 /= np.linalg.norm(e1)
+        e2 = np.cross(c, e1)
+        z = u @ c
+        if (z <= 0).any():
+            continue
+        hull = shapely.MultiPoint(np.column_stack([u @ e1 / z, u @ e2 / z]))
+        for pole in (1.0, -1.0):
+            if pole * c[2] > 0:
+                zp = pole * c[2]
+                image = shapely.Point(pole * e1[2] / zp, pole * e2[2] / zp)
+                out[k] |= bool(shapely.covers(hull.convex_hull, image))
+    return out
+
+
+def close_around_poles(geometry: np.ndarray) -> np.ndarray:
+    """Longitude/latitude polygons of shapes whose shell winds around a pole.
+
+    A shell built from the kernel's ring of a shape that holds a pole goes
+    once around in longitude, which no longitude/latitude polygon can hold.
+    Such a shell is unwrapped (consecutive longitudes less than 180 degrees
+    apart), closed along the pole's latitude (+-90), cut at +-180 degrees and
+    put back in [-180, 180]: one valid polygon from -180 to 180 degrees that
+    holds the pole. Other geometries are returned as they are.
+    """
+    out = geometry.copy()
+    bounds = shapely.bounds(geometry)
+    with np.errstate(invalid="ignore"):
+        candidates = np.flatnonzero(bounds[:, 2] - bounds[:, 0] > 180.0)
+    for g in candidates:
+        parts = shapely.get_parts(geometry[g])
+        new = [_close_one(p) for p in parts]
+        if any(n is not p for n, p in zip(new, parts, strict=True)):
+            merged = shapely.union_all(new)
+            out[g] = merged if merged.is_valid else shapely.make_valid(merged)
+    return out
+
+
+def _close_one(polygon):
+    ring = np.asarray(polygon.exterior.coords)
+    dlon = np.diff(ring[:, 0])
+    dlon = (dlon + 180.0) % 360.0 - 180.0
+    total = dlon.sum()
+    if abs(total) < 180.0:
+        return polygon
+    # whole turns added to each vertex's own longitude (not summed steps: exact)
+    steps = ring[0, 0] + np.concatenate([[0.0], np.cumsum(dlon)])
+    turns = np.round((steps - ring[:, 0]) / 360.0)
+    lon = ring[:, 0] + 360.0 * turns
+    pole = 90.0 if total > 0 else -90.0
+    shell = np.vstack(
+        [np.column_stack([lon, ring[:, 1]]), [[lon[-1], pole], [lon[0], pole]]]
+    )
+    whole = shapely.Polygon(shell, [np.asarray(h.coords) for h in polygon.interiors])
+    if not whole.is_valid:
+        whole = shapely.make_valid(whole)
+    pieces = []
+    for k in range(-2, 3):
+        box = shapely.box(-180.0 + 360.0 * k, -90.0, 180.0 + 360.0 * k, 90.0)
+        piece = shapely.intersection(whole, box)
+        if not piece.is_empty:
+            pieces.append(shapely.transform(piece, lambda c, k=k: _seam(c, k, lon[0])))
+    return shapely.union_all(pieces)
+
+
+def _seam(coords: np.ndarray, k: int, seam: float) -> np.ndarray:
+    """Shift by ``k`` turns west; put the closing meridian exactly on ``seam``."""
+    coords = coords - (360.0 * k, 0.0)
+    coords[np.abs(coords[:, 0] - seam) <= 1e-9, 0] = seam
+    return coords
