@@ -28,6 +28,7 @@ from geoalpha.options import check
 from geoalpha.sphere import (
     REFUSED,
     close_around_poles,
+    follow_arcs,
     polar_groups,
     refused_message,
 )
@@ -212,7 +213,9 @@ def alpha_shapes(
         :func:`geoalpha.hull`; see :mod:`geoalpha.sphere`): alpha in 1/metre,
         areas in square metres on the sphere. A group with a point farther
         than :data:`geoalpha.sphere.MAX_SPHERE_DEGREES` from its centre is an
-        error naming it.
+        error naming it. Without ``coords`` the polygons are in longitude and
+        latitude, with the longitudes of groups across +-180 degrees
+        unwrapped (beyond 180) and groups around a pole closed along it.
     polar : array_like of bool, shape (n_groups,), optional
         With ``sphere``: the groups whose spherical hull holds a pole, whose
         polygons are closed along the pole in longitude/latitude
@@ -362,6 +365,8 @@ def _compute(
         raise InvalidInputError(str(err)) from err
     rows = np.bincount(codes, minlength=n_groups)
     given = None if alpha is None else _given_alpha(alpha, n_groups)
+    if sphere and out_xy is None:
+        out_xy, polar = _sphere_output(xy, codes, n_groups)
     options = dict(
         holes=holes, components=components, n_jobs=n_jobs, out=out_xy, sphere=sphere
     )
@@ -376,28 +381,33 @@ def _compute(
         xy, codes, n_groups, alpha=given, budget=budget, progress=progress, **options
     )
     if sphere:
-        if polar is None and out_xy is None:
-            polar = np.zeros(n_groups, dtype=bool)
-            maybe = np.flatnonzero(_lon_span(xy[:, 0], codes, n_groups) > 180.0)
-            polar[maybe] = polar_groups(xy, codes, maybe)
-        if polar is not None and np.any(polar):
+        # Long edges of a shape concave on the sphere can fold in lon/lat.
+        folded = (res.reason == 0) & ~shapely.is_valid(res.geometry)
+        if polar is not None:
+            folded &= ~np.asarray(polar)
+        if folded.any():
+            which = np.flatnonzero(folded)
             geometry = res.geometry.copy()
-            which = np.flatnonzero(polar)
-            sout = np.take(xy if out_xy is None else out_xy, res.order, axis=0)
-            geometry[which] = gcrs.restore_longitudes(
-                close_around_poles(geometry[which]),
-                which,
-                sout[:, 0],
-                sout[:, 1],
-                res.codes,
-            )
-            # Their vertices moved (cut at +-180, shifted): test every point.
-            res = res._replace(
-                geometry=geometry, on_ring=res.on_ring & ~np.asarray(polar)[res.codes]
-            )
-        # The polygons are built in longitude/latitude, whose straight edges
-        # are not the sphere's: every point that is not a vertex is tested.
-        out_xy = xy if out_xy is None else out_xy
+            geometry[which] = follow_arcs(geometry[which])
+            res = res._replace(geometry=geometry)
+    if sphere and np.any(polar):
+        geometry = res.geometry.copy()
+        which = np.flatnonzero(polar)
+        sout = np.take(out_xy, res.order, axis=0)
+        geometry[which] = gcrs.restore_longitudes(
+            close_around_poles(geometry[which]),
+            which,
+            sout[:, 0],
+            sout[:, 1],
+            res.codes,
+        )
+        # Their vertices moved (cut at +-180, shifted): test every point.
+        res = res._replace(
+            geometry=geometry, on_ring=res.on_ring & ~np.asarray(polar)[res.codes]
+        )
+    if sphere and np.any(polar):
+        # Cut at +-180 degrees, a piece may be several polygons (as across it).
+        components = np.where(polar, np.inf, components)
     return _guarantee(res, xy, out_xy, rows, given, alpha is None, components, gave_up)
 
 
@@ -468,14 +478,23 @@ def _guarantee(res, xy, out_xy, rows, given, optimum, components, gave_up):
     )
 
 
-def _lon_span(lon, codes, n_groups) -> np.ndarray:
-    """Largest minus smallest longitude of each group (NaN for empty groups)."""
-    low = np.full(n_groups, np.inf)
-    high = np.full(n_groups, -np.inf)
-    np.minimum.at(low, codes, lon)
-    np.maximum.at(high, codes, lon)
-    with np.errstate(invalid="ignore"):
-        return high - low
+def _sphere_output(lonlat, codes, n_groups):
+    """Output coordinates of ``sphere=True`` without ``coords``, and the polar groups.
+
+    Longitude/latitude polygons, built (and their points tested, since their
+    straight edges are not the sphere's) in these coordinates: longitudes
+    unwrapped for groups across +-180 degrees, as given for groups around a
+    pole (closed along it, :func:`geoalpha.sphere.close_around_poles`).
+    """
+    out, crossing, wide = gcrs.output_lonlat(lonlat, codes, n_groups)
+    maybe = np.flatnonzero(crossing | wide)
+    polar = np.zeros(n_groups, dtype=bool)
+    if len(maybe):
+        polar[maybe] = polar_groups(lonlat, codes, maybe)
+    if polar.any():
+        out = out.copy()
+        out[polar[codes]] = lonlat[polar[codes]]
+    return out, polar
 
 
 def _output_coordinates(points, coords):

@@ -865,8 +865,14 @@ def _thin(which, points: Points, proj: gcrs.Projection) -> np.ndarray:
     """
     sel = np.flatnonzero(np.isin(points.codes, which))
     code = np.searchsorted(which, points.codes[sel])
+    sphere = getattr(proj, "sphere", False)
     res = kernel.solve(
-        proj.xy[sel], code, len(which), out=proj.out[sel], alpha=np.zeros(len(which))
+        (proj.lonlat if sphere else proj.xy)[sel],
+        code,
+        len(which),
+        out=proj.out[sel],
+        alpha=np.zeros(len(which)),
+        sphere=sphere,
     )
     return np.isin(res.reason, (1, 2, 3))
 

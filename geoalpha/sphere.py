@@ -27,6 +27,7 @@ __all__ = [
     "REFUSED",
     "SphereProjection",
     "close_around_poles",
+    "follow_arcs",
     "polar_groups",
     "refused_message",
 ]
@@ -183,52 +184,121 @@ def polar_groups(
 
 
 def close_around_poles(geometry: np.ndarray) -> np.ndarray:
-    """Longitude/latitude polygons of shapes whose shell winds around a pole.
+    """Longitude/latitude polygons of the shapes of groups around a pole.
 
-    A shell built from the kernel's ring of a shape that holds a pole goes
-    once around in longitude, which no longitude/latitude polygon can hold.
-    Such a shell is unwrapped (consecutive longitudes less than 180 degrees
-    apart), closed along the pole's latitude (+-90), cut at +-180 degrees and
-    put back in [-180, 180]: one valid polygon from -180 to 180 degrees that
-    holds the pole. Other geometries are returned as they are.
+    Every ring is densified along its great-circle arcs (near a pole a
+    straight edge in longitude/latitude is far from the arc on the sphere)
+    and unwrapped (consecutive longitudes less than 180 degrees apart); a
+    shell that goes once around in longitude, which no longitude/latitude
+    polygon can hold, is closed along the pole's latitude (+-90); each piece
+    is cut at +-180 degrees and put back in [-180, 180]. The result is valid
+    (repaired with ``make_valid`` otherwise); the points it misses are for
+    the guarantee's check (:func:`geoalpha.shapes.enforce`) to take in.
     """
     out = geometry.copy()
-    bounds = shapely.bounds(geometry)
-    with np.errstate(invalid="ignore"):
-        candidates = np.flatnonzero(bounds[:, 2] - bounds[:, 0] > 180.0)
-    for g in candidates:
-        parts = shapely.get_parts(geometry[g])
-        new = [_close_one(p) for p in parts]
-        if any(n is not p for n, p in zip(new, parts, strict=True)):
-            merged = shapely.union_all(new)
-            out[g] = merged if merged.is_valid else shapely.make_valid(merged)
+    for g, geom in enumerate(geometry):
+        if geom is None or geom.is_empty:
+            continue
+        merged = shapely.union_all([_close_one(p) for p in shapely.get_parts(geom)])
+        out[g] = merged if merged.is_valid else shapely.make_valid(merged)
     return out
 
 
-def _close_one(polygon):
-    ring = np.asarray(polygon.exterior.coords)
+def follow_arcs(geometry: np.ndarray) -> np.ndarray:
+    """Polygons whose edges follow the sphere's great-circle arcs.
+
+    For shapes whose longitude/latitude polygon (straight edges between the
+    input points) is invalid: an edge thousands of kilometres long is far
+    from its arc, and a shape concave on the sphere can fold over itself.
+    Each edge gets points along its arc (:func:`_densify`); longitudes stay
+    as they are (unwrapped across +-180 degrees where they were).
+    """
+    out = geometry.copy()
+    for g, geom in enumerate(geometry):
+        if geom is None or geom.is_empty:
+            continue
+        parts = [
+            shapely.Polygon(
+                _densify(np.asarray(p.exterior.coords), keep=True),
+                [_densify(np.asarray(h.coords), keep=True) for h in p.interiors],
+            )
+            for p in shapely.get_parts(geom)
+        ]
+        merged = shapely.union_all(parts)
+        out[g] = merged if merged.is_valid else shapely.make_valid(merged)
+    return out
+
+
+def _densify(ring: np.ndarray, step: float = 0.25, keep: bool = False) -> np.ndarray:
+    """Points along the great-circle arcs between a ring's vertices.
+
+    Near a pole a straight edge in longitude/latitude is far from the arc on
+    the sphere; the arcs are cut into pieces of at most ``step`` degrees of
+    longitude and of arc, so that the polygon follows the sphere's shape.
+    The vertices are kept as they are; with ``keep``, the new points'
+    longitudes are unwrapped to follow their edge's (beyond 180 where it is).
+    """
+    lon, lat = np.radians(ring[:, 0]), np.radians(ring[:, 1])
+    u = np.column_stack(
+        [np.cos(lat) * np.cos(lon), np.cos(lat) * np.sin(lon), np.sin(lat)]
+    )
+    out = [ring[:1]]
+    for k in range(len(ring) - 1):
+        a, b = u[k], u[k + 1]
+        arc = np.degrees(np.arctan2(np.linalg.norm(np.cross(a, b)), a @ b))
+        dlon = abs((ring[k + 1, 0] - ring[k, 0] + 180.0) % 360.0 - 180.0)
+        pieces = int(np.ceil(max(arc, dlon) / step))
+        if pieces > 1:
+            t = np.linspace(0.0, 1.0, pieces + 1)[1:-1, None]
+            w = (1 - t) * a + t * b  # on the chord, then onto the sphere
+            w /= np.linalg.norm(w, axis=1)[:, None]
+            inner = np.column_stack(
+                [
+                    np.degrees(np.arctan2(w[:, 1], w[:, 0])),
+                    np.degrees(np.arcsin(w[:, 2])),
+                ]
+            )
+            if keep:
+                near = ring[k, 0] + (inner[:, 0] - ring[k, 0] + 180.0) % 360.0 - 180.0
+                inner[:, 0] = near
+            out.append(inner)
+        out.append(ring[k + 1 : k + 2])
+    return np.vstack(out)
+
+
+def _unwrap(ring: np.ndarray) -> tuple[np.ndarray, float]:
+    """Make a ring's longitudes continuous, by whole turns (exact).
+
+    Returns the ring and its net turn in degrees (+-360 around a pole).
+    """
     dlon = np.diff(ring[:, 0])
     dlon = (dlon + 180.0) % 360.0 - 180.0
-    total = dlon.sum()
-    if abs(total) < 180.0:
-        return polygon
-    # whole turns added to each vertex's own longitude (not summed steps: exact)
     steps = ring[0, 0] + np.concatenate([[0.0], np.cumsum(dlon)])
     turns = np.round((steps - ring[:, 0]) / 360.0)
-    lon = ring[:, 0] + 360.0 * turns
-    pole = 90.0 if total > 0 else -90.0
-    shell = np.vstack(
-        [np.column_stack([lon, ring[:, 1]]), [[lon[-1], pole], [lon[0], pole]]]
-    )
-    whole = shapely.Polygon(shell, [np.asarray(h.coords) for h in polygon.interiors])
+    return np.column_stack([ring[:, 0] + 360.0 * turns, ring[:, 1]]), float(dlon.sum())
+
+
+def _close_one(polygon):
+    shell, total = _unwrap(_densify(np.asarray(polygon.exterior.coords)))
+    if abs(total) >= 180.0:
+        pole = 90.0 if total > 0 else -90.0
+        shell = np.vstack([shell, [[shell[-1, 0], pole], [shell[0, 0], pole]]])
+    west = shell[:, 0].min()
+    holes = []
+    for hole in polygon.interiors:
+        h, _ = _unwrap(_densify(np.asarray(hole.coords)))
+        h[:, 0] -= 360.0 * np.floor((h[0, 0] - west) / 360.0)
+        holes.append(h)
+    whole = shapely.Polygon(shell, holes)
     if not whole.is_valid:
         whole = shapely.make_valid(whole)
+    seam = shell[0, 0]
     pieces = []
     for k in range(-2, 3):
         box = shapely.box(-180.0 + 360.0 * k, -90.0, 180.0 + 360.0 * k, 90.0)
         piece = shapely.intersection(whole, box)
         if not piece.is_empty:
-            pieces.append(shapely.transform(piece, lambda c, k=k: _seam(c, k, lon[0])))
+            pieces.append(shapely.transform(piece, lambda c, k=k: _seam(c, k, seam)))
     return shapely.union_all(pieces)
 
 
