@@ -786,15 +786,17 @@ def degenerate_policy(
         sel = sel[np.argsort(codes[sel], kind="stable")]
         present = np.unique(codes[sel])  # groups with points left
         buffered = np.full(len(which), EMPTY_POLYGON, dtype=object)
+        if getattr(proj, "sphere", False):  # metres for these groups only
+            xy, to_output = proj.metric_of(sel, which)
+        else:
+            xy, to_output = proj.xy[sel], partial(proj.to_output, groups=which)
         if len(present):
-            mp = shapely.multipoints(
-                proj.xy[sel], indices=np.searchsorted(present, codes[sel])
-            )
+            mp = shapely.multipoints(xy, indices=np.searchsorted(present, codes[sel]))
             buffered[np.searchsorted(which, present)] = shapely.buffer(
                 shapely.convex_hull(mp), options.buffer
             )
         area[which] = shapely.area(buffered)
-        geometry[which] = proj.to_output(buffered, which)
+        geometry[which] = to_output(buffered)
         done = (
             f"their rows hold a {options.buffer:g} {proj.unit} buffer around their "
             "points"

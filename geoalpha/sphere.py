@@ -133,6 +133,26 @@ class SphereProjection(gcrs.Projection):
             )
         return self._auto
 
+    def metric_of(self, sel: np.ndarray, which: np.ndarray):
+        """Metres for the points ``sel`` of the groups ``which`` only.
+
+        Returns their coordinates in ``crs="auto"``'s CRS for those groups
+        alone, and the function that moves geometries of ``which`` (in that
+        order) back to the input CRS: the degenerate groups' buffers need no
+        projection of the whole input.
+        """
+        coords, codes, _, source, labels = self._args
+        local = gcrs.Projection(
+            coords[sel],
+            np.searchsorted(which, codes[sel]),
+            len(which),
+            source,
+            "auto",
+            None if labels is None else labels[sel],
+        )
+        groups = np.arange(len(which))
+        return local.xy, lambda geoms: local.to_output(geoms, groups)
+
     @property
     def xy(self) -> np.ndarray:  # type: ignore[override]
         """Metres (``crs="auto"``'s projection), for stages other than the shape."""
