@@ -290,3 +290,18 @@ def test_the_option_takes_sphere_in_any_case():
     from geoalpha.options import Options
 
     assert Options.from_kwargs({"crs": " Sphere"}).crs == "sphere"
+
+
+def test_caps_up_to_the_limit_match_the_brute_force():
+    # 14,000 km across (63 degrees from the cap centre; the limit is 80):
+    # the boundary triangles the stereographic plane misses matter here.
+    rng = np.random.default_rng(8)
+    for trial in range(20):
+        pts = cap(rng, rng.uniform(-180, 180), rng.uniform(-60, 60), 14_000.0, 40)
+        res = geoalpha.alpha_shapes(pts, holes=bool(trial % 2), sphere=True, n_jobs=1)
+        assert res.alpha[0] == pytest.approx(
+            reference_alpha(pts, bool(trial % 2)), rel=1e-7
+        )
+        hull = geoalpha.alpha_shapes(pts, alpha=0.0, sphere=True, n_jobs=1)
+        *_, area = spherical_delaunay(pts)
+        assert hull.area[0] == pytest.approx(area, rel=1e-9)
