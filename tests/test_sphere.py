@@ -305,3 +305,17 @@ def test_caps_up_to_the_limit_match_the_brute_force():
         hull = geoalpha.alpha_shapes(pts, alpha=0.0, sphere=True, n_jobs=1)
         *_, area = spherical_delaunay(pts)
         assert hull.area[0] == pytest.approx(area, rel=1e-9)
+
+
+def test_dask_partitions_give_the_same_hulls():
+    dg = pytest.importorskip("dask_geopandas")
+    air = datasets.load("us_airports").dropna(subset=["state"])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        eager = geoalpha.hull(air, by="state", crs="sphere").set_index("state")
+        lazy = geoalpha.hull(
+            dg.from_geopandas(air, npartitions=3), by="state", crs="sphere"
+        )
+        lazy = lazy.compute().set_index("state")
+    assert (lazy["crs_used"] == "sphere").all()
+    assert lazy["radius"].reindex(eager.index).equals(eager["radius"])
