@@ -78,7 +78,7 @@ from geoalpha.shapes import (
     left_outside,
     repair_invalid,
 )
-from geoalpha.sphere import SphereProjection
+from geoalpha.sphere import SphereProjection, geodesic_areas
 
 __all__ = [
     "PROGRESS_MIN_GROUPS",
@@ -652,7 +652,8 @@ def compute(
             label = method if exact else options.search
             return Shapes(
                 geometry=geometry,
-                area=res.area,
+                # the sphere's shapes: their area on the WGS84 ellipsoid
+                area=geodesic_areas(geometry, proj.source) if sphere else res.area,
                 alpha=res.alpha,
                 labels=np.full(n_groups, label, dtype=object),
                 degenerate=res.degenerate,

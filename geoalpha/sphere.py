@@ -15,6 +15,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+import pyproj
 import shapely
 
 from geoalpha import _kernel
@@ -28,6 +29,7 @@ __all__ = [
     "SphereProjection",
     "close_around_poles",
     "follow_arcs",
+    "geodesic_areas",
     "polar_groups",
     "refused_message",
 ]
@@ -327,3 +329,31 @@ def _seam(coords: np.ndarray, k: int, seam: float) -> np.ndarray:
     coords = coords - (360.0 * k, 0.0)
     coords[np.abs(coords[:, 0] - seam) <= 1e-9, 0] = seam
     return coords
+
+
+def geodesic_areas(geometry: np.ndarray, source: Any) -> np.ndarray:
+    """Areas (m²) on the WGS84 ellipsoid of polygons in ``source``.
+
+    Each ring's edges are taken as geodesics (pyproj's ``Geod``, after
+    GeographicLib), which the sphere's shapes have for edges; polygons in a
+    projected ``source`` are moved to longitude/latitude first. Empty
+    geometries get 0.
+    """
+    geod = pyproj.Geod(ellps="WGS84")
+    src = gcrs.parse_crs(source)
+    if src is not None and not src.is_geographic:
+        geometry = shapely.transform(
+            geometry, lambda c: np.column_stack(gcrs.to_wgs84(src, c[:, 0], c[:, 1]))
+        )
+    polygons, group = shapely.get_parts(geometry, return_index=True)
+    rings, polygon = shapely.get_rings(polygons, return_index=True)
+    # a polygon's shell first, then its holes
+    shell = np.r_[True, polygon[1:] != polygon[:-1]] if len(rings) else rings
+    coords, ring = shapely.get_coordinates(rings, return_index=True)
+    cuts = np.searchsorted(ring, np.arange(len(rings) + 1))
+    out = np.zeros(len(geometry))
+    for k in range(len(rings)):
+        xy = coords[cuts[k] : cuts[k + 1]]
+        area = abs(geod.polygon_area_perimeter(xy[:, 0], xy[:, 1])[0])
+        out[group[polygon[k]]] += area if shell[k] else -area
+    return out
