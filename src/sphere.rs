@@ -275,7 +275,15 @@ pub fn solve(
     mut res: Solved,
 ) -> Solved {
     let Some(local) = local(points) else {
-        res.reason = Reason::Hemisphere as u8;
+        // Fewer than 3 distinct points have no shape wherever they are.
+        let mesh = triangulate(points, &Frame::of(points), false);
+        res.reason = if mesh.n_distinct < 3 {
+            res.rep = mesh.rep;
+            res.n_distinct = mesh.n_distinct as u32;
+            Reason::Few
+        } else {
+            Reason::Hemisphere
+        } as u8;
         return res;
     };
     let n = points.len();
@@ -419,6 +427,21 @@ mod tests {
         assert!((cap_radius(p, q, r, 1.0) - want).abs() < 1e-14);
         let area = triangle_area(l.unit[0], l.unit[1], l.unit[2]);
         assert!((area - std::f64::consts::FRAC_PI_2).abs() < 1e-14);
+    }
+
+    #[test]
+    fn two_points_far_apart_are_too_few_not_refused() {
+        let options = Options {
+            holes: false,
+            components: 1,
+            curve: false,
+            max_union_nodes: crate::spectrum::MAX_UNION_NODES,
+            sphere: true,
+        };
+        let pts = [[0.0, 51.5], [151.2, -33.9], [151.2, -33.9]];
+        let res = crate::group::solve(&pts, None, None, 0, &options);
+        assert_eq!(res.reason, Reason::Few as u8);
+        assert_eq!(res.rep, vec![0, 1, 1]);
     }
 
     #[test]

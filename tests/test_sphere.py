@@ -337,3 +337,14 @@ def test_area_is_on_the_wgs84_ellipsoid():
     assert on_sphere.area[0] / sphere["area_m2"].iloc[0] == pytest.approx(
         0.997, abs=0.001
     )
+
+
+def test_two_points_far_apart_are_a_degenerate_group_not_an_error():
+    # London and Sydney: no centre holds them within the limit, but two
+    # points have no shape anyway.
+    far = np.array([[-0.13, 51.5], [151.2, -33.9]])
+    near = cap(np.random.default_rng(10), 2.0, 45.0, 50.0, 10)
+    gdf = frame(np.vstack([far, near]), np.array(["far"] * 2 + ["near"] * 10))
+    with pytest.warns(DegenerateGroupWarning, match="far"):
+        out = geoalpha.hull(gdf, by="g", crs="sphere")
+    assert out.set_index("g")["alpha"].isna().tolist() == [True, False]
