@@ -25,6 +25,11 @@ ALPHA_RTOL: Final[float]
 MAX_COORDINATE: Final[float]
 #: Branch-and-bound nodes the best union of several pieces may visit.
 MAX_UNION_NODES: Final[int]
+#: The sphere's radius with ``sphere=True`` (metres): WGS84's authalic radius.
+EARTH_RADIUS: Final[float]
+#: With ``sphere=True``, a group with a point farther than this (degrees) from
+#: its centre (the normalised mean of its unit vectors) is refused (reason 6).
+MAX_SPHERE_DEGREES: Final[float]
 
 def alpha_shapes(
     xy: npt.NDArray[np.float64],
@@ -38,6 +43,7 @@ def alpha_shapes(
     curve: bool = False,
     threads: int = 0,
     max_union_nodes: int = ...,
+    sphere: bool = False,
 ) -> dict[str, np.ndarray]:
     """Optimal (or given-alpha) alpha shapes of every group, in one call.
 
@@ -68,12 +74,21 @@ def alpha_shapes(
         Node budget of the exact best union of several pieces (outliers);
         a group that reaches it is flagged ``capped``. Default
         ``MAX_UNION_NODES``.
+    sphere : bool
+        ``xy`` holds longitudes and latitudes in degrees and every group is
+        computed on the sphere of radius ``EARTH_RADIUS``: the spherical
+        Delaunay triangulation (empty circumscribed caps), each triangle's
+        radius the geodesic radius of its circumscribed small circle, radii
+        and areas in metres and square metres (``src/sphere.rs``). Groups
+        beyond ``MAX_SPHERE_DEGREES`` of their centre get reason 6.
 
     Returns
     -------
     dict of ndarray
         Per group (G): ``reason`` (uint8: 0 a shape, 1 fewer than 3 distinct
-        points, 2 collinear, 3 collinear in ``out_xy``, 4 no rings),
+        points, 2 collinear (on a great circle with ``sphere``), 3 collinear in
+        ``out_xy``, 4 no rings, 6 a point beyond ``MAX_SPHERE_DEGREES`` of
+        the group's centre),
         ``alpha``, ``radius``, ``n_distinct``, ``n_parts``, ``area``,
         ``n_outliers`` (rows), ``whole``, ``capped``. Per point (n):
         ``rep`` (index of the point that represents it), ``left_out``.
@@ -86,7 +101,8 @@ def alpha_shapes(
     ------
     ValueError
         On offsets, lengths or options out of range, or a coordinate that is
-        not finite or beyond ``MAX_COORDINATE``.
+        not finite or beyond ``MAX_COORDINATE`` (a latitude beyond 90
+        degrees with ``sphere``).
     RuntimeError
         If the kernel failed unexpectedly (a bug; no panic crosses over).
     """

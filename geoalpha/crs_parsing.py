@@ -16,7 +16,14 @@ from pyproj.exceptions import CRSError
 
 from geoalpha.errors import InvalidInputError
 
-__all__ = ["crs_name", "is_mercator", "parse_crs", "target_crs", "unit_factor"]
+__all__ = [
+    "crs_name",
+    "is_mercator",
+    "is_sphere",
+    "parse_crs",
+    "target_crs",
+    "unit_factor",
+]
 
 
 def parse_crs(crs: Any) -> pyproj.CRS | None:
@@ -182,3 +189,8 @@ def is_mercator(crs: Any) -> bool:
     operation = parsed.coordinate_operation
     method = operation.method_name.lower() if operation is not None else ""
     return "mercator" in method and "transverse" not in method
+
+
+def is_sphere(crs: Any) -> bool:
+    """Whether a ``crs=`` option is ``"sphere"`` (computed on the sphere)."""
+    return isinstance(crs, str) and crs.strip().lower() == "sphere"

@@ -311,6 +311,7 @@ def solve(
     curve: bool = False,
     n_jobs: int | None = None,
     progress=None,
+    sphere: bool = False,
 ) -> Solved:
     """Run the kernel on every group and build the polygons.
 
@@ -337,6 +338,11 @@ def solve(
         Threads (None or -1: every core; see :func:`threads`).
     progress : object with ``update(n)``, optional
         Told how many groups are done, in about 20 steps.
+    sphere : bool
+        ``xy`` holds longitudes and latitudes (degrees, EPSG:4326) and every
+        group is computed on the sphere (``crs="sphere"``; radii and areas in
+        metres and square metres; reason 6: a group the sphere refuses, see
+        :mod:`geoalpha.arrays.sphere`).
 
     Returns
     -------
@@ -373,6 +379,7 @@ def solve(
         curve=bool(curve),
         threads=threads(n_jobs),
         max_union_nodes=MAX_UNION_NODES,
+        sphere=bool(sphere),
     )
     coords = sxy if sout is None else sout
     on_ring = np.zeros(n, dtype=bool)

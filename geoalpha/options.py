@@ -110,7 +110,7 @@ class OptionMeta:
         elif self.kind == "bool":
             text = "True or False"
         elif self.kind == "crs":
-            text = "'auto', a projected CRS or None"
+            text = "'auto', 'sphere', a projected CRS or None"
         else:
             text = "an integer" if self.kind == "int" else "a finite number"
             if self.low is not None:
@@ -171,6 +171,8 @@ def _shown(value):
 def _check_crs(value):
     if isinstance(value, str) and value.strip().lower() in ("auto", "auto-group"):
         return value
+    if isinstance(value, str) and value.strip().lower() == "sphere":
+        return "sphere"
     from geoalpha.crs_parsing import target_crs
 
     target_crs(value)  # raises on anything but a projected CRS
@@ -310,14 +312,18 @@ class Options:
         "    metres in every case, so alpha is always in 1/metre and\n"
         "    ``area_m2`` in square metres. None uses the coordinates as\n"
         "    planar numbers (alpha in 1/degree for lon/lat, as in the seed\n"
-        "    paper).",
+        '    paper). ``"sphere"``: no projection; every group is computed on\n'
+        "    the sphere of WGS84's authalic radius (6,371,007.2 m), its radius\n"
+        "    in metres along the sphere (for groups that span a continent;\n"
+        "    see the sphere page of the user guide).",
         flags=("--crs",),
-        metavar="auto|CRS|none",
+        metavar="auto|sphere|CRS|none",
         help="Metric CRS the shapes are computed in; 'auto' picks a UTM zone "
         "(or a local CRS per group) for lon/lat input and keeps projected input "
         "as it is. 'none' computes in INPUT's coordinates as they are (lon/lat: "
         "alpha in 1/degree, as in the seed paper; for input without a CRS the same "
-        "as --crs-in none). The output keeps INPUT's CRS.",
+        "as --crs-in none); 'sphere' computes on the sphere, with no projection "
+        "(continent-wide groups). The output keeps INPUT's CRS.",
     )
     method: str = option(
         "alpha",

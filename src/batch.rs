@@ -148,6 +148,19 @@ fn check(input: &Input) -> Result<usize, KernelError> {
     {
         return Err(KernelError::Coordinate(row));
     }
+    if input.options.sphere {
+        if let Some(row) = input
+            .xy
+            .iter()
+            .position(|p| p[1].abs().is_nan() || p[1].abs() > 90.0)
+        {
+            return Err(KernelError::Option(format!(
+                "with sphere=True, xy holds longitudes and latitudes in degrees; \
+                 row {row} has latitude {}",
+                input.xy[row][1]
+            )));
+        }
+    }
     Ok(groups)
 }
 

@@ -3,7 +3,7 @@
 use rayon::prelude::*;
 
 use crate::frame::{circumradius, collinear, orient, Frame, Xy};
-use crate::mesh::{triangulate, NONE};
+use crate::mesh::{triangulate, Mesh, NONE};
 use crate::rings::{trace, Polygons};
 use crate::spectrum::{
     fill_rank, merge_ties, outlier_optimum, pieces, sweep, Curve, ALPHA_RTOL, PARALLEL_TRIANGLES,
@@ -24,6 +24,9 @@ pub enum Reason {
     CollinearOut = 3,
     /// The rings of the shape could not be traced (never expected).
     Rings = 4,
+    /// On the sphere: the group does not fit in the cap the kernel handles
+    /// (`crate::sphere::MAX_ANGLE_DEGREES` around its centre).
+    Hemisphere = 6,
 }
 
 /// What to compute, the same for every group.
@@ -37,6 +40,9 @@ pub struct Options {
     pub curve: bool,
     /// Node budget of the best union of several pieces (`outliers=`).
     pub max_union_nodes: usize,
+    /// The points are longitudes and latitudes in degrees, computed on the
+    /// sphere ([`crate::sphere`]); radii and areas in metres.
+    pub sphere: bool,
 }
 
 /// The result of one group.
@@ -92,6 +98,9 @@ pub fn solve(
         res.reason = Reason::Few as u8;
         return res;
     }
+    if options.sphere {
+        return crate::sphere::solve(points, out, alpha, budget, options, res);
+    }
     let frame = Frame::of(points);
     let line = collinear(points, &frame);
     let line_out = out.is_some_and(|o| collinear(o, &Frame::of(o)));
@@ -122,7 +131,52 @@ pub fn solve(
     } else {
         mesh.tri.iter().map(radius_of).collect()
     };
-    let spectrum = merge_ties(&radius);
+    // Orientations in the scaled coordinates: exact, and never underflowing
+    // for groups whose coordinates are tiny (1e-300 across).
+    let scaled_points: Vec<Xy> = (0..n as u32).map(scaled).collect();
+    let area_of =
+        |t: &[u32; 3]| orient(scaled(t[0]), scaled(t[1]), scaled(t[2])).abs() / 2.0 / s / s;
+    finish(
+        res,
+        &Shaped {
+            mesh: &mesh,
+            radius: &radius,
+            ring_points: &scaled_points,
+            area_of: &area_of,
+        },
+        alpha,
+        budget,
+        options,
+    )
+}
+
+/// A triangulated group, ready for its optimum: the mesh, each triangle's
+/// radius, the points the rings are oriented by (every triangle of the mesh
+/// counter-clockwise in them) and each triangle's area.
+pub struct Shaped<'a> {
+    /// The triangulation.
+    pub mesh: &'a Mesh,
+    /// Each triangle's radius.
+    pub radius: &'a [f64],
+    /// Points in which every triangle is counter-clockwise.
+    pub ring_points: &'a [Xy],
+    /// The area of a triangle.
+    pub area_of: &'a (dyn Fn(&[u32; 3]) -> f64 + Sync),
+}
+
+/// The optimum (or given alpha), the shape, its area and rings, of a
+/// triangulated group; `res` holds what the triangulation already set.
+pub fn finish(
+    mut res: Solved,
+    shaped: &Shaped,
+    alpha: Option<f64>,
+    budget: u64,
+    options: &Options,
+) -> Solved {
+    let mesh = shaped.mesh;
+    let n = mesh.rep.len();
+    let radius = shaped.radius;
+    let spectrum = merge_ties(radius);
     let k = spectrum.values.len();
     let w = if options.holes {
         spectrum.rank.clone()
@@ -237,15 +291,11 @@ pub fn solve(
     let mut area = 0.0;
     for (t, &l) in label.iter().enumerate() {
         if l != NONE {
-            let [a, b, c] = mesh.tri[t];
-            area += orient(scaled(a), scaled(b), scaled(c)).abs();
+            area += (shaped.area_of)(&mesh.tri[t]);
         }
     }
-    res.area = area / 2.0 / s / s;
-    // Orientations in the scaled coordinates: exact, and never underflowing
-    // for groups whose coordinates are tiny (1e-300 across).
-    let scaled_points: Vec<Xy> = (0..n as u32).map(scaled).collect();
-    match trace(&scaled_points, &mesh.tri, &mesh.nb, &label, n_pieces) {
+    res.area = area;
+    match trace(shaped.ring_points, &mesh.tri, &mesh.nb, &label, n_pieces) {
         Ok(polygons) => res.polygons = polygons,
         Err(_) => res.reason = Reason::Rings as u8,
     }
@@ -261,6 +311,7 @@ mod tests {
         components: 1,
         curve: false,
         max_union_nodes: crate::spectrum::MAX_UNION_NODES,
+        sphere: false,
     };
 
     #[test]

@@ -13,6 +13,7 @@ pub mod group;
 pub mod mesh;
 pub mod rings;
 pub mod spectrum;
+pub mod sphere;
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
@@ -74,7 +75,8 @@ fn to_dict<'py>(py: Python<'py>, o: Output) -> PyResult<Bound<'py, PyDict>> {
 #[pyfunction(name = "alpha_shapes")]
 #[pyo3(signature = (
     xy, offsets, *, out_xy=None, holes=false, components=1, alpha=None,
-    budget=None, curve=false, threads=0, max_union_nodes=spectrum::MAX_UNION_NODES
+    budget=None, curve=false, threads=0, max_union_nodes=spectrum::MAX_UNION_NODES,
+    sphere=false
 ))]
 #[allow(clippy::too_many_arguments)]
 fn py_alpha_shapes<'py>(
@@ -89,6 +91,7 @@ fn py_alpha_shapes<'py>(
     curve: bool,
     threads: usize,
     max_union_nodes: usize,
+    sphere: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
     let xy_ = points("xy", &xy)?;
     let out_ = match &out_xy {
@@ -121,6 +124,7 @@ fn py_alpha_shapes<'py>(
             components,
             curve,
             max_union_nodes,
+            sphere,
         },
     };
     let pool = rayon::ThreadPoolBuilder::new()
@@ -150,5 +154,7 @@ fn _kernel(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("ALPHA_RTOL", spectrum::ALPHA_RTOL)?;
     m.add("MAX_COORDINATE", batch::MAX_COORDINATE)?;
     m.add("MAX_UNION_NODES", spectrum::MAX_UNION_NODES)?;
+    m.add("EARTH_RADIUS", sphere::EARTH_RADIUS)?;
+    m.add("MAX_SPHERE_DEGREES", sphere::MAX_ANGLE_DEGREES)?;
     Ok(())
 }

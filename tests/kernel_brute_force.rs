@@ -10,7 +10,7 @@
 use _kernel::group::{solve, Options};
 use _kernel::spectrum::MAX_UNION_NODES;
 use proptest::prelude::*;
-use robust::{incircle, orient2d, Coord};
+use robust::{incircle, orient2d, orient3d, Coord, Coord3D};
 
 type Xy = [f64; 2];
 
@@ -169,10 +169,23 @@ fn brute_optimum(p: &[Xy], rows: &[u64], holes: bool, c: usize, k: u64) -> (f64,
         .iter()
         .map(|t| circumcentre_radius(p[t[0]], p[t[1]], p[t[2]]))
         .collect();
+    optimum_of(p.len(), &tris, &radius, rows, holes, c, k)
+}
+
+/// The brute-force optimum over a given triangulation of `n` points.
+fn optimum_of(
+    n: usize,
+    tris: &[[usize; 3]],
+    radius: &[f64],
+    rows: &[u64],
+    holes: bool,
+    c: usize,
+    k: u64,
+) -> (f64, u64) {
     let total: u64 = rows.iter().sum();
-    for r in spectrum(&radius) {
-        let inside = shape(&tris, &radius, r, holes);
-        let sets = piece_sets(&tris, &inside);
+    for r in spectrum(radius) {
+        let inside = shape(tris, radius, r, holes);
+        let sets = piece_sets(tris, &inside);
         let held = if k == 0 {
             let all: usize = {
                 let mut v: Vec<usize> = sets.iter().flatten().copied().collect();
@@ -180,7 +193,7 @@ fn brute_optimum(p: &[Xy], rows: &[u64], holes: bool, c: usize, k: u64) -> (f64,
                 v.dedup();
                 v.len()
             };
-            if all == p.len() && sets.len() <= c {
+            if all == n && sets.len() <= c {
                 total
             } else {
                 0
@@ -216,6 +229,103 @@ fn spread(p: &[Xy]) -> bool {
     true
 }
 
+type V3 = [f64; 3];
+
+fn unit(p: Xy) -> V3 {
+    let (lon, lat) = (p[0].to_radians(), p[1].to_radians());
+    [lat.cos() * lon.cos(), lat.cos() * lon.sin(), lat.sin()]
+}
+
+fn c3(p: V3) -> Coord3D<f64> {
+    Coord3D {
+        x: p[0],
+        y: p[1],
+        z: p[2],
+    }
+}
+
+/// Spherical Delaunay triangles by definition: triples counter-clockwise seen
+/// from outside (origin below their plane) with no point beyond their plane.
+fn brute_sphere_delaunay(u: &[V3]) -> Vec<[usize; 3]> {
+    let n = u.len();
+    let o = c3([0.0; 3]);
+    let mut out = Vec::new();
+    for a in 0..n {
+        for b in 0..n {
+            for c in 0..n {
+                if a >= b || a >= c || b == c {
+                    continue;
+                }
+                if orient3d(c3(u[a]), c3(u[b]), c3(u[c]), o) <= 0.0 {
+                    continue;
+                }
+                let empty = (0..n).all(|d| {
+                    d == a
+                        || d == b
+                        || d == c
+                        || orient3d(c3(u[a]), c3(u[b]), c3(u[c]), c3(u[d])) >= 0.0
+                });
+                if empty {
+                    out.push([a, b, c]);
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Geodesic radius (metres) of the small circle through three unit vectors:
+/// the angle between their plane's normal and a vertex, on the authalic sphere.
+fn cap_radius(a: V3, b: V3, c: V3) -> f64 {
+    let sub = |p: V3, q: V3| [p[0] - q[0], p[1] - q[1], p[2] - q[2]];
+    let cross = |p: V3, q: V3| {
+        [
+            p[1] * q[2] - p[2] * q[1],
+            p[2] * q[0] - p[0] * q[2],
+            p[0] * q[1] - p[1] * q[0],
+        ]
+    };
+    let n = cross(sub(b, a), sub(c, a));
+    let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+    let n = [n[0] / len, n[1] / len, n[2] / len];
+    let m = cross(n, a);
+    let sin = (m[0] * m[0] + m[1] * m[1] + m[2] * m[2]).sqrt();
+    let cos = (n[0] * a[0] + n[1] * a[1] + n[2] * a[2]).abs();
+    6_371_007.2 * sin.atan2(cos)
+}
+
+/// Lon/lat points within `d` degrees of a centre, well separated on the
+/// sphere (no two within 1e-3 of the spread, no three near one great circle).
+fn sphere_points() -> impl Strategy<Value = Vec<Xy>> {
+    (-180.0f64..180.0, -60.0f64..60.0, 0.01f64..30.0)
+        .prop_flat_map(|(lon0, lat0, d)| {
+            prop::collection::vec(
+                (-1.0f64..1.0, -1.0f64..1.0).prop_map(move |(x, y)| [lon0 + d * x, lat0 + d * y]),
+                3..9,
+            )
+            .prop_map(move |p| (p, d))
+        })
+        .prop_filter("well separated", |(p, d)| {
+            let u: Vec<V3> = p.iter().map(|&q| unit(q)).collect();
+            let scale = d.to_radians();
+            let n = u.len();
+            (0..n).all(|a| {
+                (a + 1..n).all(|b| {
+                    let dist = ((u[a][0] - u[b][0]).powi(2)
+                        + (u[a][1] - u[b][1]).powi(2)
+                        + (u[a][2] - u[b][2]).powi(2))
+                    .sqrt();
+                    dist > 0.05 * scale
+                        && (b + 1..n).all(|c| {
+                            orient3d(c3(u[a]), c3(u[b]), c3(u[c]), c3([0.0; 3])).abs()
+                                > 0.005 * scale * scale
+                        })
+                })
+            })
+        })
+        .prop_map(|(p, _)| p)
+}
+
 fn points() -> impl Strategy<Value = Vec<Xy>> {
     prop::collection::vec(
         (0.0f64..100.0, 0.0f64..100.0).prop_map(|(x, y)| [x, y]),
@@ -229,7 +339,7 @@ proptest! {
 
     #[test]
     fn the_optimum_is_the_brute_force_one(p in points(), holes in any::<bool>(), c in 1usize..4) {
-        let options = Options { holes, components: c, curve: false, max_union_nodes: MAX_UNION_NODES };
+        let options = Options { holes, components: c, curve: false, max_union_nodes: MAX_UNION_NODES, sphere: false };
         let res = solve(&p, None, None, 0, &options);
         prop_assert_eq!(res.reason, 0);
         let rows = vec![1u64; p.len()];
@@ -260,7 +370,7 @@ proptest! {
         for &i in &dup {
             rows[i % p.len()] += 1;
         }
-        let options = Options { holes, components: c, curve: false, max_union_nodes: MAX_UNION_NODES };
+        let options = Options { holes, components: c, curve: false, max_union_nodes: MAX_UNION_NODES, sphere: false };
         let res = solve(&all, None, None, k, &options);
         let (alpha, left) = brute_optimum(&p, &rows, holes, c, k);
         prop_assert!((res.alpha - alpha).abs() <= 1e-9 * alpha, "{} vs {}", res.alpha, alpha);
@@ -271,10 +381,26 @@ proptest! {
 
     #[test]
     fn the_shape_at_the_optimal_alpha_is_the_optimal_shape(p in points(), holes in any::<bool>()) {
-        let options = Options { holes, components: 1, curve: false, max_union_nodes: MAX_UNION_NODES };
+        let options = Options { holes, components: 1, curve: false, max_union_nodes: MAX_UNION_NODES, sphere: false };
         let best = solve(&p, None, None, 0, &options);
         let again = solve(&p, None, Some(best.alpha), 0, &options);
         prop_assert_eq!(best.area, again.area);
         prop_assert_eq!(best.polygons, again.polygons);
+    }
+
+    #[test]
+    fn the_sphere_optimum_is_the_brute_force_one(p in sphere_points(), holes in any::<bool>(), c in 1usize..4) {
+        let options = Options { holes, components: c, curve: false, max_union_nodes: MAX_UNION_NODES, sphere: true };
+        let res = solve(&p, None, None, 0, &options);
+        prop_assert_eq!(res.reason, 0);
+        let u: Vec<V3> = p.iter().map(|&q| unit(q)).collect();
+        let tris = brute_sphere_delaunay(&u);
+        let radius: Vec<f64> = tris.iter().map(|t| cap_radius(u[t[0]], u[t[1]], u[t[2]])).collect();
+        let rows = vec![1u64; p.len()];
+        let (alpha, _) = optimum_of(p.len(), &tris, &radius, &rows, holes, c, 0);
+        prop_assert!((res.alpha - alpha).abs() <= 1e-7 * alpha, "{} vs {}", res.alpha, alpha);
+        // alpha = 0: every spherical Delaunay triangle, the spherical hull.
+        let hull = solve(&p, None, Some(0.0), 0, &options);
+        prop_assert_eq!(hull.polygons.len(), 1);
     }
 }

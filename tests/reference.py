@@ -314,12 +314,18 @@ def graph_optimum(points, holes=False, components=1):
     is the answer: no monotonicity is assumed.
     """
     pts, simplices, neighbors, r = triangulation(points)
+    return mesh_optimum(len(pts), simplices, neighbors, r, holes, components)
+
+
+def mesh_optimum(n_points, simplices, neighbors, r, holes=False, components=1):
+    """:func:`graph_optimum` on a given triangulation (``n_points`` vertices;
+    ``neighbors`` -1 on the boundary): the sphere's reference uses it."""
     radius = merged(r)
     key = radius if holes else fill_radii(neighbors, radius)
     m = len(r)
     sets = UnionFind(m)
     added = np.zeros(m, dtype=bool)
-    covered = np.zeros(len(pts), dtype=bool)
+    covered = np.zeros(n_points, dtype=bool)
     n_covered = pieces = 0
     entering = dict(runs(key))
     for R in spectrum(r):
@@ -333,7 +339,7 @@ def graph_optimum(points, holes=False, components=1):
                 if not covered[v]:
                     covered[v] = True
                     n_covered += 1
-        if n_covered == len(pts) and pieces <= components:
+        if n_covered == n_points and pieces <= components:
             return 1.0 / R if np.isfinite(R) else 0.0
     raise AssertionError("the convex hull is always valid")
 

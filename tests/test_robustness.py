@@ -159,11 +159,11 @@ def lonlat_frame(lon, lat, group=None):
     return frame
 
 
-def check_hull(frame):
+def check_hull(frame, crs="auto"):
     """hull() in lon/lat: every group covered, or declared degenerate."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        hulls = frame.alpha.hull(by="g")
+        hulls = frame.alpha.hull(by="g", crs=crs)
     text = " ".join(
         str(w.message) for w in caught if issubclass(w.category, DegenerateGroupWarning)
     )
@@ -196,6 +196,43 @@ def test_one_meridian_or_parallel_through_hull(seed, n, meridian, twins):
     # Collinear in lon/lat: degenerate there, whatever their UTM image.
     assert np.isnan(hulls["alpha"]).all()
     assert (hulls.geometry.area > 0).all()  # the default policy: a buffer
+
+
+@examples(40)
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    n=st.integers(3, 30),
+    meridian=st.booleans(),
+    twins=st.booleans(),
+)
+def test_one_meridian_or_parallel_on_the_sphere(seed, n, meridian, twins):
+    # A meridian is a great circle (degenerate on the sphere); a parallel is a
+    # line in the lon/lat the result is returned in (degenerate there).
+    rng = np.random.default_rng(seed)
+    along = 50 + np.round(rng.random(n) * 0.01, 7)
+    lon, lat = (np.full(n, -2.9), along) if meridian else (along - 52, np.full(n, 51.5))
+    if twins:
+        lon = np.r_[lon, np.degrees(np.radians(lon))]
+        lat = np.r_[lat, lat]
+    hulls = check_hull(lonlat_frame(lon, lat), crs="sphere")
+    assert np.isnan(hulls["alpha"]).all()
+
+
+@examples(40)
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    n=st.integers(3, 40),
+    noise=st.floats(-15, -6),
+    digits=st.integers(3, 7),
+)
+def test_near_degenerate_lonlat_on_the_sphere(seed, n, noise, digits):
+    # Nearly on the equator (a great circle), rounded like GPS, with last-bit
+    # twins: covered on the sphere, or declared degenerate.
+    rng = np.random.default_rng(seed)
+    lon = np.round(rng.random(n) * 5, digits)
+    lat = rng.normal(size=n) * 10.0**noise
+    lon, lat = np.r_[lon, np.degrees(np.radians(lon))], np.r_[lat, lat]
+    check_hull(lonlat_frame(lon, lat), crs="sphere")
 
 
 # --------------------------------------------------------------------------

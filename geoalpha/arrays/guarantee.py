@@ -144,7 +144,7 @@ def enforce(
         Whether every point must be covered (False: validity only, e.g. for
         a shape at a given alpha > 0, which need not hold every point); one
         value, or one per group.
-    components : int, optional
+    components : int or ndarray of float, shape (G,), optional
         Largest number of parts allowed.
     test : ndarray of bool, shape (k,), optional
         The points whose coverage must be tested geometrically (default:
@@ -210,7 +210,8 @@ def enforce(
         bad = ~shapely.is_valid(g) | shapely.is_empty(g)
         bad |= ~np.isin(shapely.get_type_id(g), (3, 6))
         if components is not None:
-            bad |= shapely.get_num_geometries(g) > components
+            limit = components if np.ndim(components) == 0 else components[again]
+            bad |= shapely.get_num_geometries(g) > limit
         failed[np.flatnonzero(again)[bad]] = True
         if covering.any():
             take = again[codes] & ~failed[codes] & needed

@@ -16,7 +16,15 @@ import shapely
 from geoalpha import kernel
 from geoalpha.arrays import guarantee
 from geoalpha.arrays.budget import outlier_budget
+from geoalpha.arrays.lonlat import output_lonlat, restore_longitudes
 from geoalpha.arrays.search import bisect_alpha, ladder_alpha
+from geoalpha.arrays.sphere import (
+    REFUSED,
+    close_around_poles,
+    follow_arcs,
+    polar_groups,
+    refused_message,
+)
 from geoalpha.errors import (
     DegenerateGroupWarning,
     InvalidInputError,
@@ -145,6 +153,8 @@ def alpha_shapes(
     n_jobs: int | None = None,
     outliers: float = 0,
     name_groups=None,
+    sphere: bool = False,
+    polar=None,
 ) -> AlphaShapes:
     """Optimal alpha shapes of many groups of points in one call.
 
@@ -199,6 +209,21 @@ def alpha_shapes(
         Turns an array of group codes into the text that names those groups
         in a warning (:func:`geoalpha.hull` names them by key); default: the
         codes.
+    sphere : bool, default False
+        ``points`` are longitudes and latitudes in degrees (EPSG:4326) and
+        every group is computed on the sphere (``crs="sphere"`` of
+        :func:`geoalpha.hull`; see :mod:`geoalpha.arrays.sphere`): alpha in 1/metre,
+        areas in square metres on the sphere. A group with a point farther
+        than :data:`geoalpha.arrays.sphere.MAX_SPHERE_DEGREES` from its centre is an
+        error naming it. Without ``coords`` the polygons are in longitude and
+        latitude, with the longitudes of groups across +-180 degrees
+        unwrapped (beyond 180) and groups around a pole closed along it.
+    polar : array_like of bool, shape (n_groups,), optional
+        With ``sphere``: the groups whose spherical hull holds a pole, whose
+        polygons are closed along the pole in longitude/latitude
+        (:func:`geoalpha.arrays.sphere.close_around_poles`). Default: found from
+        ``points`` when ``coords`` is not given (the polygons are then in
+        longitude/latitude), none otherwise.
 
     Returns
     -------
@@ -253,8 +278,14 @@ def alpha_shapes(
         n_groups=n_groups,
         progress=progress,
         n_jobs=n_jobs,
+        sphere=bool(sphere),
+        polar=polar,
         **checked,
     )
+    if sphere and (res.reason == REFUSED).any():
+        which = np.flatnonzero(res.reason == REFUSED)
+        names = f"codes {first_n(which)}" if name_groups is None else name_groups(which)
+        raise InvalidInputError(refused_message(names, len(which)))
     if res.gave_up.any():
         which = np.flatnonzero(res.gave_up)
         names = f"codes {first_n(which)}" if name_groups is None else name_groups(which)
@@ -324,6 +355,8 @@ def _compute(
     progress,
     n_jobs,
     outliers,
+    sphere=False,
+    polar=None,
 ) -> AlphaShapes:
     """:func:`alpha_shapes` on checked options: one kernel call, then the guarantee."""
     try:
@@ -334,7 +367,11 @@ def _compute(
         raise InvalidInputError(str(err)) from err
     rows = np.bincount(codes, minlength=n_groups)
     given = None if alpha is None else _given_alpha(alpha, n_groups)
-    options = dict(holes=holes, components=components, n_jobs=n_jobs, out=out_xy)
+    if sphere and out_xy is None:
+        out_xy, polar = _sphere_output(xy, codes, n_groups)
+    options = dict(
+        holes=holes, components=components, n_jobs=n_jobs, out=out_xy, sphere=sphere
+    )
     gave_up = np.zeros(n_groups, dtype=bool)
     if given is None and search != "exact":
         found = kernel.solve(xy, codes, n_groups, curve=True, **options)
@@ -345,6 +382,34 @@ def _compute(
     res = kernel.solve(
         xy, codes, n_groups, alpha=given, budget=budget, progress=progress, **options
     )
+    if sphere:
+        # Long edges of a shape concave on the sphere can fold in lon/lat.
+        folded = (res.reason == 0) & ~shapely.is_valid(res.geometry)
+        if polar is not None:
+            folded &= ~np.asarray(polar)
+        if folded.any():
+            which = np.flatnonzero(folded)
+            geometry = res.geometry.copy()
+            geometry[which] = follow_arcs(geometry[which])
+            res = res._replace(geometry=geometry)
+    if sphere and np.any(polar):
+        geometry = res.geometry.copy()
+        which = np.flatnonzero(polar)
+        sout = np.take(out_xy, res.order, axis=0)
+        geometry[which] = restore_longitudes(
+            close_around_poles(geometry[which]),
+            which,
+            sout[:, 0],
+            sout[:, 1],
+            res.codes,
+        )
+        # Their vertices moved (cut at +-180, shifted): test every point.
+        res = res._replace(
+            geometry=geometry, on_ring=res.on_ring & ~np.asarray(polar)[res.codes]
+        )
+    if sphere and np.any(polar):
+        # Cut at +-180 degrees, a piece may be several polygons (as across it).
+        components = np.where(polar, np.inf, components)
     return _guarantee(res, xy, out_xy, rows, given, alpha is None, components, gave_up)
 
 
@@ -414,6 +479,25 @@ def _guarantee(res, xy, out_xy, rows, given, optimum, components, gave_up):
         capped=res.capped & ~degenerate,
         reason=np.where(failed & (res.reason == 0), 5, res.reason).astype(np.int64),
     )
+
+
+def _sphere_output(lonlat, codes, n_groups):
+    """Output coordinates of ``sphere=True`` without ``coords``, and the polar groups.
+
+    Longitude/latitude polygons, built (and their points tested, since their
+    straight edges are not the sphere's) in these coordinates: longitudes
+    unwrapped for groups across +-180 degrees, as given for groups around a
+    pole (closed along it, :func:`geoalpha.arrays.sphere.close_around_poles`).
+    """
+    out, crossing, wide = output_lonlat(lonlat, codes, n_groups)
+    maybe = np.flatnonzero(crossing | wide)
+    polar = np.zeros(n_groups, dtype=bool)
+    if len(maybe):
+        polar[maybe] = polar_groups(lonlat, codes, maybe)
+    if polar.any():
+        out = out.copy()
+        out[polar[codes]] = lonlat[polar[codes]]
+    return out, polar
 
 
 def _output_coordinates(points, coords):

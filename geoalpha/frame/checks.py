@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 import pyproj
 
-from geoalpha.crs_parsing import crs_name, is_mercator, parse_crs
+from geoalpha.crs_parsing import crs_name, is_mercator, is_sphere, parse_crs
 from geoalpha.errors import CRSWarning, GroupingWarning, user_stacklevel
 from geoalpha.frame.crs import metric_crs
 from geoalpha.frame.distortion import AREA_TOLERANCE, area_scale
@@ -127,7 +127,7 @@ def computation_crs(source: Any, crs: Any) -> tuple[pyproj.CRS | None, str]:
     'input'
     """
     src = parse_crs(source)
-    if src is None or crs is None:
+    if src is None or crs is None or is_sphere(crs):
         return None, ""
     if isinstance(crs, str) and crs.strip().lower() in ("auto", "auto-group"):
         if src.is_projected and not is_mercator(src):

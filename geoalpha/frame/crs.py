@@ -28,6 +28,16 @@ import numpy as np
 import pyproj
 import shapely
 
+from geoalpha.arrays.lonlat import (
+    check_codes,
+    crosses_antimeridian,
+    group_arcs,
+    output_lonlat,
+    restore_longitudes,
+    row_positions,
+    split_antimeridian,
+    unwrap_lon,
+)
 from geoalpha.crs_parsing import (
     crs_name,
     is_mercator,
@@ -35,16 +45,17 @@ from geoalpha.crs_parsing import (
     target_crs,
     unit_factor,
 )
-from geoalpha.errors import InvalidInputError, first_n
-from geoalpha.kernel import ANTIMERIDIAN_SNAP
+from geoalpha.errors import InvalidInputError
 
 __all__ = [
     "Projection",
     "check_lonlat",
     "crosses_antimeridian",
     "metric_crs",
+    "output_lonlat",
     "restore_longitudes",
     "split_antimeridian",
+    "to_wgs84",
     "unwrap_lon",
 ]
 
@@ -61,25 +72,6 @@ UTM_MAX_LAT = 84.0
 LAEA_CENTRE_STEP = 1.0
 
 _WGS84 = "EPSG:4326"
-_MAX_POSITIONS = 5
-
-
-def _positions(mask: np.ndarray, labels: Any = None) -> str:
-    """Describe the rows where ``mask`` is true: "3 rows (positions 4, 9, 12)".
-
-    With ``labels`` (one label per row, e.g. the index labels of the frame the
-    points came from) the rows are named by label: "3 rows (index 4, 9, 12)".
-    """
-    where = np.flatnonzero(mask)
-    count = where.size
-    if labels is None:
-        kind = "position" if count == 1 else "positions"
-        names = (str(int(i)) for i in where)
-    else:
-        kind = "index"
-        names = (str(v) for v in labels[where])
-    shown = first_n(names, limit=_MAX_POSITIONS)
-    return f"{count} row{'s' if count != 1 else ''} ({kind} {shown})"
 
 
 def _as_coords(lon: Any, lat: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -127,16 +119,18 @@ def check_lonlat(lon: Any, lat: Any, labels: Any = None) -> None:
     if bad.any():
         raise InvalidInputError(
             "coordinates must be finite numbers; got NaN or infinite "
-            f"longitude/latitude in {_positions(bad, labels)}"
+            f"longitude/latitude in {row_positions(bad, labels)}"
         )
     bad_lat = np.abs(lat) > 90.0
     bad_lon = np.abs(lon) > 180.0
     problems = []
     if bad_lat.any():
-        problems.append(f"latitude outside [-90, 90] in {_positions(bad_lat, labels)}")
+        problems.append(
+            f"latitude outside [-90, 90] in {row_positions(bad_lat, labels)}"
+        )
     if bad_lon.any():
         problems.append(
-            f"longitude outside [-180, 180] in {_positions(bad_lon, labels)}"
+            f"longitude outside [-180, 180] in {row_positions(bad_lon, labels)}"
         )
     if problems:
         message = (
@@ -146,320 +140,6 @@ def check_lonlat(lon: Any, lat: Any, labels: Any = None) -> None:
         if np.all(np.abs(lon) <= 90.0) and np.all(np.abs(lat) <= 180.0):
             message += "; latitude and longitude look swapped (x holds latitudes?)"
         raise InvalidInputError(message)
-
-
-def _as_codes(codes: Any, n_groups: int, n_points: int) -> np.ndarray:
-    codes = np.asarray(codes).ravel()
-    if codes.size != n_points:
-        raise InvalidInputError(
-            f"codes must have one group code per point; got {codes.size} codes "
-            f"for {n_points} points"
-        )
-    if codes.size and not np.issubdtype(codes.dtype, np.integer):
-        raise InvalidInputError(
-            f"codes must be integers 0 .. n_groups - 1; got dtype {codes.dtype}"
-        )
-    codes = codes.astype(np.intp, copy=False)
-    outside = (codes < 0) | (codes >= n_groups)
-    if outside.any():
-        raise InvalidInputError(
-            f"codes must be integers 0 .. {n_groups - 1} (n_groups={n_groups}); "
-            f"got other values in {_positions(outside)}"
-        )
-    return codes
-
-
-def _group_min_max(
-    values: np.ndarray, codes: np.ndarray, n_groups: int
-) -> tuple[np.ndarray, np.ndarray]:
-    """Per-group minimum and maximum (NaN for groups without points)."""
-    low = np.full(n_groups, np.inf)
-    high = np.full(n_groups, -np.inf)
-    np.minimum.at(low, codes, values)
-    np.maximum.at(high, codes, values)
-    empty = np.isinf(low)
-    low[empty] = np.nan
-    high[empty] = np.nan
-    return low, high
-
-
-def _group_arcs(
-    lon: np.ndarray, lat: np.ndarray | None, codes: np.ndarray, n_groups: int
-) -> dict[str, np.ndarray]:
-    """Smallest longitude arc (and latitude range) covering each group.
-
-    Returns arrays of shape (n_groups,): ``crossing`` (the arc contains
-    +-180), ``west``/``east`` (arc ends in unwrapped longitudes, so that
-    ``west <= east`` and ``east`` may exceed 180), and with ``lat`` given
-    ``south``/``north``. Empty groups get ``crossing=False`` and NaN ends.
-    """
-    west, east = _group_min_max(lon, codes, n_groups)
-    out = {"crossing": np.zeros(n_groups, dtype=bool), "west": west, "east": east}
-    if lat is not None:
-        out["south"], out["north"] = _group_min_max(lat, codes, n_groups)
-    # A group narrower than 180 degrees in plain longitudes cannot cross: the
-    # gap containing +-180 is then wider than any gap between its points. Only
-    # the wider groups need the gaps between their sorted longitudes.
-    with np.errstate(invalid="ignore"):
-        wide = east - west >= 180.0
-    if not wide.any():
-        return out
-    picked = wide[codes]
-    sub_lon = lon[picked]
-    sub_codes = codes[picked]
-    order = np.lexsort((sub_lon, sub_codes))
-    sorted_lon = sub_lon[order]
-    counts = np.bincount(sub_codes, minlength=n_groups)[wide]
-    last = np.cumsum(counts) - 1
-    first = last - counts + 1
-    gaps = np.empty_like(sorted_lon)
-    np.subtract(sorted_lon[1:], sorted_lon[:-1], out=gaps[1:])
-    gaps[first] = -np.inf
-    inner_gap = np.maximum.reduceat(gaps, first)
-    wrap_gap = sorted_lon[first] + 360.0 - sorted_lon[last]
-    crossing = inner_gap > wrap_gap
-    out["crossing"][wide] = crossing
-    if crossing.any():
-        # The arc starts after the largest gap and ends before it (+360).
-        segment = np.repeat(np.arange(first.size), counts)
-        at_max = np.flatnonzero(gaps == inner_gap[segment])
-        _, first_max = np.unique(segment[at_max], return_index=True)
-        after_gap = at_max[first_max]
-        ids = np.flatnonzero(wide)[crossing]
-        west[ids] = sorted_lon[after_gap[crossing]]
-        east[ids] = sorted_lon[after_gap[crossing] - 1] + 360.0
-    return out
-
-
-def crosses_antimeridian(lon: Any, codes: Any, n_groups: int) -> np.ndarray:
-    """Tell which groups span the +-180 degree meridian.
-
-    A group crosses when the smallest longitude interval (on the circle) that
-    covers all its points contains +-180 degrees. Ties (two equally small
-    intervals) count as not crossing.
-
-    Parameters
-    ----------
-    lon : array_like of float, shape (n,)
-        Longitudes in degrees, in [-180, 180].
-    codes : array_like of int, shape (n,)
-        Group code of every point, ``0 .. n_groups - 1`` (as returned by
-        :func:`pandas.factorize`).
-    n_groups : int
-        Number of groups.
-
-    Returns
-    -------
-    numpy.ndarray of bool, shape (n_groups,)
-        True for the groups that cross; False for the others and for groups
-        without points.
-
-    Examples
-    --------
-    >>> from geoalpha.frame.crs import crosses_antimeridian
-    >>> lon = [177.5, 179.9, -179.5, -178.2, 10.0, 12.0]  # Fiji, then Italy
-    >>> crosses_antimeridian(lon, [0, 0, 0, 0, 1, 1], 2)
-    array([ True, False])
-    """
-    lon = np.asarray(lon, dtype=np.float64).ravel()
-    codes = _as_codes(codes, n_groups, lon.size)
-    return _group_arcs(lon, None, codes, n_groups)["crossing"]
-
-
-def unwrap_lon(lon: Any, codes: Any, crossing: Any) -> np.ndarray:
-    """Make the longitudes of antimeridian-crossing groups continuous.
-
-    Parameters
-    ----------
-    lon : array_like of float, shape (n,)
-        Longitudes in degrees, in [-180, 180].
-    codes : array_like of int, shape (n,)
-        Group code of every point, ``0 .. len(crossing) - 1``.
-    crossing : array_like of bool, shape (n_groups,)
-        Which groups cross the antimeridian, from :func:`crosses_antimeridian`.
-
-    Returns
-    -------
-    numpy.ndarray of float64, shape (n,)
-        A copy of ``lon`` in which the negative longitudes of the points of
-        crossing groups have 360 added, so that each such group lies in
-        [0, 360) without a jump; the other points are unchanged. Polygons
-        built from these longitudes go back to [-180, 180] with
-        :func:`split_antimeridian`.
-
-    Notes
-    -----
-    A group whose points span more than 180 degrees of longitude (around a
-    pole, or half the globe) has no meaningful single polygon in
-    longitude/latitude; its unwrapped longitudes may still jump.
-
-    Examples
-    --------
-    >>> from geoalpha.frame.crs import unwrap_lon
-    >>> unwrap_lon([179.0, -179.0, -5.0], [0, 0, 1], [True, False]).tolist()
-    [179.0, 181.0, -5.0]
-    """
-    lon = np.asarray(lon, dtype=np.float64).ravel()
-    crossing = np.asarray(crossing, dtype=bool).ravel()
-    codes = _as_codes(codes, crossing.size, lon.size)
-    return np.where(crossing[codes] & (lon < 0.0), lon + 360.0, lon)
-
-
-def _snap(coords: np.ndarray, x: float) -> np.ndarray:
-    """Put x coordinates within ``ANTIMERIDIAN_SNAP`` (degrees) of ``x`` on ``x``."""
-    near = np.abs(coords[:, 0] - x) <= ANTIMERIDIAN_SNAP
-    coords[near, 0] = x
-    return coords
-
-
-def _back_east(coords: np.ndarray) -> np.ndarray:
-    """Unwrapped coordinates east of 180 degrees, shifted back by -360."""
-    return _snap(coords - (360.0, 0.0), -180.0)
-
-
-def split_antimeridian(geom: Any) -> Any:
-    """Split polygons in unwrapped longitudes at the antimeridian.
-
-    The part east of 180 degrees is shifted by -360 degrees, as RFC 7946
-    (GeoJSON) section 3.1.9 asks, so that every longitude is in
-    [-180, 180] again.
-
-    Parameters
-    ----------
-    geom : shapely Polygon or MultiPolygon, or array_like of them
-        Geometries whose x are unwrapped longitudes (see :func:`unwrap_lon`):
-        some x may exceed 180. ``None`` and empty geometries pass through.
-
-    Returns
-    -------
-    shapely geometry or numpy.ndarray of geometries
-        Same shape as the input. A geometry with some x > 180 becomes a valid
-        MultiPolygon whose parts west of the line end at x = 180 and whose
-        parts east of it start at x = -180 (one part only if the geometry lies
-        entirely east of 180); the total area is unchanged. Geometries with
-        every x <= 180 are returned unchanged.
-
-    Examples
-    --------
-    >>> from shapely import box
-    >>> from geoalpha.frame.crs import split_antimeridian
-    >>> parts = split_antimeridian(box(178, -18, 182, -16))
-    >>> parts.geom_type, [p.bounds for p in parts.geoms]
-    ('MultiPolygon', [(178.0, -18.0, 180.0, -16.0), (-180.0, -18.0, -178.0, -16.0)])
-    >>> split_antimeridian(box(10, 0, 11, 1)).bounds
-    (10.0, 0.0, 11.0, 1.0)
-    """
-    scalar = np.ndim(geom) == 0
-    geoms = np.empty(1, dtype=object)
-    if scalar:
-        geoms[0] = geom
-    else:
-        geoms = np.asarray(geom, dtype=object)
-    out = geoms.copy()
-    flat = geoms.ravel()
-    bounds = shapely.bounds(flat)
-    with np.errstate(invalid="ignore"):
-        needs = bounds[:, 2] > 180.0  # NaN for None/empty -> False
-    todo = np.flatnonzero(needs)
-    if todo.size:
-        sub = flat[todo]
-        minx, miny, maxx, maxy = bounds[todo].T
-        west = shapely.intersection(
-            sub, shapely.box(minx - 1.0, miny - 1.0, 180.0, maxy + 1.0)
-        )
-        east = shapely.intersection(
-            sub, shapely.box(180.0, miny - 1.0, maxx + 1.0, maxy + 1.0)
-        )
-        west = shapely.transform(west, lambda c: _snap(c, 180.0))
-        east = shapely.transform(east, _back_east)
-        west_parts, west_idx = shapely.get_parts(west, return_index=True)
-        east_parts, east_idx = shapely.get_parts(east, return_index=True)
-        parts = np.concatenate([west_parts, east_parts])
-        idx = np.concatenate([west_idx, east_idx])
-        side = np.repeat([0, 1], [west_idx.size, east_idx.size])
-        # Keep areas only: touching the line gives points/lines, not parts.
-        keep = (shapely.get_type_id(parts) == 3) & ~shapely.is_empty(parts)
-        parts, idx, side = parts[keep], idx[keep], side[keep]
-        order = np.lexsort((side, idx))
-        parts, idx = parts[order], idx[order]
-        has_parts = np.zeros(todo.size, dtype=bool)
-        has_parts[idx] = True
-        rank = np.cumsum(has_parts) - 1
-        if parts.size:
-            multi = shapely.multipolygons(parts, indices=rank[idx])
-            result = flat.copy()
-            result[todo[has_parts]] = multi
-            out = result.reshape(geoms.shape)
-    return out[0] if scalar else out
-
-
-def restore_longitudes(
-    geoms: np.ndarray, geom_group: Any, lon: Any, lat: Any, codes: Any
-) -> np.ndarray:
-    """Give split polygons the input points' own longitudes back.
-
-    :func:`unwrap_lon` adds 360 degrees to negative longitudes and
-    :func:`split_antimeridian` subtracts it again from the part east of the
-    line; between -128 and 0 degrees that round trip rounds (``lon + 360``
-    has a coarser spacing than ``lon``), so a vertex that was an input point
-    comes back up to one unit in the last place away from it, and the point
-    can fall outside its polygon. This puts every such vertex back on the
-    longitude of the input point it came from (same group, same latitude,
-    same round-tripped longitude).
-
-    Parameters
-    ----------
-    geoms : ndarray of shapely geometries, shape (k,)
-        Polygons from :func:`split_antimeridian`.
-    geom_group : array_like of int, shape (k,)
-        Group code of each geometry.
-    lon, lat : array_like of float, shape (n,)
-        The input points' longitudes (in [-180, 180]) and latitudes.
-    codes : array_like of int, shape (n,)
-        Group code of each point.
-
-    Returns
-    -------
-    ndarray of shapely geometries, shape (k,)
-        New geometries (the input array is not changed); vertices that match
-        no input point (on the antimeridian, say) are left as they are.
-
-    Examples
-    --------
-    >>> from shapely import Polygon
-    >>> lon = np.array([175.0, -114.6042657247226, -119.0])
-    >>> lat = np.array([-38.0, 25.0, 33.0])
-    >>> unwrapped = unwrap_lon(lon, [0, 0, 0], [True])
-    >>> parts = split_antimeridian(np.array([Polygon(zip(unwrapped, lat))]))
-    >>> float(parts[0].geoms[1].exterior.coords[1][0])  # lon + 360 - 360
-    -114.60426572472261
-    >>> fixed = restore_longitudes(parts, [0], lon, lat, [0, 0, 0])
-    >>> float(fixed[0].geoms[1].exterior.coords[1][0])
-    -114.6042657247226
-    """
-    geoms = np.array(geoms, dtype=object)
-    geom_group = np.asarray(geom_group, dtype=np.int64)
-    lon = np.asarray(lon, dtype=np.float64)
-    lat = np.asarray(lat, dtype=np.float64)
-    codes = np.asarray(codes, dtype=np.int64)
-    coords, which = shapely.get_coordinates(geoms, return_index=True)
-    mine = np.isin(codes, geom_group) & (lon < 0.0)
-    if len(coords) == 0 or not mine.any():
-        return geoms
-    # What each shifted point's longitude became in split_antimeridian.
-    shifted = _back_east(np.column_stack([lon[mine] + 360.0, lat[mine]]))
-    table = np.column_stack([codes[mine].astype(np.float64), shifted])
-    query = np.column_stack([geom_group[which].astype(np.float64), coords])
-    _, key = np.unique(np.concatenate([table, query]), axis=0, return_inverse=True)
-    key = key.ravel()
-    entry = np.full(key.max() + 1, -1, dtype=np.int64)
-    entry[key[: len(table)]] = np.arange(len(table))
-    hit = entry[key[len(table) :]]
-    found = hit >= 0
-    if not found.any():
-        return geoms
-    coords[found, 0] = lon[mine][hit[found]]
-    return shapely.set_coordinates(geoms, coords)
 
 
 _OWN_LAEA = re.compile(
@@ -642,7 +322,7 @@ def metric_crs(
     (6, 2)
     """
     lon, lat = _as_coords(lon, lat)
-    codes = _as_codes(codes, n_groups, lon.size)
+    codes = check_codes(codes, n_groups, lon.size)
     source = parse_crs(source_crs) if source_crs is not None else None
     if source is not None and not source.is_geographic:
         raise InvalidInputError(
@@ -684,7 +364,7 @@ def metric_crs(
     if failed.any():
         names = sorted({crs_name(crs_list[k]) for k in crs_index[codes[failed]]})
         raise InvalidInputError(
-            f"could not project {_positions(failed, labels)} to {', '.join(names)}; "
+            f"could not project {row_positions(failed, labels)} to {', '.join(names)}; "
             "the points lie outside what the CRS can represent, choose a CRS "
             "that covers them or crs='auto'"
         )
@@ -709,13 +389,13 @@ def _choose_auto(
         west, east = np.array([lon.min()]), np.array([lon.max()])
         if east[0] - west[0] > 2 * UTM_HALF_WIDTH:
             # Maybe narrow the other way round the globe (data across +-180).
-            arc = _group_arcs(lon, None, np.zeros(lon.size, dtype=np.intp), 1)
+            arc = group_arcs(lon, None, np.zeros(lon.size, dtype=np.intp), 1)
             west, east = arc["west"], arc["east"]
         epsg, fits = _utm_keys(west, east, south, north)
         if fits[0]:
             return [_crs_from_key(int(epsg[0]))], np.zeros(n_groups, dtype=np.intp)
 
-    arcs = _group_arcs(lon, lat, codes, n_groups)
+    arcs = group_arcs(lon, lat, codes, n_groups)
     filled = ~np.isnan(arcs["west"])
     sub = {name: values[filled] for name, values in arcs.items()}
     epsg, fits = _utm_keys(sub["west"], sub["east"], sub["south"], sub["north"])
@@ -726,6 +406,27 @@ def _choose_auto(
     distinct, crs_index = np.unique(keys, return_inverse=True)
     crs_list = [_crs_from_key(int(key)) for key in distinct]
     return crs_list, crs_index.astype(np.intp).ravel()
+
+
+def to_wgs84(source: Any, x: Any, y: Any, labels: Any = None):
+    """Return the longitudes and latitudes (EPSG:4326) of points in ``source``.
+
+    Raises
+    ------
+    InvalidInputError
+        Naming the rows (by ``labels``) that cannot be moved.
+    """
+    src = parse_crs(source)
+    to = _transformer(_crs_key(src), "EPSG:4326")
+    lon, lat = to.transform(np.asarray(x, dtype=float), np.asarray(y, dtype=float))
+    lon, lat = np.asarray(lon, dtype=float), np.asarray(lat, dtype=float)
+    failed = ~(np.isfinite(lon) & np.isfinite(lat))
+    if failed.any():
+        raise InvalidInputError(
+            f"could not move {row_positions(failed, labels)} to longitude/latitude "
+            "(EPSG:4326)"
+        )
+    return lon, lat
 
 
 class Projection:
@@ -834,16 +535,7 @@ class Projection:
             self.xy, self._crs_list, self._crs_index = metric_crs(
                 lon, lat, codes, n_groups, crs=crs, source_crs=src, labels=labels
             )
-            # crosses_antimeridian(lon, codes, n_groups), keeping its ranges
-            arcs = _group_arcs(lon, None, codes, n_groups)
-            self.crossing = arcs["crossing"]
-            low, high = arcs["west"], arcs["east"]
-            if self.crossing.any():
-                self.out = coords.copy()
-                self.out[:, 0] = unwrap_lon(lon, codes, self.crossing)
-                low, high = _group_min_max(self.out[:, 0], codes, n_groups)
-            with np.errstate(invalid="ignore"):
-                self.wide = high - low > 180.0
+            self.out, self.crossing, self.wide = output_lonlat(coords, codes, n_groups)
         elif auto and is_mercator(src):
             geodetic = src.geodetic_crs
             to_lonlat = _transformer(_crs_key(src), _crs_key(geodetic))
@@ -863,7 +555,7 @@ class Projection:
             failed = ~(np.isfinite(self.xy[:, 0]) & np.isfinite(self.xy[:, 1]))
             if failed.any():
                 raise InvalidInputError(
-                    f"could not project {_positions(failed, labels)} to "
+                    f"could not project {row_positions(failed, labels)} to "
                     f"{crs_name(target)}; choose a CRS that covers them or "
                     "crs='auto'"
                 )

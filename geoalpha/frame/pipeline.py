@@ -54,7 +54,7 @@ from geoalpha.arrays.guarantee import (
     repair_invalid,
 )
 from geoalpha.arrays.optimal import alpha_shapes
-from geoalpha.crs_parsing import parse_crs
+from geoalpha.crs_parsing import is_sphere, parse_crs
 from geoalpha.errors import (
     AntimeridianWarning,
     DegenerateGroupWarning,
@@ -77,6 +77,7 @@ from geoalpha.frame.progress import (
     phases,
 )
 from geoalpha.frame.schema import RESULT_COLUMNS, result_frame, result_geometry_name
+from geoalpha.frame.sphere import SphereProjection, geodesic_areas
 from geoalpha.options import Options
 
 __all__ = [
@@ -578,7 +579,19 @@ def read_points(
 
 
 def project(points: Points, source, options: Options) -> gcrs.Projection:
-    """Project the points to metres, with the way back (:class:`~.crs.Projection`)."""
+    """Project the points to metres, with the way back (:class:`~.crs.Projection`).
+
+    ``crs="sphere"``: :class:`~.sphere.SphereProjection` (longitudes and
+    latitudes for the kernel, metres made only if another stage needs them).
+    """
+    if is_sphere(options.crs):
+        return SphereProjection(
+            points.coords,
+            points.codes,
+            len(points.n_points),
+            source,
+            labels=points.labels,
+        )
     return gcrs.Projection(
         points.coords,
         points.codes,
@@ -615,8 +628,9 @@ def compute(
         bar = None  # nobody to tell: one batch, not one per PROGRESS_GROUPS groups
     try:
         if method in ("alpha", "convex"):
+            sphere = getattr(proj, "sphere", False)
             res = alpha_shapes(
-                proj.xy,
+                proj.lonlat if sphere else proj.xy,
                 points.codes,
                 alpha=0.0 if method == "convex" else options.alpha,
                 holes=options.holes,
@@ -625,15 +639,17 @@ def compute(
                 max_iterations=options.max_iterations,
                 # None: the computation coordinates are the output ones
                 # (projected input used as it is), nothing to map or recheck
-                coords=None if proj.out is proj.xy else proj.out,
+                coords=proj.out if sphere or proj.out is not proj.xy else None,
                 n_groups=n_groups,
                 progress=bar,
                 n_jobs=options.n_jobs,
                 outliers=options.outliers,
                 name_groups=names,
+                sphere=sphere,
+                polar=getattr(proj, "polar", None),
             )
             geometry = res.geometry
-            if method == "convex":
+            if method == "convex" and not sphere:  # (the sphere's is the kernel's)
                 convex = convex_hulls(proj.out, points.codes, n_groups)
                 geometry = np.where(res.degenerate, geometry, convex)
             # "ladder"/"bisect" name the search that gave the alpha
@@ -641,7 +657,8 @@ def compute(
             label = method if exact else options.search
             return Hulls(
                 geometry=geometry,
-                area=res.area,
+                # the sphere's shapes: their area on the WGS84 ellipsoid
+                area=geodesic_areas(geometry, proj.source) if sphere else res.area,
                 alpha=res.alpha,
                 labels=np.full(n_groups, label, dtype=object),
                 degenerate=res.degenerate,
@@ -785,15 +802,17 @@ def degenerate_policy(
         sel = sel[np.argsort(codes[sel], kind="stable")]
         present = np.unique(codes[sel])  # groups with points left
         buffered = np.full(len(which), EMPTY_POLYGON, dtype=object)
+        if getattr(proj, "sphere", False):  # metres for these groups only
+            xy, to_output = proj.metric_of(sel, which)
+        else:
+            xy, to_output = proj.xy[sel], partial(proj.to_output, groups=which)
         if len(present):
-            mp = shapely.multipoints(
-                proj.xy[sel], indices=np.searchsorted(present, codes[sel])
-            )
+            mp = shapely.multipoints(xy, indices=np.searchsorted(present, codes[sel]))
             buffered[np.searchsorted(which, present)] = shapely.buffer(
                 shapely.convex_hull(mp), options.buffer
             )
         area[which] = shapely.area(buffered)
-        geometry[which] = proj.to_output(buffered, which)
+        geometry[which] = to_output(buffered)
         done = (
             f"their rows hold a {options.buffer:g} {proj.unit} buffer around their "
             "points"
@@ -876,8 +895,14 @@ def _reasons(degenerate, points: Points, proj: gcrs.Projection) -> np.ndarray:
         return reason
     sel = np.flatnonzero(np.isin(points.codes, which))
     code = np.searchsorted(which, points.codes[sel])
+    sphere = getattr(proj, "sphere", False)
     res = kernel.solve(
-        proj.xy[sel], code, len(which), out=proj.out[sel], alpha=np.zeros(len(which))
+        (proj.lonlat if sphere else proj.xy)[sel],
+        code,
+        len(which),
+        out=proj.out[sel],
+        alpha=np.zeros(len(which)),
+        sphere=sphere,
     )
     reason[which] = np.where(np.isin(res.reason, (1, 2, 3)), res.reason, 5)
     return reason

@@ -48,7 +48,7 @@ LABELS = {
     "alpha": "Fixed alpha (1/metre) instead of the optimum",
     "holes": "Keep holes",
     "components": "Largest number of parts per group",
-    "crs": "CRS of the computation (auto, a projected CRS, or none)",
+    "crs": "CRS of the computation (auto, sphere, a projected CRS, or none)",
     "search": "Search of the optimal alpha",
     "max_iterations": "Bisection steps (SEARCH=bisect)",
     "ratio": "Concave hull ratio (METHOD=concave)",

@@ -1,0 +1,209 @@
+"""Alpha shapes on the sphere: the array side of ``crs="sphere"``.
+
+The compiled kernel does the geometry (``src/sphere.rs``: the spherical
+Delaunay triangulation of each group's unit vectors, radii as geodesic radii
+of circumscribed small circles on the sphere of WGS84's authalic radius,
+:data:`EARTH_RADIUS`). This module words the groups the kernel refuses (a
+point farther than :data:`MAX_SPHERE_DEGREES` from the group's centre) and
+turns the kernel's rings into valid longitude/latitude polygons: around a
+pole (:func:`close_around_poles`) and along great-circle arcs where a shape
+would fold in longitude/latitude (:func:`follow_arcs`). The frame's side
+(the CRS round trip, geodesic areas) is :mod:`geoalpha.frame.sphere`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import shapely
+
+from geoalpha import _kernel
+
+__all__ = [
+    "EARTH_RADIUS",
+    "MAX_SPHERE_DEGREES",
+    "REFUSED",
+    "close_around_poles",
+    "follow_arcs",
+    "polar_groups",
+    "refused_message",
+]
+
+#: Radius of the sphere (metres): the authalic radius of WGS84, the sphere
+#: with the ellipsoid's area.
+EARTH_RADIUS: float = _kernel.EARTH_RADIUS
+#: Largest angle (degrees) from a group's centre to one of its points.
+MAX_SPHERE_DEGREES: float = _kernel.MAX_SPHERE_DEGREES
+#: The kernel's reason code of a group it refuses on the sphere.
+REFUSED = 6
+
+
+def refused_message(names: str, count: int) -> str:
+    """Word the error of groups too wide for the sphere's kernel, naming them."""
+    return (
+        f"crs='sphere' handles groups whose points all lie within "
+        f"{MAX_SPHERE_DEGREES:g} degrees of their centre (well inside a "
+        f"hemisphere); {count} group(s) do not: {names}. Split them (by= with a "
+        "finer key) or compute them with crs='auto'"
+    )
+
+
+def polar_groups(
+    lonlat: np.ndarray, codes: np.ndarray, which: np.ndarray
+) -> np.ndarray:
+    """Of the groups ``which``, those whose spherical convex hull holds a pole.
+
+    The pole is in the hull when its gnomonic image (from the group's centre,
+    the normalised mean of its unit vectors) is in the convex hull of the
+    points' images: the gnomonic projection maps great circles to lines.
+    """
+    lon, lat = np.radians(lonlat[:, 0]), np.radians(lonlat[:, 1])
+    unit = np.column_stack(
+        [np.cos(lat) * np.cos(lon), np.cos(lat) * np.sin(lon), np.sin(lat)]
+    )
+    out = np.zeros(len(which), dtype=bool)
+    for k, g in enumerate(which):
+        u = unit[codes == g]
+        c = u.sum(axis=0)
+        if not np.linalg.norm(c) > 0:
+            continue
+        c /= np.linalg.norm(c)
+        axis = np.array([0.0, 0.0, 1.0]) if abs(c[2]) < 0.9 else np.array([1.0, 0, 0])
+        e1 = np.cross(axis, c)
+        e1 /= np.linalg.norm(e1)
+        e2 = np.cross(c, e1)
+        z = u @ c
+        if (z <= 0).any():
+            continue
+        hull = shapely.MultiPoint(np.column_stack([u @ e1 / z, u @ e2 / z]))
+        for pole in (1.0, -1.0):
+            if pole * c[2] > 0:
+                zp = pole * c[2]
+                image = shapely.Point(pole * e1[2] / zp, pole * e2[2] / zp)
+                out[k] |= bool(shapely.covers(hull.convex_hull, image))
+    return out
+
+
+def close_around_poles(geometry: np.ndarray) -> np.ndarray:
+    """Longitude/latitude polygons of the shapes of groups around a pole.
+
+    Every ring is densified along its great-circle arcs (near a pole a
+    straight edge in longitude/latitude is far from the arc on the sphere)
+    and unwrapped (consecutive longitudes less than 180 degrees apart); a
+    shell that goes once around in longitude, which no longitude/latitude
+    polygon can hold, is closed along the pole's latitude (+-90); each piece
+    is cut at +-180 degrees and put back in [-180, 180]. The result is valid
+    (repaired with ``make_valid`` otherwise); the points it misses are for
+    the guarantee's check (:func:`geoalpha.shapes.enforce`) to take in.
+    """
+    out = geometry.copy()
+    for g, geom in enumerate(geometry):
+        if geom is None or geom.is_empty:
+            continue
+        merged = shapely.union_all([_close_one(p) for p in shapely.get_parts(geom)])
+        out[g] = merged if merged.is_valid else shapely.make_valid(merged)
+    return out
+
+
+def follow_arcs(geometry: np.ndarray) -> np.ndarray:
+    """Polygons whose edges follow the sphere's great-circle arcs.
+
+    For shapes whose longitude/latitude polygon (straight edges between the
+    input points) is invalid: an edge thousands of kilometres long is far
+    from its arc, and a shape concave on the sphere can fold over itself.
+    Each edge gets points along its arc (:func:`_densify`); longitudes stay
+    as they are (unwrapped across +-180 degrees where they were).
+    """
+    out = geometry.copy()
+    for g, geom in enumerate(geometry):
+        if geom is None or geom.is_empty:
+            continue
+        parts = [
+            shapely.Polygon(
+                _densify(np.asarray(p.exterior.coords), keep=True),
+                [_densify(np.asarray(h.coords), keep=True) for h in p.interiors],
+            )
+            for p in shapely.get_parts(geom)
+        ]
+        merged = shapely.union_all(parts)
+        out[g] = merged if merged.is_valid else shapely.make_valid(merged)
+    return out
+
+
+def _densify(ring: np.ndarray, step: float = 0.25, keep: bool = False) -> np.ndarray:
+    """Points along the great-circle arcs between a ring's vertices.
+
+    Near a pole a straight edge in longitude/latitude is far from the arc on
+    the sphere; the arcs are cut into pieces of at most ``step`` degrees of
+    longitude and of arc, so that the polygon follows the sphere's shape.
+    The vertices are kept as they are; with ``keep``, the new points'
+    longitudes are unwrapped to follow their edge's (beyond 180 where it is).
+    """
+    lon, lat = np.radians(ring[:, 0]), np.radians(ring[:, 1])
+    u = np.column_stack(
+        [np.cos(lat) * np.cos(lon), np.cos(lat) * np.sin(lon), np.sin(lat)]
+    )
+    out = [ring[:1]]
+    for k in range(len(ring) - 1):
+        a, b = u[k], u[k + 1]
+        arc = np.degrees(np.arctan2(np.linalg.norm(np.cross(a, b)), a @ b))
+        dlon = abs((ring[k + 1, 0] - ring[k, 0] + 180.0) % 360.0 - 180.0)
+        pieces = int(np.ceil(max(arc, dlon) / step))
+        if pieces > 1:
+            t = np.linspace(0.0, 1.0, pieces + 1)[1:-1, None]
+            w = (1 - t) * a + t * b  # on the chord, then onto the sphere
+            w /= np.linalg.norm(w, axis=1)[:, None]
+            inner = np.column_stack(
+                [
+                    np.degrees(np.arctan2(w[:, 1], w[:, 0])),
+                    np.degrees(np.arcsin(w[:, 2])),
+                ]
+            )
+            if keep:
+                near = ring[k, 0] + (inner[:, 0] - ring[k, 0] + 180.0) % 360.0 - 180.0
+                inner[:, 0] = near
+            out.append(inner)
+        out.append(ring[k + 1 : k + 2])
+    return np.vstack(out)
+
+
+def _unwrap(ring: np.ndarray) -> tuple[np.ndarray, float]:
+    """Make a ring's longitudes continuous, by whole turns (exact).
+
+    Returns the ring and its net turn in degrees (+-360 around a pole).
+    """
+    dlon = np.diff(ring[:, 0])
+    dlon = (dlon + 180.0) % 360.0 - 180.0
+    steps = ring[0, 0] + np.concatenate([[0.0], np.cumsum(dlon)])
+    turns = np.round((steps - ring[:, 0]) / 360.0)
+    return np.column_stack([ring[:, 0] + 360.0 * turns, ring[:, 1]]), float(dlon.sum())
+
+
+def _close_one(polygon):
+    shell, total = _unwrap(_densify(np.asarray(polygon.exterior.coords)))
+    if abs(total) >= 180.0:
+        pole = 90.0 if total > 0 else -90.0
+        shell = np.vstack([shell, [[shell[-1, 0], pole], [shell[0, 0], pole]]])
+    west = shell[:, 0].min()
+    holes = []
+    for hole in polygon.interiors:
+        h, _ = _unwrap(_densify(np.asarray(hole.coords)))
+        h[:, 0] -= 360.0 * np.floor((h[0, 0] - west) / 360.0)
+        holes.append(h)
+    whole = shapely.Polygon(shell, holes)
+    if not whole.is_valid:
+        whole = shapely.make_valid(whole)
+    seam = shell[0, 0]
+    pieces = []
+    for k in range(-2, 3):
+        box = shapely.box(-180.0 + 360.0 * k, -90.0, 180.0 + 360.0 * k, 90.0)
+        piece = shapely.intersection(whole, box)
+        if not piece.is_empty:
+            pieces.append(shapely.transform(piece, lambda c, k=k: _seam(c, k, seam)))
+    return shapely.union_all(pieces)
+
+
+def _seam(coords: np.ndarray, k: int, seam: float) -> np.ndarray:
+    """Shift by ``k`` turns west; put the closing meridian exactly on ``seam``."""
+    coords = coords - (360.0 * k, 0.0)
+    coords[np.abs(coords[:, 0] - seam) <= 1e-9, 0] = seam
+    return coords

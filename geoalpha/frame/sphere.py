@@ -1,0 +1,168 @@
+"""``crs="sphere"`` in the frame: the CRS round trip and geodesic areas.
+
+:class:`SphereProjection` gives the kernel longitudes and latitudes in
+EPSG:4326 and keeps the input coordinates to build the polygons from;
+:func:`geodesic_areas` gives ``area_m2`` on the WGS84 ellipsoid. The
+geometry is the kernel's (``src/sphere.rs``) and
+:mod:`geoalpha.arrays.sphere`'s.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pyproj
+import shapely
+
+from geoalpha.arrays.sphere import polar_groups
+from geoalpha.crs_parsing import parse_crs
+from geoalpha.errors import InvalidInputError
+from geoalpha.frame import crs as gcrs
+
+__all__ = ["SphereProjection", "geodesic_areas"]
+
+_WGS84 = parse_crs("EPSG:4326")
+
+
+class SphereProjection(gcrs.Projection):
+    """The CRS round trip of ``crs="sphere"``.
+
+    :attr:`lonlat` holds the longitudes and latitudes (EPSG:4326, degrees)
+    the kernel computes in; :attr:`out` the input coordinates the polygons
+    are built from (longitudes of antimeridian-crossing groups unwrapped, as
+    with ``crs="auto"``). The stages that need metres for other things than
+    the alpha shape (buffers of degenerate groups, ``grow=``, the comparison
+    methods) get them from :attr:`xy`, the ``crs="auto"`` projection, made on
+    first use.
+
+    Parameters
+    ----------
+    coords, codes, n_groups, source, labels
+        As for :class:`geoalpha.crs.Projection`.
+
+    Raises
+    ------
+    InvalidInputError
+        Input without a CRS, coordinates out of range, or points that cannot
+        be moved to longitude/latitude.
+    """
+
+    sphere = True
+
+    def __init__(
+        self,
+        coords: np.ndarray,
+        codes: np.ndarray,
+        n_groups: int,
+        source: Any,
+        labels: Any = None,
+    ) -> None:
+        src = parse_crs(source)
+        if src is None:
+            raise InvalidInputError(
+                "the input has no CRS, so its points cannot be put on the sphere; "
+                "set it with gdf.set_crs(...)"
+            )
+        self.source = src
+        self._args = (coords, codes, n_groups, source, labels)
+        self._auto: gcrs.Projection | None = None
+        self.unit = "m"
+        self.names = np.full(n_groups, "sphere", dtype=object)
+        self.out = coords
+        self.crossing = np.zeros(n_groups, dtype=bool)
+        self.wide = np.zeros(n_groups, dtype=bool)
+        self.polar = np.zeros(n_groups, dtype=bool)
+        if src.is_geographic:
+            lon, lat = coords[:, 0], coords[:, 1]
+            gcrs.check_lonlat(lon, lat, labels)
+            self.out, self.crossing, self.wide = gcrs.output_lonlat(
+                coords, codes, n_groups
+            )
+            # Groups around a pole: polygons closed along it (close_around_poles),
+            # from the input longitudes as they are.
+            maybe = np.flatnonzero(self.crossing | self.wide)
+            self.polar = np.zeros(n_groups, dtype=bool)
+            if len(maybe):
+                self.polar[maybe] = polar_groups(coords, codes, maybe)
+            if self.polar.any():
+                mine = self.polar[codes]
+                if self.out is not coords:
+                    self.out = self.out.copy()
+                    self.out[mine] = coords[mine]
+                self.crossing &= ~self.polar
+                self.wide &= ~self.polar
+            if src != _WGS84:
+                lon, lat = gcrs.to_wgs84(src, lon, lat, labels)
+        else:
+            lon, lat = gcrs.to_wgs84(src, coords[:, 0], coords[:, 1], labels)
+        self.lonlat = np.ascontiguousarray(np.column_stack([lon, lat]), dtype=float)
+
+    def _metric(self) -> gcrs.Projection:
+        if self._auto is None:
+            coords, codes, n_groups, source, labels = self._args
+            self._auto = gcrs.Projection(
+                coords, codes, n_groups, source, "auto", labels
+            )
+        return self._auto
+
+    def metric_of(self, sel: np.ndarray, which: np.ndarray):
+        """Metres for the points ``sel`` of the groups ``which`` only.
+
+        Returns their coordinates in ``crs="auto"``'s CRS for those groups
+        alone, and the function that moves geometries of ``which`` (in that
+        order) back to the input CRS: the degenerate groups' buffers need no
+        projection of the whole input.
+        """
+        coords, codes, _, source, labels = self._args
+        local = gcrs.Projection(
+            coords[sel],
+            np.searchsorted(which, codes[sel]),
+            len(which),
+            source,
+            "auto",
+            None if labels is None else labels[sel],
+        )
+        groups = np.arange(len(which))
+        return local.xy, lambda geoms: local.to_output(geoms, groups)
+
+    @property
+    def xy(self) -> np.ndarray:  # type: ignore[override]
+        """Metres (``crs="auto"``'s projection), for stages other than the shape."""
+        return self._metric().xy
+
+    @property
+    def _crs_list(self):  # the way back of :attr:`xy`
+        return self._metric()._crs_list
+
+    @property
+    def _crs_index(self):
+        return self._metric()._crs_index
+
+
+def geodesic_areas(geometry: np.ndarray, source: Any) -> np.ndarray:
+    """Areas (m²) on the WGS84 ellipsoid of polygons in ``source``.
+
+    Each ring's edges are taken as geodesics (pyproj's ``Geod``, after
+    GeographicLib), which the sphere's shapes have for edges; polygons in a
+    projected ``source`` are moved to longitude/latitude first. Empty
+    geometries get 0.
+    """
+    geod = pyproj.Geod(ellps="WGS84")
+    src = parse_crs(source)
+    if src is not None and not src.is_geographic:
+        geometry = shapely.transform(
+            geometry, lambda c: np.column_stack(gcrs.to_wgs84(src, c[:, 0], c[:, 1]))
+        )
+    polygons, group = shapely.get_parts(geometry, return_index=True)
+    rings, polygon = shapely.get_rings(polygons, return_index=True)
+    # a polygon's shell first, then its holes
+    shell = np.r_[True, polygon[1:] != polygon[:-1]] if len(rings) else rings
+    coords, ring = shapely.get_coordinates(rings, return_index=True)
+    cuts = np.searchsorted(ring, np.arange(len(rings) + 1))
+    out = np.zeros(len(geometry))
+    for k in range(len(rings)):
+        xy = coords[cuts[k] : cuts[k + 1]]
+        area = abs(geod.polygon_area_perimeter(xy[:, 0], xy[:, 1])[0])
+        out[group[polygon[k]]] += area if shell[k] else -area
+    return out
