@@ -266,40 +266,46 @@ pub fn triangulate(points: &[Xy], frame: &Frame, build: bool) -> Mesh {
 /// them close in memory: spade's own numbering follows the order of creation.
 fn fill_arrays(t: &DelaunayTriangulation<Vertex>, mesh: &mut Mesh) {
     let m = t.num_inner_faces();
-    let key = |f: &spade::handles::FaceHandle<'_, spade::handles::InnerTag, Vertex, (), (), ()>| {
-        f.vertices()
-            .iter()
-            .map(|v| v.data().rank)
-            .min()
-            .unwrap_or(0) as usize
-    };
-    // Inner faces are numbered 1..=m (0 is the outer face): `place[f]` is
-    // face f's triangle index.
-    let mut place = vec![0u32; m + 1];
-    let mut start = vec![0u32; t.num_vertices() + 1];
+    // One walk of spade's faces (numbered 1..=m, 0 being the outer face)
+    // into flat arrays in spade's numbering, with each face's key: the
+    // smallest rank of its vertices.
+    let mut tri = vec![[0u32; 3]; m];
+    let mut nb = vec![[NONE; 3]; m];
+    let mut key = vec![0u32; m];
     for f in t.inner_faces() {
-        start[key(&f) + 1] += 1;
+        let i = f.fix().index() - 1;
+        let v = f.vertices();
+        tri[i] = [v[0].data().id, v[1].data().id, v[2].data().id];
+        key[i] = v.iter().map(|v| v.data().rank).min().unwrap_or(0);
+        for (j, e) in f.adjacent_edges().iter().enumerate() {
+            let across = e.rev().face();
+            if !across.is_outer() {
+                nb[i][j] = (across.fix().index() - 1) as u32;
+            }
+        }
+    }
+    // Counting sort by key: `place[i]` is face i's triangle index.
+    let mut start = vec![0u32; t.num_vertices() + 1];
+    for &k in &key {
+        start[k as usize + 1] += 1;
     }
     for r in 0..t.num_vertices() {
         start[r + 1] += start[r];
     }
-    for f in t.inner_faces() {
-        let k = key(&f);
-        place[f.fix().index()] = start[k];
-        start[k] += 1;
-    }
+    let place: Vec<u32> = key
+        .iter()
+        .map(|&k| {
+            let p = start[k as usize];
+            start[k as usize] += 1;
+            p
+        })
+        .collect();
     mesh.tri = vec![[0; 3]; m];
     mesh.nb = vec![[NONE; 3]; m];
-    for f in t.inner_faces() {
-        let i = place[f.fix().index()] as usize;
-        let v = f.vertices();
-        mesh.tri[i] = [v[0].data().id, v[1].data().id, v[2].data().id];
-        for (j, e) in f.adjacent_edges().iter().enumerate() {
-            let across = e.rev().face();
-            if !across.is_outer() {
-                mesh.nb[i][j] = place[across.fix().index()];
-            }
-        }
+    for i in 0..m {
+        let p = place[i] as usize;
+        mesh.tri[p] = tri[i];
+        mesh.nb[p] = nb[i].map(|s| if s == NONE { NONE } else { place[s as usize] });
     }
 }
 
