@@ -20,8 +20,6 @@ import warnings
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # timing.py
-from timing import best_of, fmt_time
-
 import geopandas as gpd
 import numpy as np
 from timing import best_of, fmt_time

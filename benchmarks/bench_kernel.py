@@ -103,10 +103,13 @@ def peak_memory(n: int) -> float:
     )
 
 
-def command_time(argv: list[str], env: dict, repeat: int) -> float:
-    """Best wall time of a fresh process running ``argv``."""
-    run = partial(subprocess.run, argv, env=env, check=True, capture_output=True)
-    return best_of({"run": run}, repeat, warm_up=False)["run"]
+def command_times(commands: dict, repeat: int) -> dict:
+    """Best wall time of a fresh process for each ``name: (argv, env)``."""
+    runs = {
+        name: partial(subprocess.run, argv, env=env, check=True, capture_output=True)
+        for name, (argv, env) in commands.items()
+    }
+    return best_of(runs, repeat, warm_up=False)
 
 
 def before_hull(before: Path, repeat: int) -> float:
@@ -271,16 +274,20 @@ def main(argv=None) -> int:
         )
     )
     env = dict(os.environ)
-    imp = command_time([sys.executable, "-c", "import geoalpha"], env, r)
-    helptime = command_time([sys.executable, "-m", "geoalpha", "--help"], env, r)
+    starts = {
+        "imp": ([sys.executable, "-c", "import geoalpha"], env),
+        "help": ([sys.executable, "-m", "geoalpha", "--help"], env),
+    }
     if args.before is not None:
         old_env = dict(os.environ, PYTHONPATH=str(args.before))
-        old_imp = command_time([sys.executable, "-c", "import geoalpha"], old_env, r)
-        old_help = command_time(
-            [sys.executable, "-m", "geoalpha", "--help"], old_env, r
-        )
-        row(rows, "`import geoalpha`", imp, old_imp, "no slower than before")
-        row(rows, "`geoalpha --help`", helptime, old_help, "no slower than before")
+        starts["old_imp"] = ([sys.executable, "-c", "import geoalpha"], old_env)
+        starts["old_help"] = ([sys.executable, "-m", "geoalpha", "--help"], old_env)
+    # Fresh processes, interleaved (one of each per round), best of 10 or more.
+    t = command_times(starts, max(r, 10))
+    imp, helptime = t["imp"], t["help"]
+    if args.before is not None:
+        row(rows, "`import geoalpha`", imp, t["old_imp"], "no slower than before")
+        row(rows, "`geoalpha --help`", helptime, t["old_help"], "no slower than before")
     else:
         rows.append(("`import geoalpha`", fmt_time(imp), "", ""))
         rows.append(("`geoalpha --help`", fmt_time(helptime), "", ""))
