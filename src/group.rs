@@ -103,22 +103,9 @@ pub fn solve(
     }
     let frame = Frame::of(points);
     let line = collinear(points, &frame);
-    let line_out = out.is_some_and(|o| collinear(o, &Frame::of(o)));
-    let mesh = triangulate(points, &frame, !(line || line_out));
-    res.rep = mesh.rep.clone();
-    res.n_distinct = mesh.n_distinct as u32;
-    res.reason = if mesh.n_distinct < 3 {
-        Reason::Few
-    } else if line || mesh.tri.is_empty() {
-        Reason::Collinear
-    } else if line_out {
-        Reason::CollinearOut
-    } else {
-        Reason::Ok
-    } as u8;
-    if res.reason != 0 {
+    let Some(mesh) = mesh_or_reason(points, &frame, line, out, &mut res) else {
         return res;
-    }
+    };
 
     let s = frame.scale;
     let scaled = |v: u32| {
@@ -126,11 +113,7 @@ pub fn solve(
         [p[0] * s, p[1] * s]
     };
     let radius_of = |t: &[u32; 3]| circumradius(scaled(t[0]), scaled(t[1]), scaled(t[2])) / s;
-    let radius: Vec<f64> = if mesh.tri.len() > PARALLEL_TRIANGLES {
-        mesh.tri.par_iter().map(radius_of).collect()
-    } else {
-        mesh.tri.iter().map(radius_of).collect()
-    };
+    let radius = per_triangle(&mesh.tri, radius_of);
     // Orientations in the scaled coordinates: exact, and never underflowing
     // for groups whose coordinates are tiny (1e-300 across).
     let scaled_points: Vec<Xy> = (0..n as u32).map(scaled).collect();
@@ -162,6 +145,42 @@ pub struct Shaped<'a> {
     pub ring_points: &'a [Xy],
     /// The area of a triangle.
     pub area_of: &'a (dyn Fn(&[u32; 3]) -> f64 + Sync),
+}
+
+/// Triangulate a group (`points` in the plane the mesh is made in, `line`
+/// whether they lie on one line there) and decide its reason code: the mesh
+/// when the group has a shape, `None` (with `res.reason` set) when it is
+/// degenerate. Collinearity is decided in the output coordinates `out` too.
+pub fn mesh_or_reason(
+    points: &[Xy],
+    frame: &Frame,
+    line: bool,
+    out: Option<&[Xy]>,
+    res: &mut Solved,
+) -> Option<Mesh> {
+    let line_out = out.is_some_and(|o| collinear(o, &Frame::of(o)));
+    let mesh = triangulate(points, frame, !(line || line_out));
+    res.rep = mesh.rep.clone();
+    res.n_distinct = mesh.n_distinct as u32;
+    res.reason = if mesh.n_distinct < 3 {
+        Reason::Few
+    } else if line || mesh.tri.is_empty() {
+        Reason::Collinear
+    } else if line_out {
+        Reason::CollinearOut
+    } else {
+        Reason::Ok
+    } as u8;
+    (res.reason == Reason::Ok as u8).then_some(mesh)
+}
+
+/// `f` of every triangle, on every thread when there are many.
+pub fn per_triangle<T: Send>(tri: &[[u32; 3]], f: impl Fn(&[u32; 3]) -> T + Sync + Send) -> Vec<T> {
+    if tri.len() > PARALLEL_TRIANGLES {
+        tri.par_iter().map(f).collect()
+    } else {
+        tri.iter().map(f).collect()
+    }
 }
 
 /// The optimum (or given alpha), the shape, its area and rings, of a

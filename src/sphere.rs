@@ -45,14 +45,12 @@
 //! (one that does not fit in a hemisphere, or nearly) is refused:
 //! [`Reason::Hemisphere`].
 
-use rayon::prelude::*;
 use robust::{incircle, orient2d, orient3d, Coord, Coord3D};
 use std::collections::HashMap;
 
 use crate::frame::{collinear, Frame, Xy};
-use crate::group::{finish, Options, Reason, Shaped, Solved};
+use crate::group::{finish, mesh_or_reason, per_triangle, Options, Reason, Shaped, Solved};
 use crate::mesh::{triangulate, Mesh, NONE};
-use crate::spectrum::PARALLEL_TRIANGLES;
 
 /// The sphere's radius in metres: the authalic radius of WGS84 (the sphere
 /// with the ellipsoid's area).
@@ -290,22 +288,9 @@ pub fn solve(
     let frame = Frame::of(&local.stereo);
     // Great circles are the gnomonic projection's lines.
     let line = collinear(&local.gnomonic, &Frame::of(&local.gnomonic));
-    let line_out = out.is_some_and(|o| collinear(o, &Frame::of(o)));
-    let mut mesh = triangulate(&local.stereo, &frame, !(line || line_out));
-    res.rep = mesh.rep.clone();
-    res.n_distinct = mesh.n_distinct as u32;
-    res.reason = if mesh.n_distinct < 3 {
-        Reason::Few
-    } else if line || mesh.tri.is_empty() {
-        Reason::Collinear
-    } else if line_out {
-        Reason::CollinearOut
-    } else {
-        Reason::Ok
-    } as u8;
-    if res.reason != 0 {
+    let Some(mut mesh) = mesh_or_reason(&local.stereo, &frame, line, out, &mut res) else {
         return res;
-    }
+    };
 
     let s = frame.scale;
     let scaled = |v: u32| {
@@ -314,11 +299,7 @@ pub fn solve(
     };
     let radius_of =
         |t: &[u32; 3]| EARTH_RADIUS * cap_radius(scaled(t[0]), scaled(t[1]), scaled(t[2]), s);
-    let mut radius: Vec<f64> = if mesh.tri.len() > PARALLEL_TRIANGLES {
-        mesh.tri.par_iter().map(radius_of).collect()
-    } else {
-        mesh.tri.iter().map(radius_of).collect()
-    };
+    let mut radius = per_triangle(&mesh.tri, radius_of);
     let unit = &local.unit;
     let area_of = |t: &[u32; 3]| {
         EARTH_RADIUS
