@@ -178,44 +178,27 @@ def check_hull(frame, crs="auto"):
     return hulls
 
 
-@examples(60)
+@pytest.mark.parametrize("crs", ["auto", "sphere"])
+@examples(50)
 @given(
     seed=st.integers(0, 2**32 - 1),
     n=st.integers(3, 30),
     meridian=st.booleans(),
     twins=st.booleans(),
 )
-def test_one_meridian_or_parallel_through_hull(seed, n, meridian, twins):
+def test_one_meridian_or_parallel(crs, seed, n, meridian, twins):
+    # Collinear in lon/lat: degenerate there, whatever their UTM image. On the
+    # sphere a meridian is a great circle (degenerate on the sphere) and a
+    # parallel a line in the lon/lat the result is returned in.
     rng = np.random.default_rng(seed)
     along = 50 + np.round(rng.random(n) * 0.01, 7)
     lon, lat = (np.full(n, -2.9), along) if meridian else (along - 52, np.full(n, 51.5))
     if twins:
         lon = np.r_[lon, np.degrees(np.radians(lon))]
         lat = np.r_[lat, lat]
-    hulls = check_hull(lonlat_frame(lon, lat))
-    # Collinear in lon/lat: degenerate there, whatever their UTM image.
+    hulls = check_hull(lonlat_frame(lon, lat), crs=crs)
     assert np.isnan(hulls["alpha"]).all()
     assert (hulls.geometry.area > 0).all()  # the default policy: a buffer
-
-
-@examples(40)
-@given(
-    seed=st.integers(0, 2**32 - 1),
-    n=st.integers(3, 30),
-    meridian=st.booleans(),
-    twins=st.booleans(),
-)
-def test_one_meridian_or_parallel_on_the_sphere(seed, n, meridian, twins):
-    # A meridian is a great circle (degenerate on the sphere); a parallel is a
-    # line in the lon/lat the result is returned in (degenerate there).
-    rng = np.random.default_rng(seed)
-    along = 50 + np.round(rng.random(n) * 0.01, 7)
-    lon, lat = (np.full(n, -2.9), along) if meridian else (along - 52, np.full(n, 51.5))
-    if twins:
-        lon = np.r_[lon, np.degrees(np.radians(lon))]
-        lat = np.r_[lat, lat]
-    hulls = check_hull(lonlat_frame(lon, lat), crs="sphere")
-    assert np.isnan(hulls["alpha"]).all()
 
 
 @examples(40)
