@@ -192,5 +192,11 @@ def is_mercator(crs: Any) -> bool:
 
 
 def is_sphere(crs: Any) -> bool:
-    """Whether a ``crs=`` option is ``"sphere"`` (computed on the sphere)."""
+    """Whether a ``crs=`` option is ``"sphere"`` (computed on the sphere).
+
+    Examples
+    --------
+    >>> is_sphere("Sphere"), is_sphere("EPSG:4326")
+    (True, False)
+    """
     return isinstance(crs, str) and crs.strip().lower() == "sphere"

@@ -35,6 +35,13 @@ def row_positions(mask: np.ndarray, labels: Any = None) -> str:
 
     With ``labels`` (one label per row, e.g. the index labels of the frame the
     points came from) the rows are named by label: "3 rows (index 4, 9, 12)".
+
+    Examples
+    --------
+    >>> row_positions(np.array([False, True, True]))
+    '2 rows (positions 1, 2)'
+    >>> row_positions(np.array([True, False]), labels=np.array(["a", "b"]))
+    '1 row (index a)'
     """
     where = np.flatnonzero(mask)
     count = where.size
@@ -49,7 +56,13 @@ def row_positions(mask: np.ndarray, labels: Any = None) -> str:
 
 
 def check_codes(codes: Any, n_groups: int, n_points: int) -> np.ndarray:
-    """Return ``codes`` as integers, checked: one per point, ``0 .. n_groups - 1``."""
+    """Return ``codes`` as integers, checked: one per point, ``0 .. n_groups - 1``.
+
+    Examples
+    --------
+    >>> check_codes([0, 1, 1], 2, 3).tolist()
+    [0, 1, 1]
+    """
     codes = np.asarray(codes).ravel()
     if codes.size != n_points:
         raise InvalidInputError(
@@ -73,7 +86,14 @@ def check_codes(codes: Any, n_groups: int, n_points: int) -> np.ndarray:
 def group_min_max(
     values: np.ndarray, codes: np.ndarray, n_groups: int
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Per-group minimum and maximum (NaN for groups without points)."""
+    """Per-group minimum and maximum (NaN for groups without points).
+
+    Examples
+    --------
+    >>> low, high = group_min_max(np.array([3.0, 1.0, 5.0]), np.array([0, 0, 1]), 2)
+    >>> low.tolist(), high.tolist()
+    ([1.0, 5.0], [3.0, 5.0])
+    """
     low = np.full(n_groups, np.inf)
     high = np.full(n_groups, -np.inf)
     np.minimum.at(low, codes, values)
@@ -93,6 +113,13 @@ def group_arcs(
     +-180), ``west``/``east`` (arc ends in unwrapped longitudes, so that
     ``west <= east`` and ``east`` may exceed 180), and with ``lat`` given
     ``south``/``north``. Empty groups get ``crossing=False`` and NaN ends.
+
+    Examples
+    --------
+    >>> arcs = group_arcs(np.array([179.0, -179.0, 10.0, 20.0]), None,
+    ...                   np.array([0, 0, 1, 1]), 2)
+    >>> arcs["crossing"].tolist(), arcs["west"].tolist(), arcs["east"].tolist()
+    ([True, False], [179.0, 10.0], [181.0, 20.0])
     """
     west, east = group_min_max(lon, codes, n_groups)
     out = {"crossing": np.zeros(n_groups, dtype=bool), "west": west, "east": east}
@@ -372,6 +399,13 @@ def output_lonlat(
     antimeridian-crossing groups unwrapped (:func:`unwrap_lon`; ``coords``
     itself when no group crosses), the crossing groups, and the groups that
     span more than 180 degrees of longitude.
+
+    Examples
+    --------
+    >>> lonlat = np.array([[179.0, 0.0], [-179.0, 1.0], [10.0, 0.0]])
+    >>> out, crossing, wide = output_lonlat(lonlat, np.array([0, 0, 1]), 2)
+    >>> out[:, 0].tolist(), crossing.tolist(), wide.tolist()
+    ([179.0, 181.0, 10.0], [True, False], [False, False])
     """
     lon = coords[:, 0]
     # crosses_antimeridian(lon, codes, n_groups), keeping its ranges

@@ -38,7 +38,13 @@ REFUSED = 6
 
 
 def refused_message(names: str, count: int) -> str:
-    """Word the error of groups too wide for the sphere's kernel, naming them."""
+    """Word the error of groups too wide for the sphere's kernel, naming them.
+
+    Examples
+    --------
+    >>> refused_message("'Chile'", 1)  # doctest: +ELLIPSIS
+    "crs='sphere' handles groups ... 1 group(s) do not: 'Chile'. ..."
+    """
     return (
         f"crs='sphere' handles groups whose points all lie within "
         f"{MAX_SPHERE_DEGREES:g} degrees of their centre (well inside a "
@@ -55,6 +61,14 @@ def polar_groups(
     The pole is in the hull when its gnomonic image (from the group's centre,
     the normalised mean of its unit vectors) is in the convex hull of the
     points' images: the gnomonic projection maps great circles to lines.
+
+    Examples
+    --------
+    >>> lonlat = np.array([[0, 80], [120, 80], [240, 80],  # around the pole
+    ...                    [10, 10], [12, 10], [11, 12.0]])
+    >>> codes = np.array([0, 0, 0, 1, 1, 1])
+    >>> polar_groups(lonlat, codes, np.array([0, 1])).tolist()
+    [True, False]
     """
     lon, lat = np.radians(lonlat[:, 0]), np.radians(lonlat[:, 1])
     unit = np.column_stack(
@@ -93,7 +107,14 @@ def close_around_poles(geometry: np.ndarray) -> np.ndarray:
     polygon can hold, is closed along the pole's latitude (+-90); each piece
     is cut at +-180 degrees and put back in [-180, 180]. The result is valid
     (repaired with ``make_valid`` otherwise); the points it misses are for
-    the guarantee's check (:func:`geoalpha.shapes.enforce`) to take in.
+    the guarantee's check (:func:`geoalpha.arrays.guarantee.enforce`) to take in.
+
+    Examples
+    --------
+    >>> cap = shapely.Polygon([(0, 80), (120, 80), (240, 80)])  # around the pole
+    >>> closed = close_around_poles(np.array([cap]))[0]
+    >>> closed.is_valid, closed.bounds
+    (True, (-180.0, 80.0, 180.0, 90.0))
     """
     out = geometry.copy()
     for g, geom in enumerate(geometry):
@@ -112,6 +133,13 @@ def follow_arcs(geometry: np.ndarray) -> np.ndarray:
     from its arc, and a shape concave on the sphere can fold over itself.
     Each edge gets points along its arc (:func:`_densify`); longitudes stay
     as they are (unwrapped across +-180 degrees where they were).
+
+    Examples
+    --------
+    >>> big = shapely.Polygon([(0, 0), (40, 60), (80, 0)])
+    >>> arcs = follow_arcs(np.array([big]))[0]
+    >>> arcs.is_valid, len(arcs.exterior.coords) > 4
+    (True, True)
     """
     out = geometry.copy()
     for g, geom in enumerate(geometry):

@@ -415,6 +415,12 @@ def to_wgs84(source: Any, x: Any, y: Any, labels: Any = None):
     ------
     InvalidInputError
         Naming the rows (by ``labels``) that cannot be moved.
+
+    Examples
+    --------
+    >>> lon, lat = to_wgs84("EPSG:32630", [500000.0], [0.0])  # UTM 30N's origin
+    >>> lon.round(6).tolist(), lat.round(6).tolist()
+    ([-3.0], [0.0])
     """
     src = parse_crs(source)
     to = _transformer(_crs_key(src), "EPSG:4326")

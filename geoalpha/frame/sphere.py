@@ -39,13 +39,20 @@ class SphereProjection(gcrs.Projection):
     Parameters
     ----------
     coords, codes, n_groups, source, labels
-        As for :class:`geoalpha.crs.Projection`.
+        As for :class:`geoalpha.frame.crs.Projection`.
 
     Raises
     ------
     InvalidInputError
         Input without a CRS, coordinates out of range, or points that cannot
         be moved to longitude/latitude.
+
+    Examples
+    --------
+    >>> lonlat = np.array([[0.0, 51.0], [1.0, 51.0], [0.5, 52.0]])
+    >>> proj = SphereProjection(lonlat, np.zeros(3, dtype=int), 1, "EPSG:4326")
+    >>> proj.lonlat.tolist() == lonlat.tolist(), bool((proj.out == lonlat).all())
+    (True, True)
     """
 
     sphere = True
@@ -147,6 +154,12 @@ def geodesic_areas(geometry: np.ndarray, source: Any) -> np.ndarray:
     GeographicLib), which the sphere's shapes have for edges; polygons in a
     projected ``source`` are moved to longitude/latitude first. Empty
     geometries get 0.
+
+    Examples
+    --------
+    >>> one_degree = shapely.box(0, 0, 1, 1)  # at the equator: about 12,309 km2
+    >>> float(geodesic_areas(np.array([one_degree]), "EPSG:4326")[0].round(-6))
+    12309000000.0
     """
     geod = pyproj.Geod(ellps="WGS84")
     src = parse_crs(source)
