@@ -143,22 +143,34 @@ pub fn orient(a: Xy, b: Xy, c: Xy) -> f64 {
 /// Circumradius of the triangle `a, b, c` (scaled coordinates), in scaled
 /// units: `|ab| |bc| |ca| / (2 |cross|)`, `inf` for a flat triangle.
 ///
-/// The cross product comes from the adaptive exact orientation, so needles
-/// keep an accurate radius; each difference is rounded once. Lengths are
-/// plain square roots (not `hypot`, several times slower): in the scaled
-/// frame the edges are between the tolerance (about 1e-9, near-duplicates
-/// being merged) and 2 long, so
-/// their squares neither overflow nor underflow.
+/// The cross product is taken at the vertex of the largest angle (opposite
+/// the longest edge), where the two edge vectors are furthest from parallel:
+/// the adaptive orientation's estimate is then within about `2 eps / sin C`
+/// of its value, a few ulps unless the triangle is nearly flat, so needles
+/// (two vertices close together) keep an accurate radius; at the other
+/// vertices it can cancel to 1e-8 of its terms. Lengths are plain square
+/// roots (not `hypot`, several times slower): in the scaled frame the edges
+/// are between the tolerance (about 1e-9, near-duplicates being merged) and
+/// 2 long, so their squares neither overflow nor underflow.
 pub fn circumradius(a: Xy, b: Xy, c: Xy) -> f64 {
-    let cross = orient(a, b, c).abs();
+    let sq = |p: Xy, q: Xy| {
+        let (dx, dy) = (q[0] - p[0], q[1] - p[1]);
+        dx * dx + dy * dy
+    };
+    let (ab, bc, ca) = (sq(a, b), sq(b, c), sq(c, a));
+    // Rotations keep the orientation; the last vertex is the pivot.
+    let cross = if ab >= bc && ab >= ca {
+        orient(a, b, c)
+    } else if bc >= ca {
+        orient(b, c, a)
+    } else {
+        orient(c, a, b)
+    }
+    .abs();
     if cross == 0.0 {
         return f64::INFINITY;
     }
-    let len = |p: Xy, q: Xy| {
-        let (dx, dy) = (q[0] - p[0], q[1] - p[1]);
-        (dx * dx + dy * dy).sqrt()
-    };
-    len(a, b) * len(b, c) / (2.0 * cross) * len(c, a)
+    ab.sqrt() * bc.sqrt() / (2.0 * cross) * ca.sqrt()
 }
 
 #[cfg(test)]
@@ -178,6 +190,29 @@ mod tests {
     fn ulp_matches_numpy_spacing() {
         assert_eq!(ulp(1.0), f64::EPSILON);
         assert_eq!(ulp(0.0), f64::from_bits(1));
+    }
+
+    #[test]
+    fn a_needle_has_one_radius_in_every_vertex_order() {
+        // (100, 0) and (100 + 1e-6, 3e-7) are 1e-8 of the extent apart; the
+        // cross product at (30, 90) cancels to 1e-8 of its terms. The
+        // radius 61.137... is 1 / 0.016356725744076647 (exact rationals, in
+        // tests/test_exact.py::test_needle_triangle_radius).
+        let (a, b, c) = ([100.0, 0.0], [30.0, 90.0], [100.000001, 3e-7]);
+        let s = 1.0 / 128.0;
+        let q = |p: Xy| [p[0] * s, p[1] * s];
+        let exact = 1.0 / 0.016356725744076647;
+        for (x, y, z) in [
+            (a, b, c),
+            (b, c, a),
+            (c, a, b),
+            (b, a, c),
+            (a, c, b),
+            (c, b, a),
+        ] {
+            let r = circumradius(q(x), q(y), q(z)) / s;
+            assert!((r / exact - 1.0).abs() < 1e-14, "{r} vs {exact}");
+        }
     }
 
     #[test]

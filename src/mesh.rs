@@ -2,6 +2,7 @@
 //! predicates, as flat triangle and neighbour arrays.
 
 use rayon::prelude::*;
+use spade::handles::{FaceHandle, FixedVertexHandle, PossiblyOuterTag};
 use spade::{DelaunayTriangulation, HasPosition, Point2, Triangulation};
 
 use crate::frame::{Frame, Xy};
@@ -228,85 +229,94 @@ pub fn triangulate(points: &[Xy], frame: &Frame, build: bool) -> Mesh {
     }
     let (mut root, mut n_distinct) = roots(&mut union, n);
     let mut mesh = Mesh::default();
-    let mut dt = None;
     if build && n_distinct >= 3 {
-        dt = delaunay(points, &along, &root, s);
-        if let Some(t) = &dt {
-            let close = (frame.tol * s) * (frame.tol * s);
-            let mut merged = false;
-            for e in t.undirected_edges() {
-                let [a, b] = e.vertices();
-                let (pa, pb) = (points[a.data().id as usize], points[b.data().id as usize]);
-                let (dx, dy) = ((pa[0] - pb[0]) * s, (pa[1] - pb[1]) * s);
-                if dx * dx + dy * dy < close {
-                    merged |= union.union(a.data().id, b.data().id);
+        if let Some(t) = delaunay(points, &along, &root, s) {
+            fill_arrays(&t, &mut mesh);
+        }
+        let mut merged = false;
+        for (a, b) in close_pairs(points, &mesh, s * frame.tol, s) {
+            merged |= union.union(a, b);
+        }
+        if merged {
+            (root, n_distinct) = roots(&mut union, n);
+            mesh = Mesh::default();
+            if n_distinct >= 3 {
+                if let Some(t) = delaunay(points, &along, &root, s) {
+                    fill_arrays(&t, &mut mesh);
                 }
-            }
-            if merged {
-                (root, n_distinct) = roots(&mut union, n);
-                dt = if n_distinct >= 3 {
-                    delaunay(points, &along, &root, s)
-                } else {
-                    None
-                };
             }
         }
     }
     mesh.rep = (0..n as u32).map(|i| union.find(i)).collect();
     mesh.n_distinct = n_distinct;
-    if let Some(t) = dt {
-        fill_arrays(&t, &mut mesh);
-    }
     mesh
 }
 
+/// The mesh's edges shorter than `close` (in coordinates scaled by `s`), as
+/// point pairs, each edge looked at once.
+fn close_pairs(points: &[Xy], mesh: &Mesh, close: f64, s: f64) -> Vec<(u32, u32)> {
+    let close = close * close;
+    (0..mesh.tri.len())
+        .into_par_iter()
+        .with_min_len(PARALLEL_POINTS)
+        .flat_map_iter(|t| {
+            (0..3).filter_map(move |j| {
+                let across = mesh.nb[t][j];
+                let (a, b) = (mesh.tri[t][j], mesh.tri[t][(j + 1) % 3]);
+                let (pa, pb) = (points[a as usize], points[b as usize]);
+                let (dx, dy) = ((pa[0] - pb[0]) * s, (pa[1] - pb[1]) * s);
+                let once = across == NONE || across > t as u32;
+                (once && dx * dx + dy * dy < close).then_some((a, b))
+            })
+        })
+        .collect()
+}
+
 /// The triangle and neighbour arrays, the triangles numbered along the
-/// Z-order curve (by the rank of their first vertex on it, with a counting
-/// sort), so that the sweeps, which visit a triangle and its neighbours, find
-/// them close in memory: spade's own numbering follows the order of creation.
+/// Z-order curve, so that the sweeps, which visit a triangle and its
+/// neighbours, find them close in memory (spade's own numbering follows the
+/// order of creation).
+///
+/// Each triangle is listed by its vertex of smallest rank on the curve, the
+/// vertices taken in rank order, on every thread: one walk around each
+/// vertex. Then spade's face numbers become places in that list.
 fn fill_arrays(t: &DelaunayTriangulation<Vertex>, mesh: &mut Mesh) {
-    let m = t.num_inner_faces();
-    // One walk of spade's faces (numbered 1..=m, 0 being the outer face)
-    // into flat arrays in spade's numbering, with each face's key: the
-    // smallest rank of its vertices.
-    let mut tri = vec![[0u32; 3]; m];
-    let mut nb = vec![[NONE; 3]; m];
-    let mut key = vec![0u32; m];
-    for f in t.inner_faces() {
-        let i = f.fix().index() - 1;
-        let v = f.vertices();
-        tri[i] = [v[0].data().id, v[1].data().id, v[2].data().id];
-        key[i] = v.iter().map(|v| v.data().rank).min().unwrap_or(0);
-        for (j, e) in f.adjacent_edges().iter().enumerate() {
-            let across = e.rev().face();
-            if !across.is_outer() {
-                nb[i][j] = (across.fix().index() - 1) as u32;
-            }
-        }
+    let mut by_rank = vec![0u32; t.num_vertices()];
+    for v in t.vertices() {
+        by_rank[v.data().rank as usize] = v.fix().index() as u32;
     }
-    // Counting sort by key: `place[i]` is face i's triangle index.
-    let mut start = vec![0u32; t.num_vertices() + 1];
-    for &k in &key {
-        start[k as usize + 1] += 1;
-    }
-    for r in 0..t.num_vertices() {
-        start[r + 1] += start[r];
-    }
-    let place: Vec<u32> = key
-        .iter()
-        .map(|&k| {
-            let p = start[k as usize];
-            start[k as usize] += 1;
-            p
+    let face = |f: FaceHandle<PossiblyOuterTag, Vertex, (), (), ()>| {
+        f.as_inner().map_or(NONE, |f| f.fix().index() as u32)
+    };
+    let faces: Vec<(u32, [u32; 3], [u32; 3])> = by_rank
+        .par_iter()
+        .with_min_len(PARALLEL_POINTS / 8)
+        .flat_map_iter(|&v| {
+            let v = t.vertex(FixedVertexHandle::from_index(v as usize));
+            let rank = v.data().rank;
+            v.out_edges().filter_map(move |e| {
+                let f = face(e.face());
+                let (next, prev) = (e.next(), e.prev());
+                let lowest = next.from().data().rank > rank && prev.from().data().rank > rank;
+                (f != NONE && lowest).then(|| {
+                    let tri = [v.data().id, next.from().data().id, prev.from().data().id];
+                    let nb = [e, next, prev].map(|d| face(d.rev().face()));
+                    (f, tri, nb)
+                })
+            })
         })
         .collect();
-    mesh.tri = vec![[0; 3]; m];
-    mesh.nb = vec![[NONE; 3]; m];
-    for i in 0..m {
-        let p = place[i] as usize;
-        mesh.tri[p] = tri[i];
-        mesh.nb[p] = nb[i].map(|s| if s == NONE { NONE } else { place[s as usize] });
+    let mut place = vec![NONE; t.num_all_faces()];
+    for (p, f) in faces.iter().enumerate() {
+        place[f.0 as usize] = p as u32;
     }
+    mesh.tri = faces.par_iter().map(|f| f.1).collect();
+    mesh.nb = faces
+        .par_iter()
+        .map(|f| {
+            f.2.map(|s| if s == NONE { NONE } else { place[s as usize] })
+        })
+        .collect();
 }
 
 #[cfg(test)]

@@ -125,19 +125,23 @@ pub fn fill_rank(rank: &[u32], k: usize, nb: &[[u32; 3]]) -> Vec<u32> {
     fill
 }
 
-/// Triangles in increasing rank (counting sort, ties by index).
-fn by_rank(w: &[u32], k: usize) -> Vec<u32> {
-    let mut start = vec![0u32; k + 1];
-    for &r in w {
-        start[r as usize + 1] += 1;
+/// Triangles of rank `from` or more, in increasing rank (counting sort,
+/// ties by index).
+fn by_rank(w: &[u32], k: usize, from: u32) -> Vec<u32> {
+    let from = from as usize;
+    let mut start = vec![0u32; k + 1 - from.min(k)];
+    for &r in w.iter().filter(|&&r| r as usize >= from) {
+        start[r as usize - from + 1] += 1;
     }
-    for i in 0..k {
+    for i in 0..start.len() - 1 {
         start[i + 1] += start[i];
     }
-    let mut order = vec![0u32; w.len()];
+    let mut order = vec![0u32; start[start.len() - 1] as usize];
     for (t, &r) in w.iter().enumerate() {
-        order[start[r as usize] as usize] = t as u32;
-        start[r as usize] += 1;
+        if r as usize >= from {
+            order[start[r as usize - from] as usize] = t as u32;
+            start[r as usize - from] += 1;
+        }
     }
     order
 }
@@ -223,10 +227,57 @@ pub struct Curve {
     pub valid: Vec<bool>,
 }
 
+/// The shape as triangles are added: its pieces (union-find over triangles)
+/// and the points it covers.
+struct Growing<'a> {
+    tri: &'a [[u32; 3]],
+    nb: &'a [[u32; 3]],
+    union: Union,
+    added: Vec<bool>,
+    covered: Vec<bool>,
+    n_covered: usize,
+    n_pieces: usize,
+}
+
+impl Growing<'_> {
+    fn add(&mut self, t: usize) {
+        self.added[t] = true;
+        self.n_pieces += 1;
+        for &v in &self.tri[t] {
+            if !self.covered[v as usize] {
+                self.covered[v as usize] = true;
+                self.n_covered += 1;
+            }
+        }
+        for &s in &self.nb[t] {
+            if s != NONE && self.added[s as usize] && self.union.union(t as u32, s) {
+                self.n_pieces -= 1;
+            }
+        }
+    }
+}
+
+/// The largest, over the points, of the smallest weight of a triangle at the
+/// point: no threshold below covers every point.
+fn coverage_bound(w: &[u32], tri: &[[u32; 3]], n_points: usize) -> u32 {
+    let mut lowest = vec![NONE; n_points];
+    for (t, v) in tri.iter().enumerate() {
+        for &p in v {
+            lowest[p as usize] = lowest[p as usize].min(w[t]);
+        }
+    }
+    lowest.into_iter().filter(|&x| x != NONE).max().unwrap_or(0)
+}
+
 /// One union-find sweep over the triangles in increasing weight `w` (ranks
 /// below `k`): the first valid threshold (the optimum; `None` if no threshold
 /// is valid, which a Delaunay triangulation never gives) and, if asked, the
 /// whole curve.
+///
+/// Without the curve, the sweep starts at the coverage bound (no lower
+/// threshold covers every point), adding the triangles below it in index
+/// order, whose neighbours are close in memory, and only the rest in order of
+/// weight.
 ///
 /// `n_distinct` is the number of distinct points, all of them triangle
 /// vertices; `tri` indexes points `0..n_points`.
@@ -241,34 +292,38 @@ pub fn sweep(
     components: usize,
     want_curve: bool,
 ) -> (Option<u32>, Curve) {
-    let order = by_rank(w, k);
-    let mut union = Union::new(w.len());
-    let mut added = vec![false; w.len()];
-    let mut covered = vec![false; n_points];
-    let (mut n_covered, mut n_pieces) = (0usize, 0usize);
+    let mut shape = Growing {
+        tri,
+        nb,
+        union: Union::new(w.len()),
+        added: vec![false; w.len()],
+        covered: vec![false; n_points],
+        n_covered: 0,
+        n_pieces: 0,
+    };
+    let valid = |shape: &Growing| shape.n_covered == n_distinct && shape.n_pieces <= components;
+    let mut from = 0;
+    if !want_curve && !w.is_empty() {
+        let bound = coverage_bound(w, tri, n_points);
+        for t in (0..w.len()).filter(|&t| w[t] <= bound) {
+            shape.add(t);
+        }
+        if valid(&shape) {
+            return (Some(bound), Curve::default());
+        }
+        from = bound + 1;
+    }
+    let order = by_rank(w, k, from);
     let mut curve = Curve::default();
     let mut first = None;
     let mut i = 0;
     while i < order.len() {
         let value = w[order[i] as usize];
         while i < order.len() && w[order[i] as usize] == value {
-            let t = order[i] as usize;
-            added[t] = true;
-            n_pieces += 1;
-            for &v in &tri[t] {
-                if !covered[v as usize] {
-                    covered[v as usize] = true;
-                    n_covered += 1;
-                }
-            }
-            for &s in &nb[t] {
-                if s != NONE && added[s as usize] && union.union(t as u32, s) {
-                    n_pieces -= 1;
-                }
-            }
+            shape.add(order[i] as usize);
             i += 1;
         }
-        let valid = n_covered == n_distinct && n_pieces <= components;
+        let valid = valid(&shape);
         if valid && first.is_none() {
             first = Some(value);
             if !want_curve {
