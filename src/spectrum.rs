@@ -83,42 +83,34 @@ pub fn merge_ties(radius: &[f64]) -> Spectrum {
 /// With holes filled, `t` is in the shape at rank `R` exactly when every such
 /// path meets a solid triangle, i.e. when its fill rank is `<= R`. A
 /// widest-path search from the outside on a bucket queue: the keys it takes
-/// out never increase (a neighbour's key is the min of the current one and
-/// its rank), so one downward scan of `k` buckets serves, `O(m + k)`.
+/// out never increase, so the first key a triangle is queued with (the min
+/// of the current key and its rank) is its fill rank, and each triangle is
+/// queued once; one downward scan of `k` buckets serves, `O(m + k)`.
 pub fn fill_rank(rank: &[u32], k: usize, nb: &[[u32; 3]]) -> Vec<u32> {
     let m = rank.len();
     let mut fill = vec![NONE; m];
-    // Buckets as linked lists: head[key] -> entry -> next entry.
+    // Buckets as lists threaded through the triangles: head[key] -> next.
     let mut head = vec![NONE; k];
-    let mut entries: Vec<(u32, u32)> = Vec::with_capacity(4 * m);
-    let push = |head: &mut Vec<u32>, entries: &mut Vec<(u32, u32)>, key: u32, t: u32| {
-        entries.push((t, head[key as usize]));
-        head[key as usize] = (entries.len() - 1) as u32;
+    let mut next = vec![NONE; m];
+    let queue = |fill: &mut [u32], head: &mut [u32], next: &mut [u32], t: usize, key: u32| {
+        fill[t] = key;
+        next[t] = head[key as usize];
+        head[key as usize] = t as u32;
     };
     for (t, n) in nb.iter().enumerate() {
         if n.contains(&NONE) {
-            push(&mut head, &mut entries, rank[t], t as u32);
+            queue(&mut fill, &mut head, &mut next, t, rank[t]);
         }
     }
-    // At most one push per hull triangle and per directed dual edge.
-    let mut key = k;
-    while key > 0 {
-        let b = key - 1;
-        let e = head[b];
-        if e == NONE {
-            key -= 1;
-            continue;
-        }
-        let (t, next) = entries[e as usize];
-        head[b] = next;
-        if fill[t as usize] != NONE {
-            continue;
-        }
-        fill[t as usize] = b as u32;
-        for &s in &nb[t as usize] {
-            if s != NONE && fill[s as usize] == NONE {
-                let sk = (b as u32).min(rank[s as usize]);
-                push(&mut head, &mut entries, sk, s);
+    for b in (0..k).rev() {
+        while head[b] != NONE {
+            let t = head[b] as usize;
+            head[b] = next[t];
+            for &s in &nb[t] {
+                if s != NONE && fill[s as usize] == NONE {
+                    let key = (b as u32).min(rank[s as usize]);
+                    queue(&mut fill, &mut head, &mut next, s as usize, key);
+                }
             }
         }
     }
