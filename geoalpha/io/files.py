@@ -1,14 +1,8 @@
 """Read point files and write hull files, safely.
 
-:func:`read_points` turns any vector file GDAL reads, a GeoParquet file or a
-CSV table with coordinate columns into a GeoDataFrame of points.
-:func:`write_hulls` writes the result of :func:`geoalpha.hull` in the format
-its file extension names, atomically (a failed write never leaves a
-half-written file, and never damages the file it was meant to replace), and
-renames the columns a Shapefile cannot hold.
-
-This module does pure file handling; the ``geoalpha`` command
-(:mod:`geoalpha.cli`) is a thin layer over it.
+:func:`read_points` reads points from any vector file GDAL reads, GeoParquet
+or a CSV table; :func:`write_hulls` writes hulls atomically in the format the
+extension names. The ``geoalpha`` command is a thin layer over them.
 """
 
 from __future__ import annotations
@@ -103,11 +97,6 @@ def cli_terms() -> Iterator[None]:
 
 def _term(python: str, cli: str) -> str:
     return cli if _CLI_TERMS.get() else python
-
-
-def _shown(source: str) -> str:
-    """Return a data source as a message may show it: without credentials."""
-    return redact(source)
 
 
 # --------------------------------------------------------------------------
@@ -205,7 +194,7 @@ def read_input_points(
     from geoalpha.crs_parsing import parse_crs
 
     source = os.fspath(path)
-    shown = _shown(source)
+    shown = redact(source)
     if is_gdal_connection(source):
         raise gdal_connection_error(source)
     if is_postgres_url(source):  # layer: schema.table, or sql=
@@ -301,7 +290,7 @@ def _read_database(source, x, y, crs, layer, planar_if_missing, sql, geometry_co
         crs=None if auto else crs,
     )
     if gdf.crs is None and auto and not planar_if_missing:
-        raise _missing_crs(f"the geometries of {_shown(source)} (SRID 0)")
+        raise _missing_crs(f"the geometries of {redact(source)} (SRID 0)")
     return gdf
 
 
@@ -337,6 +326,10 @@ def _missing_crs(what: str) -> InvalidInputError:
     return InvalidInputError(f"{what} have no CRS, and geoalpha does not guess: {how}")
 
 
+def _cannot_read(source: str, err: BaseException) -> InvalidInputError:
+    return InvalidInputError(f"cannot read {redact(source)}: {_one_line(err)}")
+
+
 def _read_vector(source: str, shown: str, suffix: str, layer: str | int | None):
     import geopandas as gpd
 
@@ -351,11 +344,11 @@ def _read_vector(source: str, shown: str, suffix: str, layer: str | int | None):
     except (ImportError, InvalidInputError):
         raise
     except Exception as err:  # GDAL/pyogrio/fiona/pyarrow errors vary
-        message = f"cannot read {shown}: {_one_line(err)}"
-        safe = redact(message, secrets_in(source))
-        if safe != message:  # the library's own message showed a secret
+        error = _cannot_read(source, err)
+        safe = redact(str(error), secrets_in(source))
+        if safe != str(error):  # the library's own message showed a secret
             raise InvalidInputError(safe) from None
-        raise InvalidInputError(message) from err
+        raise error from err
 
 
 def _read_csv(source: str):
@@ -371,17 +364,15 @@ def _read_csv(source: str):
         return pd.read_csv(source, sep=sep, encoding="utf-8-sig", low_memory=False)
     except UnicodeDecodeError as err:
         raise InvalidInputError(
-            f"cannot read {_shown(source)}: it is not UTF-8 text ({err.reason} at byte "
+            f"cannot read {redact(source)}: it is not UTF-8 text ({err.reason} at byte "
             f"{err.start}); save it as UTF-8 CSV"
         ) from err
     except PermissionError as err:
         raise PermissionError(
-            f"cannot read input file {_shown(source)}: permission denied"
+            f"cannot read input file {redact(source)}: permission denied"
         ) from err
     except (OSError, ValueError, pd.errors.ParserError) as err:
-        raise InvalidInputError(
-            f"cannot read {_shown(source)}: {_one_line(err)}"
-        ) from err
+        raise _cannot_read(source, err) from err
 
 
 def _has_geo_metadata(source: str) -> bool:
@@ -389,9 +380,7 @@ def _has_geo_metadata(source: str) -> bool:
     try:
         metadata = pq.read_schema(source).metadata or {}
     except Exception as err:  # pyarrow raises ArrowInvalid, OSError, ...
-        raise InvalidInputError(
-            f"cannot read {_shown(source)}: {_one_line(err)}"
-        ) from err
+        raise _cannot_read(source, err) from err
     return b"geo" in metadata
 
 
@@ -401,9 +390,7 @@ def _read_parquet_table(source: str):
     try:
         return pd.read_parquet(source)
     except Exception as err:  # pragma: no cover - schema was readable just before
-        raise InvalidInputError(
-            f"cannot read {_shown(source)}: {_one_line(err)}"
-        ) from err
+        raise _cannot_read(source, err) from err
 
 
 def _import_pyarrow_parquet():
@@ -542,14 +529,10 @@ def write_hulls(
 ) -> dict[str, str]:
     """Write hulls to a file, in the format its extension names, atomically.
 
-    The file is written to a hidden staging folder beside ``path`` (so on the
-    same file system) and then moved into place, so a failure while writing
-    leaves no half-written file and leaves an existing file untouched.
-    Without ``overwrite``, the move itself refuses to replace a file that
-    appeared while the hulls were computed (another run writing the same
-    file): it links the new file into place, which fails if the name is
-    taken. A staging folder left by a killed run is removed by the next
-    write into the same folder.
+    The file is written to a hidden staging folder beside ``path``, then moved
+    into place: a failed write leaves no half-written file and an existing
+    file untouched, and without ``overwrite`` a file that appeared meanwhile
+    is never replaced.
 
     Parameters
     ----------
@@ -670,11 +653,7 @@ def _write_database(gdf, path, layer, overwrite: bool, extra_layers) -> None:
 
 
 def _write_layers(layers, staged: Path, suffix: str, engine, target: Path) -> None:
-    """Write ``(frame, source, layer)`` triples into the staged file.
-
-    An error names the output, never the staging folder; a Shapefile must
-    come with its ``.prj`` file when the frame has a CRS.
-    """
+    """Write ``(frame, source, layer)`` triples into the staged file."""
     try:
         for frame, source, layer in layers:
             _write_staged(frame, source, staged, suffix, layer, engine)
@@ -759,7 +738,7 @@ def check_output(
         check_postgis_output(os.fspath(path), layer, overwrite=overwrite)
         return
     target, _, _ = _check_target(path, layer, overwrite)
-    _check_writable(target)
+    shutil.rmtree(_make_staging(target), ignore_errors=True)  # it can be created
 
 
 def _database(path, engine) -> bool:
@@ -804,11 +783,6 @@ def _check_target(path, layer, overwrite) -> tuple[Path, str, list[Path]]:
             f"{_term('overwrite=True', '--overwrite')} to replace it"
         )
     return target, suffix, targets
-
-
-def _check_writable(target: Path) -> None:
-    """Make sure a staging folder can be created beside ``target`` (then remove it)."""
-    shutil.rmtree(_make_staging(target), ignore_errors=True)
 
 
 # Staging folders are named ".<output name>.geoalpha-<host>-<pid>-<random>", so
@@ -857,10 +831,7 @@ def _pid_alive(pid: int) -> bool:
 def remove_stale_staging(folder: PathLike) -> list[Path]:
     """Remove staging folders that killed geoalpha runs left in ``folder``.
 
-    A staging folder belongs to a run on this host whose process id is in its
-    name; it is stale once that process is gone (a run killed with SIGKILL
-    cannot clean up after itself). Folders of live runs and of other hosts
-    are kept.
+    Folders of live runs and of other hosts are kept.
 
     Parameters
     ----------
@@ -914,11 +885,8 @@ def _move_into_place(
 ) -> None:
     """Move the staged files to the targets.
 
-    With ``overwrite``, each file replaces its target (the main file last).
-    Without, each file is hard-linked to its target name, which fails if the
-    name is taken, so a file that appeared meanwhile is never replaced; the
-    main file goes first, so that of two runs racing for one output exactly
-    one wins, and the loser removes what it linked.
+    Without ``overwrite`` each file is linked to its name, the main file
+    first, so that of two runs racing for one output exactly one wins.
     """
     written = {p.name for p in staging.iterdir() if p.is_file()}
     if target.name not in written:
@@ -949,21 +917,18 @@ def _move_into_place(
 def _place_new(source: Path, destination: Path) -> None:
     """Move ``source`` to ``destination``; FileExistsError if that name is taken."""
     try:
-        os.link(source, destination)
+        try:
+            os.link(source, destination)
+        except FileExistsError:
+            raise
+        except OSError:
+            # No hard links here (some network or FAT file systems): claim the
+            # name with an exclusive create, then replace that placeholder.
+            os.close(os.open(destination, os.O_CREAT | os.O_EXCL | os.O_WRONLY))
+            os.replace(source, destination)
+            return
     except FileExistsError:
         raise FileExistsError(errno.EEXIST, "file exists", str(destination)) from None
-    except OSError:
-        # No hard links here (some network or FAT file systems): claim the name
-        # with an exclusive create, then replace that placeholder.
-        try:
-            descriptor = os.open(destination, os.O_CREAT | os.O_EXCL | os.O_WRONLY)
-        except FileExistsError:
-            raise FileExistsError(
-                errno.EEXIST, "file exists", str(destination)
-            ) from None
-        os.close(descriptor)
-        os.replace(source, destination)
-        return
     source.unlink()
 
 
@@ -991,10 +956,7 @@ def _truncate_bytes(name: str, limit: int) -> str:
 def _shapefile_names(columns: list) -> dict[str, str]:
     """Map column names that do not fit a dBASE field to unique short names.
 
-    Names that already fit keep theirs (and are reserved first, so a
-    truncated name never takes one); the others are cut to 10 bytes, or to
-    fewer plus ``_1``, ``_2``, ... when the cut name is taken. Names compare
-    ignoring case, as in dBASE.
+    Names that fit are kept (and reserved first); see :func:`write_hulls`.
     """
     used: set[str] = set()
     keep: set[str] = set()
