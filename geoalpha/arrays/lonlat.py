@@ -1,10 +1,7 @@
 """Longitudes and latitudes of grouped points: groups across the antimeridian.
 
-Array functions shared by the frame (``crs="auto"``'s projection and the
-way back) and the array API (``crs="sphere"``, whose polygons are built in
-longitude/latitude): which groups cross +-180 degrees, their longitudes
-unwrapped into one continuous range, and polygons split back at the
-antimeridian.
+Which groups cross +-180 degrees, their longitudes unwrapped into one
+continuous range, and polygons split back at the antimeridian.
 """
 
 from __future__ import annotations
@@ -109,10 +106,9 @@ def group_arcs(
 ) -> dict[str, np.ndarray]:
     """Smallest longitude arc (and latitude range) covering each group.
 
-    Returns arrays of shape (n_groups,): ``crossing`` (the arc contains
-    +-180), ``west``/``east`` (arc ends in unwrapped longitudes, so that
-    ``west <= east`` and ``east`` may exceed 180), and with ``lat`` given
-    ``south``/``north``. Empty groups get ``crossing=False`` and NaN ends.
+    Returns arrays of shape (n_groups,): ``crossing``, ``west``/``east``
+    (``east`` may exceed 180) and with ``lat`` ``south``/``north``; NaN ends
+    for empty groups.
 
     Examples
     --------
@@ -162,9 +158,8 @@ def group_arcs(
 def crosses_antimeridian(lon: Any, codes: Any, n_groups: int) -> np.ndarray:
     """Tell which groups span the +-180 degree meridian.
 
-    A group crosses when the smallest longitude interval (on the circle) that
-    covers all its points contains +-180 degrees. Ties (two equally small
-    intervals) count as not crossing.
+    A group crosses when the smallest longitude interval covering it contains
+    +-180 degrees (ties: not crossing).
 
     Parameters
     ----------
@@ -209,17 +204,8 @@ def unwrap_lon(lon: Any, codes: Any, crossing: Any) -> np.ndarray:
     Returns
     -------
     numpy.ndarray of float64, shape (n,)
-        A copy of ``lon`` in which the negative longitudes of the points of
-        crossing groups have 360 added, so that each such group lies in
-        [0, 360) without a jump; the other points are unchanged. Polygons
-        built from these longitudes go back to [-180, 180] with
-        :func:`split_antimeridian`.
-
-    Notes
-    -----
-    A group whose points span more than 180 degrees of longitude (around a
-    pole, or half the globe) has no meaningful single polygon in
-    longitude/latitude; its unwrapped longitudes may still jump.
+        A copy of ``lon`` in which the negative longitudes of crossing groups
+        have 360 added (back with :func:`split_antimeridian`).
 
     Examples
     --------
@@ -261,11 +247,8 @@ def split_antimeridian(geom: Any) -> Any:
     Returns
     -------
     shapely geometry or numpy.ndarray of geometries
-        Same shape as the input. A geometry with some x > 180 becomes a valid
-        MultiPolygon whose parts west of the line end at x = 180 and whose
-        parts east of it start at x = -180 (one part only if the geometry lies
-        entirely east of 180); the total area is unchanged. Geometries with
-        every x <= 180 are returned unchanged.
+        Same shape as the input; a geometry with some x > 180 becomes a valid
+        MultiPolygon of the same area, the others are unchanged.
 
     Examples
     --------
@@ -277,12 +260,7 @@ def split_antimeridian(geom: Any) -> Any:
     >>> split_antimeridian(box(10, 0, 11, 1)).bounds
     (10.0, 0.0, 11.0, 1.0)
     """
-    scalar = np.ndim(geom) == 0
-    geoms = np.empty(1, dtype=object)
-    if scalar:
-        geoms[0] = geom
-    else:
-        geoms = np.asarray(geom, dtype=object)
+    geoms = np.asarray(geom, dtype=object)  # 0-d for one geometry
     out = geoms.copy()
     flat = geoms.ravel()
     bounds = shapely.bounds(flat)
@@ -318,7 +296,7 @@ def split_antimeridian(geom: Any) -> Any:
             result = flat.copy()
             result[todo[has_parts]] = multi
             out = result.reshape(geoms.shape)
-    return out[0] if scalar else out
+    return out[()] if geoms.ndim == 0 else out
 
 
 def restore_longitudes(
@@ -326,14 +304,8 @@ def restore_longitudes(
 ) -> np.ndarray:
     """Give split polygons the input points' own longitudes back.
 
-    :func:`unwrap_lon` adds 360 degrees to negative longitudes and
-    :func:`split_antimeridian` subtracts it again from the part east of the
-    line; between -128 and 0 degrees that round trip rounds (``lon + 360``
-    has a coarser spacing than ``lon``), so a vertex that was an input point
-    comes back up to one unit in the last place away from it, and the point
-    can fall outside its polygon. This puts every such vertex back on the
-    longitude of the input point it came from (same group, same latitude,
-    same round-tripped longitude).
+    The round trip ``lon + 360 - 360`` can move a vertex by one unit in the
+    last place, leaving its point outside the polygon.
 
     Parameters
     ----------
@@ -349,8 +321,7 @@ def restore_longitudes(
     Returns
     -------
     ndarray of shapely geometries, shape (k,)
-        New geometries (the input array is not changed); vertices that match
-        no input point (on the antimeridian, say) are left as they are.
+        New geometries; vertices that match no input point stay as they are.
 
     Examples
     --------
