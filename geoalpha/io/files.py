@@ -129,13 +129,9 @@ def read_points(
         used. Not allowed for files that store geometries.
     crs : "auto", str, int, pyproj.CRS or None, default "auto"
         CRS of the coordinates of a table, or of a vector file that stores
-        none (a Shapefile without ``.prj``). ``"auto"`` never guesses: a table
-        whose coordinate columns are named as longitude/latitude (``lon/lat``,
-        ``Longitude/Latitude``, ...) is in EPSG:4326, a file uses its own CRS,
-        and anything else without a CRS is an :class:`InvalidInputError`.
-        None leaves the coordinates without CRS (planar numbers). A file's
-        own CRS always wins (a :class:`~geoalpha.errors.CRSWarning` says when
-        it differs from ``crs``).
+        none. ``"auto"`` never guesses: columns named as longitude/latitude
+        are EPSG:4326, a file uses its own CRS, anything else is an error.
+        None: planar numbers without CRS. A file's own CRS always wins.
 
     layer : str or int, optional
         Layer to read from a multi-layer file such as a GeoPackage; the first
@@ -152,17 +148,14 @@ def read_points(
     FileNotFoundError
         If ``path`` does not exist.
     geoalpha.errors.InvalidInputError
-        If the file cannot be read, has no CRS (with ``crs="auto"``), the
-        coordinate columns are not found or not numeric, or lon/lat
-        coordinates are out of range. Messages never show a password of
-        ``path``.
+        If the file cannot be read or has no CRS (with ``crs="auto"``), or
+        the coordinates cannot be used. Messages never show a password.
 
     Warns
     -----
     geoalpha.errors.CRSWarning
-        When every coordinate lies within +-180/+-90 although ``crs`` is a
-        projected CRS (they look like longitude/latitude), or ``crs`` differs
-        from the file's own CRS.
+        When ``crs`` is projected but the coordinates look like lon/lat, or
+        it differs from the file's own CRS.
 
     Examples
     --------
@@ -191,16 +184,30 @@ def read_input_points(
     ``sql`` and ``geometry_column`` apply to a ``postgresql://`` source (see
     :func:`geoalpha.io.postgis.read_postgis`).
     """
-    from geoalpha.crs_parsing import parse_crs
+    from geoalpha.crs_parsing import crs_name, parse_crs
 
     source = os.fspath(path)
     shown = redact(source)
+    auto = isinstance(crs, str) and crs.strip().lower() == "auto"
     if is_gdal_connection(source):
         raise gdal_connection_error(source)
     if is_postgres_url(source):  # layer: schema.table, or sql=
-        return _read_database(
-            source, x, y, crs, layer, planar_if_missing, sql, geometry_column
+        from geoalpha.io.postgis import read_postgis
+
+        if x is not None or y is not None:
+            raise InvalidInputError(
+                f"{_term('x= and y=', '--x and --y')} apply to tables (CSV) only"
+            )
+        gdf = read_postgis(
+            source,
+            table=layer,
+            sql=sql,
+            geometry_column=geometry_column,
+            crs=None if auto else crs,
         )
+        if gdf.crs is None and auto and not planar_if_missing:
+            raise _missing_crs(f"the geometries of {shown} (SRID 0)")
+        return gdf
     if sql is not None or geometry_column is not None:
         raise InvalidInputError(
             f"{_term('sql= and geometry_column=', '--sql and --geometry-column')} "
@@ -211,7 +218,6 @@ def read_input_points(
         raise FileNotFoundError(f"input file {shown} does not exist")
     if local and Path(source).is_file() and not os.access(source, os.R_OK):
         raise PermissionError(f"cannot read input file {shown}: permission denied")
-    auto = isinstance(crs, str) and crs.strip().lower() == "auto"
     if crs is not None and not auto:
         crs = parse_crs(crs)
 
@@ -254,8 +260,8 @@ def read_input_points(
     if gdf.crs is not None:
         if crs is not None and not auto and not gdf.crs.equals(crs):
             warnings.warn(
-                f"{shown} has its own CRS {_crs_label(gdf.crs)}, which is used; "
-                f"{_term('crs=', '--crs-in')} {_crs_label(crs)} is ignored",
+                f"{shown} has its own CRS {crs_name(gdf.crs)}, which is used; "
+                f"{_term('crs=', '--crs-in')} {crs_name(crs)} is ignored",
                 CRSWarning,
                 stacklevel=2,
             )
@@ -271,33 +277,6 @@ def read_input_points(
         _check_lonlat(xy[:, 0], xy[:, 1], crs, shown, "x", "y")
         gdf = gdf.set_crs(crs)
     return gdf
-
-
-def _read_database(source, x, y, crs, layer, planar_if_missing, sql, geometry_column):
-    """Read a PostGIS table or query; the CRS rules of :func:`read_points`."""
-    from geoalpha.io.postgis import read_postgis
-
-    if x is not None or y is not None:
-        raise InvalidInputError(
-            f"{_term('x= and y=', '--x and --y')} apply to tables (CSV) only"
-        )
-    auto = isinstance(crs, str) and crs.strip().lower() == "auto"
-    gdf = read_postgis(
-        source,
-        table=layer,
-        sql=sql,
-        geometry_column=geometry_column,
-        crs=None if auto else crs,
-    )
-    if gdf.crs is None and auto and not planar_if_missing:
-        raise _missing_crs(f"the geometries of {redact(source)} (SRID 0)")
-    return gdf
-
-
-def _crs_label(crs) -> str:
-    from geoalpha.crs_parsing import crs_name
-
-    return crs_name(crs)
 
 
 def _looks_lonlat(x: str, y: str) -> bool:
@@ -474,6 +453,8 @@ def _check_lonlat(xs, ys, crs, source: str, x: str, y: str) -> None:
     """Refuse lon/lat out of range; warn when projected values look like lon/lat."""
     import numpy as np
 
+    from geoalpha.crs_parsing import crs_name
+
     if crs is None:
         return
     xs = np.asarray(xs, dtype=float)
@@ -487,7 +468,7 @@ def _check_lonlat(xs, ys, crs, source: str, x: str, y: str) -> None:
             warnings.warn(
                 f"every point of {source} has {x} within [-180, 180] and {y} "
                 "within [-90, 90], as longitude/latitude degrees do, but "
-                f"{_term('crs=', '--crs-in')} {_crs_label(crs)} says they are "
+                f"{_term('crs=', '--crs-in')} {crs_name(crs)} says they are "
                 f"in {unit}s; if they are longitude/latitude, use "
                 f"{_term('crs=', '--crs-in ')}EPSG:4326",
                 CRSWarning,
@@ -569,25 +550,15 @@ def write_hulls(
 
     Raises
     ------
-    FileExistsError
-        If ``path`` exists and ``overwrite`` is False, also when it appeared
-        while writing.
-    FileNotFoundError
-        If the directory of ``path`` does not exist.
-    PermissionError
-        If the directory of ``path`` is not writable.
+    FileExistsError, FileNotFoundError, PermissionError
+        As :func:`check_output`; also when ``path`` appeared while writing.
     geoalpha.errors.InvalidInputError
-        For an unknown extension or engine, or ``layer`` for a format without
-        layers.
+        As :func:`check_output`, and for an unknown engine.
 
     Notes
     -----
-    Shapefile field names longer than 10 characters (bytes, in UTF-8) are
-    truncated; a truncated name that would collide with another (compared
-    ignoring case, as the dBASE format does) gets a numbered suffix:
-    ``Local_Authority_(Highway)`` becomes ``Local_Auth``, and a second
-    ``Local_Authority_Name`` becomes ``Local_Au_1``. The ``.prj`` file holding
-    the CRS is always written; its absence is an error.
+    Shapefile field names longer than 10 bytes are truncated, with a numbered
+    suffix where they would collide ignoring case (``Local_Au_1``).
 
     Examples
     --------
@@ -836,7 +807,6 @@ def remove_stale_staging(folder: PathLike) -> list[Path]:
     Parameters
     ----------
     folder : str or os.PathLike
-        The folder an output file is written to.
 
     Returns
     -------
