@@ -164,15 +164,6 @@ def _import_drivers():
     return sqlalchemy
 
 
-def _engine(url: str) -> sqlalchemy.engine.Engine:
-    """Return a SQLAlchemy engine (psycopg 3 driver) for a ``postgresql://`` URL."""
-    sqlalchemy = _import_drivers()
-    from sqlalchemy.pool import NullPool
-
-    parsed, args = _parse_url(url)
-    return sqlalchemy.create_engine(parsed, poolclass=NullPool, connect_args=args)
-
-
 def _parse_url(url: str) -> tuple[sqlalchemy.engine.URL, dict[str, Any]]:
     """Check a ``postgresql://`` URL; return it (psycopg driver) and connect args."""
     sqlalchemy = _import_drivers()
@@ -239,7 +230,11 @@ def _connection(url: str, *, write: bool) -> Iterator[Any]:
     import psycopg
 
     errors = (sqlalchemy.exc.DBAPIError, psycopg.Error)
-    engine = _engine(url) if write else None
+    engine = None
+    if write:  # on the psycopg 3 driver
+        parsed, args = _parse_url(url)
+        pool = sqlalchemy.pool.NullPool
+        engine = sqlalchemy.create_engine(parsed, poolclass=pool, connect_args=args)
     where = _display(url)
     try:
         try:
@@ -352,12 +347,8 @@ def read_postgis(
     Parameters
     ----------
     url : str or psycopg.Connection
-        ``postgresql://user@host:port/dbname``; the password from the URL,
-        ``PGPASSWORD`` or ``~/.pgpass``. Or an open psycopg 3 connection,
-        which stays open: reading many times, or right after other queries,
-        saves a new connection's start each time (its login, and the server
-        loading PostGIS for it). It reads in a read-only transaction of its
-        own, or in a savepoint of the connection's open transaction.
+        ``postgresql://user@host:port/dbname``, or an open psycopg 3
+        connection (left open: reading many times saves a login each time).
     table : str, optional
         ``schema.table`` or ``table`` (found on the search path); names as
         written, case included. Give ``table`` or ``sql``.
@@ -377,10 +368,8 @@ def read_postgis(
     Raises
     ------
     geoalpha.errors.DatabaseError
-        When the server cannot be reached or refuses the login, the database
-        has no PostGIS, the table does not exist (the message lists the
-        tables that have a geometry column) or the query fails. One line,
-        without the password.
+        When the server, the login, PostGIS, the table or the query fails
+        (one line, without the password).
     geoalpha.errors.InvalidInputError
         For a malformed URL or table name, both or neither of ``table`` and
         ``sql``, or a missing or ambiguous geometry column.
@@ -684,14 +673,11 @@ def write_postgis(
     Parameters
     ----------
     gdf : geopandas.GeoDataFrame
-        What to write, usually the result of :func:`geoalpha.hull`. The
-        geometry column keeps its name; its SRID is the EPSG code of
-        ``gdf.crs`` (0 without a CRS); a mix of Polygons and MultiPolygons is written as
-        MultiPolygons (one column type, as in a GeoPackage). The index is
-        not written (``reset_index()`` first to keep it).
+        What to write, usually the result of :func:`geoalpha.hull`; its SRID
+        is the EPSG code of ``gdf.crs`` (0 without), Polygons mixed with
+        MultiPolygons are written as MultiPolygons, the index is not written.
     url : str
-        ``postgresql://user@host:port/dbname``; the password from the URL,
-        ``PGPASSWORD`` or ``~/.pgpass``.
+        ``postgresql://user@host:port/dbname``.
     table : str
         ``schema.table`` or ``table`` (in the first schema of the search
         path), names as written.
@@ -706,9 +692,8 @@ def write_postgis(
     Raises
     ------
     geoalpha.errors.DatabaseError
-        When the server cannot be reached, the schema does not exist, the
-        table exists (without ``overwrite``) or the database refuses the
-        write. One line, without the password.
+        When the server, the login or the write fails, the schema is missing
+        or the table exists (without ``overwrite``); one line, no password.
     geoalpha.errors.InvalidInputError
         For a malformed URL or table name, or a CRS without an EPSG code.
 
