@@ -172,12 +172,6 @@ def _checks(ddf, names: list, by, options: Options):
     return dask.delayed(_check)(keys, rows, sample, by, ddf.crs, options.crs)
 
 
-def _meta(frame_meta, by, options: Options):
-    """Empty GeoDataFrame with the columns and dtypes of the eager result."""
-    keys = group(frame_meta, by, options).keys
-    return empty_result(keys, frame_meta.crs, result_geometry_name(frame_meta, keys))
-
-
 def _for_shuffle(part, geometry: str, partition_info=None) -> pd.DataFrame:
     """Plain rows for the shuffle: geometries as WKB (exact), plus the row position."""
     number = partition_info["number"] if partition_info else 0
@@ -265,23 +259,14 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
     npartitions : int, optional
         Partitions of the shuffle (default: as many as ``ddf`` has).
     **options
-        The options of :func:`geoalpha.hull` (:class:`geoalpha.options.Options`),
-        passed on to every partition, with these differences:
+        The options of :func:`geoalpha.hull`, with these differences:
 
-        - ``crs="auto"``: for longitude/latitude input the whole-dataset
-          check (do all points fit one UTM zone?) is made once, on the extent
-          of all partitions, and the partitions then use that zone or
-          ``crs="auto-group"`` (each group its own UTM zone or local CRS);
-        - ``sort=True`` gathers the result (one row per group) into one
-          partition, in key order with a fresh RangeIndex, as the eager call
-          returns it; ``sort=False`` leaves it in the partitions of the
-          shuffle (group order unspecified, index restarting at 0 in every
-          partition);
-        - ``progress`` must not be True (use dask's own progress reporting,
-          ``dask.diagnostics.ProgressBar`` or ``distributed.progress``) and
-          ``n_jobs`` must be None or 1: dask spreads the partitions over its
-          workers, and each partition runs the kernel on one thread (no
-          oversubscription).
+        - ``crs="auto"``: whether all points fit one UTM zone is decided once,
+          for the whole dataset;
+        - ``sort=True`` gathers the result into one partition, as the eager
+          call returns it; ``sort=False`` leaves it in the shuffle's partitions;
+        - ``progress`` must not be True (use dask's progress reporting) and
+          ``n_jobs`` must be None or 1 (dask spreads the partitions).
 
     Returns
     -------
@@ -299,16 +284,10 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
 
     Notes
     -----
-    Warnings about degenerate groups are raised where the partitions are
-    computed: in this process with the local schedulers, in the worker logs
-    with ``distributed``. Those about the set-up (``by`` making nearly one
-    group per row, a computation CRS that stretches areas:
-    :mod:`geoalpha.frame.checks`) and about bad rows (dropped rows; non-point
-    geometries and infinite coordinates are errors) are raised once for the
-    whole dataset, with the counts and row labels of the eager call.
-
-    Point the same code at a cluster by creating a ``distributed.Client``
-    before ``.compute()``; each worker then needs geoalpha installed.
+    Warnings about degenerate groups come where the partitions are computed
+    (with ``distributed``: in the worker logs); those about the set-up and
+    bad rows once, for the whole dataset, as the eager call words them.
+    On a cluster (a ``distributed.Client``), each worker needs geoalpha.
 
     .. versionadded:: 0.1.0
 
@@ -347,7 +326,8 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
         )
     opts = opts.replace(progress=False, n_jobs=1)
     names = _key_names(ddf, by)
-    meta = _meta(ddf._meta, by, opts)
+    keys = group(ddf._meta, by, opts).keys  # the eager result's columns and dtypes
+    meta = empty_result(keys, ddf._meta.crs, result_geometry_name(ddf._meta, keys))
     if names:  # the eager checks of the options, on the (empty) meta frame
         run(ddf._meta, by, opts, checks=False)
     crs, dropna, sort = opts.crs, opts.dropna, opts.sort
