@@ -580,7 +580,14 @@ def write_hulls(
             f"write_hulls() needs a GeoDataFrame; got {type(gdf).__name__}"
         )
     if _database(path, engine):
-        _write_database(gdf, path, layer, overwrite, extra_layers)
+        from geoalpha.io.postgis import write_postgis
+
+        if extra_layers:
+            raise InvalidInputError(
+                "extra layers apply to GeoPackage (.gpkg) output only, not PostGIS"
+            )
+        frame = _index_as_columns(gdf)
+        write_postgis(frame, os.fspath(path), layer, overwrite=overwrite)
         return {}
     if engine not in _ENGINES:
         raise InvalidInputError(
@@ -610,17 +617,6 @@ def write_hulls(
     finally:
         shutil.rmtree(staging, ignore_errors=True)
     return mapping
-
-
-def _write_database(gdf, path, layer, overwrite: bool, extra_layers) -> None:
-    """:func:`write_hulls` to a ``postgresql://`` URL: one table, no extra layers."""
-    from geoalpha.io.postgis import write_postgis
-
-    if extra_layers:
-        raise InvalidInputError(
-            "extra layers apply to GeoPackage (.gpkg) output only, not PostGIS"
-        )
-    write_postgis(_index_as_columns(gdf), os.fspath(path), layer, overwrite=overwrite)
 
 
 def _write_layers(layers, staged: Path, suffix: str, engine, target: Path) -> None:
@@ -746,7 +742,9 @@ def _check_target(path, layer, overwrite) -> tuple[Path, str, list[Path]]:
         raise FileNotFoundError(f"output directory {parent} does not exist")
     if target.is_dir():
         raise IsADirectoryError(f"output {target} is a directory")
-    targets = _target_files(target, suffix)
+    targets = [target]  # with a Shapefile's sidecars
+    if suffix == ".shp":
+        targets += [target.with_suffix(ext) for ext in _SHAPEFILE_SIDECARS]
     existing = [p for p in targets if p.exists() or p.is_symlink()]
     if existing and not overwrite:
         raise FileExistsError(
@@ -838,16 +836,6 @@ def remove_stale_staging(folder: PathLike) -> list[Path]:
             shutil.rmtree(entry.path, ignore_errors=True)
             removed.append(Path(entry.path))
     return removed
-
-
-def _target_files(target: Path, suffix: str) -> list[Path]:
-    """Files that make up the output (a Shapefile has sidecars)."""
-    if suffix != ".shp":
-        return [target]
-    upper = target.suffix.isupper()
-    return [target] + [
-        target.with_suffix(ext.upper() if upper else ext) for ext in _SHAPEFILE_SIDECARS
-    ]
 
 
 def _move_into_place(
