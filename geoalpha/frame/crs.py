@@ -312,9 +312,7 @@ def metric_crs(
     for target, rows in segments:
         transformer = _transformer(source_key, _crs_key(target))
         x, y = transformer.transform(lon[rows], lat[rows])
-        factor = unit_factor(target)
-        xy[rows, 0] = x if factor == 1.0 else np.multiply(x, factor)
-        xy[rows, 1] = y if factor == 1.0 else np.multiply(y, factor)
+        xy[rows] = np.column_stack([x, y]) * unit_factor(target)
     failed = ~(np.isfinite(xy[:, 0]) & np.isfinite(xy[:, 1]))
     if failed.any():
         names = sorted({crs_name(crs_list[k]) for k in crs_index[codes[failed]]})
@@ -399,16 +397,12 @@ class Projection:
     ----------
     coords : numpy.ndarray, shape (n, 2)
         Point coordinates in ``source``.
-    codes : numpy.ndarray of int, shape (n,)
-        Group code of each point, ``0 .. n_groups - 1``.
-    n_groups : int
-        Number of groups.
+    codes, n_groups, labels
+        As for :func:`metric_crs`.
     source : CRS or None
         The input CRS.
     crs : "auto", "auto-group", CRS or None
         The ``crs=`` option.
-    labels : array_like, optional
-        A label per point to name rows by in error messages.
 
     Attributes
     ----------
