@@ -55,11 +55,9 @@ def knn_hull(
     Raises
     ------
     InvalidInputError
-        If ``points`` is not a finite (n, 2) array, if ``k`` or ``max_k`` is
-        not a positive integer or ``max_k < max(k, 3)``, or if there are fewer
-        than 3 distinct points or they are all collinear (no polygon
-        exists; callers grouping points should catch this and handle the
-        degenerate group themselves).
+        If ``points`` is not a finite (n, 2) array, ``k`` or ``max_k`` is not
+        a positive integer or ``max_k < max(k, 3)``, or there are fewer than 3
+        distinct points or they are all collinear.
 
     See Also
     --------

@@ -30,8 +30,7 @@ __all__ = [
 def row_positions(mask: np.ndarray, labels: Any = None) -> str:
     """Describe the rows where ``mask`` is true: "3 rows (positions 4, 9, 12)".
 
-    With ``labels`` (one label per row, e.g. the index labels of the frame the
-    points came from) the rows are named by label: "3 rows (index 4, 9, 12)".
+    With ``labels`` (one per row) they are named by label: "(index 4, 9, 12)".
 
     Examples
     --------
@@ -194,10 +193,8 @@ def unwrap_lon(lon: Any, codes: Any, crossing: Any) -> np.ndarray:
 
     Parameters
     ----------
-    lon : array_like of float, shape (n,)
-        Longitudes in degrees, in [-180, 180].
-    codes : array_like of int, shape (n,)
-        Group code of every point, ``0 .. len(crossing) - 1``.
+    lon, codes
+        As for :func:`crosses_antimeridian`.
     crossing : array_like of bool, shape (n_groups,)
         Which groups cross the antimeridian, from :func:`crosses_antimeridian`.
 
@@ -232,17 +229,12 @@ def _back_east(coords: np.ndarray) -> np.ndarray:
 
 
 def split_antimeridian(geom: Any) -> Any:
-    """Split polygons in unwrapped longitudes at the antimeridian.
-
-    The part east of 180 degrees is shifted by -360 degrees, as RFC 7946
-    (GeoJSON) section 3.1.9 asks, so that every longitude is in
-    [-180, 180] again.
+    """Split polygons in unwrapped longitudes at the antimeridian (RFC 7946 3.1.9).
 
     Parameters
     ----------
     geom : shapely Polygon or MultiPolygon, or array_like of them
-        Geometries whose x are unwrapped longitudes (see :func:`unwrap_lon`):
-        some x may exceed 180. ``None`` and empty geometries pass through.
+        In unwrapped longitudes (:func:`unwrap_lon`); None passes through.
 
     Returns
     -------
@@ -313,10 +305,8 @@ def restore_longitudes(
         Polygons from :func:`split_antimeridian`.
     geom_group : array_like of int, shape (k,)
         Group code of each geometry.
-    lon, lat : array_like of float, shape (n,)
-        The input points' longitudes (in [-180, 180]) and latitudes.
-    codes : array_like of int, shape (n,)
-        Group code of each point.
+    lon, lat, codes : array_like, shape (n,)
+        The input points' longitudes, latitudes and group codes.
 
     Returns
     -------
@@ -366,10 +356,8 @@ def output_lonlat(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Longitude/latitude points as the output polygons are built from them.
 
-    Returns ``(out, crossing, wide)``: the coordinates with the longitudes of
-    antimeridian-crossing groups unwrapped (:func:`unwrap_lon`; ``coords``
-    itself when no group crosses), the crossing groups, and the groups that
-    span more than 180 degrees of longitude.
+    Returns ``(out, crossing, wide)``: the coordinates unwrapped
+    (:func:`unwrap_lon`), the crossing groups and those wider than 180 degrees.
 
     Examples
     --------

@@ -68,9 +68,8 @@ def planar_unit(input_crs, crs) -> str | None:
     Returns
     -------
     str or None
-        ``"coordinate unit"`` for input without a CRS, the unit of its first
-        axis (``"degree"``, ``"US survey foot"``) for a planar computation in
-        a CRS not in metres, else None (``area_m2`` is in square metres).
+        ``"coordinate unit"`` without CRS, else the unit of the first axis,
+        or None when ``area_m2`` is in square metres.
 
     Examples
     --------
