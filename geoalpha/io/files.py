@@ -231,11 +231,7 @@ def read_input_points(
                 f"{shown} is a table; {_term('layer=', '--layer')} applies to "
                 "multi-layer files"
             )
-        frame = (
-            _read_csv(source)
-            if suffix in _TABLE_SUFFIXES
-            else _read_parquet_table(source)
-        )
+        frame = _read_table(source, suffix)
         x, y = _find_coordinate_columns(list(frame.columns), x, y, shown)
         if auto and not _looks_lonlat(x, y) and _looks_lonlat(y, x):
             raise InvalidInputError(
@@ -330,9 +326,15 @@ def _read_vector(source: str, shown: str, suffix: str, layer: str | int | None):
         raise error from err
 
 
-def _read_csv(source: str):
+def _read_table(source: str, suffix: str):
+    """Read a CSV table (its delimiter detected) or a Parquet table."""
     import pandas as pd
 
+    if suffix in _PARQUET_SUFFIXES:
+        try:
+            return pd.read_parquet(source)
+        except Exception as err:  # pragma: no cover - its schema was just read
+            raise _cannot_read(source, err) from err
     try:
         with open(source, encoding="utf-8-sig", newline="") as handle:
             sample = handle.read(65536)
@@ -361,15 +363,6 @@ def _has_geo_metadata(source: str) -> bool:
     except Exception as err:  # pyarrow raises ArrowInvalid, OSError, ...
         raise _cannot_read(source, err) from err
     return b"geo" in metadata
-
-
-def _read_parquet_table(source: str):
-    import pandas as pd
-
-    try:
-        return pd.read_parquet(source)
-    except Exception as err:  # pragma: no cover - schema was readable just before
-        raise _cannot_read(source, err) from err
 
 
 def _import_pyarrow_parquet():
