@@ -14,6 +14,7 @@ import contextvars
 import sys
 import warnings
 from collections.abc import Callable, Iterator, Sequence
+from typing import Any
 
 __all__ = [
     "HULL_PHASES",
@@ -280,14 +281,7 @@ def current() -> Phases | None:
 
 
 @contextlib.contextmanager
-def phases(
-    names: Sequence[str],
-    show: bool | None,
-    *,
-    desc: str = "geoalpha hull",
-    file=None,
-    costs: Callable[[int, int], dict] | None = None,
-) -> Iterator[Phases]:
+def phases(names: Sequence[str], show: bool | None, **kwargs: Any) -> Iterator[Phases]:
     r"""Open a :class:`Phases` bar for the ``with`` block and make it :func:`current`.
 
     The arguments are those of :class:`Phases`; the bar ends full on success.
@@ -305,7 +299,7 @@ def phases(
     >>> out.getvalue().split("\r")[-1].split("|")[0], current() is None
     ('geoalpha hull: write 100%', True)
     """
-    bar = Phases(names, show, desc=desc, file=file, costs=costs)
+    bar = Phases(names, show, **kwargs)
     token = _CURRENT.set(bar)
     ok = False
     try:
