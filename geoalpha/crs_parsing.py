@@ -1,9 +1,6 @@
 """What a ``crs=`` value means: parse it, name it, check a computation CRS.
 
-The base of geoalpha (with :mod:`geoalpha.options` and :mod:`geoalpha.errors`):
-pyproj and the error classes only, so that the option checks
-(:mod:`geoalpha.options`), the frame layer (:mod:`geoalpha.frame.crs`) and the
-I/O wing (:mod:`geoalpha.io.files`) read a CRS the same way.
+Part of the base, so that every layer reads a CRS the same way.
 """
 
 from __future__ import annotations
@@ -32,10 +29,7 @@ def parse_crs(crs: Any) -> pyproj.CRS | None:
     Parameters
     ----------
     crs : None, pyproj.CRS, int, str, dict or object with ``to_wkt``
-        ``None`` stays ``None``; a :class:`pyproj.CRS` is returned as is;
-        anything :meth:`pyproj.CRS.from_user_input` accepts (an EPSG code such
-        as ``32630``, ``"EPSG:32630"``, WKT, a PROJ string, a PROJ JSON dict,
-        an object with a ``to_wkt`` method such as a rasterio CRS) is parsed.
+        Anything :meth:`pyproj.CRS.from_user_input` accepts; None stays None.
 
     Returns
     -------
@@ -81,9 +75,8 @@ def crs_name(crs: Any) -> str:
     Returns
     -------
     str
-        ``"AUTHORITY:CODE"`` (e.g. ``"EPSG:32630"``) when the CRS is exactly a
-        registered one, else its PROJ string (e.g. the local Lambert azimuthal
-        equal-area CRSs of :func:`metric_crs`), else its name.
+        ``"AUTHORITY:CODE"`` when the CRS is exactly a registered one, else
+        its PROJ string, else its name.
 
     Examples
     --------
@@ -119,9 +112,7 @@ def target_crs(crs: Any) -> pyproj.CRS:
     Returns
     -------
     pyproj.CRS
-        The parsed CRS. It is projected; its unit may be another than the
-        metre (feet): :class:`Projection` and :func:`metric_crs` scale its
-        coordinates to metres (see :func:`unit_factor`), for every input.
+        The parsed, projected CRS (in feet or metres: see :func:`unit_factor`).
 
     Raises
     ------
@@ -173,9 +164,7 @@ def unit_factor(crs: Any) -> float:
 def is_mercator(crs: Any) -> bool:
     """Tell whether a CRS is a (normal aspect) Mercator projection, e.g. EPSG:3857.
 
-    Its scale grows as 1/cos(latitude) (1.6 at London), so its coordinates are
-    no metres for areas or alphas; :class:`Projection` treats such input as
-    longitude/latitude.
+    Its scale grows as 1/cos(latitude), so it is no metres for areas.
 
     Examples
     --------

@@ -1,39 +1,12 @@
 """Optimal alpha hulls of dask-geopandas frames: data larger than memory.
 
 ``geoalpha.hull(ddf, by=...)`` and ``ddf.alpha.hull(by=...)`` on a
-:class:`dask_geopandas.GeoDataFrame` land in :func:`hull` here. The result is
-lazy; ``.compute()`` gives the GeoDataFrame that the eager call gives on
-``ddf.compute()``, value for value and coordinate for coordinate, even when a
-group's points are spread over many partitions (text columns may come back
-with dask's string dtype):
-
-1. the rows are shuffled by the group key (``ddf.shuffle(on=by)``), so that
-   every group ends up whole in one partition; geometries travel as WKB
-   (exact, and a plain binary column for any shuffle method) with their row
-   position, and every partition is put back in input order before the hull,
-   since the last bits of a hull depend on the order of its group's points;
-2. with ``crs="auto"`` on longitude/latitude input, one cheap reduction of the
-   longitude/latitude extent makes the whole-dataset decision of
-   :func:`geoalpha.frame.crs.metric_crs`: the partitions get that UTM zone when the
-   data fit one, else ``crs="auto-group"`` (each group its own metric CRS);
-   a partition alone would see only its own points and could decide
-   otherwise;
-3. the warnings about the set-up (:mod:`geoalpha.frame.checks`: nearly one group
-   per row, a computation CRS that stretches areas) and the errors and the
-   warning about bad rows (:func:`geoalpha.frame.pipeline.report_rows`) are made
-   once, on the number of distinct keys and rows, the bad rows of every
-   partition and a sample of up to 1,000 points per partition, when the
-   result is computed and before the partitions' hulls, so that they count
-   and name the rows of the whole dataset as the eager call does;
-4. the stages of :func:`geoalpha.hull` (:func:`geoalpha.frame.pipeline.run`) run on
-   every partition (``map_partitions``);
-5. with ``sort=True`` the (small: one row per group) result is gathered into
-   one partition sorted by key, as the eager call returns it.
-
-Importing this module imports dask-geopandas (``pip install geoalpha[dask]``)
-and registers the ``.alpha`` accessor on its frames; ``import geoalpha`` does
-that only when ``dask_geopandas`` is already imported, so that it never
-imports dask itself.
+:class:`dask_geopandas.GeoDataFrame` land in :func:`hull` here: the rows are
+shuffled by key, one CRS decision and the set-up checks are made for the
+whole dataset, then :func:`geoalpha.frame.pipeline.run` runs on every
+partition. Importing this module imports dask-geopandas
+(``pip install geoalpha[dask]``) and registers the ``.alpha`` accessor on its
+frames.
 """
 
 from __future__ import annotations
@@ -91,18 +64,19 @@ def _key_names(frame, by) -> list:
     return names
 
 
-def _extent(part, names: list, dropna: bool) -> pd.DataFrame:
-    """Longitude/latitude extent of the points of a partition that hull() keeps.
-
-    ``west360``/``east360`` are the extent of the longitudes taken in
-    [0, 360), which is the narrow one for data across +-180 degrees.
-    """
+def _finite_xy(part, names: list = (), dropna: bool = False) -> np.ndarray:
+    """Return the finite coordinates of the rows of a partition that hull() keeps."""
     geoms = np.asarray(part.geometry.array, dtype=object)
     keep = ~(shapely.is_missing(geoms) | shapely.is_empty(geoms))
     if names and dropna:
         keep &= part[names].notna().all(axis=1).to_numpy()
     xy = shapely.get_coordinates(geoms[keep])
-    xy = xy[np.isfinite(xy).all(axis=1)]  # hull() drops NaN rows, refuses inf
+    return xy[np.isfinite(xy).all(axis=1)]  # hull() drops NaN rows, refuses inf
+
+
+def _extent(part, names: list, dropna: bool) -> pd.DataFrame:
+    """Longitude/latitude extent of a partition (``*360``: longitudes in [0, 360))."""
+    xy = _finite_xy(part, names, dropna)
     row = [np.nan] * len(_EXTENT)
     if len(xy):
         lon, lat = xy[:, 0], xy[:, 1]
@@ -114,11 +88,8 @@ def _extent(part, names: list, dropna: bool) -> pd.DataFrame:
 def _decide_crs(extents: pd.DataFrame, source_crs):
     """Choose the ``crs`` of the partitions: the dataset's UTM zone or "auto-group".
 
-    The extreme longitudes (plain and in [0, 360)) and latitudes are points
-    of the data, and the smallest longitude arc covering all the data, when
-    it is narrow enough to fit a UTM zone, is the one covering these extreme
-    points; so :func:`geoalpha.frame.crs.metric_crs` on them alone decides as it
-    would on the whole dataset.
+    The extreme points decide as the whole dataset would: a longitude arc
+    narrow enough for a UTM zone is the one covering them.
     """
     e = extents.dropna()
     if e.empty:
@@ -143,21 +114,14 @@ _SAMPLE = 1000
 
 def _sample(part) -> pd.DataFrame:
     """Up to :data:`_SAMPLE` evenly spaced point coordinates of a partition."""
-    geoms = np.asarray(part.geometry.array, dtype=object)
-    xy = shapely.get_coordinates(geoms[~shapely.is_missing(geoms)])
-    xy = xy[np.isfinite(xy).all(axis=1)]  # hull() drops NaN rows, refuses inf
+    xy = _finite_xy(part)
     if len(xy) > _SAMPLE:
         xy = xy[np.linspace(0, len(xy) - 1, _SAMPLE).astype(np.intp)]
     return pd.DataFrame(xy, columns=["x", "y"])
 
 
 def _keys(part, names: list, dropna: bool) -> pd.DataFrame:
-    """Return the distinct group keys of a partition, and its number of rows.
-
-    ``__rows__`` holds the partition's rows on the first row (0 on the
-    others); in a partition whose rows all lack a key, one row that is not a
-    key (``__key__`` False) carries them.
-    """
+    """Return the distinct group keys of a partition; ``__rows__``: its rows, once."""
     keys = part[names]
     if dropna:
         keys = keys.dropna()
@@ -177,12 +141,7 @@ def _rows(part, names: list, options: Options) -> pd.DataFrame:
 
 
 def _check(keys, rows, sample, by, source_crs, crs) -> None:
-    """Make the errors and warnings about the input, once for the whole dataset.
-
-    In the order of the eager call: nearly one group per row, then bad rows
-    (:func:`geoalpha.frame.pipeline.report_rows`: non-point geometries and infinite
-    coordinates raise, dropped rows warn), then a stretching CRS.
-    """
+    """Make the errors and warnings about the input, once, in the eager order."""
     if keys is not None:
         names = [c for c in keys.columns if c not in ("__rows__", "__key__")]
         groups = keys.loc[keys["__key__"].to_numpy(bool), names].drop_duplicates()
@@ -194,12 +153,7 @@ def _check(keys, rows, sample, by, source_crs, crs) -> None:
 
 
 def _checks(ddf, names: list, by, options: Options):
-    """Return a lazy :func:`_check` of ``ddf``, or None when nothing can warn.
-
-    One pass over the partitions: their distinct keys and row counts, their
-    bad rows, and a sample of points when the computation CRS may stretch
-    areas.
-    """
+    """Return a lazy :func:`_check` of ``ddf``, or None when nothing can warn."""
     keys = rows = sample = None
     if names:
         meta = _keys(ddf._meta, names, options.dropna)
@@ -218,20 +172,8 @@ def _checks(ddf, names: list, by, options: Options):
     return dask.delayed(_check)(keys, rows, sample, by, ddf.crs, options.crs)
 
 
-def _meta(frame_meta, by, options: Options):
-    """Empty GeoDataFrame with the columns and dtypes of the eager result."""
-    keys = group(frame_meta, by, options).keys
-    return empty_result(keys, frame_meta.crs, result_geometry_name(frame_meta, keys))
-
-
 def _for_shuffle(part, geometry: str, partition_info=None) -> pd.DataFrame:
-    """Plain rows for the shuffle: geometries as WKB, plus the row position.
-
-    WKB keeps every coordinate exactly and is a plain binary column, which
-    every shuffle method moves cheaply (no geometry objects to pickle, no
-    arrow extension type to register on the workers). The row position is the
-    partition number, then the row in the partition.
-    """
+    """Plain rows for the shuffle: geometries as WKB (exact), plus the row position."""
     number = partition_info["number"] if partition_info else 0
     first = np.int64(number) << np.int64(_ROW_BITS)
     out = pd.DataFrame(part, copy=False)
@@ -243,12 +185,8 @@ def _for_shuffle(part, geometry: str, partition_info=None) -> pd.DataFrame:
 def _nan_kept(array) -> np.ndarray:
     """Geometries that keep their NaN coordinates through WKB.
 
-    WKB writes an empty point as ``POINT (NaN NaN)`` and reads it back as
-    ``POINT EMPTY``: a row whose ``MultiPoint`` (or collection) has such a
-    member would come back as one without it, and be kept where the eager
-    call drops it. Those rows get ``(NaN, 0)`` for ``(NaN, NaN)``, which WKB
-    keeps, and which hull() drops alike. (A ``Point (NaN NaN)`` row comes back
-    empty, and is dropped as such.)
+    WKB reads a ``(NaN, NaN)`` member of a multi-geometry back as empty and
+    drops it; ``(NaN, 0)`` survives, and hull() drops it alike.
     """
     geoms = np.asarray(array, dtype=object)
     kind = shapely.get_type_id(geoms)
@@ -321,23 +259,14 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
     npartitions : int, optional
         Partitions of the shuffle (default: as many as ``ddf`` has).
     **options
-        The options of :func:`geoalpha.hull` (:class:`geoalpha.options.Options`),
-        passed on to every partition, with these differences:
+        The options of :func:`geoalpha.hull`, with these differences:
 
-        - ``crs="auto"``: for longitude/latitude input the whole-dataset
-          check (do all points fit one UTM zone?) is made once, on the extent
-          of all partitions, and the partitions then use that zone or
-          ``crs="auto-group"`` (each group its own UTM zone or local CRS);
-        - ``sort=True`` gathers the result (one row per group) into one
-          partition, in key order with a fresh RangeIndex, as the eager call
-          returns it; ``sort=False`` leaves it in the partitions of the
-          shuffle (group order unspecified, index restarting at 0 in every
-          partition);
-        - ``progress`` must not be True (use dask's own progress reporting,
-          ``dask.diagnostics.ProgressBar`` or ``distributed.progress``) and
-          ``n_jobs`` must be None or 1: dask spreads the partitions over its
-          workers, and each partition runs the kernel on one thread (no
-          oversubscription).
+        - ``crs="auto"``: whether all points fit one UTM zone is decided once,
+          for the whole dataset;
+        - ``sort=True`` gathers the result into one partition, as the eager
+          call returns it; ``sort=False`` leaves it in the shuffle's partitions;
+        - ``progress`` must not be True (use dask's progress reporting) and
+          ``n_jobs`` must be None or 1 (dask spreads the partitions).
 
     Returns
     -------
@@ -350,22 +279,15 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
     InvalidInputError
         For ``by`` values that are not column names, a column that does not
         exist, ``n_jobs`` other than None or 1, ``progress=True`` or unknown
-        options. Errors
-        on the data themselves (non-point geometries, coordinates out of
-        range) are raised by ``.compute()``.
+        options. Errors on the data themselves (non-point geometries,
+        coordinates out of range) are raised by ``.compute()``.
 
     Notes
     -----
-    Warnings about degenerate groups are raised where the partitions are
-    computed: in this process with the local schedulers, in the worker logs
-    with ``distributed``. Those about the set-up (``by`` making nearly one
-    group per row, a computation CRS that stretches areas:
-    :mod:`geoalpha.frame.checks`) and about bad rows (dropped rows; non-point
-    geometries and infinite coordinates are errors) are raised once for the
-    whole dataset, with the counts and row labels of the eager call.
-
-    Point the same code at a cluster by creating a ``distributed.Client``
-    before ``.compute()``; each worker then needs geoalpha installed.
+    Warnings about degenerate groups come where the partitions are computed
+    (with ``distributed``: in the worker logs); those about the set-up and
+    bad rows once, for the whole dataset, as the eager call words them.
+    On a cluster (a ``distributed.Client``), each worker needs geoalpha.
 
     .. versionadded:: 0.1.0
 
@@ -404,7 +326,8 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
         )
     opts = opts.replace(progress=False, n_jobs=1)
     names = _key_names(ddf, by)
-    meta = _meta(ddf._meta, by, opts)
+    keys = group(ddf._meta, by, opts).keys  # the eager result's columns and dtypes
+    meta = empty_result(keys, ddf._meta.crs, result_geometry_name(ddf._meta, keys))
     if names:  # the eager checks of the options, on the (empty) meta frame
         run(ddf._meta, by, opts, checks=False)
     crs, dropna, sort = opts.crs, opts.dropna, opts.sort
@@ -465,11 +388,7 @@ class DaskAlphaAccessor:
 
 
 def register(name: str = "alpha") -> None:
-    """Register :class:`DaskAlphaAccessor` as ``name`` on dask-geopandas frames.
-
-    Called when this module is imported (and by
-    :func:`geoalpha.accessor.register` when dask-geopandas is imported).
-    """
+    """Register :class:`DaskAlphaAccessor` as ``name`` on dask-geopandas frames."""
     attach(
         [dask_geopandas.GeoDataFrame, dask_geopandas.GeoSeries], name, DaskAlphaAccessor
     )

@@ -8,6 +8,7 @@ warning derives from :class:`GeoAlphaWarning`.
 from __future__ import annotations
 
 import difflib
+import itertools
 import sys
 from collections.abc import Iterable
 
@@ -73,11 +74,7 @@ class SearchWarning(GeoAlphaWarning):
 
 
 def user_stacklevel() -> int:
-    """Return the ``stacklevel`` that points a warning at the user's own line.
-
-    Counts the frames of geoalpha's modules between the caller and the first
-    frame outside geoalpha (through the accessor, ``hull``, ``alpha_shapes``).
-    """
+    """Return the ``stacklevel`` that points a warning at the user's own line."""
     frame, level = sys._getframe(1), 1
     while frame is not None and frame.f_globals.get("__name__", "").startswith(
         "geoalpha."
@@ -89,9 +86,6 @@ def user_stacklevel() -> int:
 def first_n(items: Iterable, limit: int = 10, sep: str = ", ") -> str:
     """Join the first ``limit`` items as text, with ``", ..."`` when there are more.
 
-    The one formatter of the lists in geoalpha's messages (row labels, group
-    names, option values).
-
     Examples
     --------
     >>> first_n([4, 9, 12])
@@ -101,22 +95,15 @@ def first_n(items: Iterable, limit: int = 10, sep: str = ", ") -> str:
     >>> first_n(["'DC' (1 row)", "'GU' (1 row)"], sep="; ")
     "'DC' (1 row); 'GU' (1 row)"
     """
-    shown = []
-    more = False
-    for i, item in enumerate(items):
-        if i == limit:
-            more = True
-            break
-        shown.append(str(item))
-    return sep.join(shown) + (", ..." if more else "")
+    shown = [str(item) for item in itertools.islice(items, limit + 1)]
+    more = ", ..." if len(shown) > limit else ""
+    return sep.join(shown[:limit]) + more
 
 
 def did_you_mean(name: object, choices: Iterable) -> str:
     """Return ``" (did you mean 'x'?)"`` for the choice closest to ``name``, or ``""``.
 
-    The one "did you mean" of geoalpha's messages: a column of ``by=`` or
-    ``--by``, ``--x``/``--y``; a close spelling (``difflib``), else the same
-    name in another letter case.
+    A close spelling (``difflib``), else the same name in another letter case.
 
     Examples
     --------

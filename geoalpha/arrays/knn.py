@@ -1,17 +1,6 @@
 """The k-nearest-neighbours concave hull of Moreira & Santos (2007).
 
-This is the method the seed paper compares against. It walks around the
-points from the lowest one, each step choosing among the ``k`` nearest
-unused points the one with the largest right-hand turn whose new edge does
-not cross the hull built so far, and raises ``k`` until the closed walk is a
-simple polygon holding every point. It needs no alpha, but its result
-depends on ``k`` and on the coordinate units only through distances, so use
-a metric CRS.
-
-Reference: A. Moreira and M. Y. Santos, "Concave hull: a k-nearest
-neighbours approach for the computation of the region occupied by a set of
-points", Proceedings of the 2nd International Conference on Computer
-Graphics Theory and Applications (GRAPP 2007), Barcelona, pp. 61-68.
+The method the seed paper compares against (:func:`knn_hull`).
 """
 
 from __future__ import annotations
@@ -37,16 +26,10 @@ def knn_hull(
 ) -> tuple[shapely.Polygon, int]:
     """Concave hull of points by the k-nearest-neighbours walk.
 
-    The algorithm of Moreira & Santos (2007): drop duplicate points, start at
-    the point with the lowest y (then lowest x) and walk counter-clockwise.
-    At each step take the ``k`` nearest points not yet on the hull, sort them
-    by descending right-hand turn from the previous edge (the first step
-    measures from the +x direction), and move to the first whose new edge
-    does not touch or cross any earlier hull edge. The start point becomes a
-    candidate again after 3 steps; reaching it closes the ring. If no
-    candidate is free, or the closed ring is not a valid polygon covering
-    every point, the walk is repeated with ``k + 1`` (the paper's recursion,
-    here a loop) up to ``max_k``.
+    From the lowest point, walk counter-clockwise, each step to the one of
+    the ``k`` nearest unused points with the largest right-hand turn whose
+    new edge touches no earlier edge; raise ``k`` until the closed ring is a
+    valid polygon covering every point.
 
     Parameters
     ----------
@@ -72,11 +55,9 @@ def knn_hull(
     Raises
     ------
     InvalidInputError
-        If ``points`` is not a finite (n, 2) array, if ``k`` or ``max_k`` is
-        not a positive integer or ``max_k < max(k, 3)``, or if there are fewer
-        than 3 distinct points or they are all collinear (no polygon
-        exists; callers grouping points should catch this and handle the
-        degenerate group themselves).
+        If ``points`` is not a finite (n, 2) array, ``k`` or ``max_k`` is not
+        a positive integer or ``max_k < max(k, 3)``, or there are fewer than 3
+        distinct points or they are all collinear.
 
     See Also
     --------
@@ -84,11 +65,8 @@ def knn_hull(
 
     Notes
     -----
-    One k-d tree query per step; the candidates' turn angles and the test of
-    their edges against all hull edges so far are vectorised with numpy.
-    The edge test treats touching as crossing, so the ring is simple. Unlike
-    the paper, the final check covers all points (not only those left off
-    the hull) and also requires :func:`shapely.is_valid`.
+    Unlike the paper, the final check covers all points (not only those left
+    off the hull) and also requires :func:`shapely.is_valid`.
 
     References
     ----------
@@ -240,14 +218,10 @@ def _free(
     closes: np.ndarray,
     ring: np.ndarray,
 ) -> np.ndarray:
-    """Positions of the candidates whose new edge is free, in order.
+    """Positions of the candidates whose new edge ``a -> a + u`` is free, in order.
 
-    The new edges run from ``a`` to ``a + u``; ``ring`` is the hull so far,
-    ending at ``a``. An edge is free if it neither touches nor crosses any
-    hull edge except the last one (which ends at ``a``; the caller has
-    dropped the candidates that run back along it) and, for the edge that
-    closes the ring (``closes``), the first one (which starts at the closing
-    point), unless it runs back along that first edge.
+    Free: touching no edge of ``ring`` (the hull so far, ending at ``a``) but
+    the last, nor the first for the edge that ``closes`` the ring.
     """
     if len(ring) < 3:  # no edge but the last
         return np.arange(len(ux))

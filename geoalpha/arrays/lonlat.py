@@ -1,10 +1,7 @@
 """Longitudes and latitudes of grouped points: groups across the antimeridian.
 
-Array functions shared by the frame (``crs="auto"``'s projection and the
-way back) and the array API (``crs="sphere"``, whose polygons are built in
-longitude/latitude): which groups cross +-180 degrees, their longitudes
-unwrapped into one continuous range, and polygons split back at the
-antimeridian.
+Which groups cross +-180 degrees, their longitudes unwrapped into one
+continuous range, and polygons split back at the antimeridian.
 """
 
 from __future__ import annotations
@@ -33,8 +30,7 @@ __all__ = [
 def row_positions(mask: np.ndarray, labels: Any = None) -> str:
     """Describe the rows where ``mask`` is true: "3 rows (positions 4, 9, 12)".
 
-    With ``labels`` (one label per row, e.g. the index labels of the frame the
-    points came from) the rows are named by label: "3 rows (index 4, 9, 12)".
+    With ``labels`` (one per row) they are named by label: "(index 4, 9, 12)".
 
     Examples
     --------
@@ -109,10 +105,9 @@ def group_arcs(
 ) -> dict[str, np.ndarray]:
     """Smallest longitude arc (and latitude range) covering each group.
 
-    Returns arrays of shape (n_groups,): ``crossing`` (the arc contains
-    +-180), ``west``/``east`` (arc ends in unwrapped longitudes, so that
-    ``west <= east`` and ``east`` may exceed 180), and with ``lat`` given
-    ``south``/``north``. Empty groups get ``crossing=False`` and NaN ends.
+    Returns arrays of shape (n_groups,): ``crossing``, ``west``/``east``
+    (``east`` may exceed 180) and with ``lat`` ``south``/``north``; NaN ends
+    for empty groups.
 
     Examples
     --------
@@ -162,9 +157,8 @@ def group_arcs(
 def crosses_antimeridian(lon: Any, codes: Any, n_groups: int) -> np.ndarray:
     """Tell which groups span the +-180 degree meridian.
 
-    A group crosses when the smallest longitude interval (on the circle) that
-    covers all its points contains +-180 degrees. Ties (two equally small
-    intervals) count as not crossing.
+    A group crosses when the smallest longitude interval covering it contains
+    +-180 degrees (ties: not crossing).
 
     Parameters
     ----------
@@ -199,27 +193,16 @@ def unwrap_lon(lon: Any, codes: Any, crossing: Any) -> np.ndarray:
 
     Parameters
     ----------
-    lon : array_like of float, shape (n,)
-        Longitudes in degrees, in [-180, 180].
-    codes : array_like of int, shape (n,)
-        Group code of every point, ``0 .. len(crossing) - 1``.
+    lon, codes
+        As for :func:`crosses_antimeridian`.
     crossing : array_like of bool, shape (n_groups,)
         Which groups cross the antimeridian, from :func:`crosses_antimeridian`.
 
     Returns
     -------
     numpy.ndarray of float64, shape (n,)
-        A copy of ``lon`` in which the negative longitudes of the points of
-        crossing groups have 360 added, so that each such group lies in
-        [0, 360) without a jump; the other points are unchanged. Polygons
-        built from these longitudes go back to [-180, 180] with
-        :func:`split_antimeridian`.
-
-    Notes
-    -----
-    A group whose points span more than 180 degrees of longitude (around a
-    pole, or half the globe) has no meaningful single polygon in
-    longitude/latitude; its unwrapped longitudes may still jump.
+        A copy of ``lon`` in which the negative longitudes of crossing groups
+        have 360 added (back with :func:`split_antimeridian`).
 
     Examples
     --------
@@ -246,26 +229,18 @@ def _back_east(coords: np.ndarray) -> np.ndarray:
 
 
 def split_antimeridian(geom: Any) -> Any:
-    """Split polygons in unwrapped longitudes at the antimeridian.
-
-    The part east of 180 degrees is shifted by -360 degrees, as RFC 7946
-    (GeoJSON) section 3.1.9 asks, so that every longitude is in
-    [-180, 180] again.
+    """Split polygons in unwrapped longitudes at the antimeridian (RFC 7946 3.1.9).
 
     Parameters
     ----------
     geom : shapely Polygon or MultiPolygon, or array_like of them
-        Geometries whose x are unwrapped longitudes (see :func:`unwrap_lon`):
-        some x may exceed 180. ``None`` and empty geometries pass through.
+        In unwrapped longitudes (:func:`unwrap_lon`); None passes through.
 
     Returns
     -------
     shapely geometry or numpy.ndarray of geometries
-        Same shape as the input. A geometry with some x > 180 becomes a valid
-        MultiPolygon whose parts west of the line end at x = 180 and whose
-        parts east of it start at x = -180 (one part only if the geometry lies
-        entirely east of 180); the total area is unchanged. Geometries with
-        every x <= 180 are returned unchanged.
+        Same shape as the input; a geometry with some x > 180 becomes a valid
+        MultiPolygon of the same area, the others are unchanged.
 
     Examples
     --------
@@ -277,12 +252,7 @@ def split_antimeridian(geom: Any) -> Any:
     >>> split_antimeridian(box(10, 0, 11, 1)).bounds
     (10.0, 0.0, 11.0, 1.0)
     """
-    scalar = np.ndim(geom) == 0
-    geoms = np.empty(1, dtype=object)
-    if scalar:
-        geoms[0] = geom
-    else:
-        geoms = np.asarray(geom, dtype=object)
+    geoms = np.asarray(geom, dtype=object)  # 0-d for one geometry
     out = geoms.copy()
     flat = geoms.ravel()
     bounds = shapely.bounds(flat)
@@ -318,7 +288,7 @@ def split_antimeridian(geom: Any) -> Any:
             result = flat.copy()
             result[todo[has_parts]] = multi
             out = result.reshape(geoms.shape)
-    return out[0] if scalar else out
+    return out[()] if geoms.ndim == 0 else out
 
 
 def restore_longitudes(
@@ -326,14 +296,8 @@ def restore_longitudes(
 ) -> np.ndarray:
     """Give split polygons the input points' own longitudes back.
 
-    :func:`unwrap_lon` adds 360 degrees to negative longitudes and
-    :func:`split_antimeridian` subtracts it again from the part east of the
-    line; between -128 and 0 degrees that round trip rounds (``lon + 360``
-    has a coarser spacing than ``lon``), so a vertex that was an input point
-    comes back up to one unit in the last place away from it, and the point
-    can fall outside its polygon. This puts every such vertex back on the
-    longitude of the input point it came from (same group, same latitude,
-    same round-tripped longitude).
+    The round trip ``lon + 360 - 360`` can move a vertex by one unit in the
+    last place, leaving its point outside the polygon.
 
     Parameters
     ----------
@@ -341,16 +305,13 @@ def restore_longitudes(
         Polygons from :func:`split_antimeridian`.
     geom_group : array_like of int, shape (k,)
         Group code of each geometry.
-    lon, lat : array_like of float, shape (n,)
-        The input points' longitudes (in [-180, 180]) and latitudes.
-    codes : array_like of int, shape (n,)
-        Group code of each point.
+    lon, lat, codes : array_like, shape (n,)
+        The input points' longitudes, latitudes and group codes.
 
     Returns
     -------
     ndarray of shapely geometries, shape (k,)
-        New geometries (the input array is not changed); vertices that match
-        no input point (on the antimeridian, say) are left as they are.
+        New geometries; vertices that match no input point stay as they are.
 
     Examples
     --------
@@ -395,10 +356,8 @@ def output_lonlat(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Longitude/latitude points as the output polygons are built from them.
 
-    Returns ``(out, crossing, wide)``: the coordinates with the longitudes of
-    antimeridian-crossing groups unwrapped (:func:`unwrap_lon`; ``coords``
-    itself when no group crosses), the crossing groups, and the groups that
-    span more than 180 degrees of longitude.
+    Returns ``(out, crossing, wide)``: the coordinates unwrapped
+    (:func:`unwrap_lon`), the crossing groups and those wider than 180 degrees.
 
     Examples
     --------

@@ -1,18 +1,8 @@
 """Warnings about a run's set-up: a ``by`` that looks wrong, a CRS that stretches areas.
 
-Two stages of :func:`geoalpha.hull` (:func:`geoalpha.frame.pipeline.run`; once
-over the whole dataset in :func:`geoalpha.dask.hull`), worded in Python's
-terms (``by=``, ``crs=``); the ``geoalpha`` command rewords them in its own
-(``--by``, ``--crs``):
-
-- :func:`check_grouping`: a :class:`~geoalpha.errors.GroupingWarning` when
-  ``by`` makes nearly one group per row (groups of 1-2 points have no alpha
-  shape: a wrong column?);
-- :func:`check_distortion`: a :class:`~geoalpha.errors.CRSWarning` when the
-  computation CRS (a forced ``crs=``, or a projected input CRS kept by
-  ``crs="auto"``) stretches areas where the points are
-  (:func:`geoalpha.frame.distortion.area_scale`), so that ``area_m2`` and
-  ``radius`` are not true square metres and metres.
+Stages of :func:`geoalpha.hull` (once over the whole dataset in
+:func:`geoalpha.dask.hull`), worded in Python's terms; the ``geoalpha``
+command rewords them in its flags.
 """
 
 from __future__ import annotations
@@ -109,11 +99,8 @@ def computation_crs(source: Any, crs: Any) -> tuple[pyproj.CRS | None, str]:
     Returns
     -------
     (pyproj.CRS or None, str)
-        The CRS and ``"crs="`` (forced) or ``"input"`` (a projected input
-        CRS kept by ``crs="auto"``); ``(None, "")`` when geoalpha chooses a
-        metric CRS itself (longitude/latitude or Mercator input), computes
-        in the coordinates as they are (``crs=None``), or ``crs`` is not a
-        projected CRS (:class:`geoalpha.frame.crs.Projection` reports it).
+        The CRS and ``"crs="`` (forced) or ``"input"`` (kept by
+        ``crs="auto"``); ``(None, "")`` when there is no one such CRS.
 
     Examples
     --------

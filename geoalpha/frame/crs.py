@@ -1,21 +1,11 @@
 """Metric CRS choice, longitude/latitude checks and antimeridian handling.
 
-Pure functions on numpy arrays (no pandas, no geopandas) that the GeoDataFrame
-layer calls before and after the alpha-shape computation:
-
-- :func:`check_lonlat` validates coordinates given in a geographic CRS;
-- :func:`crosses_antimeridian`, :func:`unwrap_lon` and
-  :func:`split_antimeridian` keep groups that span the +-180 degree meridian
-  (Fiji, the Aleutians) in one piece and split their polygons back;
-- :func:`metric_crs` projects every group to a metric CRS (one UTM zone when
-  the whole dataset fits one, else a UTM zone or a local Lambert azimuthal
-  equal-area CRS per group), with one cached transformer per distinct CRS.
-
-Parsing and naming a CRS (:mod:`geoalpha.crs_parsing`) belong to the base.
-
-Group membership is given as integer codes ``0 .. n_groups - 1`` per point
-(what :func:`pandas.factorize` returns), so that every per-group quantity is a
-``np.bincount`` or a ``ufunc.reduceat`` instead of a Python loop over groups.
+Functions on numpy arrays that the frame layer calls around the computation:
+:func:`check_lonlat`, :func:`metric_crs` (a UTM zone or a local equal-area
+CRS per group, one cached transformer per CRS) and :class:`Projection`, the
+whole round trip. Group membership is given as integer codes
+``0 .. n_groups - 1`` per point, so that per-group quantities need no Python
+loop over groups.
 """
 
 from __future__ import annotations
@@ -151,25 +141,17 @@ _OWN_LAEA = re.compile(
 def _transformer(source: str, target: str) -> pyproj.Transformer:
     """Return one cached (thread-safe) transformer per pair of CRS definitions.
 
-    From WGS 84 longitude/latitude to the local LAEA CRSs built here, and
-    back, the operation is a plain conversion: build it as a PROJ pipeline,
-    which is about 100 times faster than searching the operation database
-    (that matters with thousands of distinct group CRSs).
+    Between WGS 84 and the local LAEA CRSs built here it is a PROJ pipeline,
+    about 100 times faster to build than a search of the operation database.
     """
-    if source == _WGS84 and _OWN_LAEA.fullmatch(target):
-        params = target.replace(" +datum=WGS84", " +ellps=WGS84")
-        params = params.replace(" +no_defs", "")
-        return pyproj.Transformer.from_pipeline(
-            "+proj=pipeline +step +proj=unitconvert +xy_in=deg +xy_out=rad "
-            f"+step {params}"
-        )
-    if target == _WGS84 and _OWN_LAEA.fullmatch(source):  # the way back
-        params = source.replace(" +datum=WGS84", " +ellps=WGS84")
-        params = params.replace(" +no_defs", "")
-        return pyproj.Transformer.from_pipeline(
-            f"+proj=pipeline +step +inv {params} "
-            "+step +proj=unitconvert +xy_in=rad +xy_out=deg"
-        )
+    laea = target if source == _WGS84 else source if target == _WGS84 else ""
+    if _OWN_LAEA.fullmatch(laea):
+        params = laea.replace(" +datum=WGS84", " +ellps=WGS84").replace(" +no_defs", "")
+        degrees = "+step +proj=unitconvert +xy_in={} +xy_out={}"
+        steps = f"{degrees.format('deg', 'rad')} +step {params}"
+        if laea == source:  # the way back
+            steps = f"+step +inv {params} {degrees.format('rad', 'deg')}"
+        return pyproj.Transformer.from_pipeline(f"+proj=pipeline {steps}")
     return pyproj.Transformer.from_crs(
         pyproj.CRS.from_user_input(source),
         pyproj.CRS.from_user_input(target),
@@ -201,13 +183,7 @@ def _wrap180(lon: np.ndarray) -> np.ndarray:
 def _utm_keys(
     west: np.ndarray, east: np.ndarray, south: np.ndarray, north: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
-    """UTM EPSG code of each extent's centre, and whether the extent fits it.
-
-    The zone is the one containing the centre of the extent (as
-    ``GeoDataFrame.estimate_utm_crs`` picks it); the extent fits when it lies
-    within ``UTM_HALF_WIDTH`` degrees of the zone's central meridian and
-    within ``UTM_MAX_LAT`` degrees of the equator.
-    """
+    """UTM EPSG code of each extent's centre, and whether the extent fits it."""
     centre = _wrap180((west + east) / 2.0)
     zone = np.clip(np.floor((centre + 180.0) / 6.0).astype(np.int64), 0, 59) + 1
     meridian = zone * 6.0 - 183.0
@@ -225,12 +201,7 @@ def _utm_keys(
 def _laea_key(
     west: np.ndarray, east: np.ndarray, south: np.ndarray, north: np.ndarray
 ) -> np.ndarray:
-    """Integer key of a local LAEA CRS centred on each extent.
-
-    The centre is the middle of the (unwrapped) longitude arc and of the
-    latitude range, rounded to ``LAEA_CENTRE_STEP``; a group spanning more
-    than 180 degrees of longitude surrounds a pole and is centred on it.
-    """
+    """Integer key of a local LAEA CRS centred on each extent (or its pole)."""
     lat0 = (south + north) / 2.0
     lon0 = _wrap180((west + east) / 2.0)
     polar = (east - west) > 180.0
@@ -263,24 +234,14 @@ def metric_crs(
         :func:`pandas.factorize`; drop the ``-1`` of missing groups first).
     n_groups : int
         Number of groups.
-    crs : "auto" or CRS, default "auto"
-        ``"auto"``: if every point lies within ``UTM_HALF_WIDTH`` (4.5)
-        degrees of longitude of one UTM zone's central meridian (the zone
-        containing the centre of the data's extent, as
-        ``GeoDataFrame.estimate_utm_crs`` picks it; antimeridian-aware) and
-        within 84 degrees of the equator, that WGS 84 UTM zone (EPSG 326xx
-        north, 327xx south, by the centre's hemisphere) is used for every
-        group. Otherwise each group gets the UTM zone of its own centre when
-        it fits that zone by the same rule, else a Lambert azimuthal
-        equal-area CRS centred on the group (centre rounded to whole degrees;
-        groups around a pole are centred on the pole; antimeridian-crossing
-        groups are centred with unwrapped longitudes). Anything else is
-        checked by :func:`target_crs` and used for every group; it must be
-        a projected CRS, and coordinates in another unit than the metre
-        (feet) are scaled to metres. ``"auto-group"``: the per-group choice of
-        ``"auto"`` without the whole-dataset check (for a subset of the data
-        whose whole-dataset check was done elsewhere, as
-        :mod:`geoalpha.dask` does for each partition).
+    crs : "auto", "auto-group" or CRS, default "auto"
+        ``"auto"``: one WGS 84 UTM zone for every group when all points lie
+        within ``UTM_HALF_WIDTH`` degrees of its central meridian and 84
+        degrees of the equator; else, per group, the UTM zone of its centre
+        if it fits by the same rule, or a Lambert azimuthal equal-area CRS
+        centred on it. ``"auto-group"``: the per-group choice only. Any other
+        value is checked by :func:`target_crs` and used for every group
+        (scaled to metres when in feet).
     source_crs : CRS, optional
         The geographic CRS of ``lon``/``lat``; default EPSG:4326 (WGS 84).
     labels : array_like, optional
@@ -303,12 +264,6 @@ def metric_crs(
         On invalid coordinates or codes, a forced ``crs`` that is not a
         projected metric CRS, a ``source_crs`` that is not geographic, or
         points the chosen CRS cannot project (their positions are named).
-
-    Notes
-    -----
-    One cached :class:`pyproj.Transformer` per distinct CRS transforms all the
-    points that use it in one vectorised call; the CRS choice itself is
-    vectorised over groups.
 
     Examples
     --------
@@ -357,9 +312,7 @@ def metric_crs(
     for target, rows in segments:
         transformer = _transformer(source_key, _crs_key(target))
         x, y = transformer.transform(lon[rows], lat[rows])
-        factor = unit_factor(target)
-        xy[rows, 0] = x if factor == 1.0 else np.multiply(x, factor)
-        xy[rows, 1] = y if factor == 1.0 else np.multiply(y, factor)
+        xy[rows] = np.column_stack([x, y]) * unit_factor(target)
     failed = ~(np.isfinite(xy[:, 0]) & np.isfinite(xy[:, 1]))
     if failed.any():
         names = sorted({crs_name(crs_list[k]) for k in crs_index[codes[failed]]})
@@ -378,10 +331,7 @@ def _choose_auto(
     n_groups: int,
     whole: bool = True,
 ) -> tuple[list[pyproj.CRS], np.ndarray]:
-    """CRS choice of ``metric_crs(crs="auto")``: (crs_list, crs_index).
-
-    ``whole=False`` skips the whole-dataset check (``crs="auto-group"``).
-    """
+    """CRS choice of ``metric_crs(crs="auto")``; ``whole=False``: "auto-group"."""
     if lon.size == 0:
         return [], np.zeros(n_groups, dtype=np.intp)
     if whole:
@@ -438,39 +388,21 @@ def to_wgs84(source: Any, x: Any, y: Any, labels: Any = None):
 class Projection:
     """The whole CRS round trip of :func:`geoalpha.hull`: input -> metres -> input.
 
-    Built once per call from the points' coordinates in the input CRS and the
-    ``crs=`` option; holds the coordinates to compute in (:attr:`xy`, metres)
-    and the coordinates to build output geometries from (:attr:`out`, the
-    input coordinates), and moves metric geometries back
-    (:meth:`to_output`).
-
-    The rules, the same for every input:
-
-    - ``crs=None``: the coordinates as they are (planar; alpha in 1/unit).
-    - ``crs="auto"`` (or ``"auto-group"``, see :func:`metric_crs`):
-      geographic input goes to a UTM zone or a local equal-area CRS per
-      group; Mercator input (EPSG:3857, EPSG:3395; see :func:`is_mercator`)
-      too, through its longitude/latitude, since its own scale is off by
-      1/cos(latitude); any other projected input is used as it is.
-    - ``crs=<projected CRS>`` (checked by :func:`target_crs`): every group in
-      that CRS, whatever the input CRS.
-    - Coordinates in feet (or any unit other than the metre) are scaled to
-      metres, so alpha is in 1/metre and areas in square metres.
+    ``crs=None`` computes in the coordinates as they are; ``crs="auto"``
+    sends longitude/latitude and Mercator input through :func:`metric_crs`
+    and keeps other projected input; a projected ``crs=`` is used for every
+    group. Coordinates in feet are scaled to metres.
 
     Parameters
     ----------
     coords : numpy.ndarray, shape (n, 2)
         Point coordinates in ``source``.
-    codes : numpy.ndarray of int, shape (n,)
-        Group code of each point, ``0 .. n_groups - 1``.
-    n_groups : int
-        Number of groups.
+    codes, n_groups, labels
+        As for :func:`metric_crs`.
     source : CRS or None
         The input CRS.
     crs : "auto", "auto-group", CRS or None
         The ``crs=`` option.
-    labels : array_like, optional
-        A label per point to name rows by in error messages.
 
     Attributes
     ----------
@@ -570,19 +502,9 @@ class Projection:
         self.names = np.array(used, dtype=object)[self._crs_index]
 
     def to_output(self, geoms: np.ndarray, groups: np.ndarray) -> np.ndarray:
-        """Move metric geometries of ``groups`` to the output (input) CRS.
+        """Move geometries of ``groups`` from :attr:`xy`'s coordinates to the output's.
 
-        Parameters
-        ----------
-        geoms : numpy.ndarray of shapely geometries
-            In the coordinates of :attr:`xy`.
-        groups : numpy.ndarray of int
-            The group of each geometry.
-
-        Returns
-        -------
-        numpy.ndarray of shapely geometries
-            In the input CRS (longitudes of crossing groups in [0, 360)).
+        Longitudes of groups across the antimeridian come back in [0, 360).
         """
         if not self._crs_list:
             return geoms

@@ -1,23 +1,10 @@
 """One progress bar over every phase of a run: read, group, ..., check, write.
 
-:func:`geoalpha.hull` goes through the phases ``group`` (the group keys and
-the points), ``project`` (to metres), ``compute`` (the shapes) and ``check``
-(the guarantee in the output CRS, degenerate groups, the result table); the
-``geoalpha`` command adds ``read`` (the input) before them and ``write`` (the
-output) after. A :class:`Phases` object shows them on one tqdm bar whose
-description names the current phase. Each phase gets a share of the bar
-estimated from the numbers of rows and groups (:func:`hull_costs`), taken
-when the phase starts out of what the earlier ones left, so the bar never
-goes backwards and ends exactly full; within ``compute`` it advances per
-batch of groups.
-
-The bar is shown for ``progress=True``; for ``progress=None`` (the default)
-only on a terminal and from :data:`PROGRESS_MIN_GROUPS` groups on, decided
-once the groups are known (:meth:`Phases.sized`); never for ``False``.
-While it is shown, warnings are written above it, not into its line.
-The command opens one :func:`phases` context around the whole run, and the
-:func:`geoalpha.hull` inside it uses that bar (:func:`current`) instead of
-opening its own.
+:func:`geoalpha.hull` goes through :data:`HULL_PHASES`; the ``geoalpha``
+command adds ``read`` before them and ``write`` after, on the same bar
+(:func:`phases`, :func:`current`). Each phase gets a share of the bar
+estimated from the numbers of rows and groups (:func:`hull_costs`), so the
+bar never goes backwards and ends exactly full.
 """
 
 from __future__ import annotations
@@ -27,6 +14,7 @@ import contextvars
 import sys
 import warnings
 from collections.abc import Callable, Iterator, Sequence
+from typing import Any
 
 __all__ = [
     "HULL_PHASES",
@@ -54,13 +42,8 @@ _CURRENT: contextvars.ContextVar[Phases | None] = contextvars.ContextVar(
 def hull_costs(n_rows: int, n_groups: int, *, per_group_crs: bool) -> dict:
     """Estimate the time of each phase of :func:`geoalpha.hull`, in microseconds.
 
-    Measured on points grouped in many ways (3 thousand to 400 thousand rows,
-    56 to 22 thousand groups): about 4 us a point to compute, and, when
-    longitude/latitude groups each get their own metric CRS
-    (``per_group_crs``), about 150 us a group both to project and to check
-    (43,645 world points in 22,205 groups: about 45 % of the time projecting, 4 %
-    computing, 40 % checking). Only the ratios matter: they split the bar
-    among the phases.
+    Measured: about 4 us a point to compute, and with a metric CRS per group
+    about 150 us a group both to project and to check. Only the ratios matter.
 
     Parameters
     ----------
@@ -180,7 +163,7 @@ class Phases:
 
     def _open(self) -> None:
         tqdm = self._tqdm()
-        file = self._file if self._file is not None else sys.stderr
+        file = self._out()
         self._bar = tqdm(
             total=TICKS,
             initial=self.done,
@@ -198,6 +181,9 @@ class Phases:
 
         self._showwarning = (shown, above_the_bar)
         warnings.showwarning = above_the_bar
+
+    def _out(self):
+        return self._file if self._file is not None else sys.stderr
 
     def _description(self) -> str:
         if 0 <= self._phase < len(self.names):
@@ -231,10 +217,8 @@ class Phases:
     def sized(self, n_rows: int, n_groups: int, *, per_group_crs: bool) -> None:
         """Estimate the phases to come from the run's size; show the bar if due.
 
-        The estimates are :func:`hull_costs` (and ``costs`` of the
-        constructor). With ``show=None`` the bar appears now, where the run
-        is, from :data:`PROGRESS_MIN_GROUPS` groups on and on a terminal
-        (quietly none without tqdm).
+        With ``show=None`` the bar appears from :data:`PROGRESS_MIN_GROUPS`
+        groups on, on a terminal with tqdm installed.
         """
         costs = hull_costs(n_rows, n_groups, per_group_crs=per_group_crs)
         if self._extra_costs is not None:
@@ -246,19 +230,13 @@ class Phases:
             return
         if self._show is not None or n_groups < PROGRESS_MIN_GROUPS:
             return
-        file = self._file if self._file is not None else sys.stderr
-        if not getattr(file, "isatty", lambda: False)():
+        if not getattr(self._out(), "isatty", lambda: False)():
             return
         with contextlib.suppress(ImportError):
             self._open()
 
     def start(self, name: str, units: int = 0) -> None:
-        """End the current phase and start ``name`` (phases in between: none).
-
-        ``name`` gets its share of what is left of the bar, by the estimated
-        costs of it and the phases after it; :meth:`update` moves through that
-        share in ``units`` steps (the groups, for ``compute``).
-        """
+        """End the current phase and start ``name``, to advance in ``units`` steps."""
         index = self.names.index(name)
         if index <= self._phase:
             raise ValueError(f"phase {name!r} has already started")
@@ -303,18 +281,10 @@ def current() -> Phases | None:
 
 
 @contextlib.contextmanager
-def phases(
-    names: Sequence[str],
-    show: bool | None,
-    *,
-    desc: str = "geoalpha hull",
-    file=None,
-    costs: Callable[[int, int], dict] | None = None,
-) -> Iterator[Phases]:
+def phases(names: Sequence[str], show: bool | None, **kwargs: Any) -> Iterator[Phases]:
     r"""Open a :class:`Phases` bar for the ``with`` block and make it :func:`current`.
 
-    The arguments are those of :class:`Phases`. The bar ends full when the
-    block ends without error, and stays where it is otherwise.
+    The arguments are those of :class:`Phases`; the bar ends full on success.
 
     Examples
     --------
@@ -329,7 +299,7 @@ def phases(
     >>> out.getvalue().split("\r")[-1].split("|")[0], current() is None
     ('geoalpha hull: write 100%', True)
     """
-    bar = Phases(names, show, desc=desc, file=file, costs=costs)
+    bar = Phases(names, show, **kwargs)
     token = _CURRENT.set(bar)
     ok = False
     try:

@@ -1,10 +1,8 @@
 """The table :func:`geoalpha.hull` returns, defined once.
 
-One row per group: the group key column(s), then :data:`RESULT_COLUMNS` with
-the dtypes of :data:`DTYPES`, then ``geometry`` in the input CRS.
-:func:`result_frame` builds the eager table and :func:`empty_result` the
-empty one with the same columns and dtypes (dask-geopandas' ``meta``), from
-the same code, so that the two cannot drift apart.
+One row per group: the key column(s), :data:`RESULT_COLUMNS`, ``geometry``.
+:func:`result_frame` builds it and :func:`empty_result` dask's ``meta`` from
+the same code.
 """
 
 from __future__ import annotations
@@ -58,10 +56,7 @@ def _dtype(name: str):
 def planar_unit(input_crs, crs) -> str | None:
     """Return the unit of a planar computation (``crs=None``) unless it is metres.
 
-    ``area_m2`` is in square metres only when the computation is; with
-    ``crs=None`` it is in the input's coordinate unit, which the written
-    table then says (:func:`with_area_unit`), as ``geoalpha hull`` and the
-    QGIS plugin do.
+    The written table then says it (:func:`with_area_unit`).
 
     Parameters
     ----------
@@ -73,9 +68,8 @@ def planar_unit(input_crs, crs) -> str | None:
     Returns
     -------
     str or None
-        ``"coordinate unit"`` for input without a CRS, the unit of its first
-        axis (``"degree"``, ``"US survey foot"``) for a planar computation in
-        a CRS not in metres, else None (``area_m2`` is in square metres).
+        ``"coordinate unit"`` without CRS, else the unit of the first axis,
+        or None when ``area_m2`` is in square metres.
 
     Examples
     --------
@@ -202,14 +196,10 @@ def result_frame(
 
 
 def _geodataframe(columns: dict[Any, Any], geometry_name: str):
-    """``GeoDataFrame(columns, geometry=geometry_name)`` for checked columns.
+    """``GeoDataFrame(columns, geometry=geometry_name)`` without a second check.
 
-    ``columns[geometry_name]`` is a GeometryArray with its CRS. The public
-    constructor checks and copies that column again (``set_geometry``), which
-    is a third of the cost of a small result; with pandas >= 2.1 the frame is
-    made as pandas' and geopandas' own methods make their results
-    (``_from_mgr``, then the active geometry column). Older pandas take the
-    public constructor.
+    The public constructor copies the GeometryArray again (a third of the
+    cost of a small result); pandas >= 2.1 lets us build it as geopandas does.
     """
     import geopandas as gpd
     import pandas as pd
@@ -235,8 +225,8 @@ def empty_result(keys: pd.DataFrame, crs, geometry_name: str = "geometry"):
     """
     import numpy as np
 
-    values = {name: np.array([], dtype=object) for name in RESULT_COLUMNS}
-    for name, dtype in DTYPES.items():
-        if dtype != "text":
-            values[name] = np.array([], dtype=dtype)
+    values = {
+        name: np.array([], dtype=object if dtype == "text" else dtype)
+        for name, dtype in DTYPES.items()
+    }
     return result_frame(keys.iloc[:0], values, [], crs, geometry_name)

@@ -1,14 +1,8 @@
 """Read point files and write hull files, safely.
 
-:func:`read_points` turns any vector file GDAL reads, a GeoParquet file or a
-CSV table with coordinate columns into a GeoDataFrame of points.
-:func:`write_hulls` writes the result of :func:`geoalpha.hull` in the format
-its file extension names, atomically (a failed write never leaves a
-half-written file, and never damages the file it was meant to replace), and
-renames the columns a Shapefile cannot hold.
-
-This module does pure file handling; the ``geoalpha`` command
-(:mod:`geoalpha.cli`) is a thin layer over it.
+:func:`read_points` reads points from any vector file GDAL reads, GeoParquet
+or a CSV table; :func:`write_hulls` writes hulls atomically in the format the
+extension names. The ``geoalpha`` command is a thin layer over them.
 """
 
 from __future__ import annotations
@@ -105,11 +99,6 @@ def _term(python: str, cli: str) -> str:
     return cli if _CLI_TERMS.get() else python
 
 
-def _shown(source: str) -> str:
-    """Return a data source as a message may show it: without credentials."""
-    return redact(source)
-
-
 # --------------------------------------------------------------------------
 # reading
 
@@ -140,13 +129,9 @@ def read_points(
         used. Not allowed for files that store geometries.
     crs : "auto", str, int, pyproj.CRS or None, default "auto"
         CRS of the coordinates of a table, or of a vector file that stores
-        none (a Shapefile without ``.prj``). ``"auto"`` never guesses: a table
-        whose coordinate columns are named as longitude/latitude (``lon/lat``,
-        ``Longitude/Latitude``, ...) is in EPSG:4326, a file uses its own CRS,
-        and anything else without a CRS is an :class:`InvalidInputError`.
-        None leaves the coordinates without CRS (planar numbers). A file's
-        own CRS always wins (a :class:`~geoalpha.errors.CRSWarning` says when
-        it differs from ``crs``).
+        none. ``"auto"`` never guesses: columns named as longitude/latitude
+        are EPSG:4326, a file uses its own CRS, anything else is an error.
+        None: planar numbers without CRS. A file's own CRS always wins.
 
     layer : str or int, optional
         Layer to read from a multi-layer file such as a GeoPackage; the first
@@ -163,17 +148,14 @@ def read_points(
     FileNotFoundError
         If ``path`` does not exist.
     geoalpha.errors.InvalidInputError
-        If the file cannot be read, has no CRS (with ``crs="auto"``), the
-        coordinate columns are not found or not numeric, or lon/lat
-        coordinates are out of range. Messages never show a password of
-        ``path``.
+        If the file cannot be read or has no CRS (with ``crs="auto"``), or
+        the coordinates cannot be used. Messages never show a password.
 
     Warns
     -----
     geoalpha.errors.CRSWarning
-        When every coordinate lies within +-180/+-90 although ``crs`` is a
-        projected CRS (they look like longitude/latitude), or ``crs`` differs
-        from the file's own CRS.
+        When ``crs`` is projected but the coordinates look like lon/lat, or
+        it differs from the file's own CRS.
 
     Examples
     --------
@@ -202,16 +184,30 @@ def read_input_points(
     ``sql`` and ``geometry_column`` apply to a ``postgresql://`` source (see
     :func:`geoalpha.io.postgis.read_postgis`).
     """
-    from geoalpha.crs_parsing import parse_crs
+    from geoalpha.crs_parsing import crs_name, parse_crs
 
     source = os.fspath(path)
-    shown = _shown(source)
+    shown = redact(source)
+    auto = isinstance(crs, str) and crs.strip().lower() == "auto"
     if is_gdal_connection(source):
         raise gdal_connection_error(source)
     if is_postgres_url(source):  # layer: schema.table, or sql=
-        return _read_database(
-            source, x, y, crs, layer, planar_if_missing, sql, geometry_column
+        from geoalpha.io.postgis import read_postgis
+
+        if x is not None or y is not None:
+            raise InvalidInputError(
+                f"{_term('x= and y=', '--x and --y')} apply to tables (CSV) only"
+            )
+        gdf = read_postgis(
+            source,
+            table=layer,
+            sql=sql,
+            geometry_column=geometry_column,
+            crs=None if auto else crs,
         )
+        if gdf.crs is None and auto and not planar_if_missing:
+            raise _missing_crs(f"the geometries of {shown} (SRID 0)")
+        return gdf
     if sql is not None or geometry_column is not None:
         raise InvalidInputError(
             f"{_term('sql= and geometry_column=', '--sql and --geometry-column')} "
@@ -222,7 +218,6 @@ def read_input_points(
         raise FileNotFoundError(f"input file {shown} does not exist")
     if local and Path(source).is_file() and not os.access(source, os.R_OK):
         raise PermissionError(f"cannot read input file {shown}: permission denied")
-    auto = isinstance(crs, str) and crs.strip().lower() == "auto"
     if crs is not None and not auto:
         crs = parse_crs(crs)
 
@@ -236,11 +231,7 @@ def read_input_points(
                 f"{shown} is a table; {_term('layer=', '--layer')} applies to "
                 "multi-layer files"
             )
-        frame = (
-            _read_csv(source)
-            if suffix in _TABLE_SUFFIXES
-            else _read_parquet_table(source)
-        )
+        frame = _read_table(source, suffix)
         x, y = _find_coordinate_columns(list(frame.columns), x, y, shown)
         if auto and not _looks_lonlat(x, y) and _looks_lonlat(y, x):
             raise InvalidInputError(
@@ -265,8 +256,8 @@ def read_input_points(
     if gdf.crs is not None:
         if crs is not None and not auto and not gdf.crs.equals(crs):
             warnings.warn(
-                f"{shown} has its own CRS {_crs_label(gdf.crs)}, which is used; "
-                f"{_term('crs=', '--crs-in')} {_crs_label(crs)} is ignored",
+                f"{shown} has its own CRS {crs_name(gdf.crs)}, which is used; "
+                f"{_term('crs=', '--crs-in')} {crs_name(crs)} is ignored",
                 CRSWarning,
                 stacklevel=2,
             )
@@ -282,33 +273,6 @@ def read_input_points(
         _check_lonlat(xy[:, 0], xy[:, 1], crs, shown, "x", "y")
         gdf = gdf.set_crs(crs)
     return gdf
-
-
-def _read_database(source, x, y, crs, layer, planar_if_missing, sql, geometry_column):
-    """Read a PostGIS table or query; the CRS rules of :func:`read_points`."""
-    from geoalpha.io.postgis import read_postgis
-
-    if x is not None or y is not None:
-        raise InvalidInputError(
-            f"{_term('x= and y=', '--x and --y')} apply to tables (CSV) only"
-        )
-    auto = isinstance(crs, str) and crs.strip().lower() == "auto"
-    gdf = read_postgis(
-        source,
-        table=layer,
-        sql=sql,
-        geometry_column=geometry_column,
-        crs=None if auto else crs,
-    )
-    if gdf.crs is None and auto and not planar_if_missing:
-        raise _missing_crs(f"the geometries of {_shown(source)} (SRID 0)")
-    return gdf
-
-
-def _crs_label(crs) -> str:
-    from geoalpha.crs_parsing import crs_name
-
-    return crs_name(crs)
 
 
 def _looks_lonlat(x: str, y: str) -> bool:
@@ -337,6 +301,10 @@ def _missing_crs(what: str) -> InvalidInputError:
     return InvalidInputError(f"{what} have no CRS, and geoalpha does not guess: {how}")
 
 
+def _cannot_read(source: str, err: BaseException) -> InvalidInputError:
+    return InvalidInputError(f"cannot read {redact(source)}: {_one_line(err)}")
+
+
 def _read_vector(source: str, shown: str, suffix: str, layer: str | int | None):
     import geopandas as gpd
 
@@ -351,16 +319,22 @@ def _read_vector(source: str, shown: str, suffix: str, layer: str | int | None):
     except (ImportError, InvalidInputError):
         raise
     except Exception as err:  # GDAL/pyogrio/fiona/pyarrow errors vary
-        message = f"cannot read {shown}: {_one_line(err)}"
-        safe = redact(message, secrets_in(source))
-        if safe != message:  # the library's own message showed a secret
+        error = _cannot_read(source, err)
+        safe = redact(str(error), secrets_in(source))
+        if safe != str(error):  # the library's own message showed a secret
             raise InvalidInputError(safe) from None
-        raise InvalidInputError(message) from err
+        raise error from err
 
 
-def _read_csv(source: str):
+def _read_table(source: str, suffix: str):
+    """Read a CSV table (its delimiter detected) or a Parquet table."""
     import pandas as pd
 
+    if suffix in _PARQUET_SUFFIXES:
+        try:
+            return pd.read_parquet(source)
+        except Exception as err:  # pragma: no cover - its schema was just read
+            raise _cannot_read(source, err) from err
     try:
         with open(source, encoding="utf-8-sig", newline="") as handle:
             sample = handle.read(65536)
@@ -371,17 +345,15 @@ def _read_csv(source: str):
         return pd.read_csv(source, sep=sep, encoding="utf-8-sig", low_memory=False)
     except UnicodeDecodeError as err:
         raise InvalidInputError(
-            f"cannot read {_shown(source)}: it is not UTF-8 text ({err.reason} at byte "
+            f"cannot read {redact(source)}: it is not UTF-8 text ({err.reason} at byte "
             f"{err.start}); save it as UTF-8 CSV"
         ) from err
     except PermissionError as err:
         raise PermissionError(
-            f"cannot read input file {_shown(source)}: permission denied"
+            f"cannot read input file {redact(source)}: permission denied"
         ) from err
     except (OSError, ValueError, pd.errors.ParserError) as err:
-        raise InvalidInputError(
-            f"cannot read {_shown(source)}: {_one_line(err)}"
-        ) from err
+        raise _cannot_read(source, err) from err
 
 
 def _has_geo_metadata(source: str) -> bool:
@@ -389,21 +361,8 @@ def _has_geo_metadata(source: str) -> bool:
     try:
         metadata = pq.read_schema(source).metadata or {}
     except Exception as err:  # pyarrow raises ArrowInvalid, OSError, ...
-        raise InvalidInputError(
-            f"cannot read {_shown(source)}: {_one_line(err)}"
-        ) from err
+        raise _cannot_read(source, err) from err
     return b"geo" in metadata
-
-
-def _read_parquet_table(source: str):
-    import pandas as pd
-
-    try:
-        return pd.read_parquet(source)
-    except Exception as err:  # pragma: no cover - schema was readable just before
-        raise InvalidInputError(
-            f"cannot read {_shown(source)}: {_one_line(err)}"
-        ) from err
 
 
 def _import_pyarrow_parquet():
@@ -487,6 +446,8 @@ def _check_lonlat(xs, ys, crs, source: str, x: str, y: str) -> None:
     """Refuse lon/lat out of range; warn when projected values look like lon/lat."""
     import numpy as np
 
+    from geoalpha.crs_parsing import crs_name
+
     if crs is None:
         return
     xs = np.asarray(xs, dtype=float)
@@ -500,7 +461,7 @@ def _check_lonlat(xs, ys, crs, source: str, x: str, y: str) -> None:
             warnings.warn(
                 f"every point of {source} has {x} within [-180, 180] and {y} "
                 "within [-90, 90], as longitude/latitude degrees do, but "
-                f"{_term('crs=', '--crs-in')} {_crs_label(crs)} says they are "
+                f"{_term('crs=', '--crs-in')} {crs_name(crs)} says they are "
                 f"in {unit}s; if they are longitude/latitude, use "
                 f"{_term('crs=', '--crs-in ')}EPSG:4326",
                 CRSWarning,
@@ -542,14 +503,10 @@ def write_hulls(
 ) -> dict[str, str]:
     """Write hulls to a file, in the format its extension names, atomically.
 
-    The file is written to a hidden staging folder beside ``path`` (so on the
-    same file system) and then moved into place, so a failure while writing
-    leaves no half-written file and leaves an existing file untouched.
-    Without ``overwrite``, the move itself refuses to replace a file that
-    appeared while the hulls were computed (another run writing the same
-    file): it links the new file into place, which fails if the name is
-    taken. A staging folder left by a killed run is removed by the next
-    write into the same folder.
+    The file is written to a hidden staging folder beside ``path``, then moved
+    into place: a failed write leaves no half-written file and an existing
+    file untouched, and without ``overwrite`` a file that appeared meanwhile
+    is never replaced.
 
     Parameters
     ----------
@@ -586,25 +543,15 @@ def write_hulls(
 
     Raises
     ------
-    FileExistsError
-        If ``path`` exists and ``overwrite`` is False, also when it appeared
-        while writing.
-    FileNotFoundError
-        If the directory of ``path`` does not exist.
-    PermissionError
-        If the directory of ``path`` is not writable.
+    FileExistsError, FileNotFoundError, PermissionError
+        As :func:`check_output`; also when ``path`` appeared while writing.
     geoalpha.errors.InvalidInputError
-        For an unknown extension or engine, or ``layer`` for a format without
-        layers.
+        As :func:`check_output`, and for an unknown engine.
 
     Notes
     -----
-    Shapefile field names longer than 10 characters (bytes, in UTF-8) are
-    truncated; a truncated name that would collide with another (compared
-    ignoring case, as the dBASE format does) gets a numbered suffix:
-    ``Local_Authority_(Highway)`` becomes ``Local_Auth``, and a second
-    ``Local_Authority_Name`` becomes ``Local_Au_1``. The ``.prj`` file holding
-    the CRS is always written; its absence is an error.
+    Shapefile field names longer than 10 bytes are truncated, with a numbered
+    suffix where they would collide ignoring case (``Local_Au_1``).
 
     Examples
     --------
@@ -626,7 +573,14 @@ def write_hulls(
             f"write_hulls() needs a GeoDataFrame; got {type(gdf).__name__}"
         )
     if _database(path, engine):
-        _write_database(gdf, path, layer, overwrite, extra_layers)
+        from geoalpha.io.postgis import write_postgis
+
+        if extra_layers:
+            raise InvalidInputError(
+                "extra layers apply to GeoPackage (.gpkg) output only, not PostGIS"
+            )
+        frame = _index_as_columns(gdf)
+        write_postgis(frame, os.fspath(path), layer, overwrite=overwrite)
         return {}
     if engine not in _ENGINES:
         raise InvalidInputError(
@@ -658,23 +612,8 @@ def write_hulls(
     return mapping
 
 
-def _write_database(gdf, path, layer, overwrite: bool, extra_layers) -> None:
-    """:func:`write_hulls` to a ``postgresql://`` URL: one table, no extra layers."""
-    from geoalpha.io.postgis import write_postgis
-
-    if extra_layers:
-        raise InvalidInputError(
-            "extra layers apply to GeoPackage (.gpkg) output only, not PostGIS"
-        )
-    write_postgis(_index_as_columns(gdf), os.fspath(path), layer, overwrite=overwrite)
-
-
 def _write_layers(layers, staged: Path, suffix: str, engine, target: Path) -> None:
-    """Write ``(frame, source, layer)`` triples into the staged file.
-
-    An error names the output, never the staging folder; a Shapefile must
-    come with its ``.prj`` file when the frame has a CRS.
-    """
+    """Write ``(frame, source, layer)`` triples into the staged file."""
     try:
         for frame, source, layer in layers:
             _write_staged(frame, source, staged, suffix, layer, engine)
@@ -759,7 +698,7 @@ def check_output(
         check_postgis_output(os.fspath(path), layer, overwrite=overwrite)
         return
     target, _, _ = _check_target(path, layer, overwrite)
-    _check_writable(target)
+    shutil.rmtree(_make_staging(target), ignore_errors=True)  # it can be created
 
 
 def _database(path, engine) -> bool:
@@ -796,7 +735,9 @@ def _check_target(path, layer, overwrite) -> tuple[Path, str, list[Path]]:
         raise FileNotFoundError(f"output directory {parent} does not exist")
     if target.is_dir():
         raise IsADirectoryError(f"output {target} is a directory")
-    targets = _target_files(target, suffix)
+    targets = [target]  # with a Shapefile's sidecars
+    if suffix == ".shp":
+        targets += [target.with_suffix(ext) for ext in _SHAPEFILE_SIDECARS]
     existing = [p for p in targets if p.exists() or p.is_symlink()]
     if existing and not overwrite:
         raise FileExistsError(
@@ -804,11 +745,6 @@ def _check_target(path, layer, overwrite) -> tuple[Path, str, list[Path]]:
             f"{_term('overwrite=True', '--overwrite')} to replace it"
         )
     return target, suffix, targets
-
-
-def _check_writable(target: Path) -> None:
-    """Make sure a staging folder can be created beside ``target`` (then remove it)."""
-    shutil.rmtree(_make_staging(target), ignore_errors=True)
 
 
 # Staging folders are named ".<output name>.geoalpha-<host>-<pid>-<random>", so
@@ -857,15 +793,11 @@ def _pid_alive(pid: int) -> bool:
 def remove_stale_staging(folder: PathLike) -> list[Path]:
     """Remove staging folders that killed geoalpha runs left in ``folder``.
 
-    A staging folder belongs to a run on this host whose process id is in its
-    name; it is stale once that process is gone (a run killed with SIGKILL
-    cannot clean up after itself). Folders of live runs and of other hosts
-    are kept.
+    Folders of live runs and of other hosts are kept.
 
     Parameters
     ----------
     folder : str or os.PathLike
-        The folder an output file is written to.
 
     Returns
     -------
@@ -899,26 +831,13 @@ def remove_stale_staging(folder: PathLike) -> list[Path]:
     return removed
 
 
-def _target_files(target: Path, suffix: str) -> list[Path]:
-    """Files that make up the output (a Shapefile has sidecars)."""
-    if suffix != ".shp":
-        return [target]
-    upper = target.suffix.isupper()
-    return [target] + [
-        target.with_suffix(ext.upper() if upper else ext) for ext in _SHAPEFILE_SIDECARS
-    ]
-
-
 def _move_into_place(
     staging: Path, target: Path, targets: list[Path], overwrite: bool
 ) -> None:
     """Move the staged files to the targets.
 
-    With ``overwrite``, each file replaces its target (the main file last).
-    Without, each file is hard-linked to its target name, which fails if the
-    name is taken, so a file that appeared meanwhile is never replaced; the
-    main file goes first, so that of two runs racing for one output exactly
-    one wins, and the loser removes what it linked.
+    Without ``overwrite`` each file is linked to its name, the main file
+    first, so that of two runs racing for one output exactly one wins.
     """
     written = {p.name for p in staging.iterdir() if p.is_file()}
     if target.name not in written:
@@ -949,21 +868,18 @@ def _move_into_place(
 def _place_new(source: Path, destination: Path) -> None:
     """Move ``source`` to ``destination``; FileExistsError if that name is taken."""
     try:
-        os.link(source, destination)
+        try:
+            os.link(source, destination)
+        except FileExistsError:
+            raise
+        except OSError:
+            # No hard links here (some network or FAT file systems): claim the
+            # name with an exclusive create, then replace that placeholder.
+            os.close(os.open(destination, os.O_CREAT | os.O_EXCL | os.O_WRONLY))
+            os.replace(source, destination)
+            return
     except FileExistsError:
         raise FileExistsError(errno.EEXIST, "file exists", str(destination)) from None
-    except OSError:
-        # No hard links here (some network or FAT file systems): claim the name
-        # with an exclusive create, then replace that placeholder.
-        try:
-            descriptor = os.open(destination, os.O_CREAT | os.O_EXCL | os.O_WRONLY)
-        except FileExistsError:
-            raise FileExistsError(
-                errno.EEXIST, "file exists", str(destination)
-            ) from None
-        os.close(descriptor)
-        os.replace(source, destination)
-        return
     source.unlink()
 
 
@@ -991,10 +907,7 @@ def _truncate_bytes(name: str, limit: int) -> str:
 def _shapefile_names(columns: list) -> dict[str, str]:
     """Map column names that do not fit a dBASE field to unique short names.
 
-    Names that already fit keep theirs (and are reserved first, so a
-    truncated name never takes one); the others are cut to 10 bytes, or to
-    fewer plus ``_1``, ``_2``, ... when the cut name is taken. Names compare
-    ignoring case, as in dBASE.
+    Names that fit are kept (and reserved first); see :func:`write_hulls`.
     """
     used: set[str] = set()
     keep: set[str] = set()

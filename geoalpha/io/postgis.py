@@ -1,23 +1,12 @@
 """Read points from PostGIS and write hulls back, safely.
 
-:func:`read_postgis` reads a table (``schema.table``) or the result of a
-``SELECT`` into a GeoDataFrame, finding its geometry column;
-:func:`write_postgis` writes a GeoDataFrame (usually the result of
-:func:`geoalpha.hull`) to a table in one transaction: the rows go to a new
-table under a temporary name, which gets a spatial index and is then renamed
-to its final name, so an interrupted run leaves no half table and never
-damages the table it was meant to replace. The ``geoalpha`` command routes
-``postgresql://`` URLs here.
-
-A database is named by a URL, ``postgresql://user@host:port/dbname``. The
-password comes from the URL (``postgresql://user:password@...``), from
-``PGPASSWORD`` or from ``~/.pgpass`` (libpq reads both), and is never printed:
-every error message of this module shows the URL with the password replaced
-by ``***``, and :func:`redact` does the same for any text (the command runs
-its ``-v`` tracebacks through it).
-
-Needs the database drivers geopandas uses for ``read_postgis`` and
-``to_postgis``: ``pip install "geoalpha[postgis]"``.
+:func:`read_postgis` reads a table or a ``SELECT`` into a GeoDataFrame;
+:func:`write_postgis` writes one to a table in one transaction (a new table,
+indexed, then renamed), so an interrupted run never damages the table it was
+meant to replace. A database is named by a URL,
+``postgresql://user@host:port/dbname``; its password (from the URL,
+``PGPASSWORD`` or ``~/.pgpass``) never appears in a message. Needs
+``pip install "geoalpha[postgis]"``.
 """
 
 from __future__ import annotations
@@ -53,6 +42,8 @@ _CONNECT_TIMEOUT = 15  # seconds, unless the URL says connect_timeout=...
 _LOCK_TIMEOUT = "30s"
 _IDENTIFIER_BYTES = 63  # PostgreSQL's NAMEDATALEN - 1
 _secrets: set[str] = set()
+# one part of schema.table: "quoted" ("" is a quote), or bare up to a dot
+_NAME_PART = re.compile(r'"(?P<quoted>(?:[^"]|"")*)"|(?P<bare>(?!")[^.]*)')
 
 
 # --------------------------------------------------------------------------
@@ -91,9 +82,8 @@ def gdal_connection_error(text: str) -> InvalidInputError:
 def redact(text: object) -> str:
     """Return ``text`` with every database password replaced by ``***``.
 
-    :func:`geoalpha.io.redact.redact` (URL passwords, ``password=`` values), plus
-    the value of ``PGPASSWORD`` and every password this module has read from a
-    URL in this process, wherever they appear.
+    As :func:`geoalpha.io.redact.redact`, plus ``PGPASSWORD`` and the
+    passwords of the URLs read in this process.
 
     Examples
     --------
@@ -129,31 +119,19 @@ def parse_table(name: str) -> tuple[str | None, str]:
     """
     text = (name or "").strip()
     parts: list[str] = []
-    i = 0
-    while i <= len(text):
-        if text[i : i + 1] == '"':
-            end = i + 1
-            part = ""
-            while True:
-                close = text.find('"', end)
-                if close < 0:
-                    raise InvalidInputError(f"unbalanced quotes in table name {name!r}")
-                part += text[end:close]
-                if text[close + 1 : close + 2] == '"':  # "" is a quote
-                    part += '"'
-                    end = close + 2
-                    continue
-                i = close + 1
-                break
-        else:
-            end = text.find(".", i)
-            end = len(text) if end < 0 else end
-            part = text[i:end]
-            i = end
-        parts.append(part)
-        if i < len(text) and text[i] != ".":
+    pos = 0
+    while True:
+        part = _NAME_PART.match(text, pos)
+        if part is None:
+            raise InvalidInputError(f"unbalanced quotes in table name {name!r}")
+        quoted = part["quoted"]
+        parts.append(part["bare"] if quoted is None else quoted.replace('""', '"'))
+        pos = part.end()
+        if pos == len(text):
+            break
+        if text[pos] != ".":
             raise InvalidInputError(f"cannot read table name {name!r}")
-        i += 1
+        pos += 1
     if len(parts) not in (1, 2) or not all(parts):
         raise InvalidInputError(
             f"table name {name!r} must be 'table' or 'schema.table'"
@@ -184,15 +162,6 @@ def _import_drivers():
             f'GeoAlchemy2 ({err.name} is missing): pip install "geoalpha[postgis]"'
         ) from err
     return sqlalchemy
-
-
-def _engine(url: str) -> sqlalchemy.engine.Engine:
-    """Return a SQLAlchemy engine (psycopg 3 driver) for a ``postgresql://`` URL."""
-    sqlalchemy = _import_drivers()
-    from sqlalchemy.pool import NullPool
-
-    parsed, args = _parse_url(url)
-    return sqlalchemy.create_engine(parsed, poolclass=NullPool, connect_args=args)
 
 
 def _parse_url(url: str) -> tuple[sqlalchemy.engine.URL, dict[str, Any]]:
@@ -253,18 +222,19 @@ def _message(err: BaseException) -> str:
 def _connection(url: str, *, write: bool) -> Iterator[Any]:
     """Open a connection in one transaction (read only unless ``write``).
 
-    Writing runs on SQLAlchemy (``to_postgis`` needs it); reading on a bare
-    psycopg connection, without an engine, whose dialect asks the server
-    about its version, schema and types on every new engine (about 6 ms a
-    read). Commits when the block ends without error, rolls back
-    otherwise; database errors come out as one-line :class:`DatabaseError`
-    without the password.
+    Writing runs on SQLAlchemy (``to_postgis`` needs it), reading on a bare
+    psycopg connection (faster). Database errors come out as one-line
+    :class:`DatabaseError` without the password.
     """
     sqlalchemy = _import_drivers()
     import psycopg
 
     errors = (sqlalchemy.exc.DBAPIError, psycopg.Error)
-    engine = _engine(url) if write else None
+    engine = None
+    if write:  # on the psycopg 3 driver
+        parsed, args = _parse_url(url)
+        pool = sqlalchemy.pool.NullPool
+        engine = sqlalchemy.create_engine(parsed, poolclass=pool, connect_args=args)
     where = _display(url)
     try:
         try:
@@ -297,10 +267,8 @@ def _connection(url: str, *, write: bool) -> Iterator[Any]:
 def _read_only(url) -> Iterator[Any]:
     """Open a psycopg connection in a read-only transaction; close it at the end.
 
-    ``url`` may be an open ``psycopg.Connection``: the reading runs in a
-    transaction of its own (read only), or in a savepoint when the connection
-    is already in a transaction (left as it was: read-write if it was), and
-    the connection stays open.
+    An open ``psycopg.Connection`` stays open; a transaction it is in gets a
+    savepoint.
     """
     import psycopg
 
@@ -379,12 +347,8 @@ def read_postgis(
     Parameters
     ----------
     url : str or psycopg.Connection
-        ``postgresql://user@host:port/dbname``; the password from the URL,
-        ``PGPASSWORD`` or ``~/.pgpass``. Or an open psycopg 3 connection,
-        which stays open: reading many times, or right after other queries,
-        saves a new connection's start each time (its login, and the server
-        loading PostGIS for it). It reads in a read-only transaction of its
-        own, or in a savepoint of the connection's open transaction.
+        ``postgresql://user@host:port/dbname``, or an open psycopg 3
+        connection (left open: reading many times saves a login each time).
     table : str, optional
         ``schema.table`` or ``table`` (found on the search path); names as
         written, case included. Give ``table`` or ``sql``.
@@ -404,26 +368,17 @@ def read_postgis(
     Raises
     ------
     geoalpha.errors.DatabaseError
-        When the server cannot be reached or refuses the login, the database
-        has no PostGIS, the table does not exist (the message lists the
-        tables that have a geometry column) or the query fails. One line,
-        without the password.
+        When the server, the login, PostGIS, the table or the query fails
+        (one line, without the password).
     geoalpha.errors.InvalidInputError
         For a malformed URL or table name, both or neither of ``table`` and
         ``sql``, or a missing or ambiguous geometry column.
 
     Notes
     -----
-    Points are read as arrays: one aggregate row holds the coordinates of
-    every row as doubles (``ST_X``, ``ST_Y``), each number or boolean column
-    as raw values and each text, numeric or date column as one array, built
-    into the frame with numpy and ``shapely.points`` (twice as fast as row by
-    row, and no SQLAlchemy engine: a bare psycopg connection). Anything else
-    (a NULL, empty, 3D or non-point geometry, mixed SRIDs, a NULL number,
-    another column type, more than 2,000,000 rows) is read row by row with
-    its WKB, as ``geopandas.read_postgis`` reads it; the result is the same.
-    A new connection makes the server load PostGIS (about 20 ms) unless it
-    has ``shared_preload_libraries = 'postgis-3'``.
+    2D points with number, boolean, text or date columns are read as arrays
+    in one aggregate row (twice as fast); anything else row by row with its
+    WKB, as ``geopandas.read_postgis`` does. The result is the same.
 
     Examples
     --------
@@ -472,11 +427,8 @@ def read_postgis(
 def _read_frame(conn, query: str, description, column: str, typmod: int, source):
     """Run ``query`` and return its rows as a GeoDataFrame.
 
-    Points come as coordinate arrays (:func:`_read_points`); any other result
-    (NULL, empty, 3D or non-point geometries, other SRIDs, NULL numbers,
-    column types not read as arrays) as rows whose geometry column is parsed in
-    one call (``gpd.read_postgis`` parses the WKB of every row in a Python
-    loop), so that every row is read and checked as it always was.
+    Points come as arrays (:func:`_read_points`), anything else as rows whose
+    WKB is parsed in one call.
     """
     import geopandas as gpd
     import pandas as pd
@@ -529,17 +481,10 @@ _ARRAY_ROWS = 2_000_000  # more rows come as rows (a bytea holds 1 GB at most)
 def _read_points(conn, query: str, description, column: str, typmod: int):
     """Read a query of 2D points as arrays: (frame, points, SRID), else None.
 
-    One aggregate row: the coordinates of all rows as one ``bytea`` of
-    doubles (``float8send(ST_X) || float8send(ST_Y)``), read with numpy, and
-    every other column as one array, all aggregated over the same rows in the
-    same order. The rows are checked on the server: non-points fail
-    ``ST_X``, NULL and empty points give no coordinates, and, unless the
-    column's type (``typmod``) is ``geometry(Point, srid)``, ``ST_Zmflag``
-    and ``ST_SRID`` are compared. Returns None, having read nothing, when a
-    row is not a non-empty 2D point, the SRIDs differ, a number or boolean
-    is NULL, there are no rows or more than :data:`_ARRAY_ROWS`, a column's
-    type is not read as an array, or the names repeat; a failing query is run
-    again as rows (after a savepoint), to fail as it always did.
+    One aggregate row: the coordinates as one ``bytea`` of doubles, every
+    other column as one array. None (nothing read) for anything but
+    non-empty 2D points of one SRID with non-NULL numbers, up to
+    :data:`_ARRAY_ROWS` rows; the rows path then reads (or fails) as usual.
     """
     import numpy as np
     import pandas as pd
@@ -617,11 +562,7 @@ def _point_typmod_srid(typmod: int) -> int | None:
 
 
 def _run_query(conn, query: str):
-    """Execute the user's query as written (``%`` and ``:`` are no markers).
-
-    Runs on the psycopg connection without parameters, so psycopg parses no
-    placeholders.
-    """
+    """Execute the user's query as written (no parameters: no placeholders)."""
     cursor = conn.cursor()
     cursor.execute(query, binary=True)  # geometries as EWKB bytes, not hex text
     return cursor
@@ -677,9 +618,7 @@ def check_postgis_output(
 ) -> None:
     """Check, before any work, that :func:`write_postgis` can write ``table``.
 
-    Connects (so a wrong password or a missing database shows before the
-    hulls are computed), and checks that the schema exists and that the table
-    does not, unless ``overwrite``.
+    Connects, and checks the schema, and the table unless ``overwrite``.
 
     Raises
     ------
@@ -728,23 +667,17 @@ def write_postgis(
 ) -> str:
     """Write a GeoDataFrame to a PostGIS table in one transaction.
 
-    The rows are copied (``COPY``, through ``GeoDataFrame.to_postgis``) into a
-    new table with a temporary name, which gets a GiST spatial index; then,
-    in the same transaction, the old table is dropped (``overwrite``) and the
-    new one renamed. Readers see either the old table or the whole new one;
-    an interrupted run rolls back and leaves nothing behind.
+    The rows go to a new table with a GiST index, which then replaces the old
+    one: readers see the old table or the whole new one.
 
     Parameters
     ----------
     gdf : geopandas.GeoDataFrame
-        What to write, usually the result of :func:`geoalpha.hull`. The
-        geometry column keeps its name; its SRID is the EPSG code of
-        ``gdf.crs`` (0 without a CRS); a mix of Polygons and MultiPolygons is written as
-        MultiPolygons (one column type, as in a GeoPackage). The index is
-        not written (``reset_index()`` first to keep it).
+        What to write, usually the result of :func:`geoalpha.hull`; its SRID
+        is the EPSG code of ``gdf.crs`` (0 without), Polygons mixed with
+        MultiPolygons are written as MultiPolygons, the index is not written.
     url : str
-        ``postgresql://user@host:port/dbname``; the password from the URL,
-        ``PGPASSWORD`` or ``~/.pgpass``.
+        ``postgresql://user@host:port/dbname``.
     table : str
         ``schema.table`` or ``table`` (in the first schema of the search
         path), names as written.
@@ -759,9 +692,8 @@ def write_postgis(
     Raises
     ------
     geoalpha.errors.DatabaseError
-        When the server cannot be reached, the schema does not exist, the
-        table exists (without ``overwrite``) or the database refuses the
-        write. One line, without the password.
+        When the server, the login or the write fails, the schema is missing
+        or the table exists (without ``overwrite``); one line, no password.
     geoalpha.errors.InvalidInputError
         For a malformed URL or table name, or a CRS without an EPSG code.
 
@@ -858,12 +790,7 @@ def _rename_indexes(conn, schema: str, name: str, temporary: str) -> None:
 
 
 def _one_line(err: BaseException | str) -> str:
-    """Return the text of ``err`` on one line, its lines joined as sentences.
-
-    libpq writes a hint on a line of its own ("Connection refused", then "Is
-    the server running..."): a line that ends without punctuation gets a full
-    stop before the next one.
-    """
+    """Return the text of ``err`` on one line, its lines joined as sentences."""
     lines = [" ".join(line.split()) for line in str(err).splitlines()]
     lines = [line for line in lines if line]
     for i, line in enumerate(lines[:-1]):

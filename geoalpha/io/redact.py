@@ -1,12 +1,8 @@
 """Keep credentials out of messages: redact passwords and tokens in text.
 
-An input that cannot be opened is named in the error message, and a data
-source name can hold a password: a GDAL/libpq connection string
-(``PG:host=db user=me password=secret``), a URL with a user and password
-(``postgresql://me:secret@db/gis``, ``https://me:secret@host/data.gpkg``) or
-a signed URL (``...?token=...``, ``X-Amz-Signature=...``). Every message
-geoalpha shows (errors, warnings, ``-v`` tracebacks and log records) goes
-through :func:`redact` first.
+A data source name can hold a password (``PG:... password=secret``,
+``postgresql://me:secret@db/gis``, ``...?token=...``); every message geoalpha
+shows goes through :func:`redact` first.
 """
 
 from __future__ import annotations
@@ -37,13 +33,9 @@ _KEY_VALUE = re.compile(
     r"(?P<value>'(?:[^'\\]|\\.)*'?|\"(?:[^\"\\]|\\.)*\"?|[^\s&;,'\"]+)",
     re.IGNORECASE,
 )
-# scheme://user:password@host. The match starts at "://" (after a scheme
-# character), not at the scheme: a pattern starting with the scheme would try
-# every letter of a long run of letters and digits and scan the run to its end
-# from each, which is quadratic (a 100 KB token in a CSV field took 10 s, 5 MB
-# did not finish in 300 s). From "://" (a literal, which the regex engine
-# finds fast) a match scans forward at most to the next "/", so the search is
-# linear in the length of the text.
+# scheme://user:password@host. The match starts at "://", not at the scheme:
+# starting at the scheme is quadratic on a long run of letters (a 100 KB token
+# took 10 s); from "://" the search is linear in the length of the text.
 _URL_PASSWORD = re.compile(
     r"(?P<head>://(?<=[A-Za-z0-9+.-]://)[^\s:/@]*:)(?P<value>[^\s@/]*)(?=@)"
 )
@@ -62,13 +54,11 @@ def secrets_in(text: str) -> list[str]:
     Parameters
     ----------
     text : str
-        A data source name, URL or any other text.
 
     Returns
     -------
     list of str
-        The values of password-like keys and the passwords of URLs, longest
-        first, without quotes; empty when there is none.
+        The values of password-like keys and URL passwords, longest first.
 
     Examples
     --------
@@ -102,15 +92,12 @@ def redact(text: object, secrets: Iterable[str] = ()) -> str:
     text : object
         The message (converted with ``str``).
     secrets : iterable of str, optional
-        Known secret values (e.g. from :func:`secrets_in` of the command's
-        arguments) to remove wherever they appear, even where a library
-        quoted them out of context (``nonnumeric port: 'secret@host'``).
+        Known secret values to remove wherever they appear.
 
     Returns
     -------
     str
-        The text with every secret value replaced by ``***``; key names, user
-        names and host names stay, so the message still says what failed.
+        The text with every secret value replaced by ``***``.
 
     Examples
     --------
