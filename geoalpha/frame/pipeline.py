@@ -64,6 +64,7 @@ from geoalpha.errors import (
     OutlierWarning,
     did_you_mean,
     first_n,
+    setting,
     user_stacklevel,
 )
 from geoalpha.frame import crs as gcrs
@@ -525,8 +526,8 @@ def report_rows(report: RowReport, *, warn: bool = True) -> None:
         names = ", ".join(f"{n} {t}" for t, n in order)
         raise InvalidInputError(
             f"hull() needs point geometries; got {names} row(s) (index "
-            f"{_shown_labels(labels['non_point'])}); pass vertices=True "
-            "(--vertices) to use their vertices"
+            f"{_shown_labels(labels['non_point'])}); pass "
+            f"{setting('vertices', True)} to use their vertices"
         )
     dropped = counts["missing"] + counts["no_key"]
     if dropped and warn:
@@ -539,7 +540,8 @@ def report_rows(report: RowReport, *, warn: bool = True) -> None:
         if counts["no_key"]:
             parts.append(
                 f"{counts['no_key']} with a missing group key (index "
-                f"{_shown_labels(labels['no_key'])}; dropna=False keeps them)"
+                f"{_shown_labels(labels['no_key'])}; {setting('dropna', False)} "
+                "keeps them)"
             )
         warnings.warn(
             f"hull() dropped {dropped} of {report.n_rows} rows: " + "; ".join(parts),
@@ -621,7 +623,8 @@ def compute(
     method = options.method
     if options.outliers and method != "alpha":
         raise InvalidInputError(
-            f"outliers applies to method='alpha'; got method={method!r}"
+            f"outliers applies to {setting('method', 'alpha')}; got "
+            f"{setting('method', method)}"
         )
     bar = current()
     if bar is not None and not bar.shown:
@@ -836,7 +839,7 @@ def degenerate_policy(
         done = f"they were dropped ({n_points[which].sum()} rows)"
     warnings.warn(
         _why_degenerate(hulls.reason, which, groups, n_points, proj.wide)
-        + f"; {done} (degenerate={policy!r})",
+        + f"; {done} ({setting('degenerate', policy)})",
         DegenerateGroupWarning,
         stacklevel=user_stacklevel(),
     )
@@ -1006,7 +1009,8 @@ def verify_in_output_crs(
                 + _names(
                     groups, which, np.bincount(codes[outside], minlength=len(geometry))
                 )
-                + "; method='alpha' declares such groups degenerate instead",
+                + f"; {setting('method', 'alpha')} declares such groups degenerate "
+                "instead",
                 GeoAlphaWarning,
                 stacklevel=user_stacklevel(),
             )
@@ -1155,7 +1159,7 @@ def report_outliers(
         )
         warnings.warn(
             f"hull() left {n_outliers.sum()} row(s) of {len(which)} group(s) "
-            f"outside their hulls (outliers={options.outliers!r}): {each}; "
+            f"outside their hulls ({setting('outliers', options.outliers)}): {each}; "
             "geoalpha.outlier_rows() marks them",
             OutlierWarning,
             stacklevel=user_stacklevel(),
