@@ -79,12 +79,17 @@ def _secrets() -> list[str]:
 
 
 def _flags(command: click.Command) -> dict[str, str]:
-    """Return the flag of each option of ``command``: ``{"n_jobs": "--jobs", ...}``."""
-    return {
+    """Return the command's spelling of each keyword (``errors.FLAGS``).
+
+    Every option of hull() (``geoalpha demo`` warns with ``--no-dropna`` too)
+    and the command's own options: ``{"n_jobs": "--jobs", ...}``.
+    """
+    own = {
         p.name: "/".join(p.opts[-1:] + p.secondary_opts[-1:])
         for p in command.params
         if isinstance(p, click.Option) and p.name
     }
+    return {"hull()": "geoalpha", **{n: m.flags[-1] for n, m in META.items()}, **own}
 
 
 @contextlib.contextmanager

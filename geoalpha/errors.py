@@ -31,11 +31,12 @@ __all__ = [
     "did_you_mean",
     "first_n",
     "setting",
+    "spelled",
 ]
 
 #: The ``geoalpha`` command's flag of each keyword (``{"n_jobs": "--jobs",
-#: "dropna": "--dropna/--no-dropna", ...}``, from its option definitions)
-#: while it runs; None in Python.
+#: "dropna": "--dropna/--no-dropna", "hull()": "geoalpha", ...}``, from its
+#: option definitions) while it runs; None in Python.
 FLAGS: contextvars.ContextVar[Mapping[str, str] | None] = contextvars.ContextVar(
     "geoalpha_flags", default=None
 )
@@ -147,6 +148,17 @@ def did_you_mean(name: object, choices: Iterable) -> str:
         if str(name).lower() in lower:
             close = [lower[str(name).lower()]]
     return f" (did you mean {close[0]!r}?)" if close else ""
+
+
+def spelled(term: str) -> str:
+    """Return a keyword or ``"hull()"`` as the user knows it: its flag in the command.
+
+    Examples
+    --------
+    >>> spelled("n_jobs"), spelled("hull()")
+    ('n_jobs', 'hull()')
+    """
+    return (FLAGS.get() or {}).get(term, term)
 
 
 def setting(name: str, *value: Any) -> str:

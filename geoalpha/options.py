@@ -36,7 +36,7 @@ import numbers
 from collections.abc import Callable, Mapping
 from typing import Any
 
-from geoalpha.errors import InvalidInputError, first_n, setting
+from geoalpha.errors import InvalidInputError, first_n, spelled
 
 __all__ = [
     "DEGENERATE_POLICIES",
@@ -142,7 +142,7 @@ class OptionMeta:
                     return int(value)
                 return float(value)
         raise InvalidInputError(
-            f"{_named(name)} must be {self.describe()}; got {_shown(value)!r}"
+            f"{spelled(name)} must be {self.describe()}; got {_shown(value)!r}"
         )
 
     def _in_range(self, value) -> bool:
@@ -151,11 +151,6 @@ class OptionMeta:
         ):
             return False
         return self.high is None or value <= self.high
-
-
-def _named(name: str) -> str:
-    """``n_jobs`` in Python, ``--jobs`` in the command (:func:`errors.setting`)."""
-    return setting(name).removesuffix("=")
 
 
 def _is_bool(value) -> bool:
@@ -191,7 +186,7 @@ def _check_grow(value):
         or value < 0
     ):
         raise InvalidInputError(
-            f"{_named('grow')} must be a distance >= 0 (metres); got {value!r}"
+            f"{spelled('grow')} must be a distance >= 0 (metres); got {value!r}"
         )
     return float(value)
 
@@ -224,7 +219,7 @@ def check_outliers(outliers) -> None:
         ok = False
     if not ok:
         raise InvalidInputError(
-            f"{_named('outliers')} must be a fraction in [0, 1) or a count >= 0 "
+            f"{spelled('outliers')} must be a fraction in [0, 1) or a count >= 0 "
             f"(an int); got {outliers!r}"
         )
 
@@ -249,7 +244,7 @@ def _check_n_jobs(value):
         or value < -1
     ):
         raise InvalidInputError(
-            f"{_named('n_jobs')} must be a positive integer, or -1 or None (every "
+            f"{spelled('n_jobs')} must be a positive integer, or -1 or None (every "
             f"core); got {value!r}"
         )
     return int(value)

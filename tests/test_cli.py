@@ -453,7 +453,7 @@ def test_hull_of_polygon_vertices_with_more_options(points_csv, tmp_path):
     refused = run("hull", first, out, "--by", GROUP)
     assert refused.exit_code == 1
     assert refused.stderr.startswith(
-        "Error: hull() needs point geometries; got 4 Polygon row(s)"
+        "Error: geoalpha needs point geometries; got 4 Polygon row(s)"
     )
     assert "pass --vertices to use their vertices" in refused.stderr
     args = ["hull", first, out, "--by", GROUP, "--vertices", "--no-sort", "-j", "2"]

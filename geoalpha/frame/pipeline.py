@@ -65,6 +65,7 @@ from geoalpha.errors import (
     did_you_mean,
     first_n,
     setting,
+    spelled,
     user_stacklevel,
 )
 from geoalpha.frame import crs as gcrs
@@ -525,7 +526,7 @@ def report_rows(report: RowReport, *, warn: bool = True) -> None:
         order = sorted(report.types.items(), key=lambda item: -item[1])
         names = ", ".join(f"{n} {t}" for t, n in order)
         raise InvalidInputError(
-            f"hull() needs point geometries; got {names} row(s) (index "
+            f"{spelled('hull()')} needs point geometries; got {names} row(s) (index "
             f"{_shown_labels(labels['non_point'])}); pass "
             f"{setting('vertices', True)} to use their vertices"
         )
@@ -544,13 +545,14 @@ def report_rows(report: RowReport, *, warn: bool = True) -> None:
                 "keeps them)"
             )
         warnings.warn(
-            f"hull() dropped {dropped} of {report.n_rows} rows: " + "; ".join(parts),
+            f"{spelled('hull()')} dropped {dropped} of {report.n_rows} rows: "
+            + "; ".join(parts),
             DroppedRowsWarning,
             stacklevel=user_stacklevel(),
         )
     if counts["infinite"]:
         raise InvalidInputError(
-            "hull() needs finite coordinates; got infinite values in "
+            f"{spelled('hull()')} needs finite coordinates; got infinite values in "
             f"{counts['infinite']} row(s) (index {_shown_labels(labels['infinite'])})"
         )
 
@@ -1158,9 +1160,9 @@ def report_outliers(
             sep="; ",
         )
         warnings.warn(
-            f"hull() left {n_outliers.sum()} row(s) of {len(which)} group(s) "
-            f"outside their hulls ({setting('outliers', options.outliers)}): {each}; "
-            "geoalpha.outlier_rows() marks them",
+            f"{spelled('hull()')} left {n_outliers.sum()} row(s) of {len(which)} "
+            f"group(s) outside their hulls ({setting('outliers', options.outliers)}): "
+            f"{each}; geoalpha.outlier_rows() marks them",
             OutlierWarning,
             stacklevel=user_stacklevel(),
         )
