@@ -13,20 +13,19 @@ from __future__ import annotations
 
 import contextlib
 import logging
-import re
 import sys
 import traceback
 import warnings
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 
 import click
 
 from geoalpha import __version__
-from geoalpha.errors import GeoAlphaError, InvalidInputError
+from geoalpha.errors import FLAGS, GeoAlphaError, InvalidInputError
 from geoalpha.io.datasets import DATASETS
 from geoalpha.io.postgis import is_postgres_url
 from geoalpha.io.redact import redact, secrets_in
-from geoalpha.options import META, check, defaults
+from geoalpha.options import META, defaults
 
 __all__ = ["main"]
 
@@ -34,93 +33,6 @@ _CONTEXT = {"help_option_names": ["-h", "--help"], "max_content_width": 88}
 # Errors whose message is written for the user; anything else is reported
 # with its type and a hint to rerun with -v.
 _EXPECTED = (GeoAlphaError, OSError, ImportError)
-
-
-def _by_flag(match: re.Match) -> str:
-    """``by='a'`` / ``by=['a', 'b']`` -> ``--by a`` / ``--by a,b``."""
-    return "--by " + ",".join(re.findall(r"'([^']*)'", match[1]))
-
-
-def _option_terms() -> list[tuple[str, str]]:
-    """``name=value`` of the options of hull() -> their flags (from options.py)."""
-    terms = []
-    for name, meta in META.items():
-        positive, *negative = meta.flags[-1].split("/")
-        if meta.kind == "bool":
-            terms.append((rf"\b{name}=True\b", positive))
-            terms.extend((rf"\b{name}=False\b", flag) for flag in negative)
-        elif meta.kind != "crs":  # --crs: rules of its own
-            terms.append((rf"\b{name}=(?=\S)", f"{positive} "))
-            terms.append((rf"\b{name}=", positive))
-    return terms
-
-
-# Python keywords in messages of the library -> the command's options.
-_CLI_TERMS: tuple[tuple[str, str | Callable[[re.Match], str]], ...] = (
-    (r"hull\(by=[^)]*\)", "--by"),
-    (r"\bby=(\[[^\]]*\]|'[^']*')", _by_flag),
-    (r"\bhull\(\) ", "geoalpha "),
-    (r"pass vertices=True \(--vertices\)", "pass --vertices"),
-    (r"\(degenerate='(\w+)'\)", r"(--degenerate \1)"),
-    (r"\bdegenerate='(\w+)'", r"--degenerate \1"),
-    (
-        r"with gdf\.set_crs\(\.\.\.\) or pass crs=None",
-        "with --crs-in, or pass --crs-in none",
-    ),
-    (r"\bcrs='auto'", "--crs auto"),
-    (r"\bcrs='([^' ]+)'", r"--crs \1"),
-    (r"\(crs=\)", "(--crs)"),
-    (r"\bthe input's CRS\b", "INPUT's CRS"),
-    (r"\bcrs=None\b", "--crs none"),
-    (r"\bcrs=(?=\s)", "--crs"),
-    *_option_terms(),
-    (r"\bn_jobs\b", "--jobs"),
-    (r"\boverwrite=True\b", "--overwrite"),
-    (r"\bx= and y=", "--x and --y"),
-    (r"\blayer=(?=\S)", "--layer "),
-    (r"\blayer=", "--layer"),
-)
-
-
-def _needle(pattern: str) -> str:
-    r"""Return the literal text every match of ``pattern`` starts with.
-
-    ``\bhull\(\) `` -> ``hull() ``: the leading literal characters, up to
-    the first one that is not literal (a class, a group, a quantifier, which
-    also takes back the character it applies to).
-    """
-    out: list[str] = []
-    i = 2 if pattern.startswith(r"\b") else 0
-    while i < len(pattern):
-        char = pattern[i]
-        if char == "\\" and i + 1 < len(pattern) and not pattern[i + 1].isalnum():
-            out.append(pattern[i + 1])
-            i += 2
-            continue
-        if char == "\\" or char in "()[]|^$.":
-            break
-        if char in "*?{+":
-            if char != "+":  # the character before may be absent
-                out = out[:-1]
-            break
-        out.append(char)
-        i += 1
-    return "".join(out)
-
-
-# Each term with the text its matches start with: a term whose text is not
-# in the message is skipped (a substring search), so a long message (a CSV
-# header of megabytes in "its columns are ...") is not scanned position by
-# position by each of the terms.
-_CLI_NEEDLES: tuple[str, ...] = tuple(_needle(p) for p, _ in _CLI_TERMS)
-
-
-def _in_cli_terms(text: str) -> str:
-    """Word a library message in terms of the command's options."""
-    for (pattern, replacement), needle in zip(_CLI_TERMS, _CLI_NEEDLES, strict=True):
-        if needle in text:
-            text = re.sub(pattern, replacement, text)
-    return text
 
 
 class _RedactingHandler(logging.StreamHandler):
@@ -166,19 +78,42 @@ def _secrets() -> list[str]:
     return sorted(found, key=len, reverse=True)
 
 
+def _flags(command: click.Command) -> dict[str, str]:
+    """Return the command's spelling of each keyword (``errors.FLAGS``).
+
+    Every option of hull() (``geoalpha demo`` warns with ``--no-dropna`` too)
+    and the command's own options: ``{"n_jobs": "--jobs", ...}``.
+    """
+    own = {
+        p.name: "/".join(p.opts[-1:] + p.secondary_opts[-1:])
+        for p in command.params
+        if isinstance(p, click.Option) and p.name
+    }
+    return {"hull()": "geoalpha", **{n: m.flags[-1] for n, m in META.items()}, **own}
+
+
+@contextlib.contextmanager
+def _in_flags() -> Iterator[None]:
+    """Let the library name options by the current command's flags (``FLAGS``)."""
+    token = FLAGS.set(_flags(click.get_current_context().command))
+    try:
+        yield
+    finally:
+        FLAGS.reset(token)
+
+
 @contextlib.contextmanager
 def _reporting(verbosity: int) -> Iterator[None]:
     """Show warnings as ``Warning:`` lines and turn errors into ``Error:`` lines.
 
-    Every line is worded in the command's terms and has credentials removed.
+    Every line names the command's flags (:func:`_in_flags`) and has
+    credentials removed.
     """
-    from geoalpha.io.files import cli_terms
-
     shown: set[tuple[type, str]] = set()
     secrets = _secrets()
 
     def clean(text: object) -> str:
-        return redact(_in_cli_terms(_one_line(text)), secrets)
+        return redact(_one_line(text), secrets)
 
     def show(message, category, filename, lineno, file=None, line=None):
         if verbosity < 0:
@@ -190,7 +125,7 @@ def _reporting(verbosity: int) -> Iterator[None]:
             shown.add((category, text))
             click.echo(f"Warning: {text}", err=True)
 
-    with warnings.catch_warnings(), cli_terms():
+    with warnings.catch_warnings(), _in_flags():
         warnings.simplefilter("always")
         warnings.showwarning = show
         try:
@@ -580,84 +515,51 @@ def _write_preview(hulls, points, path: str, by: list[str]) -> None:
         plt.close(fig)
 
 
-class _OutliersType(click.ParamType):
-    """``--outliers``: a fraction in [0, 1) (``0.02``) or a count (``3``).
-
-    The text is parsed here (an integer is a count, anything else a
-    fraction); the value is checked by the check of ``outliers`` in
-    :mod:`geoalpha.options`, and refused as a usage error.
-    """
-
-    name = "FRACTION|COUNT"
-
-    def convert(self, value, param, ctx):
-        if not isinstance(value, str):
-            return value
-        try:
-            number = (
-                int(value) if value.strip().lstrip("+-").isdigit() else float(value)
-            )
-        except ValueError:
-            self.fail(
-                f"{value!r} is neither a fraction (0.02) nor a count (3)", param, ctx
-            )
-        try:
-            return check(outliers=number)["outliers"]
-        except InvalidInputError:
-            if isinstance(number, int):
-                self.fail(f"{value!r}: a count must be >= 0", param, ctx)
-            self.fail(
-                f"{value!r}: a fraction must be in [0, 1); a count is an integer",
-                param,
-                ctx,
-            )
+def _parsed(kind: str, text):
+    """Return a flag's text as its check takes it: a number, None for ``none``."""
+    if not isinstance(text, str):
+        return text  # a default
+    if kind == "crs":
+        return _crs_option(text)
+    if kind in ("int", "float", "number"):  # an integer is a count (--outliers 3)
+        for number in (int, float):
+            with contextlib.suppress(ValueError):
+                return number(text)
+    return text
 
 
-#: How an option of hull() is typed on the command line, where its kind and
-#: bounds in geoalpha/options.py do not say it (--crs: see _crs_option).
-_CLI_TYPES: dict[str, click.ParamType] = {"outliers": _OutliersType()}
-
-
-def _whole(bound: float | None) -> float | int | None:
-    return int(bound) if bound is not None and float(bound).is_integer() else bound
-
-
-def _click_type(name: str):
-    """Return the click type of an option of hull(): its choices or bounds."""
-    meta = META[name]
-    if name in _CLI_TYPES:
-        return _CLI_TYPES[name]
-    if meta.kind == "choice":
-        return click.Choice(meta.choices)
-    if meta.kind in ("int", "float"):
-        if meta.low is None and meta.high is None:
-            return int if meta.kind == "int" else float
-        low, high = _whole(meta.low), _whole(meta.high)  # "x>=1", not "x>=1.0"
-        if meta.kind == "int":
-            return click.IntRange(min=low, max=high, min_open=meta.low_open)
-        return click.FloatRange(min=low, max=high, min_open=meta.low_open)
-    if meta.kind == "crs":
-        return click.STRING  # "none" becomes None in the command (_crs_option)
-    raise TypeError(f"option {name} needs a click type in geoalpha.cli._CLI_TYPES")
+def _checked(ctx: click.Context, param: click.Parameter, value):
+    """Check a flag's value at the flag, by its option's check in options.py."""
+    meta = META[param.name]
+    try:
+        with _in_flags():
+            return meta.check(param.name, _parsed(meta.kind, value))
+    except InvalidInputError as err:
+        raise click.BadParameter(str(err), ctx, param) from None
 
 
 def _option(name: str):
     """Return the click option of one option of hull(), all from options.py.
 
-    Its flags, default, type (choices, bounds), metavar and help text are
-    those of the field ``name`` of :class:`geoalpha.options.Options`.
+    Its flags, default, metavar and help text are those of the field
+    ``name`` of :class:`geoalpha.options.Options`, and its value is checked
+    at the flag by the field's check (:func:`_checked`).
     """
     meta = META[name]
-    flag_only = meta.kind == "bool" and "/" not in meta.flags[-1]
+    if meta.kind == "bool":
+        flag_only = "/" not in meta.flags[-1]
+        typed = {"is_flag": flag_only or None}
+    else:
+        choices = f"[{'|'.join(meta.choices)}]" if meta.choices else None
+        metavar = meta.metavar or choices or meta.kind.upper()
+        typed = {"type": click.STRING, "callback": _checked, "metavar": metavar}
     return click.option(
         *meta.flags,
         name,
-        is_flag=flag_only or None,
-        type=None if meta.kind == "bool" else _click_type(name),
         default=defaults(name)[name],
         show_default=True,
-        metavar=meta.metavar,
         help=meta.help,
+        **typed,
     )
 
 
@@ -816,7 +718,7 @@ def hull(
     ):
         check_output(output, layer=output_layer, overwrite=overwrite)
         _check_preview(preview)
-        work_crs = _crs_option(options["crs"])
+        work_crs = options["crs"]  # checked at the flag: none is None
         # --crs none on input without CRS: planar, as --crs-in none would be.
         points = read_input_points(
             input_path,

@@ -11,7 +11,7 @@ from typing import Any
 import pyproj
 from pyproj.exceptions import CRSError
 
-from geoalpha.errors import InvalidInputError
+from geoalpha.errors import InvalidInputError, setting
 
 __all__ = [
     "crs_name",
@@ -133,15 +133,16 @@ got EPSG:4326 (geographic); ...
     parsed = parse_crs(crs)
     if parsed is None:
         raise InvalidInputError(
-            "crs= must be 'auto' or a projected (metric) CRS here, got None"
+            f"{setting('crs')} must be 'auto' or a projected (metric) CRS here, got "
+            "None"
         )
     if not parsed.is_projected:
         kind = "geographic" if parsed.is_geographic else "not projected"
         raise InvalidInputError(
-            "crs= must be a projected (metric) CRS, got "
-            f"{crs_name(parsed)} ({kind}); pass crs='auto' to let geoalpha choose "
-            "a UTM zone or a local CRS per group, or crs=None to use the "
-            "coordinates as they are"
+            f"{setting('crs')} must be a projected (metric) CRS, got "
+            f"{crs_name(parsed)} ({kind}); pass {setting('crs', 'auto')} to let "
+            "geoalpha choose a UTM zone or a local CRS per group, or "
+            f"{setting('crs', None)} to use the coordinates as they are"
         )
     return parsed
 

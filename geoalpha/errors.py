@@ -2,17 +2,22 @@
 
 Every error geoalpha raises on bad input derives from :class:`GeoAlphaError`
 (and from :class:`ValueError`, so ``except ValueError`` keeps working); every
-warning derives from :class:`GeoAlphaWarning`.
+warning derives from :class:`GeoAlphaWarning`. Messages name options with
+:func:`setting`, as the user spells them: ``crs='auto'`` in Python, ``--crs
+auto`` in the ``geoalpha`` command.
 """
 
 from __future__ import annotations
 
+import contextvars
 import difflib
 import itertools
 import sys
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
+from typing import Any
 
 __all__ = [
+    "FLAGS",
     "AntimeridianWarning",
     "CRSWarning",
     "DatabaseError",
@@ -26,7 +31,16 @@ __all__ = [
     "SearchWarning",
     "did_you_mean",
     "first_n",
+    "setting",
+    "spelled",
 ]
+
+#: The ``geoalpha`` command's flag of each keyword (``{"n_jobs": "--jobs",
+#: "dropna": "--dropna/--no-dropna", "hull()": "geoalpha", ...}``, from its
+#: option definitions) while it runs; None in Python.
+FLAGS: contextvars.ContextVar[Mapping[str, str] | None] = contextvars.ContextVar(
+    "geoalpha_flags", default=None
+)
 
 
 class GeoAlphaError(ValueError):
@@ -121,3 +135,56 @@ def did_you_mean(name: object, choices: Iterable) -> str:
         if str(name).lower() in lower:
             close = [lower[str(name).lower()]]
     return f" (did you mean {close[0]!r}?)" if close else ""
+
+
+def spelled(term: str) -> str:
+    """Return a keyword or ``"hull()"`` as the user knows it: its flag in the command.
+
+    Examples
+    --------
+    >>> spelled("n_jobs"), spelled("hull()")
+    ('n_jobs', 'hull()')
+    """
+    return (FLAGS.get() or {}).get(term, term)
+
+
+def setting(name: str, *value: Any) -> str:
+    """Spell option ``name`` (set to ``value``) as the user gives it.
+
+    ``name=value`` in Python; the flag of :data:`FLAGS` in the ``geoalpha``
+    command (None is ``none``, a list is comma-separated, False the ``--no-``
+    flag).
+
+    Parameters
+    ----------
+    name : str
+        The keyword, e.g. ``"crs"``.
+    *value
+        Its value, if the message names one.
+
+    Returns
+    -------
+    str
+        ``"crs='auto'"`` or ``"--crs auto"``; ``"crs="`` or ``"--crs"``.
+
+    Examples
+    --------
+    >>> setting("degenerate", "drop"), setting("crs")
+    ("degenerate='drop'", 'crs=')
+    >>> token = FLAGS.set({"by": "--by", "dropna": "--dropna/--no-dropna"})
+    >>> setting("by", ["a", "b"]), setting("dropna", False)
+    ('--by a,b', '--no-dropna')
+    >>> FLAGS.reset(token)
+    """
+    flag = (FLAGS.get() or {}).get(name)
+    if flag is None:
+        return f"{name}={value[0]!r}" if value else f"{name}="
+    on, _, off = flag.partition("/")
+    if not value or value[0] is True:
+        return on
+    if value[0] is False:
+        return off
+    shown = "none" if value[0] is None else value[0]
+    if isinstance(shown, list | tuple):
+        shown = ",".join(map(str, shown))
+    return f"{on} {shown}"

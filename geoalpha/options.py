@@ -13,10 +13,9 @@ derived from it:
   array API (:func:`geoalpha.alpha_shapes`, :func:`geoalpha.optimal_alpha`,
   :func:`geoalpha.alpha_shapes`) runs on its own options with :func:`check`;
 - the ``geoalpha hull`` options: :mod:`geoalpha.cli` makes one click option
-  per field from its ``flags``, default, ``choices``/``low``/``high`` (as a
-  ``click.Choice``/``IntRange``/``FloatRange``), ``metavar`` and ``help``;
-  only how ``--outliers`` parses its text and how ``--crs none`` becomes None
-  are written in the command.
+  per field from its ``flags``, default, ``metavar`` and ``help``, whose
+  value is checked at the flag by the same check (a bad one is a
+  ``click.BadParameter`` naming the flag, with this module's message).
 
 The array API's signatures spell their defaults out (for readers and type
 checkers); ``tests/test_options.py`` checks that they equal these.
@@ -37,7 +36,7 @@ import numbers
 from collections.abc import Callable, Mapping
 from typing import Any
 
-from geoalpha.errors import InvalidInputError, first_n
+from geoalpha.errors import InvalidInputError, first_n, spelled
 
 __all__ = [
     "DEGENERATE_POLICIES",
@@ -143,7 +142,7 @@ class OptionMeta:
                     return int(value)
                 return float(value)
         raise InvalidInputError(
-            f"{name} must be {self.describe()}; got {_shown(value)!r}"
+            f"{spelled(name)} must be {self.describe()}; got {_shown(value)!r}"
         )
 
     def _in_range(self, value) -> bool:
@@ -186,7 +185,9 @@ def _check_grow(value):
         or not math.isfinite(value)
         or value < 0
     ):
-        raise InvalidInputError(f"grow must be a distance >= 0 (metres); got {value!r}")
+        raise InvalidInputError(
+            f"{spelled('grow')} must be a distance >= 0 (metres); got {value!r}"
+        )
     return float(value)
 
 
@@ -218,8 +219,8 @@ def check_outliers(outliers) -> None:
         ok = False
     if not ok:
         raise InvalidInputError(
-            "outliers must be a fraction in [0, 1) or a count >= 0 (an int); "
-            f"got {outliers!r}"
+            f"{spelled('outliers')} must be a fraction in [0, 1) or a count >= 0 "
+            f"(an int); got {outliers!r}"
         )
 
 
@@ -243,8 +244,8 @@ def _check_n_jobs(value):
         or value < -1
     ):
         raise InvalidInputError(
-            "n_jobs must be a positive integer, or -1 or None (every core); "
-            f"got {value!r}"
+            f"{spelled('n_jobs')} must be a positive integer, or -1 or None (every "
+            f"core); got {value!r}"
         )
     return int(value)
 

@@ -341,9 +341,7 @@ def test_geoalpha_errors_from_hull_are_one_line(monkeypatch, points_csv, tmp_pat
     monkeypatch.setitem(sys.modules, "geoalpha.hulls", types.SimpleNamespace(hull=hull))
     result = run("hull", points_csv, tmp_path / "h.gpkg")
     assert result.exit_code == 1
-    assert result.stderr == (
-        "Error: geoalpha needs point geometries; got 3 LineString\n"
-    )
+    assert result.stderr == ("Error: hull() needs point geometries; got 3 LineString\n")
 
 
 def test_unexpected_errors_name_their_type(monkeypatch, points_csv, tmp_path):
@@ -359,10 +357,48 @@ def test_unexpected_errors_name_their_type(monkeypatch, points_csv, tmp_path):
     )
 
 
-def test_usage_errors_exit_2():
-    result = run("hull", "a.csv", "b.gpkg", "--method", "magic")
+@pytest.mark.parametrize(
+    "flag, value, reason",
+    [
+        (
+            "--method",
+            "magic",
+            "one of 'alpha', 'convex', 'concave', 'knn'; got 'magic'",
+        ),
+        ("--degenerate", "nope", "one of 'buffer', 'empty', 'drop'; got 'nope'"),
+        ("--outliers", "-1", "a fraction in [0, 1) or a count >= 0 (an int); got -1"),
+        ("--outliers", "1.5", "a fraction in [0, 1) or a count >= 0 (an int); got 1.5"),
+        ("--components", "2.5", "an integer >= 1; got 2.5"),
+        ("--grow", "-3", "a distance >= 0 (metres); got -3"),
+        ("--jobs", "0", "a positive integer, or -1 or None (every core); got 0"),
+    ],
+)
+def test_bad_values_are_refused_at_the_flag(flag, value, reason):
+    # The check of options.py, before INPUT is read: usage errors (exit 2).
+    result = run("hull", "a.csv", "b.gpkg", flag, value)
     assert result.exit_code == 2
-    assert "'magic' is not one of 'alpha', 'convex', 'concave', 'knn'" in result.stderr
+    named = "'-j' / '--jobs'" if flag == "--jobs" else f"'{flag}'"
+    assert f"Error: Invalid value for {named}: {flag} must be {reason}\n" in (
+        result.stderr
+    )
+
+
+@pytest.mark.parametrize(
+    "crs, reason",
+    [
+        ("bogus", "unknown CRS 'bogus': expected a CRS: an EPSG code"),
+        (
+            "EPSG:4326",
+            "--crs must be a projected (metric) CRS, got EPSG:4326 (geographic); "
+            "pass --crs auto to let geoalpha choose a UTM zone or a local CRS per "
+            "group, or --crs none to use the coordinates as they are",
+        ),
+    ],
+)
+def test_bad_crs_is_refused_at_the_flag(crs, reason):
+    result = run("hull", "a.csv", "b.gpkg", "--crs", crs)
+    assert result.exit_code == 2
+    assert f"Error: Invalid value for '--crs': {reason}" in result.stderr
 
 
 def test_demo_refuses_existing_output(tmp_path):
@@ -429,8 +465,8 @@ def test_hull_of_polygon_vertices_with_more_options(points_csv, tmp_path):
     assert back["n_points"].tolist() == expected["n_points"].tolist()
     assert back.geometry.geom_equals_exact(expected.geometry, 1e-9).all()
     jobs = run("hull", points_csv, tmp_path / "h.gpkg", "-j", "0")
-    assert jobs.exit_code == 1
-    assert "Error: --jobs must be a positive integer, or -1" in jobs.stderr
+    assert jobs.exit_code == 2
+    assert "--jobs': --jobs must be a positive integer, or -1" in jobs.stderr
 
 
 def _csv_points(path):
@@ -489,9 +525,9 @@ def test_max_iterations_warning_names_the_options(points_csv, tmp_path):
     rows = pd.read_csv(points_csv)[GROUP].value_counts()
     named = "; ".join(f"'{key}' ({rows[key]} rows)" for key in sorted(rows.index)[1:])
     assert result.stderr.splitlines()[0] == (
-        "Warning: --search 'bisect' did not converge within --max-iterations 3 for "
+        "Warning: --search bisect did not converge within --max-iterations 3 for "
         f"3 group(s) ({named}) and gave them alpha 0, the convex hull, as "
-        "alphashape does; use --search 'exact'"
+        "alphashape does; use --search exact"
     )
 
 

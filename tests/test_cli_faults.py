@@ -425,26 +425,6 @@ def test_a_csv_header_of_megabytes_is_reported_in_seconds(tmp_path):
     )
 
 
-@pytest.mark.parametrize(
-    "message",
-    [
-        "hull(by='g') makes 47 groups; pass vertices=True (--vertices) to use them",
-        "degenerate='buffer' (degenerate='drop') with crs='auto' and crs=None",
-        "n_jobs=2 and overwrite=True, x= and y= apply; layer=x, layer=",
-        "crs= must be a projected CRS: the input's CRS, holes=True, sort=False",
-    ],
-)
-def test_skipping_terms_not_in_the_message_changes_no_wording(message):
-    import re
-
-    from geoalpha.cli import _CLI_TERMS, _in_cli_terms
-
-    plain = message
-    for pattern, replacement in _CLI_TERMS:
-        plain = re.sub(pattern, replacement, plain)
-    assert _in_cli_terms(message) == plain != message
-
-
 def test_write_error_never_names_the_staging_folder(tmp_path, monkeypatch):
     hulls = gpd.GeoDataFrame(
         {"g": ["a"]}, geometry=[shapely.box(0, 0, 1, 1)], crs="EPSG:4326"

@@ -144,7 +144,7 @@ def test_projected_input_far_from_its_zone_warns(stats19, tmp_path):
     result = run("hull", path, tmp_path / "h.gpkg", "--by", GROUP)
     assert result.exit_code == 0, result.stderr
     (line,) = [x for x in result.stderr.splitlines() if "stretches" in x]
-    assert "computed in EPSG:32633 (INPUT's CRS)" in line
+    assert "computed in EPSG:32633 (the input's CRS)" in line
     assert "e.g. --crs EPSG:32630" in line
     quiet = run(
         "hull", stats19.pipe(_to_file, tmp_path / "bng.gpkg"), tmp_path / "b.gpkg"

@@ -505,7 +505,8 @@ def test_cli_outliers(tmp_path):
         assert back["n_outliers"].tolist() == hulls["n_outliers"].tolist()
         assert (back["alpha"] >= plain["alpha"].fillna(0) - 1e-12).sum() > 40
     result = run_cli("hull", csv, tmp_path / "x.gpkg", "--outliers", "1.5")
-    assert result.exit_code != 0 and "a fraction must be in [0, 1)" in result.stderr
+    assert result.exit_code == 2
+    assert "'--outliers': --outliers must be a fraction in [0, 1)" in result.stderr
 
 
 def test_outlier_rows_needs_an_eager_frame(airports):

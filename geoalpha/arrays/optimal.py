@@ -31,6 +31,7 @@ from geoalpha.errors import (
     OutlierWarning,
     SearchWarning,
     first_n,
+    setting,
     user_stacklevel,
 )
 from geoalpha.options import check as check_options
@@ -118,7 +119,8 @@ def _check_options(
     if outliers and (alpha is not None or search != "exact"):
         raise InvalidInputError(
             "outliers applies to the exact optimum: use it without alpha and "
-            f"with search='exact'; got alpha={alpha!r}, search={search!r}"
+            f"with {setting('search', 'exact')}; got {setting('alpha', alpha)}, "
+            f"{setting('search', search)}"
         )
     return checked
 
@@ -130,9 +132,10 @@ def _warn_gave_up(gave_up: np.ndarray, max_iterations: int, names: str) -> None:
     :func:`geoalpha.hull`).
     """
     warnings.warn(
-        f"search='bisect' did not converge within max_iterations={max_iterations} "
-        f"for {gave_up.sum()} group(s) ({names}) and gave them alpha 0, the convex "
-        "hull, as alphashape does; use search='exact'",
+        f"{setting('search', 'bisect')} did not converge within "
+        f"{setting('max_iterations', max_iterations)} for {gave_up.sum()} group(s) "
+        f"({names}) and gave them alpha 0, the convex hull, as alphashape does; "
+        f"use {setting('search', 'exact')}",
         SearchWarning,
         stacklevel=user_stacklevel(),
     )
@@ -294,10 +297,11 @@ def alpha_shapes(
         which = np.flatnonzero(res.capped)
         names = f"codes {first_n(which)}" if name_groups is None else name_groups(which)
         warnings.warn(
-            f"outliers=: the search for the {checked['components']} pieces that "
-            f"hold the most rows stopped after {kernel.MAX_UNION_NODES:,} steps "
-            f"for {len(which)} group(s) ({names}); their hulls keep the best "
-            "pieces found, which may leave out more rows than the optimum",
+            f"{setting('outliers')}: the search for the {checked['components']} "
+            "pieces that hold the most rows stopped after "
+            f"{kernel.MAX_UNION_NODES:,} steps for {len(which)} group(s) ({names}); "
+            "their hulls keep the best pieces found, which may leave out more rows "
+            "than the optimum",
             OutlierWarning,
             stacklevel=user_stacklevel(),
         )

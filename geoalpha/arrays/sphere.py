@@ -17,6 +17,7 @@ import numpy as np
 import shapely
 
 from geoalpha import _kernel
+from geoalpha.errors import setting
 
 __all__ = [
     "EARTH_RADIUS",
@@ -46,10 +47,11 @@ def refused_message(names: str, count: int) -> str:
     "crs='sphere' handles groups ... 1 group(s) do not: 'Chile'. ..."
     """
     return (
-        f"crs='sphere' handles groups whose points all lie within "
+        f"{setting('crs', 'sphere')} handles groups whose points all lie within "
         f"{MAX_SPHERE_DEGREES:g} degrees of their centre (well inside a "
-        f"hemisphere); {count} group(s) do not: {names}. Split them (by= with a "
-        "finer key) or compute them with crs='auto'"
+        f"hemisphere); {count} group(s) do not: {names}. Split them "
+        f"({setting('by')} with a finer key) or compute them with "
+        f"{setting('crs', 'auto')}"
     )
 
 

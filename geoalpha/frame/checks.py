@@ -1,8 +1,8 @@
 """Warnings about a run's set-up: a ``by`` that looks wrong, a CRS that stretches areas.
 
 Stages of :func:`geoalpha.hull` (once over the whole dataset in
-:func:`geoalpha.dask.hull`), worded in Python's terms; the ``geoalpha``
-command rewords them in its flags.
+:func:`geoalpha.dask.hull`), naming the options as the user spells them
+(:func:`geoalpha.errors.setting`: ``by=`` in Python, ``--by`` in the command).
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ import numpy as np
 import pyproj
 
 from geoalpha.crs_parsing import crs_name, is_mercator, is_sphere, parse_crs
-from geoalpha.errors import CRSWarning, GroupingWarning, user_stacklevel
+from geoalpha.errors import CRSWarning, GroupingWarning, setting, user_stacklevel
 from geoalpha.frame.crs import metric_crs
 from geoalpha.frame.distortion import AREA_TOLERANCE, area_scale
 
@@ -37,10 +37,10 @@ def _by_text(by) -> tuple[str, str]:
     """``by`` as a message shows it, and the question to ask about it."""
     names = by if isinstance(by, list) else [by]
     if not all(isinstance(n, str) for n in names):
-        return "by=", "is this the right grouping?"
+        return setting("by"), "is this the right grouping?"
     if len(names) > 1:
-        return f"by={names!r}", "are these the right columns?"
-    return f"by={names[0]!r}", "is this the right column?"
+        return setting("by", names), "are these the right columns?"
+    return setting("by", names[0]), "is this the right column?"
 
 
 def check_grouping(n_groups: int, n_rows: int, by: Any) -> None:
@@ -142,7 +142,7 @@ def _suggestion(coords: np.ndarray, source: pyproj.CRS) -> str:
         )
         name = crs_name(chosen[0])
         if name.startswith("EPSG:"):
-            return f", e.g. crs='{name}'"
+            return f", e.g. {setting('crs', name)}"
     return ""
 
 
@@ -187,14 +187,15 @@ def check_distortion(coords: np.ndarray, source: Any, crs: Any) -> None:
     if scale.size == 0 or np.abs(scale - 1.0).max() <= AREA_TOLERANCE:
         return
     if chosen_by == "crs=":
-        how = "crs="
+        how = setting("crs")
         advice = (
-            "leave out crs= (the default crs='auto' picks a UTM zone or a local "
-            "equal-area CRS per group) for true metres"
+            f"leave out {how} (the default {setting('crs', 'auto')} picks a UTM "
+            "zone or a local equal-area CRS per group) for true metres"
         )
     else:
         how = "the input's CRS"
-        advice = "pass crs= with a UTM zone or an equal-area CRS for these points"
+        advice = f"pass {setting('crs')} with a UTM zone or an equal-area CRS for "
+        advice += "these points"
         advice += _suggestion(coords, src)
     middle = float(np.median(scale))
     warnings.warn(

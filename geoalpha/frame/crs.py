@@ -35,7 +35,7 @@ from geoalpha.crs_parsing import (
     target_crs,
     unit_factor,
 )
-from geoalpha.errors import InvalidInputError
+from geoalpha.errors import InvalidInputError, setting
 
 __all__ = [
     "Projection",
@@ -319,7 +319,7 @@ def metric_crs(
         raise InvalidInputError(
             f"could not project {row_positions(failed, labels)} to {', '.join(names)}; "
             "the points lie outside what the CRS can represent, choose a CRS "
-            "that covers them or crs='auto'"
+            f"that covers them or {setting('crs', 'auto')}"
         )
     return xy, crs_list, crs_index
 
@@ -495,7 +495,7 @@ class Projection:
                 raise InvalidInputError(
                     f"could not project {row_positions(failed, labels)} to "
                     f"{crs_name(target)}; choose a CRS that covers them or "
-                    "crs='auto'"
+                    f"{setting('crs', 'auto')}"
                 )
             self._crs_list = [target]
         used = [crs_name(c) for c in self._crs_list] or [crs_name(src)]  # no point

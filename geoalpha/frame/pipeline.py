@@ -64,6 +64,8 @@ from geoalpha.errors import (
     OutlierWarning,
     did_you_mean,
     first_n,
+    setting,
+    spelled,
     user_stacklevel,
 )
 from geoalpha.frame import crs as gcrs
@@ -524,9 +526,9 @@ def report_rows(report: RowReport, *, warn: bool = True) -> None:
         order = sorted(report.types.items(), key=lambda item: -item[1])
         names = ", ".join(f"{n} {t}" for t, n in order)
         raise InvalidInputError(
-            f"hull() needs point geometries; got {names} row(s) (index "
-            f"{_shown_labels(labels['non_point'])}); pass vertices=True "
-            "(--vertices) to use their vertices"
+            f"{spelled('hull()')} needs point geometries; got {names} row(s) (index "
+            f"{_shown_labels(labels['non_point'])}); pass "
+            f"{setting('vertices', True)} to use their vertices"
         )
     dropped = counts["missing"] + counts["no_key"]
     if dropped and warn:
@@ -539,16 +541,18 @@ def report_rows(report: RowReport, *, warn: bool = True) -> None:
         if counts["no_key"]:
             parts.append(
                 f"{counts['no_key']} with a missing group key (index "
-                f"{_shown_labels(labels['no_key'])}; dropna=False keeps them)"
+                f"{_shown_labels(labels['no_key'])}; {setting('dropna', False)} "
+                "keeps them)"
             )
         warnings.warn(
-            f"hull() dropped {dropped} of {report.n_rows} rows: " + "; ".join(parts),
+            f"{spelled('hull()')} dropped {dropped} of {report.n_rows} rows: "
+            + "; ".join(parts),
             DroppedRowsWarning,
             stacklevel=user_stacklevel(),
         )
     if counts["infinite"]:
         raise InvalidInputError(
-            "hull() needs finite coordinates; got infinite values in "
+            f"{spelled('hull()')} needs finite coordinates; got infinite values in "
             f"{counts['infinite']} row(s) (index {_shown_labels(labels['infinite'])})"
         )
 
@@ -621,7 +625,8 @@ def compute(
     method = options.method
     if options.outliers and method != "alpha":
         raise InvalidInputError(
-            f"outliers applies to method='alpha'; got method={method!r}"
+            f"outliers applies to {setting('method', 'alpha')}; got "
+            f"{setting('method', method)}"
         )
     bar = current()
     if bar is not None and not bar.shown:
@@ -836,7 +841,7 @@ def degenerate_policy(
         done = f"they were dropped ({n_points[which].sum()} rows)"
     warnings.warn(
         _why_degenerate(hulls.reason, which, groups, n_points, proj.wide)
-        + f"; {done} (degenerate={policy!r})",
+        + f"; {done} ({setting('degenerate', policy)})",
         DegenerateGroupWarning,
         stacklevel=user_stacklevel(),
     )
@@ -1006,7 +1011,8 @@ def verify_in_output_crs(
                 + _names(
                     groups, which, np.bincount(codes[outside], minlength=len(geometry))
                 )
-                + "; method='alpha' declares such groups degenerate instead",
+                + f"; {setting('method', 'alpha')} declares such groups degenerate "
+                "instead",
                 GeoAlphaWarning,
                 stacklevel=user_stacklevel(),
             )
@@ -1154,9 +1160,9 @@ def report_outliers(
             sep="; ",
         )
         warnings.warn(
-            f"hull() left {n_outliers.sum()} row(s) of {len(which)} group(s) "
-            f"outside their hulls (outliers={options.outliers!r}): {each}; "
-            "geoalpha.outlier_rows() marks them",
+            f"{spelled('hull()')} left {n_outliers.sum()} row(s) of {len(which)} "
+            f"group(s) outside their hulls ({setting('outliers', options.outliers)}): "
+            f"{each}; geoalpha.outlier_rows() marks them",
             OutlierWarning,
             stacklevel=user_stacklevel(),
         )

@@ -7,8 +7,6 @@ extension names. The ``geoalpha`` command is a thin layer over them.
 
 from __future__ import annotations
 
-import contextlib
-import contextvars
 import csv
 import errno
 import hashlib
@@ -18,11 +16,10 @@ import shutil
 import socket
 import tempfile
 import warnings
-from collections.abc import Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from geoalpha.errors import CRSWarning, InvalidInputError, did_you_mean
+from geoalpha.errors import FLAGS, CRSWarning, InvalidInputError, did_you_mean
 from geoalpha.io.postgis import (
     gdal_connection_error,
     is_gdal_connection,
@@ -39,7 +36,6 @@ __all__ = [
     "GPKG_VERSION",
     "WRITE_FORMATS",
     "check_output",
-    "cli_terms",
     "read_points",
     "remove_stale_staging",
     "write_hulls",
@@ -78,25 +74,10 @@ _LONLAT_COLUMNS = COORDINATE_NAMES[:4]
 
 PathLike = str | os.PathLike
 
-# Set by the ``geoalpha`` command so that messages name its options (--crs-in)
-# instead of the Python keywords (crs=).
-_CLI_TERMS: contextvars.ContextVar[bool] = contextvars.ContextVar(
-    "geoalpha_cli_terms", default=False
-)
-
-
-@contextlib.contextmanager
-def cli_terms() -> Iterator[None]:
-    """Word messages of this module in terms of the command's options."""
-    token = _CLI_TERMS.set(True)
-    try:
-        yield
-    finally:
-        _CLI_TERMS.reset(token)
-
 
 def _term(python: str, cli: str) -> str:
-    return cli if _CLI_TERMS.get() else python
+    """Name options as the ``geoalpha`` command does while it runs (--crs-in)."""
+    return cli if FLAGS.get() else python
 
 
 # --------------------------------------------------------------------------
@@ -284,7 +265,7 @@ def _looks_lonlat(x: str, y: str) -> bool:
 
 
 def _missing_crs(what: str) -> InvalidInputError:
-    if _CLI_TERMS.get():
+    if FLAGS.get():
         how = (
             "give it with --crs-in, e.g. --crs-in EPSG:4326 for "
             "longitude/latitude degrees or --crs-in EPSG:27700 for British "

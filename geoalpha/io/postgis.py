@@ -19,7 +19,7 @@ import warnings
 from collections.abc import Iterator
 from typing import TYPE_CHECKING, Any
 
-from geoalpha.errors import DatabaseError, InvalidInputError
+from geoalpha.errors import DatabaseError, InvalidInputError, setting
 
 if TYPE_CHECKING:  # pragma: no cover
     import geopandas as gpd
@@ -657,7 +657,8 @@ def _check_target(conn, schema, name, table, overwrite, where) -> tuple[str, boo
     exists = _scalar(conn, "SELECT to_regclass(%s)", _quote(schema, name))
     if exists is not None and not overwrite:
         raise DatabaseError(
-            f"table {table} already exists in {where}; use overwrite=True to replace it"
+            f"table {table} already exists in {where}; use "
+            f"{setting('overwrite', True)} to replace it"
         )
     return schema, exists is not None
 
