@@ -134,7 +134,7 @@ def test_forced_web_mercator_warns_about_areas(lonlat_csv, tmp_path):
         "Warning: the shapes are computed in EPSG:3857 (--crs), which stretches "
         "areas 2.5"
     )
-    assert "'area_m2' and 'radius' are not true square metres" in line
+    assert "so 'radius' and 'alpha' are not in true metres ('area_m2' is" in line
     assert "leave out --crs" in line
 
 

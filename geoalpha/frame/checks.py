@@ -11,8 +11,9 @@ terms (``by=``, ``crs=``); the ``geoalpha`` command rewords them in its own
 - :func:`check_distortion`: a :class:`~geoalpha.errors.CRSWarning` when the
   computation CRS (a forced ``crs=``, or a projected input CRS kept by
   ``crs="auto"``) stretches areas where the points are
-  (:func:`geoalpha.frame.distortion.area_scale`), so that ``area_m2`` and
-  ``radius`` are not true square metres and metres.
+  (:func:`geoalpha.frame.distortion.area_scale`), so that ``radius`` and
+  ``alpha`` are not in true metres (``area_m2`` is: it is measured on the
+  WGS84 ellipsoid, not in that CRS).
 """
 
 from __future__ import annotations
@@ -213,8 +214,9 @@ def check_distortion(coords: np.ndarray, source: Any, crs: Any) -> None:
     warnings.warn(
         f"the shapes are computed in {crs_name(target)} ({how}), which stretches "
         f"areas {middle:.3g} times (median at the points; "
-        f"{float(scale.min()):.3g}-{float(scale.max()):.3g}), so 'area_m2' and "
-        f"'radius' are not true square metres and metres: {advice}",
+        f"{float(scale.min()):.3g}-{float(scale.max()):.3g}), so 'radius' and "
+        "'alpha' are not in true metres ('area_m2' is: it is measured on the "
+        f"WGS84 ellipsoid): {advice}",
         CRSWarning,
         stacklevel=user_stacklevel(),
     )
