@@ -172,3 +172,19 @@ def test_bad_kernel_input_is_a_value_error_not_a_crash():
         _kernel.geodesic_areas(lon, lat, np.array([0, 2]), one, one)
     with pytest.raises(ValueError, match="the same length"):
         _kernel.geodesic_areas(lon, lat[:2], np.array([0, 3]), one, one)
+
+
+def test_a_group_wider_than_180_degrees_is_measured_on_its_hull_vertices():
+    # a convex hull across the Pacific (200 degrees of longitude, 0-30 N): no
+    # faithful lon/lat polygon, so area_m2 is that of the hull's vertices
+    # joined by geodesics: the band it spans and the bulge of its long
+    # northern edges (their planar area in the polar LAEA CRS it is computed
+    # in is twice that)
+    rng = np.random.default_rng(1)
+    lon = rng.uniform(100, 300, 300)
+    lat = rng.uniform(0, 30, 300)
+    gdf = frame(np.column_stack([np.where(lon > 180, lon - 360, lon), lat]))
+    with pytest.warns(geoalpha.GeoAlphaWarning, match="is that of their hull's"):
+        hulls = geoalpha.hull(gdf, by="g", method="convex")
+    band = (zone(30.0) - zone(0.0)) * 200 / 360
+    assert band < hulls["area_m2"].iloc[0] < 1.2 * band

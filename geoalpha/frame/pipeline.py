@@ -988,7 +988,8 @@ def verify_in_output_crs(
             f"{wide.sum()} group(s) span more than 180 degrees of longitude: "
             f"{_names(groups, np.flatnonzero(wide))}; no longitude/latitude "
             "polygon can represent their hull faithfully (it may not contain all "
-            "their points); their 'alpha' and 'area_m2' are right (in 'crs_used'); "
+            "their points); their 'alpha' is right (in 'crs_used'), and 'area_m2' "
+            "is that of their hull's vertices joined by geodesics; "
             "for the geometry, give the points in a projected CRS that holds them, "
             "or split the group",
             GeoAlphaWarning,
