@@ -106,3 +106,51 @@ def alpha_shapes(
     RuntimeError
         If the kernel failed unexpectedly (a bug; no panic crosses over).
     """
+
+def geodesic_areas(
+    lon: npt.NDArray[np.float64],
+    lat: npt.NDArray[np.float64],
+    ring_offsets: npt.NDArray[np.int64],
+    polygon_offsets: npt.NDArray[np.int64],
+    geometry_offsets: npt.NDArray[np.int64],
+    *,
+    threads: int = 0,
+) -> npt.NDArray[np.float64]:
+    """Areas (m²) on the WGS84 ellipsoid of (multi)polygons, in one call.
+
+    The layout of :func:`shapely.to_ragged_array` for (multi)polygons. Each
+    ring's edges are geodesics between its vertices; its area (Karney's
+    algorithm, GeographicLib's, crate ``geographiclib-rs``) is that of the
+    side smaller than half the ellipsoid whichever way it turns, so a ring
+    around a pole gives the cap. A polygon's area is its first ring's minus
+    the others' (holes); a geometry's, the sum of its polygons'. Rings of
+    fewer than three distinct vertices count 0. The geometries run on
+    ``threads`` threads (0: every core) with the GIL released.
+
+    Parameters
+    ----------
+    lon, lat : ndarray of float64, shape (n,), C-contiguous
+        The vertices, in degrees (EPSG:4326); a ring's last vertex may repeat
+        its first. Longitudes may lie outside [-180, 180].
+    ring_offsets : ndarray of int64, shape (R + 1,)
+        Ring ``r`` is vertices ``ring_offsets[r]:ring_offsets[r + 1]``.
+    polygon_offsets : ndarray of int64, shape (P + 1,)
+        Polygon ``p`` is rings ``polygon_offsets[p]:polygon_offsets[p + 1]``,
+        its exterior first.
+    geometry_offsets : ndarray of int64, shape (G + 1,)
+        Geometry ``g`` is polygons ``geometry_offsets[g]:geometry_offsets[g + 1]``.
+    threads : int
+        Threads (0: every core).
+
+    Returns
+    -------
+    ndarray of float64, shape (G,)
+        The area of each geometry, in square metres.
+
+    Raises
+    ------
+    ValueError
+        Offsets that do not run from 0 to the length of what they index
+        without going down, ``lon`` and ``lat`` of different lengths, or a
+        vertex that is not finite or has a latitude beyond +-90.
+    """

@@ -54,8 +54,10 @@ def hull(gdf, by=None, **options):
         ``alpha`` (1/metre in the computation CRS; nan for the methods
         without one and for degenerate groups; 0 for the convex hull),
         ``radius`` (1/alpha, metres), ``n_points`` (input rows of the group),
-        ``n_parts`` (polygons in the geometry), ``area_m2`` (area in the
-        computation CRS), ``crs_used`` (the computation CRS), ``method``
+        ``n_parts`` (polygons in the geometry), ``area_m2`` (area of the
+        geometry on the WGS84 ellipsoid, whatever ``crs``; with ``crs=None``,
+        the planar area in the input's units), ``crs_used`` (the computation
+        CRS), ``method``
         and ``geometry`` (Polygon; MultiPolygon when ``components > 1``, when a
         group is split at the antimeridian, or, for ``"concave"``/``"knn"``,
         when a hull built in metres touches itself in the input CRS and is
@@ -87,7 +89,8 @@ def hull(gdf, by=None, **options):
     CRSWarning
         The computation CRS (a forced ``crs``, or projected input kept by
         ``crs="auto"``) stretches areas by more than 2 % where the points
-        are, so ``area_m2`` and ``radius`` are not true metres
+        are, so ``radius`` and ``alpha`` are not in true metres (``area_m2``
+        is: it is measured on the ellipsoid)
         (:func:`geoalpha.frame.checks.check_distortion`).
 
     Notes

@@ -9,6 +9,7 @@
 
 pub mod batch;
 pub mod frame;
+pub mod geodesic;
 pub mod group;
 pub mod mesh;
 pub mod rings;
@@ -17,7 +18,7 @@ pub mod sphere;
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
-use numpy::{IntoPyArray, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
+use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -148,10 +149,48 @@ fn py_alpha_shapes<'py>(
     }
 }
 
+/// Areas (m²) on the WGS84 ellipsoid of (multi)polygons in longitude/latitude.
+///
+/// See `geoalpha/_kernel.pyi` for the arguments; [`geodesic::polygon_areas`]
+/// does the work, on `threads` threads with the GIL released.
+#[pyfunction(name = "geodesic_areas")]
+#[pyo3(signature = (lon, lat, ring_offsets, polygon_offsets, geometry_offsets, *, threads=0))]
+fn py_geodesic_areas<'py>(
+    py: Python<'py>,
+    lon: PyReadonlyArray1<'py, f64>,
+    lat: PyReadonlyArray1<'py, f64>,
+    ring_offsets: PyReadonlyArray1<'py, i64>,
+    polygon_offsets: PyReadonlyArray1<'py, i64>,
+    geometry_offsets: PyReadonlyArray1<'py, i64>,
+    threads: usize,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let (lon_, lat_) = (lon.as_slice()?, lat.as_slice()?);
+    let rings = ring_offsets.as_slice()?;
+    let polygons = polygon_offsets.as_slice()?;
+    let geometries = geometry_offsets.as_slice()?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| PyRuntimeError::new_err(format!("no thread pool: {e}")))?;
+    let result = py.detach(|| {
+        catch_unwind(AssertUnwindSafe(|| {
+            pool.install(|| geodesic::polygon_areas(lon_, lat_, rings, polygons, geometries))
+        }))
+    });
+    match result {
+        Ok(Ok(areas)) => Ok(areas.into_pyarray(py)),
+        Ok(Err(err)) => Err(PyValueError::new_err(err.to_string())),
+        Err(_) => Err(PyRuntimeError::new_err(
+            "geoalpha's kernel failed unexpectedly (a bug: please report it with the input)",
+        )),
+    }
+}
+
 /// The compiled kernel of geoalpha.
 #[pymodule]
 fn _kernel(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(py_alpha_shapes, m)?)?;
+    m.add_function(wrap_pyfunction!(py_geodesic_areas, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add("SPADE_VERSION", env!("GEOALPHA_SPADE_VERSION"))?;
     m.add("NEAR_RTOL", frame::NEAR_RTOL)?;

@@ -478,3 +478,32 @@ def outlier_optimum(points, holes=False, components=1, outliers=0):
         return graph_optimum(points, holes=holes, components=components), 0
     curve = coverage_curve(points, holes=holes, components=(components,))
     return outlier_optimum_from_curve(curve, components, k)
+
+
+#: How closely ``area_m2`` must match :func:`ellipsoid_areas`: 1e-9 of the
+#: area, or 1e-4 m² (both Karney's implementations, GeographicLib's C in PROJ
+#: and the Rust crate, sum per-edge terms as large as the area between the
+#: edge and the equator, so a 10 m² polygon carries ~1e-5 m² of rounding,
+#: which they round differently when a polygon crosses the prime meridian).
+AREA_RTOL, AREA_ATOL = 1e-9, 1e-4
+
+
+def ellipsoid_areas(hulls) -> np.ndarray:
+    """Areas (m²) on the WGS84 ellipsoid of a result's geometries, by pyproj.
+
+    Independent of geoalpha: the polygons moved to EPSG:4326 by geopandas,
+    oriented (shell anticlockwise, holes clockwise) and measured with
+    ``pyproj.Geod(ellps="WGS84").geometry_area_perimeter``.
+    """
+    import pyproj
+
+    geod = pyproj.Geod(ellps="WGS84")
+    lonlat = hulls.geometry.to_crs(4326).array
+    return np.array(
+        [
+            0.0
+            if g is None or g.is_empty
+            else abs(geod.geometry_area_perimeter(shapely.orient_polygons(g))[0])
+            for g in lonlat
+        ]
+    )

@@ -56,8 +56,9 @@ def test_web_mercator_on_uk_points_warns_of_the_stretch(stats19, call):
     message = str(found[0].message)
     assert re.match(
         r"the shapes are computed in EPSG:3857 \(crs=\), which stretches areas "
-        r"2\.\d+ times \(median at the points; 2\.\d+-\d\.\d+\), so 'area_m2' and "
-        r"'radius' are not true square metres and metres: leave out crs= ",
+        r"2\.\d+ times \(median at the points; 2\.\d+-\d\.\d+\), so 'radius' and "
+        r"'alpha' are not in true metres \('area_m2' is: it is measured on the "
+        r"WGS84 ellipsoid\): leave out crs= ",
         message,
     ), message
     assert found[0].filename == __file__  # points at the user's line

@@ -16,6 +16,7 @@ import shapely
 from cli_runner import run
 from compat import HAS_TQDM
 from progress_output import assert_bar_covers
+from reference import ellipsoid_areas
 
 import geoalpha
 from geoalpha import datasets
@@ -97,12 +98,14 @@ def test_planar_input_says_its_unit(planar_gpkg, stats19, tmp_path, flag):
     assert back.crs is None
     assert "area_m2" not in back.columns
     assert set(back["unit"]) == {"coordinate unit"}
-    # the area is in km², as the coordinates are
+    # the area is in km², as the coordinates are: the planar area of the
+    # same polygons in British National Grid metres (area_m2 is on the
+    # ellipsoid instead)
     with pytest.warns(DegenerateGroupWarning, match="E08000020"):
         metres = geoalpha.hull(stats19.to_crs("EPSG:27700"), by=GROUP)
     shaped = metres["alpha"].notna()
     assert back.loc[shaped, "area"].to_numpy() * 1e6 == pytest.approx(
-        metres.loc[shaped, "area_m2"].to_numpy(), rel=1e-6
+        metres.loc[shaped].area.to_numpy(), rel=1e-6
     )
 
 
@@ -134,7 +137,7 @@ def test_forced_web_mercator_warns_about_areas(lonlat_csv, tmp_path):
         "Warning: the shapes are computed in EPSG:3857 (--crs), which stretches "
         "areas 2.5"
     )
-    assert "'area_m2' and 'radius' are not true square metres" in line
+    assert "so 'radius' and 'alpha' are not in true metres ('area_m2' is" in line
     assert "leave out --crs" in line
 
 
@@ -414,11 +417,15 @@ def test_components_split_hawaii_as_the_readme_shows(tmp_path):
         out = tmp_path / f"hi{n}.gpkg"
         result = run("-q", "hull", path, out, "--by", "state", "--components", n)
         assert result.exit_code == 0, result.stderr
-        row = gpd.read_file(out).iloc[0]
+        back = gpd.read_file(out)
+        row = back.iloc[0]
         assert row["n_parts"] == n
         areas[n] = row["area_m2"] / 1e6
-    assert round(areas[1]) == 18667
-    assert round(areas[4]) == 9487  # half the area: no sea between the pieces
+        # on the WGS84 ellipsoid: pyproj's area of the polygon written
+        assert row["area_m2"] == pytest.approx(ellipsoid_areas(back)[0], rel=1e-9)
+    # (18,667 and 9,487 km² planar in UTM zone 4N, whose scale is 0.9996 there)
+    assert round(areas[1]) == 18653
+    assert round(areas[4]) == 9477  # half the area: no sea between the pieces
 
 
 CLI_PHASES = ["read", "group", "project", "compute", "check", "write"]

@@ -19,6 +19,7 @@ import pytest
 import shapely
 from compat import requires_fiona, requires_pyogrio, requires_tqdm
 from progress_output import assert_bar_covers, bar_states
+from reference import AREA_ATOL
 from shapely.geometry import LineString, Point, Polygon
 
 import geoalpha
@@ -735,7 +736,9 @@ def test_methods_cover_their_points(by_method, name, method):
 def test_alpha_shapes_are_never_larger_than_convex_hulls(by_method, name):
     _, _, alpha = by_method[name, "alpha"]
     _, _, convex = by_method[name, "convex"]
-    assert (alpha["area_m2"] <= convex["area_m2"] * (1 + 1e-9)).all()
+    # on the ellipsoid, to its rounding (an alpha shape equal to its convex
+    # hull but for a vertex on an edge: 4e-6 m² of 19.5 m² more)
+    assert (alpha["area_m2"] <= convex["area_m2"] * (1 + 1e-9) + AREA_ATOL).all()
     assert alpha["area_m2"].sum() < convex["area_m2"].sum()
     shaped = convex["alpha"].notna()
     assert (convex.loc[shaped, "alpha"] == 0.0).all()

@@ -72,7 +72,7 @@ def test_swapped_column_names_get_the_swap_hint_not_the_crs_error(tmp_path):
 
 def test_one_group_around_the_globe_says_plainly_what_happened(cities_csv, tmp_path):
     # The warnings used to contradict each other: "no valid polygon ... their
-    # shapes fold there", then "'area_m2' and 'alpha' are right" for a group
+    # shapes fold there", then "'alpha' is right" for a group
     # whose alpha is NaN.
     out = tmp_path / "h.gpkg"
     result = run("hull", cities_csv, out)
@@ -85,7 +85,7 @@ def test_one_group_around_the_globe_says_plainly_what_happened(cities_csv, tmp_p
         "and they have no alpha: 'all points' (28 rows) (split the group, "
         "e.g. by continent, or give the points in a projected CRS that holds them)"
     )
-    assert "are right" not in result.stderr
+    assert "is right" not in result.stderr
     assert shown[0].endswith("(--degenerate buffer)")
     # its widest gap is not at +-180: the polygon is split there
     assert shown[1] == (
@@ -122,8 +122,11 @@ def test_a_wide_group_is_told_its_alpha_is_right_only_when_it_has_one():
         shown[method] = " ".join(str(w.message) for w in caught)
         assert "span more than 180 degrees of longitude" in shown[method]
     assert hulls["alpha"].isna().all()
-    assert "their 'alpha' and 'area_m2' are right (in 'crs_used')" in shown["convex"]
-    assert "are right" not in shown["alpha"]
+    assert (
+        "their 'alpha' is right (in 'crs_used'), and 'area_m2' is that of"
+        in (shown["convex"])
+    )
+    assert "is right" not in shown["alpha"]
     assert "they have no alpha" in shown["alpha"]
 
 

@@ -3,6 +3,10 @@
 Stages of :func:`geoalpha.hull` (once over the whole dataset in
 :func:`geoalpha.dask.hull`), naming the options as the user spells them
 (:func:`geoalpha.errors.setting`: ``by=`` in Python, ``--by`` in the command).
+
+``check_distortion`` warns that ``radius`` and ``alpha`` are not in true
+metres where the CRS stretches; ``area_m2`` is measured on the WGS84
+ellipsoid, not in that CRS.
 """
 
 from __future__ import annotations
@@ -201,8 +205,9 @@ def check_distortion(coords: np.ndarray, source: Any, crs: Any) -> None:
     warnings.warn(
         f"the shapes are computed in {crs_name(target)} ({how}), which stretches "
         f"areas {middle:.3g} times (median at the points; "
-        f"{float(scale.min()):.3g}-{float(scale.max()):.3g}), so 'area_m2' and "
-        f"'radius' are not true square metres and metres: {advice}",
+        f"{float(scale.min()):.3g}-{float(scale.max()):.3g}), so 'radius' and "
+        "'alpha' are not in true metres ('area_m2' is: it is measured on the "
+        f"WGS84 ellipsoid): {advice}",
         CRSWarning,
         stacklevel=user_stacklevel(),
     )

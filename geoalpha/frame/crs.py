@@ -3,9 +3,10 @@
 Functions on numpy arrays that the frame layer calls around the computation:
 :func:`check_lonlat`, :func:`metric_crs` (a UTM zone or a local equal-area
 CRS per group, one cached transformer per CRS) and :class:`Projection`, the
-whole round trip. Group membership is given as integer codes
-``0 .. n_groups - 1`` per point, so that per-group quantities need no Python
-loop over groups.
+whole round trip; :func:`geodesic_areas` measures the output polygons on the
+WGS84 ellipsoid (``area_m2``), whatever CRS they are in. Group membership
+is given as integer codes ``0 .. n_groups - 1`` per point, so that per-group
+quantities need no Python loop over groups.
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ import numpy as np
 import pyproj
 import shapely
 
+from geoalpha.arrays.area import geodesic_areas as lonlat_areas
 from geoalpha.arrays.lonlat import (
     check_codes,
     crosses_antimeridian,
@@ -41,6 +43,7 @@ __all__ = [
     "Projection",
     "check_lonlat",
     "crosses_antimeridian",
+    "geodesic_areas",
     "metric_crs",
     "output_lonlat",
     "restore_longitudes",
@@ -131,6 +134,8 @@ def check_lonlat(lon: Any, lat: Any, labels: Any = None) -> None:
             message += "; latitude and longitude look swapped (x holds latitudes?)"
         raise InvalidInputError(message)
 
+
+_WGS84 = parse_crs("EPSG:4326")
 
 _OWN_LAEA = re.compile(
     r"\+proj=laea \+lat_0=-?\d+ \+lon_0=-?\d+ \+datum=WGS84 \+units=m \+no_defs"
@@ -383,6 +388,42 @@ def to_wgs84(source: Any, x: Any, y: Any, labels: Any = None):
             "(EPSG:4326)"
         )
     return lon, lat
+
+
+def geodesic_areas(
+    geometry: np.ndarray, source: Any, *, n_jobs: int | None = None
+) -> np.ndarray:
+    """Return the areas (m²) on the WGS84 ellipsoid of polygons in ``source``.
+
+    The vertices are moved to longitude/latitude (EPSG:4326) in one
+    vectorised transform unless ``source`` is EPSG:4326 already (on another
+    datum, the transform shifts them to WGS84's); the edges are geodesics
+    between them (:func:`geoalpha.arrays.area.geodesic_areas`, in the
+    compiled kernel). Polygons split at the antimeridian get the sum of
+    their parts; a ring around a pole, the cap it encloses.
+
+    Parameters
+    ----------
+    geometry : numpy.ndarray of shapely geometries
+        (Multi)polygons; other geometries get 0.
+    source : CRS
+        Their CRS.
+    n_jobs : int, optional
+        Threads (None or -1: every core).
+
+    Examples
+    --------
+    >>> import shapely
+    >>> cell = shapely.box(0, 0, 1, 1)  # one degree at the equator
+    >>> float(geodesic_areas(np.array([cell]), "EPSG:4326")[0].round(-3))
+    12308778000.0
+    >>> one_km = shapely.box(500000, 0, 501000, 1000)  # UTM 30N: scale 0.9996
+    >>> float(geodesic_areas(np.array([one_km]), "EPSG:32630")[0].round(-2))
+    1000800.0
+    """
+    src = parse_crs(source)
+    to_lonlat = None if src == _WGS84 else functools.partial(to_wgs84, src)
+    return lonlat_areas(geometry, to_lonlat=to_lonlat, n_jobs=n_jobs)
 
 
 class Projection:

@@ -1,9 +1,10 @@
 """How much a projected CRS stretches areas where the points are.
 
 A forced computation CRS that distorts areas (Web Mercator: 2.6 times at
-London; a UTM zone far from the data) makes ``area_m2`` and ``radius`` wrong
-without any error. :func:`area_scale` measures the distortion at the points so
-that :func:`geoalpha.hull` and the ``geoalpha`` command can say so.
+London; a UTM zone far from the data) makes ``radius`` and ``alpha`` wrong
+without any error (not ``area_m2``, measured on the WGS84 ellipsoid).
+:func:`area_scale` measures the distortion at the points so that
+:func:`geoalpha.hull` and the ``geoalpha`` command can say so.
 """
 
 from __future__ import annotations

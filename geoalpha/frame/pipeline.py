@@ -4,7 +4,7 @@
 
     frame ─ group ─ check_grouping ─ read_points ─ check_distortion ─ project
           ─ compute ─ ensure_guarantee ─ degenerate_policy ─ grow
-          ─ verify_in_output_crs ─ table
+          ─ verify_in_output_crs ─ area_m2 ─ table
 
 - :func:`group`: a group code per row and the table of group keys (as
   :meth:`GeoDataFrame.dissolve` groups);
@@ -21,6 +21,7 @@
 - :func:`degenerate_policy`: groups without a shape, by ``degenerate=``;
 - :func:`verify_in_output_crs`: every geometry valid and covering its points
   in the output CRS, antimeridian groups split;
+- :func:`area_m2`: the areas on the WGS84 ellipsoid (planar with ``crs=None``);
 - :func:`table`: the result (:mod:`geoalpha.frame.schema`).
 
 One progress bar (:mod:`geoalpha.frame.progress`) follows the phases ``group``,
@@ -79,7 +80,7 @@ from geoalpha.frame.progress import (
     phases,
 )
 from geoalpha.frame.schema import RESULT_COLUMNS, result_frame, result_geometry_name
-from geoalpha.frame.sphere import SphereProjection, geodesic_areas
+from geoalpha.frame.sphere import SphereProjection
 from geoalpha.options import Options
 
 __all__ = [
@@ -160,7 +161,8 @@ class Hulls(NamedTuple):
     """Output of :func:`compute` and :func:`degenerate_policy`, one entry a group."""
 
     geometry: np.ndarray  #: in the output coordinates
-    area: np.ndarray  #: in the computation CRS
+    #: in the computation CRS until :func:`area_m2` (on the WGS84 ellipsoid)
+    area: np.ndarray
     alpha: np.ndarray
     labels: np.ndarray  #: the ``method`` column
     degenerate: np.ndarray  #: no shape (fewer than 3 distinct points, a line)
@@ -246,6 +248,7 @@ def _stages(frame, by, options: Options, bar: Phases, checks: bool, rows: bool):
         checked=hulls.checked,
         degenerate=hulls.degenerate,
     )
+    hulls = hulls._replace(area=area_m2(hulls, geometry, proj, options))
     out = table(
         groups,
         points,
@@ -662,8 +665,7 @@ def compute(
             label = method if exact else options.search
             return Hulls(
                 geometry=geometry,
-                # the sphere's shapes: their area on the WGS84 ellipsoid
-                area=geodesic_areas(geometry, proj.source) if sphere else res.area,
+                area=res.area,  # area_m2 (on the ellipsoid) comes at the end
                 alpha=res.alpha,
                 labels=np.full(n_groups, label, dtype=object),
                 degenerate=res.degenerate,
@@ -829,8 +831,7 @@ def degenerate_policy(
                 "holding their points in the output CRS (around a pole, or across "
                 "more than 180 degrees of longitude), so theirs is the convex hull of "
                 "their points there, widened by "
-                f"{kernel.OUTPUT_BUFFER_RTOL:g} of their extent ('area_m2' is the "
-                "area of the buffer in metres)"
+                f"{kernel.OUTPUT_BUFFER_RTOL:g} of their extent"
             )
     elif policy == "empty":
         geometry[which] = EMPTY_POLYGON
@@ -992,7 +993,8 @@ def verify_in_output_crs(
             f"{wide.sum()} group(s) span more than 180 degrees of longitude: "
             f"{_names(groups, np.flatnonzero(wide))}; no longitude/latitude "
             "polygon can represent their hull faithfully (it may not contain all "
-            "their points); their 'alpha' and 'area_m2' are right (in 'crs_used'); "
+            "their points); their 'alpha' is right (in 'crs_used'), and 'area_m2' "
+            "is that of their hull's vertices joined by geodesics; "
             "for the geometry, give the points in a projected CRS that holds them, "
             "or split the group",
             GeoAlphaWarning,
@@ -1057,6 +1059,30 @@ def _split_at_antimeridian(geometry, groups, points, proj) -> np.ndarray:
         )
     warnings.warn(message, AntimeridianWarning, stacklevel=user_stacklevel())
     return geometry
+
+
+def area_m2(
+    hulls: Hulls, geometry: np.ndarray, proj: gcrs.Projection, options: Options
+) -> np.ndarray:
+    """Return ``area_m2``: geodesic, on the WGS84 ellipsoid, whatever ``crs=``.
+
+    The area of each returned geometry (in the input CRS, moved to
+    longitude/latitude: :func:`geoalpha.frame.crs.geodesic_areas`), so
+    antimeridian groups get the sum of their parts and polar ones their cap;
+    groups wider than 180 degrees of longitude, whose output polygon cannot
+    be faithful, that of their hull before the output checks (the same
+    vertices, joined by geodesics). With ``crs=None`` the computation is
+    planar and so is the area, in the input's units (no CRS: no ellipsoid).
+    """
+    if options.crs is None:
+        return hulls.area
+    area = gcrs.geodesic_areas(geometry, proj.source, n_jobs=options.n_jobs)
+    wide = np.flatnonzero(proj.wide)
+    if len(wide):
+        area[wide] = gcrs.geodesic_areas(
+            hulls.geometry[wide], proj.source, n_jobs=options.n_jobs
+        )
+    return area
 
 
 def table(

@@ -1,10 +1,10 @@
-"""``crs="sphere"`` in the frame: the CRS round trip and geodesic areas.
+"""``crs="sphere"`` in the frame: the CRS round trip.
 
 :class:`SphereProjection` gives the kernel longitudes and latitudes in
-EPSG:4326 and keeps the input coordinates to build the polygons from;
-:func:`geodesic_areas` gives ``area_m2`` on the WGS84 ellipsoid. The
-geometry is the kernel's (``src/sphere.rs``) and
-:mod:`geoalpha.arrays.sphere`'s.
+EPSG:4326 and keeps the input coordinates to build the polygons from
+(``area_m2`` is on the WGS84 ellipsoid for every ``crs=``:
+:func:`geoalpha.frame.crs.geodesic_areas`). The geometry is the kernel's
+(``src/sphere.rs``) and :mod:`geoalpha.arrays.sphere`'s.
 """
 
 from __future__ import annotations
@@ -12,15 +12,13 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-import pyproj
-import shapely
 
 from geoalpha.arrays.sphere import polar_groups
 from geoalpha.crs_parsing import parse_crs
 from geoalpha.errors import InvalidInputError
 from geoalpha.frame import crs as gcrs
 
-__all__ = ["SphereProjection", "geodesic_areas"]
+__all__ = ["SphereProjection"]
 
 _WGS84 = parse_crs("EPSG:4326")
 
@@ -145,37 +143,3 @@ class SphereProjection(gcrs.Projection):
     @property
     def _crs_index(self):
         return self._metric()._crs_index
-
-
-def geodesic_areas(geometry: np.ndarray, source: Any) -> np.ndarray:
-    """Areas (m²) on the WGS84 ellipsoid of polygons in ``source``.
-
-    Each ring's edges are taken as geodesics (pyproj's ``Geod``, after
-    GeographicLib), which the sphere's shapes have for edges; polygons in a
-    projected ``source`` are moved to longitude/latitude first. Empty
-    geometries get 0.
-
-    Examples
-    --------
-    >>> one_degree = shapely.box(0, 0, 1, 1)  # at the equator: about 12,309 km2
-    >>> float(geodesic_areas(np.array([one_degree]), "EPSG:4326")[0].round(-6))
-    12309000000.0
-    """
-    geod = pyproj.Geod(ellps="WGS84")
-    src = parse_crs(source)
-    if src is not None and not src.is_geographic:
-        geometry = shapely.transform(
-            geometry, lambda c: np.column_stack(gcrs.to_wgs84(src, c[:, 0], c[:, 1]))
-        )
-    polygons, group = shapely.get_parts(geometry, return_index=True)
-    rings, polygon = shapely.get_rings(polygons, return_index=True)
-    # a polygon's shell first, then its holes
-    shell = np.r_[True, polygon[1:] != polygon[:-1]] if len(rings) else rings
-    coords, ring = shapely.get_coordinates(rings, return_index=True)
-    cuts = np.searchsorted(ring, np.arange(len(rings) + 1))
-    out = np.zeros(len(geometry))
-    for k in range(len(rings)):
-        xy = coords[cuts[k] : cuts[k + 1]]
-        area = abs(geod.polygon_area_perimeter(xy[:, 0], xy[:, 1])[0])
-        out[group[polygon[k]]] += area if shell[k] else -area
-    return out
