@@ -504,6 +504,15 @@ class Options:
                 continue
             value = field.metadata["meta"].check(field.name, value)
             object.__setattr__(self, field.name, value)
+        if self.outliers and self.method != "alpha":
+            raise InvalidInputError(
+                f"outliers applies to method='alpha'; got method={self.method!r}"
+            )
+        if self.outliers and (self.alpha is not None or self.search != "exact"):
+            raise InvalidInputError(
+                "outliers applies to the exact optimum: use it without alpha and "
+                f"with search='exact'; got alpha={self.alpha!r}, search={self.search!r}"
+            )
 
     @classmethod
     def from_kwargs(cls, kwargs: Mapping[str, Any], caller: str = "hull()") -> Options:
