@@ -104,25 +104,6 @@ class AlphaShapes(NamedTuple):
     reason: np.ndarray | None = None
 
 
-def _check_options(
-    holes, components, search: str, max_iterations, outliers=0, alpha=None
-) -> dict:
-    """Check the options as ``hull()`` does (:func:`geoalpha.options.check`)."""
-    checked = check_options(
-        holes=holes,
-        components=components,
-        search=search,
-        max_iterations=max_iterations,
-        outliers=outliers,
-    )
-    if outliers and (alpha is not None or search != "exact"):
-        raise InvalidInputError(
-            "outliers applies to the exact optimum: use it without alpha and "
-            f"with search='exact'; got alpha={alpha!r}, search={search!r}"
-        )
-    return checked
-
-
 def alpha_shapes(
     points,
     groups=None,
@@ -248,8 +229,19 @@ def alpha_shapes(
     >>> res.alpha.round(4).tolist(), res.n_outliers.tolist(), res.outlier.tolist()
     ([0.4308], [1], [False, False, False, False, False, True])
     """
-    checked = _check_options(holes, components, search, max_iterations, outliers, alpha)
-    n_jobs = check_options(n_jobs=n_jobs)["n_jobs"]
+    checked = check_options(
+        holes=holes,
+        components=components,
+        search=search,
+        max_iterations=max_iterations,
+        outliers=outliers,
+        n_jobs=n_jobs,
+    )
+    if outliers and (alpha is not None or search != "exact"):  # (as Options)
+        raise InvalidInputError(
+            "outliers applies to the exact optimum: use it without alpha and "
+            f"with search='exact'; got alpha={alpha!r}, search={search!r}"
+        )
     if name_groups is not None and not callable(name_groups):
         raise InvalidInputError(
             "name_groups must be a function of an array of group codes that "
@@ -268,7 +260,6 @@ def alpha_shapes(
         alpha=None if alpha is None else _given_alpha(alpha, n_groups),
         out=out_xy,
         progress=progress,
-        n_jobs=n_jobs,
         sphere=bool(sphere),
         polar=polar,
         name_groups=name_groups,

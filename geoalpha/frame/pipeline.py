@@ -936,22 +936,17 @@ def guarantee(
 ) -> Hulls:
     """Check every group's polygon once, in the output CRS: repaired, or degenerate.
 
-    The guarantee of :func:`geoalpha.hull`: each group gets a valid Polygon or
-    MultiPolygon that covers every one of its input points
-    (``shapely.covers``, distance 0) in the coordinates it is returned in, or
-    it is declared degenerate (alpha NaN, a :class:`DegenerateGroupWarning`)
-    and goes to the ``degenerate=`` policy. Invalid polygons are repaired and
-    points left outside are taken in as vertices first
-    (:func:`geoalpha.arrays.guarantee.enforce`). Every method, grown hull and
-    antimeridian split comes through here once, after the last stage that
-    makes a polygon. Points a polygon :func:`compute` made has as vertices
-    are certain while the group keeps that very polygon (``Hulls.made``), and
-    only the other points are tested. The points left out on purpose
-    (``outliers=``) and, at a fixed ``alpha`` (which need not cover every
-    point), coverage are not checked; nor are groups wider than 180 degrees of
-    longitude, which no lon/lat polygon can hold (warned about), and a point at
-    exactly -180 whose split hull reaches the line at +180 (or the reverse)
-    is named in the :class:`AntimeridianWarning` (not taken in across the line).
+    The guarantee of :func:`geoalpha.hull`, after the last stage that makes a
+    polygon: a valid (Multi)Polygon covering every input point of its group
+    (``shapely.covers``, distance 0) in the CRS it is returned in, repaired
+    where needed (:func:`geoalpha.arrays.guarantee.enforce`), or the group is
+    declared degenerate (a :class:`DegenerateGroupWarning`) for the
+    ``degenerate=`` policy. Only the points that are not vertices of the
+    polygon :func:`compute` made (``Hulls.made``) are tested, where a group
+    still has it. Not checked: the rows left out on purpose (``outliers=``),
+    coverage at a given ``alpha``, groups wider than 180 degrees of longitude
+    (warned about), and a point at -180 degrees that a split hull holds at
+    +180 (or the reverse), named in the :class:`AntimeridianWarning`.
     """
     xy, codes, geometry = points.coords, points.codes, hulls.geometry
     check = ~hulls.degenerate & ~proj.wide
