@@ -4,7 +4,7 @@
 
     frame ─ group ─ check_grouping ─ read_points ─ check_distortion ─ project
           ─ compute ─ grow ─ split_at_antimeridian ─ guarantee
-          ─ degenerate_policy ─ table
+          ─ degenerate_policy ─ warn_output_crs ─ table
 
 - :func:`group`: a group code per row and the table of group keys (as
   :meth:`GeoDataFrame.dissolve` groups);
@@ -24,6 +24,7 @@
 - :func:`guarantee`: the one check of every polygon, in the output CRS: valid
   and covering its points, repaired, or the group declared degenerate;
 - :func:`degenerate_policy`: groups without a shape, by ``degenerate=``;
+- :func:`warn_output_crs`: the groups split at +-180 degrees or wider than 180;
 - :func:`table`: the result (:mod:`geoalpha.frame.schema`).
 
 One progress bar (:mod:`geoalpha.frame.progress`) follows the phases ``group``,
@@ -102,6 +103,7 @@ __all__ = [
     "scan_rows",
     "split_at_antimeridian",
     "table",
+    "warn_output_crs",
 ]
 
 _POINT_TYPES = (0, 4)  # shapely type ids of Point and MultiPoint
@@ -240,6 +242,7 @@ def _stages(frame, by, options: Options, bar: Phases, checks: bool, rows: bool):
     hulls = split_at_antimeridian(hulls, points, proj)
     hulls = guarantee(hulls, groups, points, proj, options)
     hulls = degenerate_policy(hulls, groups, points, proj, options)
+    warn_output_crs(hulls, groups, points, proj)
     out = table(
         groups, points, proj, hulls, crs, result_geometry_name(frame, groups.names)
     )
@@ -949,20 +952,22 @@ def guarantee(
     +180 (or the reverse), named in the :class:`AntimeridianWarning`.
     """
     xy, codes, geometry = points.coords, points.codes, hulls.geometry
-    check = ~hulls.degenerate & ~proj.wide
+    check = ~hulls.degenerate
     beyond = _beyond_the_line(geometry, xy, codes, proj.crossing & check)
     exempt = hulls.outlier | beyond
     fixed = options.method == "alpha" and options.alpha is not None
-    limit = None
+    limit, unfaithful = None, np.zeros_like(check)
     if options.method == "alpha" and not fixed:  # a split adds parts
         polar = getattr(proj, "polar", None)
-        split = proj.crossing if polar is None else proj.crossing | polar
+        split = proj.crossing | proj.wide if polar is None else proj.crossing | polar
         limit = np.where(split, np.inf, options.components)
+        # No lon/lat polygon is the alpha shape of a group wider than 180 degrees.
+        unfaithful = check & proj.wide
     geometry, failed = enforce(
         geometry,
         xy,
         codes,
-        check,
+        check & ~unfaithful,
         # At a given alpha only alpha 0 (the convex hull) holds every point.
         cover=(np.asarray(hulls.alpha) == 0) if fixed else True,
         components=limit,
@@ -972,7 +977,6 @@ def guarantee(
     )
     # A repair may have grown a hull over a row left out on purpose.
     outlier = left_outside(hulls.outlier, geometry, xy, codes)
-    _warn_output_crs(groups, points, proj, hulls.degenerate, beyond)
     if failed.any():
         which = np.flatnonzero(failed)
         warnings.warn(
@@ -983,6 +987,8 @@ def guarantee(
             DegenerateGroupWarning,
             stacklevel=user_stacklevel(),
         )
+    failed |= unfaithful  # (degenerate_policy says why)
+    geometry[failed] = EMPTY_POLYGON
     return hulls._replace(
         geometry=geometry,
         alpha=np.where(failed, np.nan, hulls.alpha),
@@ -1022,9 +1028,19 @@ def _beyond_the_line(geometry, xy, codes, crossing) -> np.ndarray:
     return beyond
 
 
-def _warn_output_crs(groups, points, proj, degenerate, beyond) -> None:
-    """Warn about the groups split at +-180 degrees and those wider than 180."""
+def warn_output_crs(hulls: Hulls, groups: Groups, points: Points, proj) -> None:
+    """Warn about the groups split at +-180 degrees and those wider than 180.
+
+    Points at exactly -180 degrees that a split hull holds only at +180 (or
+    the reverse) are named (:func:`_beyond_the_line`).
+    """
     if proj.crossing.any():
+        beyond = _beyond_the_line(
+            hulls.geometry,
+            points.coords,
+            points.codes,
+            proj.crossing & ~hulls.degenerate,
+        )
         crossing = np.flatnonzero(proj.crossing)
         message = (
             f"{len(crossing)} group(s) cross the antimeridian (+-180 degrees): "
@@ -1044,7 +1060,7 @@ def _warn_output_crs(groups, points, proj, degenerate, beyond) -> None:
                 )
             )
         warnings.warn(message, AntimeridianWarning, stacklevel=user_stacklevel())
-    wide = proj.wide & ~degenerate
+    wide = proj.wide & ~hulls.degenerate
     if wide.any():
         warnings.warn(
             f"{wide.sum()} group(s) span more than 180 degrees of longitude: "
