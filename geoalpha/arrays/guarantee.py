@@ -302,8 +302,9 @@ def covered(
         Group of each point.
     n_jobs : int or None, default 1
         Threads (None or -1: every core): from :data:`THREAD_POINTS` points
-        on, each tests the points of its own share of the groups (GEOS
-        releases the GIL; no geometry is shared between threads).
+        on, the points are tested group by group, each thread those of its
+        own share of the groups (GEOS releases the GIL; no geometry is shared
+        between threads).
 
     Returns
     -------
@@ -318,15 +319,22 @@ def covered(
     if len(xy) == 0:
         return np.ones(0, dtype=bool)
     shapely.prepare(geoms)
-    workers = min(kernel.threads(n_jobs), len(xy) // THREAD_POINTS, len(geoms))
-    if workers <= 1:
+    if len(xy) < THREAD_POINTS:
         return shapely.intersects_xy(geoms[codes], xy[:, 0], xy[:, 1])
-    share = codes * workers // len(geoms)
+    # Many points: tested group by group (each prepared polygon stays in
+    # cache), on threads that each take their own groups.
+    keys = codes.astype(np.uint16) if len(geoms) <= 1 << 16 else codes
+    order = np.argsort(keys, kind="stable")  # (radix sort for 16-bit keys)
+    sc, sxy = codes[order], np.take(xy, order, axis=0)
+    workers = max(1, min(kernel.threads(n_jobs), len(xy) // THREAD_POINTS))
+    cuts = np.searchsorted(sc, np.arange(workers + 1) * len(geoms) // workers)
     out = np.empty(len(xy), dtype=bool)
 
     def test(k: int) -> None:
-        mine = np.flatnonzero(share == k)
-        out[mine] = shapely.intersects_xy(geoms[codes[mine]], xy[mine, 0], xy[mine, 1])
+        a, b = cuts[k], cuts[k + 1]
+        out[order[a:b]] = shapely.intersects_xy(
+            geoms[sc[a:b]], sxy[a:b, 0], sxy[a:b, 1]
+        )
 
     with ThreadPoolExecutor(workers) as pool:
         list(pool.map(test, range(workers)))
