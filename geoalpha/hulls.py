@@ -61,8 +61,8 @@ def hull(gdf, by=None, **options):
         and ``geometry`` (Polygon; MultiPolygon when ``components > 1``, when a
         group is split at the antimeridian, or, for ``"concave"``/``"knn"``,
         when a hull built in metres touches itself in the input CRS and is
-        repaired, with a :class:`GeoAlphaWarning`). Polygon vertices are input
-        coordinates (except for degenerate buffers and antimeridian cuts).
+        repaired). Polygon vertices are input coordinates (except for
+        degenerate buffers and antimeridian cuts).
 
     Raises
     ------

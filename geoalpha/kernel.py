@@ -201,7 +201,8 @@ class Solved(NamedTuple):
     search hit its node budget) and ``geometry``. Per point, sorted by group
     (``order[i]`` is the input row of sorted point ``i``): ``codes``, ``rep``
     (the sorted index of its representative), ``left_out`` and ``on_ring``
-    (its representative is a ring vertex). ``curve`` holds the validity
+    (its representative is a ring vertex), ``coords`` (the output
+    coordinates the polygons are built from). ``curve`` holds the validity
     curves when asked: ``(values, valid, offsets)``.
     """
 
@@ -219,6 +220,7 @@ class Solved(NamedTuple):
     rep: np.ndarray
     left_out: np.ndarray
     on_ring: np.ndarray
+    coords: np.ndarray
     geometry: np.ndarray
     curve: tuple[np.ndarray, np.ndarray, np.ndarray] | None
 
@@ -391,6 +393,7 @@ def solve(
         rep=res["rep"],
         left_out=res["left_out"],
         on_ring=on_ring[res["rep"]],
+        coords=coords,
         geometry=_geometries(coords, res, n_groups),
         curve=(res["curve_value"], res["curve_valid"], res["curve_offsets"])
         if curve

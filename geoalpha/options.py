@@ -36,7 +36,7 @@ import numbers
 from collections.abc import Callable, Mapping
 from typing import Any
 
-from geoalpha.errors import InvalidInputError, first_n, spelled
+from geoalpha.errors import InvalidInputError, first_n, setting, spelled
 
 __all__ = [
     "DEGENERATE_POLICIES",
@@ -505,6 +505,17 @@ class Options:
                 continue
             value = field.metadata["meta"].check(field.name, value)
             object.__setattr__(self, field.name, value)
+        if self.outliers and self.method != "alpha":
+            raise InvalidInputError(
+                f"outliers applies to {setting('method', 'alpha')}; got "
+                f"{setting('method', self.method)}"
+            )
+        if self.outliers and (self.alpha is not None or self.search != "exact"):
+            raise InvalidInputError(
+                "outliers applies to the exact optimum: use it without alpha and "
+                f"with {setting('search', 'exact')}; got "
+                f"{setting('alpha', self.alpha)}, {setting('search', self.search)}"
+            )
 
     @classmethod
     def from_kwargs(cls, kwargs: Mapping[str, Any], caller: str = "hull()") -> Options:

@@ -599,11 +599,11 @@ def test_repairs_work_with_shapely_2_0(monkeypatch):
 
 
 def spoil_first_group(monkeypatch, make):
-    """Make compute() hand a chosen, unverified geometry to the next stages for group 0.
+    """Make compute() hand a chosen geometry to the next stages for group 0.
 
-    compute() marks the polygons that alpha_shapes verified itself
-    (``checked``); a geometry from anywhere else is not marked, and the
-    guarantee stage must check it.
+    The one guarantee stage, in the output CRS, must find what is wrong with
+    it (a polygon other than the kernel's is tested point by point) and
+    repair it or declare the group degenerate.
     """
     from geoalpha.frame import pipeline
 
@@ -613,9 +613,7 @@ def spoil_first_group(monkeypatch, make):
         shapes = real(points, proj, n_groups, options, **kwargs)
         geometry = shapes.geometry.copy()
         geometry[0] = make(geometry[0])
-        checked = shapes.checked.copy()
-        checked[0] = False
-        return shapes._replace(geometry=geometry, checked=checked)
+        return shapes._replace(geometry=geometry)
 
     monkeypatch.setattr(pipeline, "compute", spoiled)
 

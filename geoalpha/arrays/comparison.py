@@ -13,7 +13,7 @@ import numpy as np
 import pandas as pd
 import shapely
 
-from geoalpha.arrays.guarantee import EMPTY_POLYGON, cover_points, covered, each_or_none
+from geoalpha.arrays.guarantee import EMPTY_POLYGON, each_or_none
 from geoalpha.arrays.guarantee import (
     convex_hulls as convex_hulls,  # (its home until 0.1)
 )
@@ -68,8 +68,9 @@ def comparison_hulls(
 
     ``xy`` holds the points in metres, ``out`` the same points in the output
     coordinates, one row per point of ``codes``. The polygons come back in the
-    output coordinates with the input points as vertices, every point covered
-    (:func:`geoalpha.arrays.guarantee.cover_points`).
+    output coordinates with the input points as vertices, not yet checked:
+    the caller enforces the guarantee (:func:`geoalpha.arrays.guarantee.enforce`,
+    in :func:`geoalpha.hull`'s guarantee stage).
     """
     order = np.argsort(codes, kind="stable")
     sorted_xy, sc = xy[order], codes[order]
@@ -111,11 +112,4 @@ def comparison_hulls(
     hulls[present] = _to_input_vertices(
         geoms[present], np.flatnonzero(present), xy, out, codes
     )
-    hulls = cover_points(hulls, out, codes)
-    # A hull that GEOS could not grow over its points in the output
-    # coordinates (around a pole, across the globe) is no hull there.
-    missed = ~covered(hulls, out, codes) & present[codes]
-    if missed.any():
-        lost = np.unique(codes[missed])
-        hulls[lost], degenerate[lost], area[lost] = EMPTY_POLYGON, True, 0.0
     return ComparisonHulls(hulls, area, labels, degenerate, without_holes)

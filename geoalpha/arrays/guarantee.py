@@ -8,6 +8,7 @@ distance 0), repaired where float coordinates broke them, or reported.
 from __future__ import annotations
 
 import inspect
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import shapely
@@ -33,6 +34,8 @@ EMPTY_POLYGON = shapely.Polygon()
 #: 2.0 (still supported, and what the QGIS plugin installs to match QGIS's
 #: GEOS 3.11) rejects the keyword with a TypeError.
 _MAKE_VALID_METHOD = "method" in inspect.signature(shapely.make_valid).parameters
+#: Points from which :func:`covered` spreads its tests over threads.
+THREAD_POINTS = 100_000
 
 
 def each_or_none(func, geoms: np.ndarray, **kwargs) -> np.ndarray:
@@ -119,6 +122,7 @@ def enforce(
     components=None,
     test=None,
     exempt=None,
+    n_jobs=1,
 ):
     """Verify the guarantee per group; repair where possible; report the rest.
 
@@ -155,6 +159,8 @@ def enforce(
     exempt : ndarray of bool, shape (k,), optional
         Points that need not be covered (left out on purpose, ``outliers=``):
         never tested, and never taken in when a group is repaired.
+    n_jobs : int or None, default 1
+        Threads that test the points (:func:`covered`).
 
     Returns
     -------
@@ -192,7 +198,9 @@ def enforce(
             repaired = np.zeros(len(geoms), dtype=bool)
             repaired[invalid] = True
             mine &= test | repaired[codes]
-        outside = ~covered(geoms, np.compress(mine, out_xy, axis=0), codes[mine])
+        outside = ~covered(
+            geoms, np.compress(mine, out_xy, axis=0), codes[mine], n_jobs=n_jobs
+        )
         repair = np.unique(codes[mine][outside]) if outside.any() else ()
         if len(repair):
             take = np.isin(codes, repair) & needed
@@ -274,7 +282,9 @@ def cover_points(geoms, out_xy, codes) -> np.ndarray:
     return geoms
 
 
-def covered(geoms: np.ndarray, xy: np.ndarray, codes: np.ndarray) -> np.ndarray:
+def covered(
+    geoms: np.ndarray, xy: np.ndarray, codes: np.ndarray, n_jobs: int | None = 1
+) -> np.ndarray:
     """Whether each point is covered by its group's geometry (distance 0).
 
     For a point, covering and intersecting are the same predicate (the point
@@ -290,6 +300,11 @@ def covered(geoms: np.ndarray, xy: np.ndarray, codes: np.ndarray) -> np.ndarray:
         Points, in the geometries' coordinates.
     codes : ndarray of shape (k,)
         Group of each point.
+    n_jobs : int or None, default 1
+        Threads (None or -1: every core): from :data:`THREAD_POINTS` points
+        on, the points are tested group by group, each thread those of its
+        own share of the groups (GEOS releases the GIL; no geometry is shared
+        between threads).
 
     Returns
     -------
@@ -304,7 +319,26 @@ def covered(geoms: np.ndarray, xy: np.ndarray, codes: np.ndarray) -> np.ndarray:
     if len(xy) == 0:
         return np.ones(0, dtype=bool)
     shapely.prepare(geoms)
-    return shapely.intersects_xy(geoms[codes], xy[:, 0], xy[:, 1])
+    if len(xy) < THREAD_POINTS:
+        return shapely.intersects_xy(geoms[codes], xy[:, 0], xy[:, 1])
+    # Many points: tested group by group (each prepared polygon stays in
+    # cache), on threads that each take their own groups.
+    keys = codes.astype(np.uint16) if len(geoms) <= 1 << 16 else codes
+    order = np.argsort(keys, kind="stable")  # (radix sort for 16-bit keys)
+    sc, sxy = codes[order], np.take(xy, order, axis=0)
+    workers = max(1, min(kernel.threads(n_jobs), len(xy) // THREAD_POINTS))
+    cuts = np.searchsorted(sc, np.arange(workers + 1) * len(geoms) // workers)
+    out = np.empty(len(xy), dtype=bool)
+
+    def test(k: int) -> None:
+        a, b = cuts[k], cuts[k + 1]
+        out[order[a:b]] = shapely.intersects_xy(
+            geoms[sc[a:b]], sxy[a:b, 0], sxy[a:b, 1]
+        )
+
+    with ThreadPoolExecutor(workers) as pool:
+        list(pool.map(test, range(workers)))
+    return out
 
 
 def _take_in(poly, p):

@@ -105,42 +105,6 @@ class AlphaShapes(NamedTuple):
     reason: np.ndarray | None = None
 
 
-def _check_options(
-    holes, components, search: str, max_iterations, outliers=0, alpha=None
-) -> dict:
-    """Check the options as ``hull()`` does (:func:`geoalpha.options.check`)."""
-    checked = check_options(
-        holes=holes,
-        components=components,
-        search=search,
-        max_iterations=max_iterations,
-        outliers=outliers,
-    )
-    if outliers and (alpha is not None or search != "exact"):
-        raise InvalidInputError(
-            "outliers applies to the exact optimum: use it without alpha and "
-            f"with {setting('search', 'exact')}; got {setting('alpha', alpha)}, "
-            f"{setting('search', search)}"
-        )
-    return checked
-
-
-def _warn_gave_up(gave_up: np.ndarray, max_iterations: int, names: str) -> None:
-    """Warn (:class:`SearchWarning`) about the groups the bisection gave up on.
-
-    ``names`` names them (group codes for :func:`alpha_shapes`, keys for
-    :func:`geoalpha.hull`).
-    """
-    warnings.warn(
-        f"{setting('search', 'bisect')} did not converge within "
-        f"{setting('max_iterations', max_iterations)} for {gave_up.sum()} group(s) "
-        f"({names}) and gave them alpha 0, the convex hull, as alphashape does; "
-        f"use {setting('search', 'exact')}",
-        SearchWarning,
-        stacklevel=user_stacklevel(),
-    )
-
-
 def alpha_shapes(
     points,
     groups=None,
@@ -266,46 +230,74 @@ def alpha_shapes(
     >>> res.alpha.round(4).tolist(), res.n_outliers.tolist(), res.outlier.tolist()
     ([0.4308], [1], [False, False, False, False, False, True])
     """
-    checked = _check_options(holes, components, search, max_iterations, outliers, alpha)
-    n_jobs = check_options(n_jobs=n_jobs)["n_jobs"]
+    checked = check_options(
+        holes=holes,
+        components=components,
+        search=search,
+        max_iterations=max_iterations,
+        outliers=outliers,
+        n_jobs=n_jobs,
+    )
+    if outliers and (alpha is not None or search != "exact"):  # (as Options)
+        raise InvalidInputError(
+            "outliers applies to the exact optimum: use it without alpha and "
+            f"with {setting('search', 'exact')}; got "
+            f"{setting('alpha', alpha)}, {setting('search', search)}"
+        )
     if name_groups is not None and not callable(name_groups):
         raise InvalidInputError(
             "name_groups must be a function of an array of group codes that "
             f"returns their names as text; got {type(name_groups).__name__}"
         )
-    res = _compute(
-        points,
-        groups,
-        alpha=alpha,
-        coords=coords,
-        n_groups=n_groups,
+    try:
+        xy = kernel.check_points(points)  # (errors name rows of the input)
+        codes, n_groups = kernel.group_codes(groups, len(xy), n_groups)
+        out_xy = _output_coordinates(xy, coords)
+    except ValueError as err:
+        raise InvalidInputError(str(err)) from err
+    raw = solve_checked(
+        xy,
+        codes,
+        n_groups,
+        alpha=None if alpha is None else _given_alpha(alpha, n_groups),
+        out=out_xy,
         progress=progress,
-        n_jobs=n_jobs,
         sphere=bool(sphere),
         polar=polar,
+        name_groups=name_groups,
         **checked,
     )
-    if sphere and (res.reason == REFUSED).any():
-        which = np.flatnonzero(res.reason == REFUSED)
-        names = f"codes {first_n(which)}" if name_groups is None else name_groups(which)
-        raise InvalidInputError(refused_message(names, len(which)))
+    return _verified(raw, xy if raw.out is None else raw.out, codes, alpha is None)
+
+
+def _named(which: np.ndarray, name_groups) -> str:
+    """Name the groups ``which`` for a message (by code without ``name_groups``)."""
+    return f"codes {first_n(which)}" if name_groups is None else name_groups(which)
+
+
+def _warn_search(res: AlphaShapes, max_iterations, components, name_groups) -> None:
+    """Warn about the groups the bisection gave up on or the outlier search capped."""
     if res.gave_up.any():
-        which = np.flatnonzero(res.gave_up)
-        names = f"codes {first_n(which)}" if name_groups is None else name_groups(which)
-        _warn_gave_up(res.gave_up, checked["max_iterations"], names)
+        warnings.warn(
+            f"{setting('search', 'bisect')} did not converge within "
+            f"{setting('max_iterations', max_iterations)} for {res.gave_up.sum()} "
+            f"group(s) ({_named(np.flatnonzero(res.gave_up), name_groups)}) and gave "
+            f"them alpha 0, the convex hull, as alphashape does; use "
+            f"{setting('search', 'exact')}",
+            SearchWarning,
+            stacklevel=user_stacklevel(),
+        )
     if res.capped.any():
         which = np.flatnonzero(res.capped)
-        names = f"codes {first_n(which)}" if name_groups is None else name_groups(which)
         warnings.warn(
-            f"{setting('outliers')}: the search for the {checked['components']} "
-            "pieces that hold the most rows stopped after "
-            f"{kernel.MAX_UNION_NODES:,} steps for {len(which)} group(s) ({names}); "
-            "their hulls keep the best pieces found, which may leave out more rows "
-            "than the optimum",
+            f"{setting('outliers')}: the search for the {components} pieces that "
+            f"hold the most rows stopped after {kernel.MAX_UNION_NODES:,} steps "
+            f"for {len(which)} group(s) ({_named(which, name_groups)}); their "
+            "hulls keep the best pieces found, which may leave out more rows than "
+            "the optimum",
             OutlierWarning,
             stacklevel=user_stacklevel(),
         )
-    return res
 
 
 def _given_alpha(alpha, n_groups: int) -> np.ndarray:
@@ -345,143 +337,188 @@ def _searched_alpha(curve, n_groups: int, search: str, max_iterations: int):
     return a, gave_up
 
 
-def _compute(
-    points,
-    groups,
+class Unverified(NamedTuple):
+    """What :func:`solve_checked` returns: the kernel's shapes, before the guarantee."""
+
+    #: per group; ``degenerate`` and ``reason`` by the kernel's reasons only
+    shapes: AlphaShapes
+    #: per point: a vertex of its group's polygon in the output coordinates, or
+    #: covered by construction there, so covered as long as that very polygon
+    #: is valid (the guarantee tests only the other points)
+    certain: np.ndarray
+    #: parts a valid polygon may have, per group (any number around a pole)
+    components: np.ndarray | int
+    #: the output coordinates (None: the points themselves)
+    out: np.ndarray | None
+
+
+def solve_checked(
+    xy: np.ndarray,
+    codes: np.ndarray,
+    n_groups: int,
     *,
-    alpha,
-    holes,
-    components,
-    search,
-    max_iterations,
-    coords,
-    n_groups,
-    progress,
-    n_jobs,
+    alpha: np.ndarray | None,
+    holes: bool,
+    components: int,
+    search: str,
+    max_iterations: int,
     outliers,
-    sphere=False,
+    out: np.ndarray | None = None,
+    progress=None,
+    n_jobs: int | None = None,
+    sphere: bool = False,
     polar=None,
-) -> AlphaShapes:
-    """:func:`alpha_shapes` on checked options: one kernel call, then the guarantee."""
-    try:
-        xy = kernel.check_points(points)  # (errors name rows of the input)
-        codes, n_groups = kernel.group_codes(groups, len(xy), n_groups)
-        out_xy = _output_coordinates(xy, coords)
-    except ValueError as err:
-        raise InvalidInputError(str(err)) from err
+    name_groups=None,
+) -> Unverified:
+    """:func:`alpha_shapes` on checked inputs, without the guarantee: one kernel call.
+
+    Trusts its inputs: ``xy`` finite floats (n, 2), ``codes`` int64 in
+    ``0 .. n_groups - 1``, ``alpha`` None or one float >= 0 per group, the
+    options checked (:class:`geoalpha.options.Options`). The caller enforces
+    the guarantee (:func:`geoalpha.arrays.guarantee.enforce`) in the
+    coordinates it returns the polygons in: :func:`alpha_shapes` at once,
+    :func:`geoalpha.hull` once they are in the output CRS. Raises
+    :class:`InvalidInputError` for the groups the sphere refuses; warns
+    about the searches that gave up.
+    """
     rows = np.bincount(codes, minlength=n_groups)
-    given = None if alpha is None else _given_alpha(alpha, n_groups)
-    if sphere and out_xy is None:
-        out_xy, polar = _sphere_output(xy, codes, n_groups)
+    if sphere and out is None:
+        out, polar = _sphere_output(xy, codes, n_groups)
     options = dict(
-        holes=holes, components=components, n_jobs=n_jobs, out=out_xy, sphere=sphere
+        holes=holes, components=components, n_jobs=n_jobs, out=out, sphere=sphere
     )
     gave_up = np.zeros(n_groups, dtype=bool)
-    if given is None and search != "exact":
-        found = kernel.solve(xy, codes, n_groups, curve=True, **options)
-        given, gave_up = _searched_alpha(found.curve, n_groups, search, max_iterations)
-    budget = None
-    if outliers and given is None:
-        budget = outlier_budget(outliers, rows)
-    res = kernel.solve(
-        xy, codes, n_groups, alpha=given, budget=budget, progress=progress, **options
+    if alpha is None and search != "exact":
+        found = _solve(xy, codes, n_groups, curve=True, **options)
+        alpha, gave_up = _searched_alpha(found.curve, n_groups, search, max_iterations)
+    budget = outlier_budget(outliers, rows) if outliers and alpha is None else None
+    res = _solve(
+        xy, codes, n_groups, alpha=alpha, budget=budget, progress=progress, **options
     )
+    if sphere and (res.reason == REFUSED).any():
+        which = np.flatnonzero(res.reason == REFUSED)
+        raise InvalidInputError(refused_message(_named(which, name_groups), len(which)))
     if sphere:
-        # Long edges of a shape concave on the sphere can fold in lon/lat.
-        folded = (res.reason == 0) & ~shapely.is_valid(res.geometry)
-        if polar is not None:
-            folded &= ~np.asarray(polar)
-        if folded.any():
-            which = np.flatnonzero(folded)
-            geometry = res.geometry.copy()
-            geometry[which] = follow_arcs(geometry[which])
-            res = res._replace(geometry=geometry)
-    if sphere and np.any(polar):
+        res, polar = _on_the_sphere(res, polar)
+    limit = np.where(polar, np.inf, components) if np.any(polar) else components
+    shapes, certain = _shapes(res, codes, rows, alpha, elsewhere=out is not None)
+    shapes = shapes._replace(gave_up=gave_up & ~shapes.degenerate)
+    _warn_search(shapes, max_iterations, components, name_groups)
+    return Unverified(shapes, certain, limit, out)
+
+
+def _solve(*args, **kwargs) -> kernel.Solved:
+    try:
+        return kernel.solve(*args, **kwargs)
+    except ValueError as err:  # what the kernel refuses (e.g. |coordinate| > 1e100)
+        raise InvalidInputError(str(err)) from err
+
+
+def _on_the_sphere(res: kernel.Solved, polar):
+    """Unfold the lon/lat polygons of ``sphere=True``; close those around a pole."""
+    # Long edges of a shape concave on the sphere can fold in lon/lat.
+    folded = (res.reason == 0) & ~shapely.is_valid(res.geometry)
+    if polar is not None:
+        folded &= ~np.asarray(polar)
+    if folded.any():
+        which = np.flatnonzero(folded)
+        geometry = res.geometry.copy()
+        geometry[which] = follow_arcs(geometry[which])
+        res = res._replace(geometry=geometry)
+    if np.any(polar):
         geometry = res.geometry.copy()
         which = np.flatnonzero(polar)
-        sout = np.take(out_xy, res.order, axis=0)
         geometry[which] = restore_longitudes(
             close_around_poles(geometry[which]),
             which,
-            sout[:, 0],
-            sout[:, 1],
+            res.coords[:, 0],
+            res.coords[:, 1],
             res.codes,
         )
         # Their vertices moved (cut at +-180, shifted): test every point.
         res = res._replace(
             geometry=geometry, on_ring=res.on_ring & ~np.asarray(polar)[res.codes]
         )
-    if sphere and np.any(polar):
-        # Cut at +-180 degrees, a piece may be several polygons (as across it).
-        components = np.where(polar, np.inf, components)
-    return _guarantee(res, xy, out_xy, rows, given, alpha is None, components, gave_up)
+    return res, polar
 
 
-def _guarantee(res, xy, out_xy, rows, given, optimum, components, gave_up):
-    """Check every group's polygon in the output coordinates; repair or give up.
+def _shapes(res: kernel.Solved, codes, rows, given, elsewhere: bool):
+    """Return the kernel's result per group and, per point, whether it is certain.
 
-    With exact predicates the kernel's rings are valid and hold every distinct
-    point in the computation coordinates; what is left to check is what
-    float coordinates elsewhere can break: points merged as near-duplicates
-    (not vertices), and, when the polygons are built in other coordinates
-    (longitude/latitude), every point that is not a ring vertex.
+    A group whose rings failed (reason 4) but whose shape is every triangle
+    gets the convex hull of its points, built by GEOS.
     """
     n_groups = len(rows)
-    codes = res.codes
-    sout = np.take(xy if out_xy is None else out_xy, res.order, axis=0)
+    sorted_codes = res.codes
+    sout = res.coords
     geometry = res.geometry.copy()
-    ring_failed = res.reason == 4
-    whole = np.flatnonzero(ring_failed & res.whole)
-    if len(whole):  # the shape is the convex hull: GEOS builds it
-        take = np.isin(codes, whole)
-        hulls = guarantee.convex_hulls(sout[take], codes[take], n_groups)
+    whole = np.flatnonzero((res.reason == 4) & res.whole)
+    reason = res.reason.astype(np.int64)
+    if len(whole):
+        take = np.isin(sorted_codes, whole)
+        hulls = guarantee.convex_hulls(sout[take], sorted_codes[take], n_groups)
         geometry[whole] = hulls[whole]
-    check = (res.reason == 0) | np.isin(np.arange(n_groups), whole)
-    x, y, v = sout[:, 0], sout[:, 1], res.rep
-    test = (x != x[v]) | (y != y[v])
-    if out_xy is not None:
-        test |= ~res.on_ring
-    left_out = res.left_out if res.left_out.any() else None
-    a = res.alpha if given is None else given
-    geometry, failed = guarantee.enforce(
-        geometry,
-        sout,
-        codes,
-        check,
-        # At a given alpha only alpha 0 (the convex hull) holds every point.
-        cover=True if optimum else np.asarray(a) == 0,
-        components=components if optimum else None,
-        test=test,
-        exempt=left_out,
-    )
-    degenerate = ((res.reason != 0) & ~np.isin(np.arange(n_groups), whole)) | failed
-    alpha_out = np.where(degenerate, np.nan, a)
+        reason[whole] = 0
+    degenerate = reason != 0
     geometry[degenerate] = guarantee.EMPTY_POLYGON
+    # With exact predicates the kernel's rings are valid and hold every distinct
+    # point in the computation coordinates; in other output coordinates only
+    # the ring vertices are certain, and a near-duplicate merged into its
+    # representative never is.
+    x, y, v = sout[:, 0], sout[:, 1], res.rep
+    certain = (x == x[v]) & (y == y[v])
+    if elsewhere:
+        certain &= res.on_ring
+    back = np.empty(len(codes), dtype=bool)
+    back[res.order] = certain
+    outlier = np.empty(len(codes), dtype=bool)
+    outlier[res.order] = res.left_out
     n_parts = res.n_parts.astype(np.int64)
     n_parts[whole] = 1
-    n_parts[degenerate] = 0
-    area = np.where(degenerate, 0.0, res.area)
-    outlier = np.zeros(len(codes), dtype=bool)
-    n_outliers = np.zeros(n_groups, dtype=np.int64)
-    if left_out is not None:
-        # A repair that took in a just-missed point may have covered one left out.
-        outlier = guarantee.left_outside(left_out, geometry, sout, codes)
-        n_outliers = np.bincount(codes[outlier], minlength=n_groups)
-    back = np.empty(len(codes), dtype=np.int64)
-    back[res.order] = np.arange(len(codes))
-    return AlphaShapes(
-        alpha=alpha_out,
+    shapes = AlphaShapes(
+        alpha=np.where(degenerate, np.nan, res.alpha if given is None else given),
         geometry=geometry,
         n_points=rows,
         n_distinct=res.n_distinct.astype(np.int64),
-        n_parts=n_parts,
-        area=area,
+        n_parts=np.where(degenerate, 0, n_parts),
+        area=np.where(degenerate, 0.0, res.area),
         degenerate=degenerate,
-        n_outliers=n_outliers,
-        outlier=outlier[back],
-        gave_up=gave_up & ~degenerate,
+        n_outliers=np.bincount(codes[outlier], minlength=n_groups),
+        outlier=outlier,
+        gave_up=np.zeros(n_groups, dtype=bool),
         capped=res.capped & ~degenerate,
-        reason=np.where(failed & (res.reason == 0), 5, res.reason).astype(np.int64),
+        reason=reason,
+    )
+    return shapes, back
+
+
+def _verified(raw: Unverified, out_xy, codes, optimum: bool) -> AlphaShapes:
+    """Enforce the guarantee on ``raw`` in ``out_xy``; failed groups are degenerate."""
+    res = raw.shapes
+    geometry, failed = guarantee.enforce(
+        res.geometry,
+        out_xy,
+        codes,
+        ~res.degenerate,
+        # At a given alpha only alpha 0 (the convex hull) holds every point.
+        cover=True if optimum else res.alpha == 0,
+        components=raw.components if optimum else None,
+        test=~raw.certain,
+        exempt=res.outlier if res.outlier.any() else None,
+    )
+    # A repair that took in a just-missed point may have covered one left out.
+    outlier = guarantee.left_outside(res.outlier, geometry, out_xy, codes)
+    return res._replace(
+        geometry=geometry,
+        alpha=np.where(failed, np.nan, res.alpha),
+        n_parts=np.where(failed, 0, res.n_parts),
+        area=np.where(failed, 0.0, res.area),
+        degenerate=res.degenerate | failed,
+        outlier=outlier,
+        n_outliers=np.bincount(codes[outlier], minlength=len(failed)),
+        gave_up=res.gave_up & ~failed,
+        capped=res.capped & ~failed,
+        reason=np.where(failed, 5, res.reason),
     )
 
 

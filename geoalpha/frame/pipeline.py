@@ -3,8 +3,8 @@
 :func:`run` is the data path of :func:`geoalpha.hull`, one function per stage::
 
     frame ─ group ─ check_grouping ─ read_points ─ check_distortion ─ project
-          ─ compute ─ ensure_guarantee ─ degenerate_policy ─ grow
-          ─ verify_in_output_crs ─ area_m2 ─ table
+          ─ compute ─ grow ─ split_at_antimeridian ─ guarantee
+          ─ degenerate_policy ─ warn_output_crs ─ area_m2 ─ table
 
 - :func:`group`: a group code per row and the table of group keys (as
   :meth:`GeoDataFrame.dissolve` groups);
@@ -16,11 +16,15 @@
 - :func:`~geoalpha.frame.checks.check_distortion`: a warning when the computation
   CRS stretches areas where the points are;
 - :func:`project`: the metric CRS round trip (:class:`geoalpha.frame.crs.Projection`);
-- :func:`compute`: the hulls, by method (:func:`geoalpha.alpha_shapes` in one
-  batched call, or :mod:`geoalpha.arrays.comparison`), built in the output CRS;
+- :func:`compute`: the hulls, by method (one kernel call,
+  :func:`geoalpha.arrays.optimal.solve_checked`, which trusts the values
+  checked above, or :mod:`geoalpha.arrays.comparison`), built in the output CRS;
+- :func:`grow`: ``grow=``, in metres;
+- :func:`split_at_antimeridian`: hulls across +-180 degrees split there;
+- :func:`guarantee`: the one check of every polygon, in the output CRS: valid
+  and covering its points, repaired, or the group declared degenerate;
 - :func:`degenerate_policy`: groups without a shape, by ``degenerate=``;
-- :func:`verify_in_output_crs`: every geometry valid and covering its points
-  in the output CRS, antimeridian groups split;
+- :func:`warn_output_crs`: the groups split at +-180 degrees or wider than 180;
 - :func:`area_m2`: the areas on the WGS84 ellipsoid (planar with ``crs=None``);
 - :func:`table`: the result (:mod:`geoalpha.frame.schema`).
 
@@ -36,6 +40,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from functools import partial
 from typing import Any, NamedTuple
 
@@ -48,13 +53,12 @@ from geoalpha.arrays.comparison import comparison_hulls
 from geoalpha.arrays.guarantee import (
     EMPTY_POLYGON,
     convex_hulls,
-    cover_points,
     covered,
     enforce,
     left_outside,
     repair_invalid,
 )
-from geoalpha.arrays.optimal import alpha_shapes
+from geoalpha.arrays.optimal import solve_checked
 from geoalpha.crs_parsing import is_sphere, parse_crs
 from geoalpha.errors import (
     AntimeridianWarning,
@@ -92,16 +96,17 @@ __all__ = [
     "as_frame",
     "compute",
     "degenerate_policy",
-    "ensure_guarantee",
     "group",
+    "guarantee",
     "merge_reports",
     "project",
     "read_points",
     "report_rows",
     "run",
     "scan_rows",
+    "split_at_antimeridian",
     "table",
-    "verify_in_output_crs",
+    "warn_output_crs",
 ]
 
 _POINT_TYPES = (0, 4)  # shapely type ids of Point and MultiPoint
@@ -171,11 +176,12 @@ class Hulls(NamedTuple):
     #: why a group has no shape: 0, or a code of :data:`geoalpha.kernel.REASONS`
     #: (5: no valid polygon holding its points in the output coordinates)
     reason: np.ndarray
-    #: groups whose geometry is already verified in the output coordinates
-    #: (valid; covering its points unless at a fixed alpha): :func:`compute`
-    #: sets it where :func:`geoalpha.alpha_shapes` checked its own polygons,
-    #: and every stage that replaces a geometry clears it
-    checked: np.ndarray
+    #: the polygons as :func:`compute` made them, and per point whether it is
+    #: certain to be covered by its group's polygon there (a ring vertex in
+    #: the output coordinates) while that polygon is valid: :func:`guarantee`
+    #: skips testing those points where a group's polygon is still that object
+    made: np.ndarray
+    certain: np.ndarray
 
 
 def run(frame, by, options: Options, *, checks: bool = True, rows: bool = True):
@@ -236,27 +242,15 @@ def _stages(frame, by, options: Options, bar: Phases, checks: bool, rows: bool):
         names=partial(_names, groups, counts=points.n_points),
     )
     bar.start("check")
-    hulls = ensure_guarantee(hulls, groups, points, proj, options)
-    hulls = degenerate_policy(hulls, groups, points, proj, options)
     hulls = grow(hulls, points, proj, options)
-    geometry = verify_in_output_crs(
-        hulls.geometry,
-        groups,
-        points,
-        proj,
-        options,
-        checked=hulls.checked,
-        degenerate=hulls.degenerate,
-    )
-    hulls = hulls._replace(area=area_m2(hulls, geometry, proj, options))
+    grown = hulls.geometry
+    hulls = split_at_antimeridian(hulls, points, proj)
+    hulls = guarantee(hulls, groups, points, proj, options)
+    hulls = degenerate_policy(hulls, groups, points, proj, options)
+    warn_output_crs(hulls, groups, points, proj)
+    hulls = hulls._replace(area=area_m2(hulls, grown, proj, options))
     out = table(
-        groups,
-        points,
-        proj,
-        hulls,
-        geometry,
-        crs,
-        result_geometry_name(frame, groups.names),
+        groups, points, proj, hulls, crs, result_geometry_name(frame, groups.names)
     )
     return out, report_outliers(hulls, groups, points, len(frame), options)
 
@@ -417,7 +411,7 @@ class RowReport(NamedTuple):
 _ROW_KINDS = ("non_point", "missing", "no_key", "infinite")
 
 
-def scan_rows(frame, codes: np.ndarray, vertices: bool):
+def scan_rows(frame, codes: np.ndarray, vertices: bool, n_jobs: int | None = 1):
     """Sort the rows of ``frame`` into usable and bad ones.
 
     A row is dropped when its geometry is missing or empty, has a NaN
@@ -425,6 +419,7 @@ def scan_rows(frame, codes: np.ndarray, vertices: bool):
     empty point; what ``points_from_xy`` makes of a missing longitude or
     latitude) or its group key is missing (``codes`` -1). Non-point
     geometries (unless ``vertices``) and infinite coordinates are errors.
+    Large frames are read on ``n_jobs`` threads (GEOS releases the GIL).
 
     Returns
     -------
@@ -435,14 +430,12 @@ def scan_rows(frame, codes: np.ndarray, vertices: bool):
     array = frame[frame._geometry_column_name].array
     geoms = np.asarray(array, dtype=object)
     index = frame.index
-    kind = shapely.get_type_id(geoms)  # -1: missing
-    missing = (kind < 0) | shapely.is_empty(geoms)
+    kind, missing = _threaded(_kinds, geoms, n_jobs)  # kind -1: missing
     point = (kind == _POINT_TYPES[0]) | (kind == _POINT_TYPES[1])
     non_point = ~missing & ~point
     usable = np.flatnonzero(~missing & (point | vertices))
     if (kind[usable] == _POINT_TYPES[0]).all():  # one coordinate pair per row
-        part = geoms[usable]
-        coords = np.column_stack([shapely.get_x(part), shapely.get_y(part)])
+        (coords,) = _threaded(_xy, geoms[usable], n_jobs)
         which = usable
     else:
         coords, at = shapely.get_coordinates(geoms[usable], return_index=True)
@@ -479,6 +472,29 @@ def scan_rows(frame, codes: np.ndarray, vertices: bool):
         types=types,
     )
     return report, coords, which
+
+
+def _kinds(geoms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    kind = shapely.get_type_id(geoms)
+    return kind, (kind < 0) | shapely.is_empty(geoms)
+
+
+def _xy(points: np.ndarray) -> tuple[np.ndarray]:
+    return (np.column_stack([shapely.get_x(points), shapely.get_y(points)]),)
+
+
+#: Rows from which :func:`scan_rows` reads a frame on several threads.
+THREAD_ROWS = 200_000
+
+
+def _threaded(func, geoms: np.ndarray, n_jobs: int | None) -> tuple:
+    """Return ``func(geoms)`` (a tuple of arrays), computed in chunks on threads."""
+    workers = min(kernel.threads(n_jobs), len(geoms) // THREAD_ROWS)
+    if workers <= 1:
+        return func(geoms)
+    with ThreadPoolExecutor(workers) as pool:
+        parts = list(pool.map(func, np.array_split(geoms, workers)))
+    return tuple(np.concatenate(arrays) for arrays in zip(*parts, strict=True))
 
 
 def merge_reports(reports) -> RowReport:
@@ -572,7 +588,7 @@ def read_points(
     are an error (:func:`scan_rows`, :func:`report_rows`).
     """
     codes = groups.codes
-    report, coords, which = scan_rows(frame, codes, options.vertices)
+    report, coords, which = scan_rows(frame, codes, options.vertices, options.n_jobs)
     report_rows(report, warn=warn)
     rows = which[np.diff(which, prepend=-1) != 0]  # which is non-decreasing
     return Points(
@@ -626,57 +642,52 @@ def compute(
     batch. ``names`` names groups (given their codes) in warnings.
     """
     method = options.method
-    if options.outliers and method != "alpha":
-        raise InvalidInputError(
-            f"outliers applies to {setting('method', 'alpha')}; got "
-            f"{setting('method', method)}"
-        )
     bar = current()
     if bar is not None and not bar.shown:
         bar = None  # nobody to tell: one batch, not one per PROGRESS_GROUPS groups
     try:
-        if method in ("alpha", "convex"):
-            sphere = getattr(proj, "sphere", False)
-            res = alpha_shapes(
-                proj.lonlat if sphere else proj.xy,
-                points.codes,
-                alpha=0.0 if method == "convex" else options.alpha,
-                holes=options.holes,
-                components=options.components,
-                search=options.search,
-                max_iterations=options.max_iterations,
-                # None: the computation coordinates are the output ones
-                # (projected input used as it is), nothing to map or recheck
-                coords=proj.out if sphere or proj.out is not proj.xy else None,
-                n_groups=n_groups,
-                progress=bar,
-                n_jobs=options.n_jobs,
-                outliers=options.outliers,
-                name_groups=names,
-                sphere=sphere,
-                polar=getattr(proj, "polar", None),
-            )
-            geometry = res.geometry
-            if method == "convex" and not sphere:  # (the sphere's is the kernel's)
-                convex = convex_hulls(proj.out, points.codes, n_groups)
-                geometry = np.where(res.degenerate, geometry, convex)
-            # "ladder"/"bisect" name the search that gave the alpha
-            exact = method == "convex" or options.search == "exact"
-            label = method if exact else options.search
-            return Hulls(
-                geometry=geometry,
-                area=res.area,  # area_m2 (on the ellipsoid) comes at the end
-                alpha=res.alpha,
-                labels=np.full(n_groups, label, dtype=object),
-                degenerate=res.degenerate,
-                keep=np.ones(n_groups, dtype=bool),
-                outlier=res.outlier,
-                reason=res.reason,
-                # alpha_shapes verified its polygons in proj.out (hulls.enforce,
-                # with the options of ensure_guarantee); convex hulls are new
-                checked=~res.degenerate & (method == "alpha"),
-            )
-        return _comparison(points, proj, n_groups, options, names, bar)
+        if method not in ("alpha", "convex"):
+            return _comparison(points, proj, n_groups, options, names, bar)
+        sphere = getattr(proj, "sphere", False)
+        alpha = 0.0 if method == "convex" else options.alpha
+        raw = solve_checked(
+            proj.lonlat if sphere else proj.xy,
+            points.codes,
+            n_groups,
+            alpha=None if alpha is None else np.full(n_groups, alpha),
+            holes=options.holes,
+            components=options.components,
+            search=options.search,
+            max_iterations=options.max_iterations,
+            outliers=options.outliers,
+            # None: the computation coordinates are the output ones
+            # (projected input used as it is)
+            out=proj.out if sphere or proj.out is not proj.xy else None,
+            progress=bar,
+            n_jobs=options.n_jobs,
+            sphere=sphere,
+            polar=getattr(proj, "polar", None),
+            name_groups=names,
+        )
+        res, certain = raw.shapes, raw.certain
+        geometry = res.geometry
+        if method == "convex" and not sphere:  # (the sphere's is the kernel's)
+            convex = convex_hulls(proj.out, points.codes, n_groups)
+            geometry = np.where(res.degenerate, geometry, convex)
+        # "ladder"/"bisect" name the search that gave the alpha
+        exact = method == "convex" or options.search == "exact"
+        return Hulls(
+            geometry=geometry,
+            area=res.area,  # area_m2 (on the ellipsoid) comes at the end
+            alpha=res.alpha,
+            labels=np.full(n_groups, method if exact else options.search, dtype=object),
+            degenerate=res.degenerate,
+            keep=np.ones(n_groups, dtype=bool),
+            outlier=res.outlier,
+            reason=res.reason,
+            made=res.geometry,
+            certain=certain,
+        )
     finally:
         if bar is not None:  # groups of 1-2 points are done too: the phase ends full
             bar.update(n_groups)
@@ -715,71 +726,8 @@ def _comparison(points, proj, n_groups: int, options: Options, names, bar) -> Hu
         keep=np.ones(n_groups, dtype=bool),
         outlier=np.zeros(len(points.codes), dtype=bool),
         reason=_reasons(made.degenerate, points, proj),
-        checked=np.zeros(n_groups, dtype=bool),
-    )
-
-
-def ensure_guarantee(
-    hulls: Hulls,
-    groups: Groups,
-    points: Points,
-    proj: gcrs.Projection,
-    options: Options,
-) -> Hulls:
-    """Check every group's polygon in the output coordinates; the rest are degenerate.
-
-    The guarantee of :func:`geoalpha.hull`: each group gets a valid Polygon or
-    MultiPolygon that covers every one of its input points
-    (``shapely.covers``, distance 0) in the coordinates it is returned in, or
-    it is declared degenerate (alpha NaN, a :class:`DegenerateGroupWarning`)
-    and goes to the ``degenerate=`` policy. Invalid polygons are repaired and
-    points left outside are taken in as vertices first
-    (:func:`geoalpha.arrays.guarantee.enforce`). Every method goes through here; the
-    points left out on purpose (``outliers=``) and, at a fixed ``alpha``
-    (which need not cover every point), coverage are not checked. Groups
-    wider than 180 degrees of longitude have no faithful lon/lat polygon and
-    are only warned about (see :func:`verify_in_output_crs`). Groups that
-    :func:`compute` already verified in these coordinates (``checked``) are
-    not checked twice.
-    """
-    check = ~hulls.degenerate & ~proj.wide & ~hulls.checked
-    if not check.any():
-        return hulls
-    fixed_alpha = options.method == "alpha" and options.alpha is not None
-    components = options.components if options.method == "alpha" else None
-    geometry, failed = enforce(
-        hulls.geometry,
-        proj.out,
-        points.codes,
-        check,
-        # At a given alpha only alpha 0 (the convex hull) holds every point.
-        cover=(np.asarray(hulls.alpha) == 0) if fixed_alpha else True,
-        components=None if fixed_alpha else components,
-        exempt=hulls.outlier,
-    )
-    # A repair may have grown a hull over a row left out on purpose.
-    outlier = left_outside(hulls.outlier, geometry, proj.out, points.codes)
-    if failed.any():
-        which = np.flatnonzero(failed)
-        warnings.warn(
-            f"{len(which)} group(s) got no valid polygon covering all their points "
-            f"in the output CRS (float geometry is too coarse for them there): "
-            f"{_names(groups, which, points.n_points)}; they are treated as "
-            "degenerate",
-            DegenerateGroupWarning,
-            stacklevel=user_stacklevel(),
-        )
-        alpha = np.where(failed, np.nan, hulls.alpha)
-        return hulls._replace(
-            geometry=geometry,
-            alpha=alpha,
-            degenerate=hulls.degenerate | failed,
-            reason=np.where(failed & (hulls.reason == 0), 5, hulls.reason),
-            checked=(hulls.checked | check) & ~failed,
-            outlier=outlier,
-        )
-    return hulls._replace(
-        geometry=geometry, checked=hulls.checked | check, outlier=outlier
+        made=made.geometry,
+        certain=np.zeros(len(points.codes), dtype=bool),
     )
 
 
@@ -825,6 +773,9 @@ def degenerate_policy(
             "points"
         )
         redone = _buffer_in_output(geometry, sel, points.codes, proj)
+        cross = which[proj.crossing[which]]
+        if len(cross):
+            geometry[cross] = _split(geometry[cross], cross, points)
         if len(redone):
             done += (
                 f", except {_names(groups, redone)}: that buffer is no valid polygon "
@@ -846,10 +797,8 @@ def degenerate_policy(
         DegenerateGroupWarning,
         stacklevel=user_stacklevel(),
     )
-    checked = hulls.checked.copy()
-    checked[which] = False
     return hulls._replace(
-        geometry=geometry, area=area, degenerate=degenerate, keep=keep, checked=checked
+        geometry=geometry, area=area, degenerate=degenerate, keep=keep
     )
 
 
@@ -951,43 +900,173 @@ def _buffer_in_output(geometry, sel, codes, proj: gcrs.Projection) -> np.ndarray
     return redo
 
 
-def verify_in_output_crs(
-    geometry: np.ndarray,
+def split_at_antimeridian(hulls: Hulls, points: Points, proj: gcrs.Projection) -> Hulls:
+    """Split the hulls of groups across +-180 degrees there (RFC 7946).
+
+    Their polygons were built with unwrapped longitudes (beyond 180); the
+    parts get their input points' exact longitudes back (the round trip
+    through unwrapped longitudes rounds). :func:`guarantee` checks them.
+    """
+    which = np.flatnonzero(proj.crossing & ~hulls.degenerate)
+    if not len(which):
+        return hulls
+    geometry = hulls.geometry.copy()
+    geometry[which] = _split(geometry[which], which, points)
+    return hulls._replace(geometry=geometry)
+
+
+def _split(geoms: np.ndarray, which: np.ndarray, points: Points) -> np.ndarray:
+    """Split ``geoms`` (groups ``which``) at +-180 degrees, input longitudes back.
+
+    GEOS cuts only valid polygons: invalid ones are repaired first (and the
+    parts again, should restoring the longitudes break one).
+    """
+    parts = _valid(geoms)
+    parts = gcrs.split_antimeridian(parts)
+    lon, lat = points.coords[:, 0], points.coords[:, 1]
+    return _valid(gcrs.restore_longitudes(parts, which, lon, lat, points.codes))
+
+
+def _valid(geoms: np.ndarray) -> np.ndarray:
+    invalid = ~shapely.is_valid(geoms)
+    if not invalid.any():
+        return geoms
+    geoms = geoms.copy()
+    geoms[invalid] = repair_invalid(geoms[invalid])
+    return geoms
+
+
+def guarantee(
+    hulls: Hulls,
     groups: Groups,
     points: Points,
     proj: gcrs.Projection,
     options: Options,
-    checked: np.ndarray | None = None,
-    degenerate: np.ndarray | None = None,
-) -> np.ndarray:
-    """Make every geometry valid and covering its points in the output CRS.
+) -> Hulls:
+    """Check every group's polygon once, in the output CRS: repaired, or degenerate.
 
-    Repairs what the CRS round trip broke (``make_valid``, with a warning),
-    covers points a repair or a hull built in metres left outside (methods
-    other than ``"alpha"``), then splits antimeridian groups. Geometries
-    already verified in the output coordinates (``checked``) are not tested
-    again. Groups wider than 180 degrees of longitude get a warning, unless
-    they are ``degenerate`` (the warning of :func:`degenerate_policy` names
-    them).
+    The guarantee of :func:`geoalpha.hull`, after the last stage that makes a
+    polygon: a valid (Multi)Polygon covering every input point of its group
+    (``shapely.covers``, distance 0) in the CRS it is returned in, repaired
+    where needed (:func:`geoalpha.arrays.guarantee.enforce`), or the group is
+    declared degenerate (a :class:`DegenerateGroupWarning`) for the
+    ``degenerate=`` policy. Only the points that are not vertices of the
+    polygon :func:`compute` made (``Hulls.made``) are tested, where a group
+    still has it. Not checked: the rows left out on purpose (``outliers=``),
+    coverage at a given ``alpha``, groups wider than 180 degrees of longitude
+    (warned about), and a point at -180 degrees that a split hull holds at
+    +180 (or the reverse), named in the :class:`AntimeridianWarning`.
     """
-    geometry = geometry.copy()
-    invalid = np.zeros(len(geometry), dtype=bool)
-    todo = np.ones(len(geometry), dtype=bool) if checked is None else ~checked
-    invalid[todo] = ~shapely.is_valid(geometry[todo])
-    if invalid.any():
-        geometry[invalid] = repair_invalid(geometry[invalid])
-        told = invalid & ~proj.wide
-        if told.any():
-            warnings.warn(
-                f"{told.sum()} hull(s) became invalid in the input CRS "
-                "(coordinates too close for it) and were repaired with make_valid: "
-                + _names(groups, np.flatnonzero(told)),
-                GeoAlphaWarning,
-                stacklevel=user_stacklevel(),
-            )
+    xy, codes, geometry = points.coords, points.codes, hulls.geometry
+    check = ~hulls.degenerate
+    beyond = _beyond_the_line(geometry, xy, codes, proj.crossing & check)
+    exempt = hulls.outlier | beyond
+    fixed = options.method == "alpha" and options.alpha is not None
+    limit, unfaithful = None, np.zeros_like(check)
+    if options.method == "alpha" and not fixed:  # a split adds parts
+        polar = getattr(proj, "polar", None)
+        split = proj.crossing | proj.wide if polar is None else proj.crossing | polar
+        limit = np.where(split, np.inf, options.components)
+        # No lon/lat polygon is the alpha shape of a group wider than 180 degrees.
+        unfaithful = check & proj.wide
+    geometry, failed = enforce(
+        geometry,
+        xy,
+        codes,
+        check & ~unfaithful,
+        # At a given alpha only alpha 0 (the convex hull) holds every point.
+        cover=(np.asarray(hulls.alpha) == 0) if fixed else True,
+        components=limit,
+        test=~_still_certain(hulls, codes),
+        exempt=exempt if exempt.any() else None,
+        n_jobs=options.n_jobs,
+    )
+    # A repair may have grown a hull over a row left out on purpose.
+    outlier = left_outside(hulls.outlier, geometry, xy, codes)
+    if failed.any():
+        which = np.flatnonzero(failed)
+        warnings.warn(
+            f"{len(which)} group(s) got no valid polygon covering all their points "
+            f"in the output CRS (float geometry is too coarse for them there): "
+            f"{_names(groups, which, points.n_points)}; they are treated as "
+            "degenerate",
+            DegenerateGroupWarning,
+            stacklevel=user_stacklevel(),
+        )
+    failed |= unfaithful  # (degenerate_policy says why)
+    geometry[failed] = EMPTY_POLYGON
+    return hulls._replace(
+        geometry=geometry,
+        alpha=np.where(failed, np.nan, hulls.alpha),
+        degenerate=hulls.degenerate | failed,
+        reason=np.where(failed & (hulls.reason == 0), 5, hulls.reason),
+        outlier=outlier,
+    )
+
+
+def _still_certain(hulls: Hulls, codes: np.ndarray) -> np.ndarray:
+    """Per point: certain to be covered, its group's polygon being the one made."""
+    if hulls.geometry is hulls.made or not hulls.certain.any():
+        return hulls.certain
+    same = np.fromiter(
+        (a is b for a, b in zip(hulls.geometry, hulls.made, strict=True)),
+        dtype=bool,
+        count=len(hulls.made),
+    )
+    return hulls.certain & same[codes]
+
+
+def _beyond_the_line(geometry, xy, codes, crossing) -> np.ndarray:
+    """Points at exactly +-180 degrees that their group's hull holds only at -+180.
+
+    -180 and +180 are one meridian but not one coordinate: a split hull that
+    reaches the line from the east, at +180, misses a point given at -180.
+    """
+    beyond = np.zeros(len(codes), dtype=bool)
+    if not crossing.any():
+        return beyond
+    at = np.flatnonzero(crossing[codes] & (np.abs(xy[:, 0]) == 180.0))
+    if len(at):
+        mirror = xy[at] * np.array([-1.0, 1.0])
+        beyond[at] = ~covered(geometry, xy[at], codes[at]) & covered(
+            geometry, mirror, codes[at]
+        )
+    return beyond
+
+
+def warn_output_crs(hulls: Hulls, groups: Groups, points: Points, proj) -> None:
+    """Warn about the groups split at +-180 degrees and those wider than 180.
+
+    Points at exactly -180 degrees that a split hull holds only at +180 (or
+    the reverse) are named (:func:`_beyond_the_line`).
+    """
     if proj.crossing.any():
-        geometry = _split_at_antimeridian(geometry, groups, points, proj)
-    wide = proj.wide if degenerate is None else proj.wide & ~degenerate
+        beyond = _beyond_the_line(
+            hulls.geometry,
+            points.coords,
+            points.codes,
+            proj.crossing & ~hulls.degenerate,
+        )
+        crossing = np.flatnonzero(proj.crossing)
+        message = (
+            f"{len(crossing)} group(s) cross the antimeridian (+-180 degrees): "
+            f"{_names(groups, crossing)}; their hulls are MultiPolygons split at "
+            "+-180 degrees (RFC 7946)"
+        )
+        if beyond.any():
+            missed = points.codes[beyond]
+            message += (
+                f"; {beyond.sum()} of their point(s) lie outside the split hull, on "
+                "the other side of the +-180 line from it (a longitude of -180 for a "
+                "hull that reaches the line at +180, or the reverse): "
+                + _names(
+                    groups,
+                    np.unique(missed),
+                    np.bincount(missed, minlength=len(proj.crossing)),
+                )
+            )
+        warnings.warn(message, AntimeridianWarning, stacklevel=user_stacklevel())
+    wide = proj.wide & ~hulls.degenerate
     if wide.any():
         warnings.warn(
             f"{wide.sum()} group(s) span more than 180 degrees of longitude: "
@@ -1000,69 +1079,10 @@ def verify_in_output_crs(
             GeoAlphaWarning,
             stacklevel=user_stacklevel(),
         )
-    if options.method != "alpha":  # repairs may have cut a sliver holding a point
-        plain = ~proj.crossing[points.codes]
-        xy, codes = proj.out[plain], points.codes[plain]
-        geometry = cover_points(geometry, xy, codes)
-        outside = ~covered(geometry, xy, codes) & ~proj.wide[codes]
-        if outside.any():
-            which = np.unique(codes[outside])
-            warnings.warn(
-                f"{outside.sum()} point(s) of {len(which)} group(s) lie outside their "
-                "hull in the output CRS, which GEOS could not grow over them: "
-                + _names(
-                    groups, which, np.bincount(codes[outside], minlength=len(geometry))
-                )
-                + f"; {setting('method', 'alpha')} declares such groups degenerate "
-                "instead",
-                GeoAlphaWarning,
-                stacklevel=user_stacklevel(),
-            )
-    return geometry
-
-
-def _split_at_antimeridian(geometry, groups, points, proj) -> np.ndarray:
-    """Split the hulls of antimeridian-crossing groups at +-180 degrees (RFC 7946).
-
-    The vertices get their input points' exact longitudes back (the round
-    trip through unwrapped longitudes rounds), and every crossing group is
-    checked again: valid (repaired otherwise) and covering its points in the
-    output coordinates. Points the split polygon still leaves outside (a
-    point at exactly -180 whose polygon reaches the line from the east, at
-    +180) are counted in the warning.
-    """
-    crossing = np.flatnonzero(proj.crossing)
-    lon, lat = points.coords[:, 0], points.coords[:, 1]
-    parts = gcrs.split_antimeridian(geometry[crossing])
-    parts = gcrs.restore_longitudes(parts, crossing, lon, lat, points.codes)
-    invalid = ~shapely.is_valid(parts)
-    if invalid.any():
-        parts[invalid] = repair_invalid(parts[invalid])
-    geometry[crossing] = parts
-    mine = proj.crossing[points.codes]
-    outside = ~covered(
-        parts, points.coords[mine], np.searchsorted(crossing, points.codes[mine])
-    )
-    message = (
-        f"{len(crossing)} group(s) cross the antimeridian (+-180 degrees): "
-        f"{_names(groups, crossing)}; their hulls are MultiPolygons split at "
-        "+-180 degrees (RFC 7946)"
-    )
-    if outside.any():
-        missed = points.codes[mine][outside]
-        which = np.unique(missed)
-        message += (
-            f"; {outside.sum()} of their point(s) lie outside the split hull, on the "
-            "other side of the +-180 line from it (a longitude of -180 for a hull "
-            "that reaches the line at +180, or the reverse): "
-            + _names(groups, which, np.bincount(missed, minlength=len(geometry)))
-        )
-    warnings.warn(message, AntimeridianWarning, stacklevel=user_stacklevel())
-    return geometry
 
 
 def area_m2(
-    hulls: Hulls, geometry: np.ndarray, proj: gcrs.Projection, options: Options
+    hulls: Hulls, before_split: np.ndarray, proj: gcrs.Projection, options: Options
 ) -> np.ndarray:
     """Return ``area_m2``: geodesic, on the WGS84 ellipsoid, whatever ``crs=``.
 
@@ -1070,17 +1090,17 @@ def area_m2(
     longitude/latitude: :func:`geoalpha.frame.crs.geodesic_areas`), so
     antimeridian groups get the sum of their parts and polar ones their cap;
     groups wider than 180 degrees of longitude, whose output polygon cannot
-    be faithful, that of their hull before the output checks (the same
-    vertices, joined by geodesics). With ``crs=None`` the computation is
+    be faithful, that of their hull before the split (``before_split``: the
+    same vertices, joined by geodesics). With ``crs=None`` the computation is
     planar and so is the area, in the input's units (no CRS: no ellipsoid).
     """
     if options.crs is None:
         return hulls.area
-    area = gcrs.geodesic_areas(geometry, proj.source, n_jobs=options.n_jobs)
-    wide = np.flatnonzero(proj.wide)
+    area = gcrs.geodesic_areas(hulls.geometry, proj.source, n_jobs=options.n_jobs)
+    wide = np.flatnonzero(proj.wide & ~hulls.degenerate)
     if len(wide):
         area[wide] = gcrs.geodesic_areas(
-            hulls.geometry[wide], proj.source, n_jobs=options.n_jobs
+            before_split[wide], proj.source, n_jobs=options.n_jobs
         )
     return area
 
@@ -1090,11 +1110,11 @@ def table(
     points: Points,
     proj: gcrs.Projection,
     hulls: Hulls,
-    geometry: np.ndarray,
     crs,
     geometry_name: str = "geometry",
 ):
     """Build the result: one row per kept group (:func:`~.schema.result_frame`)."""
+    geometry = hulls.geometry
     with np.errstate(divide="ignore"):
         radius = 1.0 / hulls.alpha
     keep = hulls.keep
@@ -1158,9 +1178,7 @@ def grow(
     area = np.asarray(hulls.area, dtype=float).copy()
     area[sel[exact]] = shapely.area(grown)
     geometry[sel[exact]] = proj.to_output(grown, sel[exact])
-    checked = hulls.checked.copy()
-    checked[sel[exact]] = False
-    return hulls._replace(geometry=geometry, area=area, checked=checked)
+    return hulls._replace(geometry=geometry, area=area)
 
 
 def report_outliers(
