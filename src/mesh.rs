@@ -272,6 +272,9 @@ fn close_pairs(points: &[Xy], mesh: &Mesh, close: f64, s: f64) -> Vec<(u32, u32)
         .collect()
 }
 
+/// Triangles and their neighbours, as flat arrays.
+type Triangles = (Vec<[u32; 3]>, Vec<[u32; 3]>);
+
 /// The triangle and neighbour arrays, the triangles numbered along the
 /// Z-order curve, so that the sweeps, which visit a triangle and its
 /// neighbours, find them close in memory (spade's own numbering follows the
@@ -288,7 +291,7 @@ fn fill_arrays(t: &DelaunayTriangulation<Vertex>, mesh: &mut Mesh) {
     let face = |f: FaceHandle<PossiblyOuterTag, Vertex, (), (), ()>| {
         f.as_inner().map_or(NONE, |f| f.fix().index() as u32)
     };
-    let faces: Vec<(u32, [u32; 3], [u32; 3])> = by_rank
+    let (faces, (tri, mut nb)): (Vec<u32>, Triangles) = by_rank
         .par_iter()
         .with_min_len(PARALLEL_POINTS / 8)
         .flat_map_iter(|&v| {
@@ -301,22 +304,20 @@ fn fill_arrays(t: &DelaunayTriangulation<Vertex>, mesh: &mut Mesh) {
                 (f != NONE && lowest).then(|| {
                     let tri = [v.data().id, next.from().data().id, prev.from().data().id];
                     let nb = [e, next, prev].map(|d| face(d.rev().face()));
-                    (f, tri, nb)
+                    (f, (tri, nb))
                 })
             })
         })
-        .collect();
+        .unzip();
     let mut place = vec![NONE; t.num_all_faces()];
-    for (p, f) in faces.iter().enumerate() {
-        place[f.0 as usize] = p as u32;
+    for (p, &f) in faces.iter().enumerate() {
+        place[f as usize] = p as u32;
     }
-    mesh.tri = faces.par_iter().map(|f| f.1).collect();
-    mesh.nb = faces
-        .par_iter()
-        .map(|f| {
-            f.2.map(|s| if s == NONE { NONE } else { place[s as usize] })
-        })
-        .collect();
+    nb.par_iter_mut()
+        .with_min_len(PARALLEL_POINTS)
+        .for_each(|n| *n = n.map(|s| if s == NONE { NONE } else { place[s as usize] }));
+    mesh.tri = tri;
+    mesh.nb = nb;
 }
 
 #[cfg(test)]
