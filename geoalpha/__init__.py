@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import importlib
 import sys
-from importlib.metadata import PackageNotFoundError, version
 from typing import TYPE_CHECKING
 
 from geoalpha.errors import (
@@ -32,11 +31,6 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs
         optimal_alpha,
     )
     from geoalpha.hulls import hull, outlier_rows
-
-try:
-    __version__ = version("geoalpha")
-except PackageNotFoundError:  # pragma: no cover - running from a source tree
-    __version__ = "0+unknown"
 
 __all__ = [
     "AlphaShapes",
@@ -69,7 +63,24 @@ _LAZY = {
 _MODULES = {"datasets": "geoalpha.io.datasets"}
 
 
+def _version() -> str:
+    """Return the installed distribution's version.
+
+    Read on first use of ``geoalpha.__version__``: the metadata machinery
+    costs more than the rest of ``import geoalpha``.
+    """
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("geoalpha")
+    except PackageNotFoundError:  # pragma: no cover - running from a source tree
+        return "0+unknown"
+
+
 def __getattr__(name: str):
+    if name == "__version__":
+        globals()[name] = value = _version()
+        return value
     if name in _LAZY:
         value = getattr(importlib.import_module(_LAZY[name]), name)
         globals()[name] = value

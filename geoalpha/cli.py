@@ -20,7 +20,6 @@ from collections.abc import Iterator
 
 import click
 
-from geoalpha import __version__
 from geoalpha.errors import FLAGS, GeoAlphaError, InvalidInputError
 from geoalpha.io.datasets import DATASETS
 from geoalpha.io.postgis import is_postgres_url
@@ -166,7 +165,7 @@ def _print_version(ctx: click.Context, _param, value: bool) -> None:
     """``--version``: the package, its compiled kernel and spade (no numpy import)."""
     if not value or ctx.resilient_parsing:
         return
-    from geoalpha import _kernel
+    from geoalpha import __version__, _kernel
 
     click.echo(
         f"geoalpha {__version__} (kernel {_kernel.__version__}, "
