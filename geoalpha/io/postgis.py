@@ -14,7 +14,6 @@ from __future__ import annotations
 import contextlib
 import os
 import re
-import uuid
 import warnings
 from collections.abc import Iterator
 from typing import TYPE_CHECKING, Any
@@ -723,6 +722,8 @@ def write_postgis(
     frame = _promote_to_multi(gdf)
     geometry = frame.geometry.name
     where = _display(url)
+    import uuid  # (here: its import costs the command's --help 5 ms)
+
     temporary = f"geoalpha_tmp_{uuid.uuid4().hex}"
     with _connection(url, write=True) as conn:
         schema, exists = _check_target(conn, schema, name, table, overwrite, where)
