@@ -380,6 +380,16 @@ def solve_checked(
     :func:`geoalpha.hull` once they are in the output CRS. Raises
     :class:`InvalidInputError` for the groups the sphere refuses; warns
     about the searches that gave up.
+
+    Examples
+    --------
+    >>> xy = np.array([[0, 0], [4, 0], [4, 4], [0, 4], [2, 3.5]])
+    >>> raw = solve_checked(
+    ...     xy, np.zeros(5, dtype=np.int64), 1, alpha=None, holes=False,
+    ...     components=1, search="exact", max_iterations=100, outliers=0,
+    ... )
+    >>> float(raw.shapes.geometry[0].area), raw.certain.tolist()
+    (15.0, [True, True, True, True, True])
     """
     rows = np.bincount(codes, minlength=n_groups)
     if sphere and out is None:
