@@ -283,20 +283,31 @@ def _concat(parts) -> dict:
 
 
 def _geometries(coords, res, n_groups: int) -> np.ndarray:
-    """One Polygon, MultiPolygon or empty Polygon per group, in one call."""
+    """One Polygon, MultiPolygon or empty Polygon per group, in two calls.
+
+    Every part is built as a Polygon at once; a group of one part takes it as
+    it is (no copy), the others are gathered into MultiPolygons.
+    """
     out = np.full(n_groups, EMPTY_POLYGON, dtype=object)
     n_parts = res["n_parts"]
     if not n_parts.any():
         return out
-    multi = shapely.from_ragged_array(
-        shapely.GeometryType.MULTIPOLYGON,
+    parts = shapely.from_ragged_array(
+        shapely.GeometryType.POLYGON,
         np.take(coords, res["ring_vertex"], axis=0),
-        (res["ring_offsets"], res["polygon_offsets"], res["group_offsets"]),
+        (res["ring_offsets"], res["polygon_offsets"]),
     )
+    first = res["group_offsets"][:-1]
     one = n_parts == 1
-    out[one] = shapely.get_geometry(multi[one], 0)
-    many = n_parts > 1
-    out[many] = multi[many]
+    out[one] = parts[first[one]]
+    many = np.flatnonzero(n_parts > 1)
+    if len(many):
+        counts = n_parts[many].astype(np.intp)
+        owner = np.repeat(np.arange(len(many)), counts)
+        # each part's index: its group's first part + its rank in the group
+        rank = np.arange(len(owner)) - np.repeat(np.cumsum(counts) - counts, counts)
+        index = np.repeat(first[many], counts) + rank
+        out[many] = shapely.multipolygons(parts[index], indices=owner)
     return out
 
 
