@@ -17,6 +17,7 @@ pub mod spectrum;
 pub mod sphere;
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::sync::{Arc, Mutex};
 
 use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
@@ -134,19 +135,8 @@ fn py_alpha_shapes<'py>(
             sphere,
         },
     };
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .map_err(|e| PyRuntimeError::new_err(format!("no thread pool: {e}")))?;
-    let result =
-        py.detach(|| catch_unwind(AssertUnwindSafe(|| pool.install(|| batch::run(&input)))));
-    match result {
-        Ok(Ok(output)) => to_dict(py, output),
-        Ok(Err(err)) => Err(PyValueError::new_err(err.to_string())),
-        Err(_) => Err(PyRuntimeError::new_err(
-            "geoalpha's kernel failed unexpectedly (a bug: please report it with the input)",
-        )),
-    }
+    let output = detached(py, threads, || batch::run(&input))?;
+    to_dict(py, output)
 }
 
 /// Areas (m²) on the WGS84 ellipsoid of (multi)polygons in longitude/latitude.
@@ -168,22 +158,56 @@ fn py_geodesic_areas<'py>(
     let rings = ring_offsets.as_slice()?;
     let polygons = polygon_offsets.as_slice()?;
     let geometries = geometry_offsets.as_slice()?;
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .map_err(|e| PyRuntimeError::new_err(format!("no thread pool: {e}")))?;
-    let result = py.detach(|| {
-        catch_unwind(AssertUnwindSafe(|| {
-            pool.install(|| geodesic::polygon_areas(lon_, lat_, rings, polygons, geometries))
-        }))
-    });
-    match result {
-        Ok(Ok(areas)) => Ok(areas.into_pyarray(py)),
+    let areas = detached(py, threads, || {
+        geodesic::polygon_areas(lon_, lat_, rings, polygons, geometries)
+    })?;
+    Ok(areas.into_pyarray(py))
+}
+
+/// Runs `work` on [`pool`]`(threads)` with the GIL released: its error comes
+/// back as a `ValueError`, a panic as a `RuntimeError` (none crosses into
+/// Python).
+fn detached<T: Send, E: Send + std::fmt::Display>(
+    py: Python<'_>,
+    threads: usize,
+    work: impl FnOnce() -> Result<T, E> + Send,
+) -> PyResult<T> {
+    let pool = pool(threads)?;
+    match py.detach(|| catch_unwind(AssertUnwindSafe(|| pool.install(work)))) {
+        Ok(Ok(value)) => Ok(value),
         Ok(Err(err)) => Err(PyValueError::new_err(err.to_string())),
         Err(_) => Err(PyRuntimeError::new_err(
             "geoalpha's kernel failed unexpectedly (a bug: please report it with the input)",
         )),
     }
+}
+
+/// The thread pool of `threads` threads (0: one per core), built once per
+/// process and count: building one costs more than a small call's work.
+///
+/// A child made by `fork` has none of its parent's threads, so it forgets
+/// the parent's pools (never dropped there, never used) and builds its own;
+/// the lock is only taken with the GIL held, so no other thread holds it
+/// when Python forks.
+fn pool(threads: usize) -> PyResult<Arc<rayon::ThreadPool>> {
+    static POOLS: Mutex<Vec<(u32, usize, Arc<rayon::ThreadPool>)>> = Mutex::new(Vec::new());
+    let pid = std::process::id();
+    let mut pools = POOLS
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner());
+    if pools.first().is_some_and(|&(owner, _, _)| owner != pid) {
+        std::mem::forget(std::mem::take(&mut *pools));
+    }
+    if let Some((_, _, pool)) = pools.iter().find(|&&(_, n, _)| n == threads) {
+        return Ok(Arc::clone(pool));
+    }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| PyRuntimeError::new_err(format!("no thread pool: {e}")))?;
+    let pool = Arc::new(pool);
+    pools.push((pid, threads, Arc::clone(&pool)));
+    Ok(pool)
 }
 
 /// The compiled kernel of geoalpha.

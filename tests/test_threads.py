@@ -171,3 +171,34 @@ def test_bad_options_are_reported_with_threads(clusters):
     n_groups = int(codes.max()) + 1
     with pytest.raises(InvalidInputError, match="alpha must be finite"):
         alpha_shapes(xy, codes, alpha=np.full(n_groups, -1.0), n_jobs=2)
+
+
+@pytest.mark.skipif(not hasattr(__import__("os"), "fork"), reason="no os.fork")
+def test_a_forked_child_gets_its_own_threads(clusters):
+    """The kernel keeps its thread pools; a child made by fork has none of the
+    parent's threads, so it must build its own rather than wait for ever."""
+    import os
+    import time
+
+    xy, codes = clusters
+    parent = alpha_shapes(xy, codes, n_jobs=2)  # the pools exist now
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)  # fork with threads
+        pid = os.fork()
+    if pid == 0:  # the child: same answer on 2 threads, then exit at once
+        code = 2
+        try:
+            child = alpha_shapes(xy, codes, n_jobs=2)
+            code = 0 if np.array_equal(child.alpha, parent.alpha, equal_nan=True) else 1
+        finally:
+            os._exit(code)
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:
+        done, status = os.waitpid(pid, os.WNOHANG)
+        if done:
+            assert os.waitstatus_to_exitcode(status) == 0, "the child's result differs"
+            return
+        time.sleep(0.05)
+    os.kill(pid, 9)
+    os.waitpid(pid, 0)
+    pytest.fail("the forked child's kernel call hung (the parent's thread pool)")
