@@ -12,6 +12,9 @@ no parallel query, one BLAS/OpenMP thread):
 - PostGIS: ``SELECT cluster, ST_AsBinary(ST_OptimalAlphaShape(ST_Collect(geom),
   false, 1)) FROM bench_uk GROUP BY cluster``, rows fetched (SFCGAL 1.4 /
   CGAL; its alpha is the squared circumradius);
+- PostGIS, the same shapes and their areas on the WGS84 spheroid
+  (``ST_Area(ST_Transform(shape, 4326)::geography)``): the columns ``hull()``
+  returns (its ``area_m2``), a side row; the goals compare with the first;
 - geoalpha ``hull(points_27700, by="Cluster")`` (``holes=False,
   components=1``, the same problem), from a GeoDataFrame in memory;
 - geoalpha ``hull`` from the lon/lat points (CRS estimation and two
@@ -85,6 +88,15 @@ LINES = "bench_uk_lines"  # the others with at most 3 points, one query each
 QUERY = (
     "SELECT cluster, ST_AsBinary(ST_OptimalAlphaShape(ST_Collect(geom), false, 1)) "
     "FROM {table} {where} GROUP BY cluster ORDER BY cluster"
+)
+#: The same shapes with what hull() also returns for each: the area on the
+#: WGS84 spheroid (geography's ST_Area, GeographicLib's algorithm, as
+#: ``area_m2``). A side row: the goal is measured against QUERY.
+QUERY_AREA = (
+    "SELECT cluster, ST_AsBinary(shape), "
+    "ST_Area(ST_Transform(shape, 4326)::geography) FROM ("
+    "SELECT cluster, ST_OptimalAlphaShape(ST_Collect(geom), false, 1) AS shape "
+    "FROM {table} GROUP BY cluster ORDER BY cluster) AS hulls"
 )
 EQUAL_TOLERANCE = 1e-9  # symmetric difference area / polygon area
 VERDICTS = (
@@ -207,6 +219,9 @@ def main(argv=None) -> int:
         def postgis():
             return conn.execute(QUERY.format(table=TABLE, where="")).fetchall()
 
+        def postgis_area():
+            return conn.execute(QUERY_AREA.format(table=TABLE)).fetchall()
+
         def hull_metric():
             return timed_metric.alpha.hull(by="Cluster", progress=False)
 
@@ -223,6 +238,9 @@ def main(argv=None) -> int:
 
         runs = {
             "PostGIS ST_OptimalAlphaShape GROUP BY": postgis,
+            "PostGIS, the same + ST_Area(geography) (the columns hull() gives)": (
+                postgis_area
+            ),
             "geoalpha hull() on EPSG:27700 points": hull_metric,
             "geoalpha hull() on lon/lat points": hull_lonlat,
             "geoalpha read_postgis(url) + hull()": read_and_hull,
