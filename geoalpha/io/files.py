@@ -167,9 +167,7 @@ def read_input_points(
     source = os.fspath(path)
     shown = redact(source)
     auto = isinstance(crs, str) and crs.strip().lower() == "auto"
-    if is_gdal_connection(source):
-        raise gdal_connection_error(source)
-    if is_postgres_url(source):  # layer: schema.table, or sql=
+    if _database(source, None):  # layer: schema.table, or sql=
         if x is not None or y is not None:
             raise InvalidInputError(
                 f"{_term('x= and y=', '--x and --y')} apply to tables (CSV) only"
@@ -422,8 +420,6 @@ def _check_lonlat(xs, ys, crs, source: str, x: str, y: str) -> None:
 
     if crs is None:
         return
-    xs = np.asarray(xs, dtype=float)
-    ys = np.asarray(ys, dtype=float)
     finite = np.isfinite(xs) & np.isfinite(ys)
     with np.errstate(invalid="ignore"):
         inside = (np.abs(xs) <= 180) & (np.abs(ys) <= 90)
@@ -653,7 +649,7 @@ def check_output(
 
 
 def _database(path, engine) -> bool:
-    """Tell whether ``path`` names a PostGIS table (``postgresql://`` URL)."""
+    """Tell whether ``path`` is a ``postgresql://`` URL; refuse ``PG:`` strings."""
     if is_gdal_connection(path):
         raise gdal_connection_error(path)
     if not is_postgres_url(path):
@@ -732,12 +728,8 @@ def _pid_alive(pid: int) -> bool:
         return True
     try:
         os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:  # another user's live process
-        return True
-    except OSError:  # pragma: no cover - e.g. Windows without that pid
-        return False
+    except OSError as err:  # no such process, or another user's live one
+        return isinstance(err, PermissionError)
     return True
 
 
@@ -814,18 +806,15 @@ def _move_into_place(
 def _place_new(source: Path, destination: Path) -> None:
     """Move ``source`` to ``destination``; FileExistsError if that name is taken."""
     try:
-        try:
-            os.link(source, destination)
-        except FileExistsError:
-            raise
-        except OSError:
-            # No hard links here (some network or FAT file systems): claim the
-            # name with an exclusive create, then replace that placeholder.
-            os.close(os.open(destination, os.O_CREAT | os.O_EXCL | os.O_WRONLY))
-            os.replace(source, destination)
-            return
-    except FileExistsError:
+        os.link(source, destination)
+    except FileExistsError:  # (its filename is the source)
         raise FileExistsError(errno.EEXIST, "file exists", str(destination)) from None
+    except OSError:
+        # No hard links here (some network or FAT file systems): claim the
+        # name with an exclusive create, then replace that placeholder.
+        os.close(os.open(destination, os.O_CREAT | os.O_EXCL | os.O_WRONLY))
+        os.replace(source, destination)
+        return
     source.unlink()
 
 

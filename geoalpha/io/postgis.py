@@ -18,7 +18,7 @@ import warnings
 from collections.abc import Iterator
 from typing import TYPE_CHECKING, Any
 
-from geoalpha.errors import DatabaseError, InvalidInputError, setting
+from geoalpha.errors import DatabaseError, InvalidInputError, first_n, setting
 from geoalpha.io.redact import redact as redact_text
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -302,10 +302,7 @@ def _geometry_tables(conn, limit: int = 20) -> str:
         "ORDER BY 1, 2 LIMIT %s",
         (limit + 1,),
     ).fetchall()
-    names = [f"{s}.{t}" for s, t in rows[:limit]]
-    if len(rows) > limit:
-        names.append("...")
-    return ", ".join(names) or "none"
+    return first_n((f"{s}.{t}" for s, t in rows), limit) or "none"
 
 
 def read_postgis(
