@@ -497,9 +497,10 @@ def write_hulls(
     Returns
     -------
     dict of str to str
-        Columns renamed to fit the Shapefile limit of 10 characters per field
-        name, ``{old: new}``; empty for the other formats or when nothing was
-        renamed.
+        Columns renamed to fit the Shapefile limit of 10 bytes per field name
+        (truncated, with a numbered suffix where they would collide ignoring
+        case: ``Local_Au_1``), ``{old: new}``; empty for the other formats or
+        when nothing was renamed.
 
     Raises
     ------
@@ -507,11 +508,6 @@ def write_hulls(
         As :func:`check_output`; also when ``path`` appeared while writing.
     geoalpha.errors.InvalidInputError
         As :func:`check_output`, and for an unknown engine.
-
-    Notes
-    -----
-    Shapefile field names longer than 10 bytes are truncated, with a numbered
-    suffix where they would collide ignoring case (``Local_Au_1``).
 
     Examples
     --------

@@ -383,8 +383,7 @@ def read_postgis(
         else:
             query = sql.strip().rstrip(";")
             source = "the query"
-        # the query as written (no parameters: no placeholders); binary:
-        # geometries as EWKB bytes, not hex text
+        # as written (no placeholders); binary: geometries as EWKB, not hex
         cursor = conn.cursor().execute(
             f"SELECT * FROM ({query}) AS _geoalpha_q LIMIT 0", binary=True
         )
@@ -405,14 +404,12 @@ def _read_frame(conn, query: str, description, column: str, typmod: int, source)
     import pandas as pd
     import shapely
 
+    names = [c.name for c in description]
     read = _read_points(conn, query, description, column, typmod)
     if read is None:
-        cursor = conn.cursor().execute(query, binary=True)
-        names = [c.name for c in cursor.description]
-        frame = pd.DataFrame.from_records(
-            cursor.fetchall(), columns=names, coerce_float=True
-        )
-        cursor.close()
+        with conn.cursor() as cursor:
+            rows = cursor.execute(query, binary=True).fetchall()
+        frame = pd.DataFrame.from_records(rows, columns=names, coerce_float=True)
         geometry = shapely.from_wkb(frame[column].to_numpy(dtype=object))
         srids = shapely.get_srid(geometry[~shapely.is_missing(geometry)])
         srids = sorted(set(srids.tolist()) - {0})
@@ -429,7 +426,7 @@ def _read_frame(conn, query: str, description, column: str, typmod: int, source)
     if column in frame:
         frame[column] = series
     else:
-        frame.insert([c.name for c in description].index(column), column, series)
+        frame.insert(names.index(column), column, series)
     return gpd.GeoDataFrame(frame, geometry=column, crs=crs)
 
 
