@@ -147,15 +147,7 @@ def read_points(
 
 
 def read_input_points(
-    path,
-    *,
-    x,
-    y,
-    crs,
-    layer,
-    planar_if_missing: bool = False,
-    sql: str | None = None,
-    geometry_column: str | None = None,
+    path, *, x, y, crs, layer, planar_if_missing=False, sql=None, geometry_column=None
 ):
     """:func:`read_points`; ``planar_if_missing``: no CRS means planar, no error.
 
@@ -709,14 +701,11 @@ def _make_staging(target: Path) -> Path:
     prefix = f".{target.name}.geoalpha-{_host_tag()}-{os.getpid()}-"
     try:
         return Path(tempfile.mkdtemp(prefix=prefix, dir=parent))
-    except PermissionError as err:
-        raise PermissionError(
-            f"cannot write to the output folder {parent}: permission denied"
-        ) from err
     except OSError as err:
-        raise OSError(
-            f"cannot write to the output folder {parent}: {err.strerror or err}"
-        ) from err
+        denied = isinstance(err, PermissionError)
+        why = "permission denied" if denied else err.strerror or err
+        kind = PermissionError if denied else OSError
+        raise kind(f"cannot write to the output folder {parent}: {why}") from err
 
 
 def _pid_alive(pid: int) -> bool:
