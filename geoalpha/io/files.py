@@ -21,9 +21,12 @@ from typing import TYPE_CHECKING, Any
 
 from geoalpha.errors import FLAGS, CRSWarning, InvalidInputError, did_you_mean
 from geoalpha.io.postgis import (
+    check_postgis_output,
     gdal_connection_error,
     is_gdal_connection,
     is_postgres_url,
+    read_postgis,
+    write_postgis,
 )
 from geoalpha.io.redact import redact, secrets_in
 
@@ -70,7 +73,6 @@ _DBF_NAME_BYTES = 10
 #: GeoPackage version written: 1.2 opens without a warning in the QGIS LTRs in
 #: the field (QGIS 3.22 warns on GDAL's default 1.4).
 GPKG_VERSION = "1.2"
-_LONLAT_COLUMNS = COORDINATE_NAMES[:4]
 
 PathLike = str | os.PathLike
 
@@ -78,10 +80,6 @@ PathLike = str | os.PathLike
 def _term(python: str, cli: str) -> str:
     """Name options as the ``geoalpha`` command does while it runs (--crs-in)."""
     return cli if FLAGS.get() else python
-
-
-# --------------------------------------------------------------------------
-# reading
 
 
 def read_points(
@@ -113,7 +111,6 @@ def read_points(
         none. ``"auto"`` never guesses: columns named as longitude/latitude
         are EPSG:4326, a file uses its own CRS, anything else is an error.
         None: planar numbers without CRS. A file's own CRS always wins.
-
     layer : str or int, optional
         Layer to read from a multi-layer file such as a GeoPackage; the first
         layer by default.
@@ -150,15 +147,7 @@ def read_points(
 
 
 def read_input_points(
-    path,
-    *,
-    x,
-    y,
-    crs,
-    layer,
-    planar_if_missing: bool = False,
-    sql: str | None = None,
-    geometry_column: str | None = None,
+    path, *, x, y, crs, layer, planar_if_missing=False, sql=None, geometry_column=None
 ):
     """:func:`read_points`; ``planar_if_missing``: no CRS means planar, no error.
 
@@ -170,11 +159,7 @@ def read_input_points(
     source = os.fspath(path)
     shown = redact(source)
     auto = isinstance(crs, str) and crs.strip().lower() == "auto"
-    if is_gdal_connection(source):
-        raise gdal_connection_error(source)
-    if is_postgres_url(source):  # layer: schema.table, or sql=
-        from geoalpha.io.postgis import read_postgis
-
+    if _database(source, None):  # layer: schema.table, or sql=
         if x is not None or y is not None:
             raise InvalidInputError(
                 f"{_term('x= and y=', '--x and --y')} apply to tables (CSV) only"
@@ -214,14 +199,14 @@ def read_input_points(
             )
         frame = _read_table(source, suffix)
         x, y = _find_coordinate_columns(list(frame.columns), x, y, shown)
-        if auto and not _looks_lonlat(x, y) and _looks_lonlat(y, x):
-            raise InvalidInputError(
-                f"{_term('x=', '--x ')}{x!r} and {_term('y=', '--y ')}{y!r} of "
-                f"{shown}: " + _swap_hint(x, y)
-            )
         if auto:
             if _looks_lonlat(x, y):
                 crs = parse_crs(4326)
+            elif _looks_lonlat(y, x):
+                raise InvalidInputError(
+                    f"{_term('x=', '--x ')}{x!r} and {_term('y=', '--y ')}{y!r} "
+                    f"of {shown}: " + _swap_hint(x, y)
+                )
             elif planar_if_missing:
                 crs = None
             else:
@@ -257,11 +242,9 @@ def read_input_points(
 
 
 def _looks_lonlat(x: str, y: str) -> bool:
-    """Tell whether column names say longitude/latitude."""
-    pair = (str(x).lower(), str(y).lower())
-    if pair in _LONLAT_COLUMNS:
-        return True
-    return ("lon" in pair[0] or "lng" in pair[0]) and "lat" in pair[1]
+    """Tell whether column names say longitude/latitude (lon/lat, lng/lat, ...)."""
+    x, y = str(x).lower(), str(y).lower()
+    return ("lon" in x or "lng" in x) and "lat" in y
 
 
 def _missing_crs(what: str) -> InvalidInputError:
@@ -406,9 +389,7 @@ def _points_from_table(frame: pd.DataFrame, source, x, y, crs) -> gpd.GeoDataFra
     xs, ys = values[x], values[y]
     _check_lonlat(xs, ys, crs, source, x, y)
     geometry = gpd.points_from_xy(xs, ys)
-    missing = np.isnan(xs) | np.isnan(ys)
-    if missing.any():
-        geometry[missing] = None  # missing, not POINT (NaN NaN)
+    geometry[np.isnan(xs) | np.isnan(ys)] = None  # missing, not POINT (NaN NaN)
     gdf = gpd.GeoDataFrame(frame, geometry=geometry, crs=crs)
     gdf.attrs["geoalpha_coordinates"] = (str(x), str(y))
     return gdf
@@ -431,8 +412,6 @@ def _check_lonlat(xs, ys, crs, source: str, x: str, y: str) -> None:
 
     if crs is None:
         return
-    xs = np.asarray(xs, dtype=float)
-    ys = np.asarray(ys, dtype=float)
     finite = np.isfinite(xs) & np.isfinite(ys)
     with np.errstate(invalid="ignore"):
         inside = (np.abs(xs) <= 180) & (np.abs(ys) <= 90)
@@ -455,11 +434,7 @@ def _check_lonlat(xs, ys, crs, source: str, x: str, y: str) -> None:
             f"{int(outside.sum())} points of {source} have {x}/{y} outside the "
             f"longitude/latitude range of {crs.to_string()}"
         )
-        with np.errstate(invalid="ignore"):
-            swapped = (np.abs(xs[finite]) <= 90).all() and (
-                np.abs(ys[finite]) <= 180
-            ).all()
-        if swapped:
+        if (np.abs(xs[finite]) <= 90).all() and (np.abs(ys[finite]) <= 180).all():
             message += "; " + _swap_hint(x, y)
         else:
             message += (
@@ -467,10 +442,6 @@ def _check_lonlat(xs, ys, crs, source: str, x: str, y: str) -> None:
                 f"{_term('crs=', '--crs-in')}, e.g. EPSG:27700"
             )
         raise InvalidInputError(message)
-
-
-# --------------------------------------------------------------------------
-# writing
 
 
 def write_hulls(
@@ -518,9 +489,10 @@ def write_hulls(
     Returns
     -------
     dict of str to str
-        Columns renamed to fit the Shapefile limit of 10 characters per field
-        name, ``{old: new}``; empty for the other formats or when nothing was
-        renamed.
+        Columns renamed to fit the Shapefile limit of 10 bytes per field name
+        (truncated, with a numbered suffix where they would collide ignoring
+        case: ``Local_Au_1``), ``{old: new}``; empty for the other formats or
+        when nothing was renamed.
 
     Raises
     ------
@@ -528,11 +500,6 @@ def write_hulls(
         As :func:`check_output`; also when ``path`` appeared while writing.
     geoalpha.errors.InvalidInputError
         As :func:`check_output`, and for an unknown engine.
-
-    Notes
-    -----
-    Shapefile field names longer than 10 bytes are truncated, with a numbered
-    suffix where they would collide ignoring case (``Local_Au_1``).
 
     Examples
     --------
@@ -554,8 +521,6 @@ def write_hulls(
             f"write_hulls() needs a GeoDataFrame; got {type(gdf).__name__}"
         )
     if _database(path, engine):
-        from geoalpha.io.postgis import write_postgis
-
         if extra_layers:
             raise InvalidInputError(
                 "extra layers apply to GeoPackage (.gpkg) output only, not PostGIS"
@@ -573,13 +538,9 @@ def write_hulls(
             f"extra layers apply to GeoPackage (.gpkg) output only, not {suffix}"
         )
     frame = _index_as_columns(gdf)
-    mapping: dict[str, str] = {}
-    if suffix == ".shp":
-        mapping = _shapefile_names(
-            [c for c in frame.columns if c != frame.geometry.name]
-        )
-        if mapping:
-            frame = frame.rename(columns=mapping)
+    mapping = _shapefile_names(frame) if suffix == ".shp" else {}
+    if mapping:
+        frame = frame.rename(columns=mapping)
     layers = [
         (frame, gdf, layer),
         *((x, x, n) for n, x in (extra_layers or {}).items()),
@@ -595,9 +556,28 @@ def write_hulls(
 
 def _write_layers(layers, staged: Path, suffix: str, engine, target: Path) -> None:
     """Write ``(frame, source, layer)`` triples into the staged file."""
+    kwargs: dict[str, Any] = {"driver": WRITE_FORMATS[suffix], "index": False}
+    if engine is not None:
+        kwargs["engine"] = engine
+    if suffix == ".gpkg" and engine == "fiona":
+        kwargs["VERSION"] = GPKG_VERSION
+    elif suffix == ".gpkg":
+        kwargs["dataset_options"] = {"VERSION": GPKG_VERSION}
+    elif suffix == ".shp":
+        kwargs["encoding"] = "UTF-8"
     try:
         for frame, source, layer in layers:
-            _write_staged(frame, source, staged, suffix, layer, engine)
+            if suffix == ".parquet":
+                _import_pyarrow_parquet()
+                source.to_parquet(staged)
+                continue
+            if suffix == ".gpkg":
+                kwargs["layer"] = layer or staged.stem or "hulls"
+            with warnings.catch_warnings():
+                # Output without CRS (planar input) is deliberate and reported
+                # by the caller; pyogrio's generic warning would only confuse.
+                warnings.filterwarnings("ignore", message=".*'crs' was not provided")
+                frame.to_file(staged, **kwargs)
     except (ImportError, InvalidInputError):
         raise
     except Exception as err:
@@ -611,30 +591,6 @@ def _write_layers(layers, staged: Path, suffix: str, engine, target: Path) -> No
                 f"the Shapefile writer did not write {prj.name} for CRS "
                 f"{crs.to_string()}; write another format instead"
             )
-
-
-def _write_staged(frame, gdf, staged: Path, suffix: str, layer, engine) -> None:
-    """Write the table to the staging file in the format ``suffix`` names."""
-    if suffix == ".parquet":
-        _import_pyarrow_parquet()
-        gdf.to_parquet(staged)
-        return
-    kwargs: dict[str, Any] = {"driver": WRITE_FORMATS[suffix], "index": False}
-    if engine is not None:
-        kwargs["engine"] = engine
-    if suffix == ".gpkg":
-        kwargs["layer"] = layer or staged.stem or "hulls"
-        if engine == "fiona":
-            kwargs["VERSION"] = GPKG_VERSION
-        else:
-            kwargs["dataset_options"] = {"VERSION": GPKG_VERSION}
-    if suffix == ".shp":
-        kwargs["encoding"] = "UTF-8"
-    with warnings.catch_warnings():
-        # Output without CRS (planar input) is deliberate and reported by the
-        # caller; pyogrio's generic warning about it would only confuse.
-        warnings.filterwarnings("ignore", message=".*'crs' was not provided")
-        frame.to_file(staged, **kwargs)
 
 
 def check_output(
@@ -674,8 +630,6 @@ def check_output(
     cannot tell the output format of hulls.csv: its extension must be one of .gpkg, ...
     """
     if _database(path, None):
-        from geoalpha.io.postgis import check_postgis_output
-
         check_postgis_output(os.fspath(path), layer, overwrite=overwrite)
         return
     target, _, _ = _check_target(path, layer, overwrite)
@@ -683,7 +637,7 @@ def check_output(
 
 
 def _database(path, engine) -> bool:
-    """Tell whether ``path`` names a PostGIS table (``postgresql://`` URL)."""
+    """Tell whether ``path`` is a ``postgresql://`` URL; refuse ``PG:`` strings."""
     if is_gdal_connection(path):
         raise gdal_connection_error(path)
     if not is_postgres_url(path):
@@ -747,14 +701,11 @@ def _make_staging(target: Path) -> Path:
     prefix = f".{target.name}.geoalpha-{_host_tag()}-{os.getpid()}-"
     try:
         return Path(tempfile.mkdtemp(prefix=prefix, dir=parent))
-    except PermissionError as err:
-        raise PermissionError(
-            f"cannot write to the output folder {parent}: permission denied"
-        ) from err
     except OSError as err:
-        raise OSError(
-            f"cannot write to the output folder {parent}: {err.strerror or err}"
-        ) from err
+        denied = isinstance(err, PermissionError)
+        why = "permission denied" if denied else err.strerror or err
+        kind = PermissionError if denied else OSError
+        raise kind(f"cannot write to the output folder {parent}: {why}") from err
 
 
 def _pid_alive(pid: int) -> bool:
@@ -762,12 +713,8 @@ def _pid_alive(pid: int) -> bool:
         return True
     try:
         os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:  # another user's live process
-        return True
-    except OSError:  # pragma: no cover - e.g. Windows without that pid
-        return False
+    except OSError as err:  # no such process, or another user's live one
+        return isinstance(err, PermissionError)
     return True
 
 
@@ -800,13 +747,8 @@ def remove_stale_staging(folder: PathLike) -> list[Path]:
         return removed
     for entry in entries:
         match = _STAGING.fullmatch(entry.name)
-        if (
-            not match
-            or match["host"] != host
-            or not entry.is_dir(follow_symlinks=False)
-        ):
-            continue
-        if not _pid_alive(int(match["pid"])):
+        ours = match and match["host"] == host and entry.is_dir(follow_symlinks=False)
+        if ours and not _pid_alive(int(match["pid"])):
             shutil.rmtree(entry.path, ignore_errors=True)
             removed.append(Path(entry.path))
     return removed
@@ -849,18 +791,15 @@ def _move_into_place(
 def _place_new(source: Path, destination: Path) -> None:
     """Move ``source`` to ``destination``; FileExistsError if that name is taken."""
     try:
-        try:
-            os.link(source, destination)
-        except FileExistsError:
-            raise
-        except OSError:
-            # No hard links here (some network or FAT file systems): claim the
-            # name with an exclusive create, then replace that placeholder.
-            os.close(os.open(destination, os.O_CREAT | os.O_EXCL | os.O_WRONLY))
-            os.replace(source, destination)
-            return
-    except FileExistsError:
+        os.link(source, destination)
+    except FileExistsError:  # (its filename is the source)
         raise FileExistsError(errno.EEXIST, "file exists", str(destination)) from None
+    except OSError:
+        # No hard links here (some network or FAT file systems): claim the
+        # name with an exclusive create, then replace that placeholder.
+        os.close(os.open(destination, os.O_CREAT | os.O_EXCL | os.O_WRONLY))
+        os.replace(source, destination)
+        return
     source.unlink()
 
 
@@ -868,15 +807,9 @@ def _index_as_columns(gdf):
     """Turn an index geopandas would write into ordinary columns."""
     import pandas as pd
 
-    index = gdf.index
-    named = any(name is not None for name in index.names)
-    if (
-        named
-        or isinstance(index, pd.MultiIndex)
-        or not pd.api.types.is_integer_dtype(index.dtype)
-    ):
-        return gdf.reset_index()
-    return gdf
+    index = gdf.index  # (a MultiIndex has dtype object)
+    plain = pd.api.types.is_integer_dtype(index.dtype)
+    return gdf if plain and set(index.names) == {None} else gdf.reset_index()
 
 
 def _truncate_bytes(name: str, limit: int) -> str:
@@ -885,11 +818,12 @@ def _truncate_bytes(name: str, limit: int) -> str:
     return encoded.decode("utf-8", errors="ignore")
 
 
-def _shapefile_names(columns: list) -> dict[str, str]:
+def _shapefile_names(frame) -> dict[str, str]:
     """Map column names that do not fit a dBASE field to unique short names.
 
     Names that fit are kept (and reserved first); see :func:`write_hulls`.
     """
+    columns = [c for c in frame.columns if c != frame.geometry.name]
     used: set[str] = set()
     keep: set[str] = set()
     for column in columns:

@@ -18,7 +18,8 @@ import warnings
 from collections.abc import Iterator
 from typing import TYPE_CHECKING, Any
 
-from geoalpha.errors import DatabaseError, InvalidInputError, setting
+from geoalpha.errors import DatabaseError, InvalidInputError, first_n, setting
+from geoalpha.io.redact import redact as redact_text
 
 if TYPE_CHECKING:  # pragma: no cover
     import geopandas as gpd
@@ -43,10 +44,6 @@ _IDENTIFIER_BYTES = 63  # PostgreSQL's NAMEDATALEN - 1
 _secrets: set[str] = set()
 # one part of schema.table: "quoted" ("" is a quote), or bare up to a dot
 _NAME_PART = re.compile(r'"(?P<quoted>(?:[^"]|"")*)"|(?P<bare>(?!")[^.]*)')
-
-
-# --------------------------------------------------------------------------
-# names and secrets
 
 
 def is_postgres_url(text: object) -> bool:
@@ -92,12 +89,7 @@ def redact(text: object) -> str:
     >>> redact("no password here")
     'no password here'
     """
-    from geoalpha.io.redact import redact as redact_text
-
-    secrets = set(_secrets)
-    if os.environ.get("PGPASSWORD"):
-        secrets.add(os.environ["PGPASSWORD"])
-    return redact_text(text, secrets)
+    return redact_text(text, {*_secrets, os.environ.get("PGPASSWORD", "")})
 
 
 def parse_table(name: str) -> tuple[str | None, str]:
@@ -144,10 +136,6 @@ def parse_table(name: str) -> tuple[str | None, str]:
 
 def _quote(*parts: str | None) -> str:
     return ".".join('"' + p.replace('"', '""') + '"' for p in parts if p is not None)
-
-
-# --------------------------------------------------------------------------
-# connections
 
 
 def _import_drivers():
@@ -235,28 +223,20 @@ def _connection(url: str, *, write: bool) -> Iterator[Any]:
         pool = sqlalchemy.pool.NullPool
         engine = sqlalchemy.create_engine(parsed, poolclass=pool, connect_args=args)
     where = _display(url)
+    connected = False
     try:
-        try:
-            conn_cm = engine.begin() if write else _read_only(url)
-            conn = conn_cm.__enter__()
-        except errors as err:
-            raise DatabaseError(f"cannot connect to {where}: {_message(err)}") from None
-        try:
+        with engine.begin() if write else _read_only(url) as conn:
+            connected = True
             if write:
                 _execute(conn, "SET TRANSACTION READ WRITE")
                 _execute(conn, f"SET LOCAL lock_timeout = '{_LOCK_TIMEOUT}'")
             yield conn
-        except BaseException as err:
-            conn_cm.__exit__(type(err), err, err.__traceback__)
-            cause = _database_cause(err, errors)
-            if cause is not None:
-                raise DatabaseError(f"{where}: {_message(cause)}") from None
+    except BaseException as err:
+        cause = _database_cause(err, errors)
+        if cause is None:
             raise
-        else:
-            try:
-                conn_cm.__exit__(None, None, None)
-            except errors as err:
-                raise DatabaseError(f"{where}: {_message(err)}") from None
+        where = where if connected else f"cannot connect to {where}"
+        raise DatabaseError(f"{where}: {_message(cause)}") from None
     finally:
         if engine is not None:
             engine.dispose()
@@ -266,8 +246,7 @@ def _connection(url: str, *, write: bool) -> Iterator[Any]:
 def _read_only(url) -> Iterator[Any]:
     """Open a psycopg connection in a read-only transaction; close it at the end.
 
-    An open ``psycopg.Connection`` stays open; a transaction it is in gets a
-    savepoint.
+    An open ``psycopg.Connection`` stays open (a savepoint if in a transaction).
     """
     import psycopg
 
@@ -323,14 +302,7 @@ def _geometry_tables(conn, limit: int = 20) -> str:
         "ORDER BY 1, 2 LIMIT %s",
         (limit + 1,),
     ).fetchall()
-    names = [f"{s}.{t}" for s, t in rows[:limit]]
-    if len(rows) > limit:
-        names.append("...")
-    return ", ".join(names) or "none"
-
-
-# --------------------------------------------------------------------------
-# reading
+    return first_n((f"{s}.{t}" for s, t in rows), limit) or "none"
 
 
 def read_postgis(
@@ -411,7 +383,10 @@ def read_postgis(
         else:
             query = sql.strip().rstrip(";")
             source = "the query"
-        cursor = _run_query(conn, f"SELECT * FROM ({query}) AS _geoalpha_q LIMIT 0")
+        # as written (no placeholders); binary: geometries as EWKB, not hex
+        cursor = conn.cursor().execute(
+            f"SELECT * FROM ({query}) AS _geoalpha_q LIMIT 0", binary=True
+        )
         description = cursor.description
         names = [c.name for c in description]
         geometries = [c.name for c in description if c.type_code == oid]
@@ -424,23 +399,17 @@ def read_postgis(
 
 
 def _read_frame(conn, query: str, description, column: str, typmod: int, source):
-    """Run ``query`` and return its rows as a GeoDataFrame.
-
-    Points come as arrays (:func:`_read_points`), anything else as rows whose
-    WKB is parsed in one call.
-    """
+    """Run ``query``: points as arrays (:func:`_read_points`), else rows of WKB."""
     import geopandas as gpd
     import pandas as pd
     import shapely
 
+    names = [c.name for c in description]
     read = _read_points(conn, query, description, column, typmod)
     if read is None:
-        cursor = _run_query(conn, query)
-        names = [c.name for c in cursor.description]
-        frame = pd.DataFrame.from_records(
-            cursor.fetchall(), columns=names, coerce_float=True
-        )
-        cursor.close()
+        with conn.cursor() as cursor:
+            rows = cursor.execute(query, binary=True).fetchall()
+        frame = pd.DataFrame.from_records(rows, columns=names, coerce_float=True)
         geometry = shapely.from_wkb(frame[column].to_numpy(dtype=object))
         srids = shapely.get_srid(geometry[~shapely.is_missing(geometry)])
         srids = sorted(set(srids.tolist()) - {0})
@@ -457,7 +426,7 @@ def _read_frame(conn, query: str, description, column: str, typmod: int, source)
     if column in frame:
         frame[column] = series
     else:
-        frame.insert([c.name for c in description].index(column), column, series)
+        frame.insert(names.index(column), column, series)
     return gpd.GeoDataFrame(frame, geometry=column, crs=crs)
 
 
@@ -498,13 +467,10 @@ def _read_points(conn, query: str, description, column: str, typmod: int):
         return None
     g = f"_ga_q.{_quote(column)}"
     srid = _point_typmod_srid(typmod)
-    checked = (
-        ""
-        if srid is not None
-        else f", ST_Zmflag({g}) AS _ga_zm, ST_SRID({g}) AS _ga_srid"
-    )
+    checked = ""
     aggregates = ["count(*)", "count(_ga_xy)", "string_agg(_ga_xy, ''::bytea)"]
     if srid is None:
+        checked = f", ST_Zmflag({g}) AS _ga_zm, ST_SRID({g}) AS _ga_srid"
         aggregates += ["max(_ga_zm)", "min(_ga_srid)", "max(_ga_srid)"]
     for c in others:
         name = _quote(c.name)
@@ -560,13 +526,6 @@ def _point_typmod_srid(typmod: int) -> int | None:
     return ((typmod & 0x0FFFFF00) - (typmod & 0x10000000)) >> 8
 
 
-def _run_query(conn, query: str):
-    """Execute the user's query as written (no parameters: no placeholders)."""
-    cursor = conn.cursor()
-    cursor.execute(query, binary=True)  # geometries as EWKB bytes, not hex text
-    return cursor
-
-
 def _crs_of(conn, srid: int):
     """Return the CRS of an SRID, from the database's own ``spatial_ref_sys``."""
     row = _execute(
@@ -577,9 +536,7 @@ def _crs_of(conn, srid: int):
     if row is None:
         raise DatabaseError(f"SRID {srid} is not in spatial_ref_sys")
     auth_name, auth_srid, srtext = row
-    if auth_name and auth_srid:
-        return f"{auth_name}:{auth_srid}"
-    return srtext
+    return f"{auth_name}:{auth_srid}" if auth_name and auth_srid else srtext
 
 
 def _pick_geometry(geometries, names, wanted, source) -> str:
@@ -606,10 +563,6 @@ def _pick_geometry(geometries, names, wanted, source) -> str:
             "(geometry_column=)"
         )
     return geometries[0]
-
-
-# --------------------------------------------------------------------------
-# writing
 
 
 def check_postgis_output(

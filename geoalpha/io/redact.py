@@ -69,10 +69,7 @@ def secrets_in(text: str) -> list[str]:
     ['pw%40x']
     """
     keyed, urls = _found(text)
-    found = keyed | urls
-    found.discard("")
-    found.discard(MASK)
-    return sorted(found, key=len, reverse=True)
+    return sorted((keyed | urls) - {"", MASK}, key=len, reverse=True)
 
 
 def _found(text: str) -> tuple[set[str], set[str]]:
@@ -116,9 +113,7 @@ def redact(text: object, secrets: Iterable[str] = ()) -> str:
         out = _URL_PASSWORD.sub(lambda m: m.group("head") + MASK, out)
     if keyed and "=" in out:
         out = _KEY_VALUE.sub(lambda m: m.group("key") + m.group("eq") + MASK, out)
-    for secret in sorted(known, key=len, reverse=True):
-        if not secret or secret == MASK:
-            continue
+    for secret in sorted(known - {"", MASK}, key=len, reverse=True):
         if len(secret) >= _SHORT:
             out = out.replace(secret, MASK)
         else:  # a short secret: only where it stands alone, not inside words
