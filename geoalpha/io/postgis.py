@@ -253,9 +253,11 @@ def _read_only(url) -> Iterator[Any]:
     if isinstance(url, psycopg.Connection):
         idle = url.info.transaction_status == psycopg.pq.TransactionStatus.IDLE
         with url.transaction():
-            if idle:
-                url.execute("SET TRANSACTION READ ONLY")
-                url.execute(f"SET LOCAL lock_timeout = '{_LOCK_TIMEOUT}'")
+            if idle:  # one round trip (no parameters: the simple protocol)
+                url.execute(
+                    "SET TRANSACTION READ ONLY; "
+                    f"SET LOCAL lock_timeout = '{_LOCK_TIMEOUT}'"
+                )
             yield url
         return
     parsed, args = _parse_url(url)
@@ -286,8 +288,10 @@ def _scalar(conn, sql: str, *params) -> Any:
     return None if row is None else row[0]
 
 
-def _geometry_oid(conn, where: str) -> int:
-    oid = _scalar(conn, "SELECT to_regtype('geometry')::oid")
+_GEOMETRY_OID = "SELECT to_regtype('geometry')::oid"
+
+
+def _check_postgis(oid, where: str) -> int:
     if oid is None:
         raise DatabaseError(
             f"{where} has no PostGIS: run CREATE EXTENSION postgis in that database"
@@ -369,11 +373,14 @@ def read_postgis(
         )
     where = _display(url)
     with _connection(url, write=False) as conn:
-        oid = _geometry_oid(conn, where)
         if table is not None:
             schema, name = parse_table(table)
             qualified = _quote(schema, name)
-            if _scalar(conn, "SELECT to_regclass(%s)", qualified) is None:
+            oid, found = _execute(
+                conn, _GEOMETRY_OID + ", to_regclass(%s)", (qualified,)
+            ).fetchone()  # one round trip
+            oid = _check_postgis(oid, where)
+            if found is None:
                 raise DatabaseError(
                     f"table {table} not found in {where}; tables with a geometry "
                     f"column: {_geometry_tables(conn)}"
@@ -381,6 +388,7 @@ def read_postgis(
             query = f"SELECT * FROM {qualified}"
             source = f"table {table}"
         else:
+            oid = _check_postgis(_scalar(conn, _GEOMETRY_OID), where)
             query = sql.strip().rstrip(";")
             source = "the query"
         # as written (no placeholders); binary: geometries as EWKB, not hex
@@ -599,7 +607,7 @@ def _output_table(table: str | None) -> tuple[str | None, str]:
 
 
 def _check_target(conn, schema, name, table, overwrite, where) -> tuple[str, bool]:
-    _geometry_oid(conn, where)
+    _check_postgis(_scalar(conn, _GEOMETRY_OID), where)
     if schema is None:
         schema = _scalar(conn, "SELECT current_schema()")
         if schema is None:
