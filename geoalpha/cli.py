@@ -66,11 +66,7 @@ def _secrets() -> list[str]:
 
 
 def _flags(command: click.Command) -> dict[str, str]:
-    """Return the command's spelling of each keyword (``errors.FLAGS``).
-
-    Every option of hull() (``geoalpha demo`` warns with ``--no-dropna`` too)
-    and the command's own options: ``{"n_jobs": "--jobs", ...}``.
-    """
+    """Return the command's flag of every option of hull() and its own (``FLAGS``)."""
     own = {
         p.name: "/".join(p.opts[-1:] + p.secondary_opts[-1:])
         for p in command.params
@@ -91,11 +87,7 @@ def _in_flags() -> Iterator[None]:
 
 @contextlib.contextmanager
 def _reporting(verbosity: int) -> Iterator[None]:
-    """Show warnings as ``Warning:`` lines and turn errors into ``Error:`` lines.
-
-    Every line names the command's flags (:func:`_in_flags`) and has
-    credentials removed.
-    """
+    """Show warnings as ``Warning:`` lines, errors as ``Error:``; no credentials."""
     shown: set[tuple[type, str]] = set()
     secrets = _secrets()
 
@@ -237,12 +229,10 @@ def _progress_bar(
     points_layer: bool = False,
     preview: bool = False,
 ):
-    """One progress bar over the command's phases, from reading to writing.
+    """One progress bar over ``read``, the phases of hull(), ``write``, ``preview``.
 
-    ``read``, then the phases of :func:`geoalpha.hull` (which uses this bar),
-    ``write`` and ``preview``; their shares of the bar are estimated from
-    the input's size in bytes until it is read, then from its rows and groups
-    (:mod:`geoalpha.frame.progress`). ``-q`` means no bar unless ``--progress``.
+    Their shares are estimated from the input's bytes until it is read, then
+    from its rows and groups. ``-q`` means no bar unless ``--progress``.
     """
     from geoalpha.frame.progress import HULL_PHASES, hull_costs, phases
 
@@ -279,11 +269,7 @@ def _plural(n: int, noun: str) -> str:
 
 
 def _left_out(points, hulls, by: list[str], options: dict) -> str:
-    """``"; 12 of 3,376 rows left out: 12 without a --by value ..."``, or ``""``.
-
-    The rows in no hull's ``n_points``, by reason: no point (a missing, empty
-    or NaN geometry), no ``--by`` value, or a group ``--degenerate drop`` dropped.
-    """
+    """``"; 12 of 3,376 rows left out: 12 without a --by value ..."``, or ``""``."""
     import numpy as np
 
     from geoalpha.frame.pipeline import scan_rows
@@ -375,11 +361,7 @@ def _run(
     extra_layers: dict | None = None,
     **options,
 ) -> None:
-    """Compute the hulls, write them and report what was written.
-
-    The hull's phases run in the command's progress bar ``bar``
-    (:func:`_progress_bar`), closed before the summary.
-    """
+    """Compute the hulls (in the command's ``bar``), write them and report."""
     from geoalpha.frame.schema import planar_unit, with_area_unit
     from geoalpha.hulls import hull
     from geoalpha.io.files import write_hulls
@@ -501,12 +483,7 @@ def _checked(ctx: click.Context, param: click.Parameter, value):
 
 
 def _option(name: str):
-    """Return the click option of one option of hull(), all from options.py.
-
-    Its flags, default, metavar and help text are those of the field
-    ``name`` of :class:`geoalpha.options.Options`, and its value is checked
-    at the flag by the field's check (:func:`_checked`).
-    """
+    """Return the click option of hull()'s option ``name``, from its ``META``."""
     meta = META[name]
     if meta.kind == "bool":
         flag_only = "/" not in meta.flags[-1]
@@ -704,10 +681,8 @@ def _result_columns() -> str:
     """Return the columns for --help (:data:`~geoalpha.frame.schema.RESULT_COLUMNS`)."""
     from geoalpha.frame.schema import RESULT_COLUMNS
 
-    units = {"alpha": "1/metre", "radius": "metres"}
-    return ", ".join(
-        f"{name} ({units[name]})" if name in units else name for name in RESULT_COLUMNS
-    )
+    units = {"alpha": " (1/metre)", "radius": " (metres)"}
+    return ", ".join(name + units.get(name, "") for name in RESULT_COLUMNS)
 
 
 hull.help = hull.help.replace("RESULT_COLUMNS", _result_columns())
