@@ -316,15 +316,14 @@ def _summary(points, hulls, source: str, by: list[str], options: dict, unit) -> 
             f"the input coordinates as they are (alpha in 1/{u}, radius in {u}, "
             f"area in square {u})"
         )
-    method = hulls["method"].astype(str)
-    no_shape = int((hulls["alpha"].isna() & method.eq("alpha")).sum())
+    no_shape = hulls["alpha"].isna() & hulls["method"].astype(str).eq("alpha")
     lines = [
         f"Read {_plural(len(points), 'point')} of {source} ({where}, {in_crs})",
         f"Computed in {shown}: {_plural(len(hulls), 'group')}"
-        + (f", {no_shape:,} without alpha shape" if no_shape else "")
+        + (f", {no_shape.sum():,} without alpha shape" if no_shape.any() else "")
         + _left_out(points, hulls, by, options),
     ]
-    shaped = ~hulls["alpha"].isna() | ~method.eq("alpha")
+    shaped = ~no_shape
     geoms = np.asarray(hulls.geometry.array, dtype=object)[shaped.to_numpy()]
     facts = []
     radius = hulls.loc[shaped, "radius"].to_numpy(dtype=float)
