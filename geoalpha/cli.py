@@ -365,9 +365,10 @@ def _run(
     from geoalpha.hulls import hull
     from geoalpha.io.files import write_hulls
 
-    hulls = hull(
-        points, by=None if not by else by[0] if len(by) == 1 else by, **options
-    )
+    if options.get("progress") is None and verbosity < 0:
+        options["progress"] = False
+    key = None if not by else by[0] if len(by) == 1 else by
+    hulls = hull(points, by=key, **options)
     if len(hulls) == 0:
         raise InvalidInputError(
             f"no hull to write: every group of {source} was dropped"
