@@ -239,27 +239,21 @@ def _progress_bar(
     show = False if progress is None and verbosity < 0 else progress
 
     # Importing geopandas (read) and matplotlib (preview) takes about a second.
-    imports = {
-        m: 0 if m in sys.modules else 800_000 for m in ("geopandas", "matplotlib")
-    }
+    load = {m: 0 if m in sys.modules else 800_000 for m in ("geopandas", "matplotlib")}
 
     def after_hull(n_rows: float, n_groups: float) -> dict:
         """Estimated microseconds (as hull_costs), measured on the demo data."""
         return {
             "write": 20_000 + 15 * n_groups + (5 * n_rows if points_layer else 0),
-            "preview": imports["matplotlib"] + 100_000 + 5 * n_rows + 400 * n_groups,
+            "preview": load["matplotlib"] + 100_000 + 5 * n_rows + 400 * n_groups,
         }
 
     names = ("read", *HULL_PHASES, "write", *(("preview",) if preview else ()))
     with phases(names, show, costs=after_hull) as bar:
         rows = size / 50 if size else 100_000  # a guess until INPUT is read
-        bar.estimate(
-            {
-                **hull_costs(rows, rows / 100, per_group_crs=False),
-                **after_hull(rows, rows / 100),
-                "read": imports["geopandas"] + (0.04 * size if size else 2 * rows),
-            }
-        )
+        costs = hull_costs(rows, rows / 100, per_group_crs=False)
+        costs["read"] = load["geopandas"] + (0.04 * size if size else 2 * rows)
+        bar.estimate(costs | after_hull(rows, rows / 100))
         bar.start("read")
         yield bar
 
