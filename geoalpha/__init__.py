@@ -64,11 +64,7 @@ _MODULES = {"datasets": "geoalpha.io.datasets"}
 
 
 def _version() -> str:
-    """Return the installed distribution's version.
-
-    Read on first use of ``geoalpha.__version__``: the metadata machinery
-    costs more than the rest of ``import geoalpha``.
-    """
+    """Return the installed version (on first use: it costs more than the import)."""
     from importlib.metadata import PackageNotFoundError, version
 
     try:
@@ -102,8 +98,7 @@ class _RegisterOnImport:
     ``importlib.util.find_spec("geopandas")`` (no import) leaves it in place.
     """
 
-    def __init__(self) -> None:
-        self._finding = False
+    _finding = False
 
     def find_spec(self, name, path=None, target=None):
         if name != "geopandas" or self._finding:

@@ -32,25 +32,17 @@ _CONTEXT = {"help_option_names": ["-h", "--help"], "max_content_width": 88}
 # Errors whose message is written for the user; anything else is reported
 # with its type and a hint to rerun with -v.
 _EXPECTED = (GeoAlphaError, OSError, ImportError)
+_LOG_FORMAT = logging.Formatter(logging.BASIC_FORMAT)
 
 
-class _RedactingHandler(logging.StreamHandler):
-    """Log records to the current stderr, without credentials."""
+class _RedactingHandler(logging.Handler):
+    """Log records to the current stderr (tests swap it), without credentials."""
 
-    def __init__(self) -> None:
-        super().__init__()
-        self.setFormatter(logging.Formatter("%(levelname)s:%(name)s:%(message)s"))
-
-    @property  # type: ignore[override]
-    def stream(self):
-        return sys.stderr  # not the one of the first run (tests swap it)
-
-    @stream.setter
-    def stream(self, value) -> None:
-        pass
-
-    def format(self, record: logging.LogRecord) -> str:
-        return redact(super().format(record))
+    def emit(self, record: logging.LogRecord) -> None:
+        try:
+            sys.stderr.write(redact(_LOG_FORMAT.format(record)) + "\n")
+        except Exception:  # as logging.StreamHandler does
+            self.handleError(record)
 
 
 def _configure_logging(verbosity: int) -> None:
@@ -58,10 +50,6 @@ def _configure_logging(verbosity: int) -> None:
     if not any(isinstance(h, _RedactingHandler) for h in root.handlers):
         root.addHandler(_RedactingHandler())
     root.setLevel(max(10, 30 - 10 * verbosity))
-
-
-def _one_line(text: object) -> str:
-    return " ".join(str(text).split())
 
 
 def _secrets() -> list[str]:
@@ -78,11 +66,7 @@ def _secrets() -> list[str]:
 
 
 def _flags(command: click.Command) -> dict[str, str]:
-    """Return the command's spelling of each keyword (``errors.FLAGS``).
-
-    Every option of hull() (``geoalpha demo`` warns with ``--no-dropna`` too)
-    and the command's own options: ``{"n_jobs": "--jobs", ...}``.
-    """
+    """Return the command's flag of every option of hull() and its own (``FLAGS``)."""
     own = {
         p.name: "/".join(p.opts[-1:] + p.secondary_opts[-1:])
         for p in command.params
@@ -103,16 +87,12 @@ def _in_flags() -> Iterator[None]:
 
 @contextlib.contextmanager
 def _reporting(verbosity: int) -> Iterator[None]:
-    """Show warnings as ``Warning:`` lines and turn errors into ``Error:`` lines.
-
-    Every line names the command's flags (:func:`_in_flags`) and has
-    credentials removed.
-    """
+    """Show warnings as ``Warning:`` lines, errors as ``Error:``; no credentials."""
     shown: set[tuple[type, str]] = set()
     secrets = _secrets()
 
     def clean(text: object) -> str:
-        return redact(_one_line(text), secrets)
+        return redact(" ".join(str(text).split()), secrets)
 
     def show(message, category, filename, lineno, file=None, line=None):
         if verbosity < 0:
@@ -249,57 +229,41 @@ def _progress_bar(
     points_layer: bool = False,
     preview: bool = False,
 ):
-    """One progress bar over the command's phases, from reading to writing.
+    """One progress bar over ``read``, the phases of hull(), ``write``, ``preview``.
 
-    ``read``, then the phases of :func:`geoalpha.hull` (which uses this bar),
-    ``write`` and ``preview``; their shares of the bar are estimated from
-    the input's size in bytes until it is read, then from its rows and groups
-    (:mod:`geoalpha.frame.progress`). ``-q`` means no bar unless ``--progress``.
+    Their shares are estimated from the input's bytes until it is read, then
+    from its rows and groups. ``-q`` means no bar unless ``--progress``.
     """
     from geoalpha.frame.progress import HULL_PHASES, hull_costs, phases
 
     show = False if progress is None and verbosity < 0 else progress
 
     # Importing geopandas (read) and matplotlib (preview) takes about a second.
-    imports = {
-        m: 0 if m in sys.modules else 800_000 for m in ("geopandas", "matplotlib")
-    }
+    load = {m: 0 if m in sys.modules else 800_000 for m in ("geopandas", "matplotlib")}
 
     def after_hull(n_rows: float, n_groups: float) -> dict:
         """Estimated microseconds (as hull_costs), measured on the demo data."""
         return {
             "write": 20_000 + 15 * n_groups + (5 * n_rows if points_layer else 0),
-            "preview": imports["matplotlib"] + 100_000 + 5 * n_rows + 400 * n_groups,
+            "preview": load["matplotlib"] + 100_000 + 5 * n_rows + 400 * n_groups,
         }
 
     names = ("read", *HULL_PHASES, "write", *(("preview",) if preview else ()))
     with phases(names, show, costs=after_hull) as bar:
         rows = size / 50 if size else 100_000  # a guess until INPUT is read
-        bar.estimate(
-            {
-                **hull_costs(rows, rows / 100, per_group_crs=False),
-                **after_hull(rows, rows / 100),
-                "read": imports["geopandas"] + (0.04 * size if size else 2 * rows),
-            }
-        )
+        costs = hull_costs(rows, rows / 100, per_group_crs=False)
+        costs["read"] = load["geopandas"] + (0.04 * size if size else 2 * rows)
+        bar.estimate(costs | after_hull(rows, rows / 100))
         bar.start("read")
         yield bar
 
 
-def _planar_unit(points, work_crs) -> str | None:
-    """Return the unit of a planar computation (--crs none) unless metres."""
-    from geoalpha.frame.schema import planar_unit
-
-    return planar_unit(points.crs, work_crs)
+def _plural(n: int, noun: str) -> str:
+    return f"{n:,} {noun}{'s' if n != 1 else ''}"
 
 
 def _left_out(points, hulls, by: list[str], options: dict) -> str:
-    """``"; 12 of 3,376 rows left out: 12 without a --by value ..."``, or ``""``.
-
-    The rows that are in no hull's ``n_points``, by reason: no point (a
-    missing, empty or NaN geometry), no ``--by`` value, or a group that
-    ``--degenerate drop`` dropped.
-    """
+    """``"; 12 of 3,376 rows left out: 12 without a --by value ..."``, or ``""``."""
     import numpy as np
 
     from geoalpha.frame.pipeline import scan_rows
@@ -326,45 +290,34 @@ def _left_out(points, hulls, by: list[str], options: dict) -> str:
     return f"; {left:,} of {len(points):,} rows left out: " + ", ".join(reasons)
 
 
-def _summary(
-    points, hulls, source: str, work_crs, unit: str | None, left_out: str = ""
-) -> list[str]:
-    """Return a few lines that say what was read, computed and found.
-
-    ``left_out``: :func:`_left_out`, ending the line of what was computed.
-    """
+def _summary(points, hulls, source: str, by: list[str], options: dict, unit) -> list:
+    """Return a few lines that say what was read, computed and found."""
     import numpy as np
     import shapely
 
     from geoalpha.crs_parsing import crs_name
 
-    lines = []
     columns = points.attrs.get("geoalpha_coordinates")
     where = f"columns {columns[0]}/{columns[1]}" if columns else "geometries"
     in_crs = crs_name(points.crs) if points.crs is not None else "no CRS"
-    n = len(points)
-    lines.append(
-        f"Read {n:,} point{'s' if n != 1 else ''} of {source} ({where}, {in_crs})"
-    )
     used = hulls["crs_used"].astype(str).unique().tolist()
     shown = used[0] if len(used) == 1 else f"{len(used)} CRSs (one chosen per group)"
     if len(used) == 2:
         shown += f" ({used[0]}, {used[1]})"
-    if work_crs is None:
+    if options.get("crs", "auto") is None:
         u = unit or "metre"
         shown = (
             f"the input coordinates as they are (alpha in 1/{u}, radius in {u}, "
             f"area in square {u})"
         )
-    groups = len(hulls)
-    method = hulls["method"].astype(str)
-    no_shape = int((hulls["alpha"].isna() & method.eq("alpha")).sum())
-    lines.append(
-        f"Computed in {shown}: {groups:,} group{'s' if groups != 1 else ''}"
-        + (f", {no_shape:,} without alpha shape" if no_shape else "")
-        + left_out
-    )
-    shaped = ~hulls["alpha"].isna() | ~method.eq("alpha")
+    no_shape = hulls["alpha"].isna() & hulls["method"].astype(str).eq("alpha")
+    lines = [
+        f"Read {_plural(len(points), 'point')} of {source} ({where}, {in_crs})",
+        f"Computed in {shown}: {_plural(len(hulls), 'group')}"
+        + (f", {no_shape.sum():,} without alpha shape" if no_shape.any() else "")
+        + _left_out(points, hulls, by, options),
+    ]
+    shaped = ~no_shape
     geoms = np.asarray(hulls.geometry.array, dtype=object)[shaped.to_numpy()]
     facts = []
     radius = hulls.loc[shaped, "radius"].to_numpy(dtype=float)
@@ -376,9 +329,8 @@ def _summary(
         else:
             facts.append(f"median radius {middle:,.4g} {unit or 'm'}")
     if geoms.size:
-        hull_area = shapely.area(shapely.convex_hull(geoms))
         with np.errstate(invalid="ignore", divide="ignore"):
-            share = shapely.area(geoms) / hull_area
+            share = shapely.area(geoms) / shapely.area(shapely.convex_hull(geoms))
         share = share[np.isfinite(share)]
         if share.size:
             facts.append(f"median area {np.median(share):.0%} of the convex hull")
@@ -397,33 +349,27 @@ def _run(
     overwrite: bool,
     engine: str | None,
     verbosity: int,
-    preview: str | None = None,
+    preview: str | None,
+    bar,
     extra_layers: dict | None = None,
-    bar=None,
     **options,
 ) -> None:
-    """Compute the hulls, write them and report what was written.
-
-    ``bar`` is the command's progress bar (:func:`_progress_bar`), in which
-    the hull's phases run; it is closed before the summary.
-    """
-    from geoalpha.frame.schema import with_area_unit
+    """Compute the hulls (in the command's ``bar``), write them and report."""
+    from geoalpha.frame.schema import planar_unit, with_area_unit
     from geoalpha.hulls import hull
     from geoalpha.io.files import write_hulls
 
     if options.get("progress") is None and verbosity < 0:
         options["progress"] = False
-    work_crs = options.get("crs", "auto")
     key = None if not by else by[0] if len(by) == 1 else by
     hulls = hull(points, by=key, **options)
     if len(hulls) == 0:
         raise InvalidInputError(
             f"no hull to write: every group of {source} was dropped"
         )
-    unit = _planar_unit(points, work_crs)
+    unit = planar_unit(points.crs, options.get("crs", "auto"))
     table = with_area_unit(hulls, unit)  # say the unit instead of a wrong "m2"
-    if bar is not None:
-        bar.start("write")
+    bar.start("write")
     mapping = write_hulls(
         table,
         output,
@@ -433,15 +379,12 @@ def _run(
         extra_layers=extra_layers,
     )
     if preview is not None:
-        if bar is not None:
-            bar.start("preview")
+        bar.start("preview")
         _write_preview(hulls, points, preview, by)
-    if bar is not None:
-        bar.close()  # full, before the summary
+    bar.close()  # full, before the summary
     if verbosity < 0:
         return
-    left_out = _left_out(points, hulls, by, options)
-    for line in _summary(points, hulls, source, work_crs, unit, left_out):
+    for line in _summary(points, hulls, source, by, options, unit):
         click.echo(line, err=True)
     for old, new in mapping.items():
         click.echo(f"Shapefile field {old!r} written as {new!r}", err=True)
@@ -452,14 +395,11 @@ def _run(
         from pathlib import Path
 
         where += f" (layer {layer or Path(output).stem or 'hulls'!r}"
-        if extra_layers:
-            where += "".join(f", {name!r}" for name in extra_layers)
-        where += ")"
-    count = len(hulls)
+        where += "".join(f", {name!r}" for name in extra_layers or ()) + ")"
     rows = int(hulls["n_points"].sum())  # the points in the hulls' groups
     click.echo(
-        f"Wrote {count:,} hull{'s' if count != 1 else ''} of {rows:,} "
-        f"point{'s' if rows != 1 else ''} to {redact(where)}",
+        f"Wrote {_plural(len(hulls), 'hull')} of {_plural(rows, 'point')} to "
+        f"{redact(where)}",
         err=True,
     )
     if preview is not None:
@@ -496,10 +436,9 @@ def _write_preview(hulls, points, path: str, by: list[str]) -> None:
 
     fig, ax = plt.subplots(figsize=(8, 8), dpi=100)
     try:
-        colours = plt.get_cmap("tab20")(range(len(hulls)) if len(hulls) else [])
         hulls.plot(
             ax=ax,
-            color=[colours[i % 20] for i in range(len(hulls))],
+            color=[plt.get_cmap("tab20")(i % 20) for i in range(len(hulls))],
             alpha=0.5,
             edgecolor="black",
             linewidth=0.4,
@@ -538,12 +477,7 @@ def _checked(ctx: click.Context, param: click.Parameter, value):
 
 
 def _option(name: str):
-    """Return the click option of one option of hull(), all from options.py.
-
-    Its flags, default, metavar and help text are those of the field
-    ``name`` of :class:`geoalpha.options.Options`, and its value is checked
-    at the flag by the field's check (:func:`_checked`).
-    """
+    """Return the click option of hull()'s option ``name``, from its ``META``."""
     meta = META[name]
     if meta.kind == "bool":
         flag_only = "/" not in meta.flags[-1]
@@ -598,7 +532,6 @@ _preview_option = click.option(
 @click.argument("output", type=click.Path(dir_okay=False))
 @click.option(
     "--by",
-    "by",
     multiple=True,
     metavar="COL[,COL...]",
     help="Column(s) whose values form the groups: one hull per group. "
@@ -606,21 +539,18 @@ _preview_option = click.option(
 )
 @click.option(
     "--x",
-    "x",
     metavar="COLUMN",
     help="CSV column of x coordinates (longitude) [default: detect "
     "longitude, lon, lng, long, x, easting].",
 )
 @click.option(
     "--y",
-    "y",
     metavar="COLUMN",
     help="CSV column of y coordinates (latitude) [default: detect "
     "latitude, lat, y, northing].",
 )
 @click.option(
     "--crs-in",
-    "crs_in",
     metavar="auto|CRS|none",
     default="auto",
     show_default=True,
@@ -664,12 +594,7 @@ def hull(
     input_path: str,
     output: str,
     by: tuple[str, ...],
-    x: str | None,
-    y: str | None,
     crs_in: str,
-    layer: str | None,
-    sql: str | None,
-    geometry_column: str | None,
     output_layer: str | None,
     overwrite: bool,
     engine: str | None,
@@ -718,16 +643,15 @@ def hull(
         check_output(output, layer=output_layer, overwrite=overwrite)
         _check_preview(preview)
         work_crs = options["crs"]  # checked at the flag: none is None
+        reading = {
+            k: options.pop(k) for k in ("x", "y", "layer", "sql", "geometry_column")
+        }
         # --crs none on input without CRS: planar, as --crs-in none would be.
         points = read_input_points(
             input_path,
-            x=x,
-            y=y,
             crs=_crs_option(crs_in),
-            layer=layer,
             planar_if_missing=work_crs is None,
-            sql=sql,
-            geometry_column=geometry_column,
+            **reading,
         )
         if points.crs is None:
             work_crs = None  # planar input: compute in its own units
@@ -751,10 +675,8 @@ def _result_columns() -> str:
     """Return the columns for --help (:data:`~geoalpha.frame.schema.RESULT_COLUMNS`)."""
     from geoalpha.frame.schema import RESULT_COLUMNS
 
-    units = {"alpha": "1/metre", "radius": "metres"}
-    return ", ".join(
-        f"{name} ({units[name]})" if name in units else name for name in RESULT_COLUMNS
-    )
+    units = {"alpha": " (1/metre)", "radius": " (metres)"}
+    return ", ".join(name + units.get(name, "") for name in RESULT_COLUMNS)
 
 
 hull.help = hull.help.replace("RESULT_COLUMNS", _result_columns())

@@ -142,11 +142,10 @@ def _rows(part, names: list, options: Options) -> pd.DataFrame:
 
 def _check(keys, rows, sample, by, source_crs, crs) -> None:
     """Make the errors and warnings about the input, once, in the eager order."""
-    if keys is not None:
+    if keys is not None:  # and rows
         names = [c for c in keys.columns if c not in ("__rows__", "__key__")]
         groups = keys.loc[keys["__key__"].to_numpy(bool), names].drop_duplicates()
         check_grouping(len(groups), int(keys["__rows__"].sum()), by)
-    if rows is not None:
         report_rows(merge_reports(rows["report"].tolist()))
     if sample is not None:
         check_distortion(sample[["x", "y"]].to_numpy(), source_crs, crs)
@@ -191,22 +190,18 @@ def _nan_kept(array) -> np.ndarray:
     geoms = np.asarray(array, dtype=object)
     kind = shapely.get_type_id(geoms)
     multi = np.flatnonzero((kind == 4) | (kind == 7))
-    if not len(multi):
-        return geoms
     xy, at = shapely.get_coordinates(geoms[multi], return_index=True)
     rows = np.unique(multi[at[np.isnan(xy).all(axis=1)]])
     if not len(rows):
         return geoms
-
-    def keep_nan(coords: np.ndarray) -> np.ndarray:
-        both = np.isnan(coords).all(axis=1)
-        coords = coords.copy()
-        coords[both, 1] = 0.0
-        return coords
-
     geoms = geoms.copy()
-    geoms[rows] = shapely.transform(geoms[rows], keep_nan)
+    geoms[rows] = shapely.transform(geoms[rows], _nan_y_zero)
     return geoms
+
+
+def _nan_y_zero(xy: np.ndarray) -> np.ndarray:
+    """Return ``(NaN, NaN)`` points as ``(NaN, 0)``."""
+    return np.where(np.isnan(xy).all(axis=1, keepdims=True) & [False, True], 0.0, xy)
 
 
 def _hull_partition(
@@ -229,12 +224,8 @@ def _hull_partition(
     return out.astype(dict(meta.dtypes.drop(meta.geometry.name)))
 
 
-def _after(part, checked):
-    """Return ``part``: a result partition that waits for the lazy ``checked``."""
-    return part
-
-
-def _sort_groups(part, keys: list, checked=None):
+def _finish(part, keys: list, checked=None):
+    """Return a result partition (sorted by ``keys``) after the lazy ``checked``."""
     if keys:
         part = part.sort_values(keys, kind="stable", na_position="last")
     return part.reset_index(drop=True)
@@ -330,10 +321,8 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
     meta = empty_result(keys, ddf._meta.crs, result_geometry_name(ddf._meta, keys))
     if names:  # the eager checks of the options, on the (empty) meta frame
         run(ddf._meta, by, opts, checks=False)
-    crs, dropna, sort = opts.crs, opts.dropna, opts.sort
     checked = _checks(ddf, names, by, opts)
-
-    source = ddf.crs
+    crs, source = opts.crs, ddf.crs
     if (
         isinstance(crs, str)
         and crs.strip().lower() == "auto"
@@ -341,7 +330,7 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
         and parse_crs(source).is_geographic
     ):
         extents = ddf.map_partitions(
-            _extent, names, dropna, meta=pd.DataFrame(columns=_EXTENT, dtype=float)
+            _extent, names, opts.dropna, meta=pd.DataFrame(columns=_EXTENT, dtype=float)
         )
         crs = dask.delayed(_decide_crs)(extents, source)
 
@@ -363,13 +352,15 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
         meta=meta,
         enforce_metadata=False,
     )
-    if sort:
+    if opts.sort:
         keys = list(meta.columns[: meta.columns.get_loc("alpha")])
         out = out.repartition(npartitions=1).map_partitions(
-            _sort_groups, keys, checked, meta=meta, enforce_metadata=False
+            _finish, keys, checked, meta=meta, enforce_metadata=False
         )
     elif checked is not None:  # the result depends on the checks, not the hulls
-        out = out.map_partitions(_after, checked, meta=meta, enforce_metadata=False)
+        out = out.map_partitions(
+            _finish, [], checked, meta=meta, enforce_metadata=False
+        )
     return out
 
 

@@ -1,30 +1,15 @@
 """The options of :func:`geoalpha.hull`, defined once.
 
-:class:`Options` is the one place where every option of ``hull()`` (and so of
-``gdf.alpha.hull``, :func:`geoalpha.dask.hull`, ``n_jobs`` and the
-``geoalpha hull`` command) is declared: its default, its allowed values, its
-check, its documentation and its command-line flag. Everything else is
-derived from it:
+:class:`Options` declares every option of ``hull()`` (and so of
+``gdf.alpha.hull``, :func:`geoalpha.dask.hull` and the ``geoalpha hull``
+command): its default, allowed values, check, documentation and flag. From it
+come the signature and option docstring of :func:`geoalpha.hull`
+(:func:`signature`, :func:`docstring`), the check of the values (also run by
+the array API with :func:`check`; ``tests/test_options.py`` compares the
+defaults its signatures spell out) and the command's options
+(:mod:`geoalpha.cli`: one click option per field, checked at the flag).
 
-- the signature and the option part of the docstring of :func:`geoalpha.hull`
-  (:func:`signature`, :func:`docstring`);
-- the check of the values (``Options(**kwargs)`` raises
-  :class:`~geoalpha.errors.InvalidInputError` naming the option), which the
-  array API (:func:`geoalpha.alpha_shapes`, :func:`geoalpha.optimal_alpha`,
-  :func:`geoalpha.alpha_shapes`) runs on its own options with :func:`check`;
-- the ``geoalpha hull`` options: :mod:`geoalpha.cli` makes one click option
-  per field from its ``flags``, default, ``metavar`` and ``help``, whose
-  value is checked at the flag by the same check (a bad one is a
-  ``click.BadParameter`` naming the flag, with this module's message).
-
-The array API's signatures spell their defaults out (for readers and type
-checkers); ``tests/test_options.py`` checks that they equal these.
-
-Adding an option is one new field here (with its ``meta``); the stage of
-:mod:`geoalpha.frame.pipeline` that uses it then reads ``options.<name>``.
-
-This module imports only the standard library, so that ``geoalpha --help``
-stays fast.
+Imports only the standard library, so that ``geoalpha --help`` stays fast.
 """
 
 from __future__ import annotations
@@ -133,24 +118,18 @@ class OptionMeta:
             if _is_bool(value):
                 return bool(value)
         elif isinstance(value, numbers.Real) and not _is_bool(value):
-            if self.kind == "int" and not isinstance(value, numbers.Integral):
-                pass
-            elif math.isfinite(value) and self._in_range(value):
-                if self.kind == "int" or (
-                    self.kind == "number" and isinstance(value, numbers.Integral)
-                ):
-                    return int(value)
-                return float(value)
+            integral = isinstance(value, numbers.Integral)
+            if (
+                (integral or self.kind != "int")
+                and math.isfinite(value)
+                and (self.low is None or value >= self.low)
+                and not (self.low_open and value == self.low)
+                and (self.high is None or value <= self.high)
+            ):
+                return int(value) if integral and self.kind != "float" else float(value)
         raise InvalidInputError(
             f"{spelled(name)} must be {self.describe()}; got {_shown(value)!r}"
         )
-
-    def _in_range(self, value) -> bool:
-        if self.low is not None and (
-            value < self.low or (self.low_open and value == self.low)
-        ):
-            return False
-        return self.high is None or value <= self.high
 
 
 def _is_bool(value) -> bool:
@@ -209,15 +188,12 @@ def check_outliers(outliers) -> None:
     ...
     geoalpha.errors.InvalidInputError: outliers must be a fraction in [0, 1) or ...
     """
-    if isinstance(outliers, bool) or type(outliers).__name__ == "bool_":
-        ok = False
-    elif isinstance(outliers, numbers.Integral):
-        ok = outliers >= 0
-    elif isinstance(outliers, numbers.Real):
-        ok = 0 <= outliers < 1
-    else:
-        ok = False
-    if not ok:
+    integral = isinstance(outliers, numbers.Integral)
+    if (
+        _is_bool(outliers)
+        or not isinstance(outliers, numbers.Real)
+        or not (outliers >= 0 and (integral or outliers < 1))
+    ):
         raise InvalidInputError(
             f"{spelled('outliers')} must be a fraction in [0, 1) or a count >= 0 "
             f"(an int); got {outliers!r}"
