@@ -8,92 +8,41 @@
 //! holes'; a multipolygon's, the sum of its polygons'. Geometries run on
 //! rayon's threads.
 //!
-//! The layout is shapely's `to_ragged_array` for (multi)polygons and the
-//! kernel's ring output: flat vertex arrays, `ring_offsets` into them (one
-//! ring: `ring_offsets[r]..ring_offsets[r + 1]`), `polygon_offsets` into
-//! the rings (a polygon's first ring is its exterior) and
-//! `geometry_offsets` into the polygons.
+//! The layout is shapely's `to_ragged_array` for (multi)polygons: flat vertex
+//! arrays, `ring_offsets` into them (ring `r` is `ring_offsets[r]..ring_offsets
+//! [r + 1]`), `polygon_offsets` into the rings (a polygon's first ring is its
+//! exterior) and `geometry_offsets` into the polygons.
 
 use geographiclib_rs::{Geodesic, PolygonArea, Winding};
 use rayon::prelude::*;
 
-/// Why [`polygon_areas`] refused its input.
-#[derive(Debug, Clone, PartialEq)]
-pub enum AreaError {
-    /// `lon` and `lat` differ in length.
-    Lengths {
-        /// Length of `lon`.
-        lon: usize,
-        /// Length of `lat`.
-        lat: usize,
-    },
-    /// An offsets array is not `0 = o[0] <= o[1] <= ... <= o[last] = n`
-    /// with `n` the length of what it indexes.
-    Offsets {
-        /// Which array (`"ring_offsets"`, ...).
-        name: &'static str,
-        /// What is wrong with it.
-        why: String,
-    },
-    /// A vertex outside longitude/latitude: not finite, or |latitude| > 90.
-    Vertex {
-        /// Position of the vertex in `lon`/`lat`.
-        index: usize,
-        /// Its longitude.
-        lon: f64,
-        /// Its latitude.
-        lat: f64,
-    },
-}
-
-impl std::fmt::Display for AreaError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            AreaError::Lengths { lon, lat } => {
-                write!(
-                    f,
-                    "lon and lat must have the same length; got {lon} and {lat}"
-                )
-            }
-            AreaError::Offsets { name, why } => write!(f, "{name}: {why}"),
-            AreaError::Vertex { index, lon, lat } => write!(
-                f,
-                "vertex {index} is no longitude/latitude in degrees \
-                 (finite, latitude within [-90, 90]); got ({lon}, {lat})"
-            ),
-        }
-    }
-}
-
-impl std::error::Error for AreaError {}
-
-/// Check that `offsets` runs from 0 to `n` without going down.
-fn check_offsets(name: &'static str, offsets: &[i64], n: usize) -> Result<(), AreaError> {
-    let bad = |why: String| Err(AreaError::Offsets { name, why });
-    let (Some(&first), Some(&last)) = (offsets.first(), offsets.last()) else {
-        return bad("must hold at least one value (0)".to_string());
+/// Checks that `offsets` runs from 0 up to `n`, the length of what it indexes.
+fn check_offsets(name: &str, offsets: &[i64], n: usize) -> Result<(), String> {
+    let (first, last) = match offsets {
+        [first, .., last] | [first @ last] => (*first, *last),
+        [] => return Err(format!("{name}: must hold at least one value (0)")),
     };
     if first != 0 {
-        return bad(format!("must start at 0; got {first}"));
+        return Err(format!("{name}: must start at 0; got {first}"));
     }
     if usize::try_from(last).ok() != Some(n) {
-        return bad(format!("must end at {n} (what it indexes); got {last}"));
-    }
-    if let Some(k) = offsets.windows(2).position(|w| w[1] < w[0]) {
-        return bad(format!(
-            "must not decrease; got {} then {} at position {k}",
-            offsets[k],
-            offsets[k + 1]
+        return Err(format!(
+            "{name}: must end at {n} (what it indexes); got {last}"
         ));
     }
-    Ok(())
+    match offsets.windows(2).position(|w| w[1] < w[0]) {
+        Some(k) => Err(format!(
+            "{name}: must not decrease; got {} then {} at position {k}",
+            offsets[k],
+            offsets[k + 1]
+        )),
+        None => Ok(()),
+    }
 }
 
-/// Area (m², >= 0) of one closed ring of vertices joined by geodesics.
-///
-/// A last vertex equal to the first is left out (the ring closes itself).
-/// The area is that of the side the ring goes around anticlockwise or
-/// clockwise, whichever is smaller than half the ellipsoid.
+/// The area (m²) of one ring, the side smaller than half the ellipsoid
+/// whichever way it turns; a repeated closing vertex is dropped, fewer than
+/// three vertices give 0.
 pub fn ring_area(geod: &Geodesic, lon: &[f64], lat: &[f64]) -> f64 {
     let mut n = lon.len();
     if n > 1 && lon[0] == lon[n - 1] && lat[0] == lat[n - 1] {
@@ -109,27 +58,25 @@ pub fn ring_area(geod: &Geodesic, lon: &[f64], lat: &[f64]) -> f64 {
     ring.compute(true).1.abs()
 }
 
-/// Area (m²) on the WGS84 ellipsoid of every geometry (see the module doc).
-///
-/// Rings of fewer than three distinct vertices and geometries without
-/// polygons get 0.
+/// The area (m²) of every geometry: exteriors minus holes, polygons summed.
 ///
 /// # Errors
-///
-/// [`AreaError`] when the arrays do not fit together or a vertex is not a
-/// longitude/latitude.
+/// Arrays of different lengths, offsets that do not index what follows
+/// them, or a vertex that is no longitude/latitude (not finite, or a
+/// latitude beyond ±90).
 pub fn polygon_areas(
     lon: &[f64],
     lat: &[f64],
     ring_offsets: &[i64],
     polygon_offsets: &[i64],
     geometry_offsets: &[i64],
-) -> Result<Vec<f64>, AreaError> {
+) -> Result<Vec<f64>, String> {
     if lon.len() != lat.len() {
-        return Err(AreaError::Lengths {
-            lon: lon.len(),
-            lat: lat.len(),
-        });
+        return Err(format!(
+            "lon and lat must have the same length; got {} and {}",
+            lon.len(),
+            lat.len()
+        ));
     }
     check_offsets("ring_offsets", ring_offsets, lon.len())?;
     check_offsets("polygon_offsets", polygon_offsets, ring_offsets.len() - 1)?;
@@ -138,36 +85,30 @@ pub fn polygon_areas(
         geometry_offsets,
         polygon_offsets.len() - 1,
     )?;
-    let bad = lon
-        .par_iter()
-        .zip(lat.par_iter())
+    let bad = (lon.par_iter().zip(lat.par_iter()))
         .position_any(|(&x, &y)| !(x.is_finite() && y.is_finite() && y.abs() <= 90.0));
-    if let Some(index) = bad {
-        return Err(AreaError::Vertex {
-            index,
-            lon: lon[index],
-            lat: lat[index],
-        });
+    if let Some(k) = bad {
+        return Err(format!(
+            "vertex {k} is no longitude/latitude in degrees (finite, latitude within \
+             [-90, 90]); got ({}, {})",
+            lon[k], lat[k]
+        ));
     }
-    // checked above: every offset is within 0..=len, so the casts are exact
     let at = |o: &[i64], k: usize| o[k] as usize;
     let geod = Geodesic::wgs84();
-    let areas = (0..geometry_offsets.len() - 1)
-        .into_par_iter()
-        .map(|g| {
-            let mut total = 0.0;
-            for p in at(geometry_offsets, g)..at(geometry_offsets, g + 1) {
+    let areas = (0..geometry_offsets.len() - 1).into_par_iter().map(|g| {
+        (at(geometry_offsets, g)..at(geometry_offsets, g + 1))
+            .flat_map(|p| {
                 let rings = at(polygon_offsets, p)..at(polygon_offsets, p + 1);
-                for r in rings.clone() {
-                    let v = at(ring_offsets, r)..at(ring_offsets, r + 1);
-                    let area = ring_area(&geod, &lon[v.clone()], &lat[v]);
-                    total += if r == rings.start { area } else { -area };
-                }
-            }
-            total
-        })
-        .collect();
-    Ok(areas)
+                rings.clone().map(move |r| (r, r == rings.start))
+            })
+            .fold(0.0, |total, (r, exterior)| {
+                let v = at(ring_offsets, r)..at(ring_offsets, r + 1);
+                let area = ring_area(&geod, &lon[v.clone()], &lat[v]);
+                total + if exterior { area } else { -area }
+            })
+    });
+    Ok(areas.collect())
 }
 
 #[cfg(test)]
@@ -279,7 +220,7 @@ mod tests {
     #[test]
     fn bad_input_is_an_error() {
         let e = polygon_areas(&[0.0], &[], &[0], &[0], &[0]).unwrap_err();
-        assert_eq!(e, AreaError::Lengths { lon: 1, lat: 0 });
+        assert_eq!(e, "lon and lat must have the same length; got 1 and 0");
         let e = polygon_areas(
             &[0.0, 1.0, 1.0],
             &[0.0, 0.0, 91.0],
