@@ -29,10 +29,9 @@ __all__ = [
 
 #: The geometry of a group with no shape (empty Polygon, so that a column of
 #: hulls keeps a single geometry type).
-EMPTY_POLYGON = shapely.Polygon()
-#: Whether ``shapely.make_valid`` takes ``method=`` (shapely >= 2.1). Shapely
-#: 2.0 (still supported, and what the QGIS plugin installs to match QGIS's
-#: GEOS 3.11) rejects the keyword with a TypeError.
+EMPTY_POLYGON = kernel.EMPTY_POLYGON
+#: Whether ``shapely.make_valid`` takes ``method=`` (shapely >= 2.1; 2.0 is what
+#: the QGIS plugin installs to match QGIS's GEOS 3.11).
 _MAKE_VALID_METHOD = "method" in inspect.signature(shapely.make_valid).parameters
 #: Points from which :func:`covered` spreads its tests over threads.
 THREAD_POINTS = 100_000
@@ -129,10 +128,9 @@ def enforce(
     Every group in ``check`` must get a valid, non-empty Polygon or
     MultiPolygon (of at most ``components`` parts) that covers every one of
     its points (``shapely.covers``, distance 0, in these coordinates).
-    Invalid geometries are repaired with ``make_valid`` and uncovered points
-    are taken in as vertices (:func:`cover_points`); a group that still
-    fails is reported, so that the caller declares it degenerate instead of
-    returning a polygon that misses a point.
+    Invalid geometries are repaired (:func:`repair_invalid`) and uncovered
+    points taken in as vertices (:func:`cover_points`); a group that still
+    fails is reported, for the caller to declare degenerate.
 
     Parameters
     ----------
@@ -145,17 +143,15 @@ def enforce(
     check : ndarray of bool, shape (G,)
         Groups to verify (the others are returned as they are).
     cover : bool or ndarray of bool, shape (G,), default True
-        Whether every point must be covered (False: validity only, e.g. for
-        a shape at a given alpha > 0, which need not hold every point); one
-        value, or one per group.
+        Whether every point must be covered, for all groups or per group
+        (False: validity only, e.g. for a shape at a given alpha > 0).
     components : int or ndarray of float, shape (G,), optional
         Largest number of parts allowed.
     test : ndarray of bool, shape (k,), optional
-        The points whose coverage must be tested geometrically (default:
-        all). A caller may leave out points whose coverage is already
-        certain for the geometry given, e.g. vertices of a valid
-        triangulation of the shape in the very coordinates of the geometry.
-        Every point of a geometry that had to be repaired is tested.
+        The points whose coverage must be tested (default: all); a caller may
+        leave out those certain for the geometry given, e.g. vertices of a
+        valid triangulation in the very coordinates of the geometry. Every
+        point of a geometry that had to be repaired is tested.
     exempt : ndarray of bool, shape (k,), optional
         Points that need not be covered (left out on purpose, ``outliers=``):
         never tested, and never taken in when a group is repaired.
@@ -183,36 +179,33 @@ def enforce(
     if not check.any():
         return geoms, failed
     sel = np.flatnonzero(check)
-    invalid = sel[~shapely.is_valid(geoms[sel])]
-    if len(invalid):
+    repaired = np.zeros(len(geoms), dtype=bool)
+    repaired[sel] = ~shapely.is_valid(geoms[sel])
+    if repaired.any():
         try:
-            geoms[invalid] = repair_invalid(geoms[invalid])
+            geoms[repaired] = repair_invalid(geoms[repaired])
         except shapely.errors.GEOSException:  # pragma: no cover - defensive
-            failed[invalid] = True
+            failed |= repaired
     needed = np.ones(len(codes), dtype=bool) if exempt is None else ~exempt
     covering = np.broadcast_to(np.asarray(cover, dtype=bool), (len(geoms),))
     needed &= covering[codes]
     if covering.any():
         mine = check[codes] & ~failed[codes] & needed
         if test is not None:
-            repaired = np.zeros(len(geoms), dtype=bool)
-            repaired[invalid] = True
             mine &= test | repaired[codes]
         outside = ~covered(
             geoms, np.compress(mine, out_xy, axis=0), codes[mine], n_jobs=n_jobs
         )
-        repair = np.unique(codes[mine][outside]) if outside.any() else ()
+        repair = np.unique(codes[mine][outside])
         if len(repair):
             take = np.isin(codes, repair) & needed
             try:
                 geoms = cover_points(geoms, out_xy[take], codes[take])
             except shapely.errors.GEOSException:
                 failed[repair] = True
-            invalid = np.unique(np.r_[invalid, repair])
+            repaired[repair] = True
     # Whatever was repaired is verified again, from scratch.
-    again = np.zeros(len(geoms), dtype=bool)
-    again[invalid] = True
-    again &= ~failed
+    again = repaired & ~failed
     if again.any():
         g = geoms[again]
         bad = ~shapely.is_valid(g) | shapely.is_empty(g)
@@ -246,20 +239,17 @@ def cover_points(geoms, out_xy, codes) -> np.ndarray:
     Returns
     -------
     ndarray of shape (G,)
-        The geometries, where needed grown to cover their points. A group
-        whose polygon GEOS cannot grow (an invalid or folded polygon, e.g.
-        around a pole in lon/lat) is returned unchanged, points still
-        outside: callers check coverage afterwards.
+        The geometries, where needed grown to cover their points. A polygon
+        GEOS cannot grow (invalid or folded, e.g. around a pole in lon/lat) is
+        returned unchanged: callers check coverage afterwards.
 
     Notes
     -----
     A hull built in metres and given the input (e.g. lon/lat) coordinates of
-    its vertices can leave a point next to a long edge just outside. Such a
-    point becomes a vertex of its nearest shell edge (the edge a-b becomes
-    a-p-b, all input points), which changes areas by well under 1 %. The
-    same repair takes in a point that the kernel merged with a vertex as a
-    near-duplicate (closer than the tolerance of the guarantee page) and
-    that the shape around that vertex just misses.
+    its vertices can leave a point next to a long edge just outside, as can a
+    point the kernel merged with a vertex as a near-duplicate. Such a point
+    becomes a vertex of its nearest edge (a-b becomes a-p-b, all input
+    points), which changes areas by well under 1 %.
 
     Examples
     --------
@@ -287,10 +277,9 @@ def covered(
 ) -> np.ndarray:
     """Whether each point is covered by its group's geometry (distance 0).
 
-    For a point, covering and intersecting are the same predicate (the point
-    is in the interior or on the boundary), so this is ``shapely.covers``
-    evaluated as :func:`shapely.intersects_xy` on prepared geometries: no
-    Point objects are built (building them costs ten times the test).
+    For a point, covering and intersecting are the same predicate, so this is
+    ``shapely.covers`` evaluated as :func:`shapely.intersects_xy` on prepared
+    geometries, without building Point objects (ten times the test's cost).
 
     Parameters
     ----------
@@ -302,9 +291,8 @@ def covered(
         Group of each point.
     n_jobs : int or None, default 1
         Threads (None or -1: every core): from :data:`THREAD_POINTS` points
-        on, the points are tested group by group, each thread those of its
-        own share of the groups (GEOS releases the GIL; no geometry is shared
-        between threads).
+        on, each thread tests the points of its own share of the groups (GEOS
+        releases the GIL; no geometry is shared between threads).
 
     Returns
     -------
@@ -342,13 +330,11 @@ def covered(
 
 
 def _take_in(poly, p):
-    """Insert point ``p`` into one of the ring edges of ``poly`` nearest to it.
+    """Insert ``p`` into the nearest ring edge of ``poly`` (shell or hole) that works.
 
-    The shell and the holes' rings are all candidates (a point merged with a
-    vertex of a hole lies next to the hole's ring); the first insertion that
-    gives a valid polygon covering ``p`` wins, so the vertices stay input
-    points. Failing that, the outline of the ear to the nearest edge,
-    slightly widened, is added.
+    The first insertion giving a valid polygon covering ``p`` wins, so the
+    vertices stay input points; failing that, the outline of the ear to the
+    nearest edge, slightly widened, is added.
     """
     parts = list(shapely.get_parts(poly))
     i = int(np.argmin(shapely.distance(parts, p)))
@@ -398,17 +384,15 @@ def repair_invalid(geoms: np.ndarray) -> np.ndarray:
     >>> bool(fixed.is_valid), fixed.geom_type, float(fixed.area)
     (True, 'MultiPolygon', 2.0)
     """
-    if _MAKE_VALID_METHOD:
-        return polygonal(shapely.make_valid(geoms, method="structure"))
-    return polygonal(shapely.make_valid(geoms))
+    method = {"method": "structure"} if _MAKE_VALID_METHOD else {}
+    return polygonal(shapely.make_valid(geoms, **method))
 
 
 def polygonal(geoms: np.ndarray) -> np.ndarray:
     """Keep the polygonal parts (area > 0) of repaired geometries.
 
-    Giving a hull built in metres its lon/lat vertices can make a ring touch
-    itself; ``make_valid`` then returns a MultiPolygon, sometimes with
-    collapsed lines, which are dropped here.
+    ``make_valid`` may return collapsed lines (e.g. where lon/lat vertices
+    made a ring touch itself), which are dropped here.
 
     Examples
     --------
