@@ -393,13 +393,17 @@ def solve_checked(
         holes=holes, components=components, n_jobs=n_jobs, out=out, sphere=sphere
     )
     gave_up = np.zeros(n_groups, dtype=bool)
-    if alpha is None and search != "exact":
-        found = _solve(xy, codes, n_groups, curve=True, **options)
-        alpha, gave_up = _searched_alpha(found.curve, n_groups, search, max_iterations)
-    budget = outlier_budget(outliers, rows) if outliers and alpha is None else None
-    res = _solve(
-        xy, codes, n_groups, alpha=alpha, budget=budget, progress=progress, **options
-    )
+    try:
+        if alpha is None and search != "exact":
+            curve = kernel.solve(xy, codes, n_groups, curve=True, **options).curve
+            alpha, gave_up = _searched_alpha(curve, n_groups, search, max_iterations)
+        if outliers and alpha is None:
+            options["budget"] = outlier_budget(outliers, rows)
+        res = kernel.solve(
+            xy, codes, n_groups, alpha=alpha, progress=progress, **options
+        )
+    except ValueError as err:  # what the kernel refuses (e.g. |coordinate| > 1e100)
+        raise InvalidInputError(str(err)) from err
     if sphere and (res.reason == REFUSED).any():
         which = np.flatnonzero(res.reason == REFUSED)
         raise InvalidInputError(refused_message(_named(which, name_groups), len(which)))
@@ -409,13 +413,6 @@ def solve_checked(
     shapes, certain = _shapes(res, codes, rows, alpha, gave_up, out is not None)
     _warn_search(shapes, max_iterations, components, name_groups)
     return Unverified(shapes, certain, limit, out)
-
-
-def _solve(*args, **kwargs) -> kernel.Solved:
-    try:
-        return kernel.solve(*args, **kwargs)
-    except ValueError as err:  # what the kernel refuses (e.g. |coordinate| > 1e100)
-        raise InvalidInputError(str(err)) from err
 
 
 def _on_the_sphere(res: kernel.Solved, polar) -> kernel.Solved:
