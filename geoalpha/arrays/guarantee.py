@@ -105,9 +105,8 @@ def left_outside(flag, geoms, xy, codes) -> np.ndarray:
     """
     if not flag.any():
         return flag
-    which = np.flatnonzero(flag)
     out = flag.copy()
-    out[which] = ~covered(geoms, np.take(xy, which, axis=0), codes[which])
+    out[flag] = ~covered(geoms, xy[flag], codes[flag])
     return out
 
 

@@ -550,19 +550,16 @@ def _as_xy(points):
 
 
 def _one_group(points, **kwargs) -> AlphaShapes:
-    xy = _as_xy(points)
-    res = alpha_shapes(xy, None, n_groups=1, **kwargs)
+    """:func:`alpha_shapes` of one group, warning when it has no shape."""
+    res = alpha_shapes(_as_xy(points), None, n_groups=1, **kwargs)
     if res.degenerate[0]:
-        if res.reason[0] in (1, 2, 3):
-            why = (
-                "are fewer than 3 or all collinear (within 1e-9 of their extent "
-                "of a line; points closer than that are one)"
-            )
-        else:  # the checks of the shape failed
-            why = (
-                "got no valid polygon holding all of them (float64 could not "
-                "build one: near-duplicates or slivers where pieces touch)"
-            )
+        why = (
+            "are fewer than 3 or all collinear (within 1e-9 of their extent "
+            "of a line; points closer than that are one)"
+            if res.reason[0] in (1, 2, 3)
+            else "got no valid polygon holding all of them (float64 could not "
+            "build one: near-duplicates or slivers where pieces touch)"
+        )
         warnings.warn(
             f"no alpha shape: the {res.n_distinct[0]} distinct point(s) {why}; "
             "alpha is nan and the shape empty",
@@ -620,16 +617,7 @@ def optimal_alpha(
     >>> round(optimal_alpha(stray), 6), round(optimal_alpha(stray, outliers=1), 6)
     (0.035624, 0.430769)
     """
-    return float(
-        _one_group(
-            points,
-            holes=holes,
-            components=components,
-            search=search,
-            max_iterations=max_iterations,
-            outliers=outliers,
-        ).alpha[0]
-    )
+    return float(_one_group(**locals()).alpha[0])  # (the arguments, as given)
 
 
 def alpha_shape(
@@ -677,11 +665,4 @@ def alpha_shape(
     >>> alpha_shape([[0, 0], [4, 0], [4, 4], [0, 4], [2, 3.5]], alpha=0).area
     16.0
     """
-    return _one_group(
-        points,
-        alpha=alpha,
-        holes=holes,
-        components=components,
-        search=search,
-        outliers=outliers,
-    ).geometry[0]
+    return _one_group(**locals()).geometry[0]  # (the arguments, as given)
