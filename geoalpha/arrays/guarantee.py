@@ -1,8 +1,7 @@
 """The guarantee in the output coordinates, and the polygons GEOS builds.
 
-The kernel's polygons (:mod:`geoalpha.kernel`) are checked here where they are
-returned: valid, and covering every point of their group (``shapely.covers``,
-distance 0), repaired where float coordinates broke them, or reported.
+Polygons are checked where they are returned: valid and covering every point of
+their group (``shapely.covers``, distance 0), repaired, or reported.
 """
 
 from __future__ import annotations
@@ -41,8 +40,7 @@ def each_or_none(func, geoms: np.ndarray, **kwargs) -> np.ndarray:
     """Apply a vectorised shapely ``func``; None where GEOS raises.
 
     A batch that raises is split in halves until the failing geometries are
-    alone (``O(f log k)`` calls for ``f`` failures among ``k``), so one bad
-    geometry does not lose the batch.
+    alone (``O(f log k)`` calls for ``f`` failures among ``k``).
 
     Examples
     --------
@@ -66,9 +64,7 @@ def each_or_none(func, geoms: np.ndarray, **kwargs) -> np.ndarray:
 
 
 def convex_hulls(out_xy: np.ndarray, codes: np.ndarray, n_groups: int) -> np.ndarray:
-    """Convex hull of each group, built in the output coordinates ``out_xy``.
-
-    Groups without a point get an empty Polygon.
+    """Convex hull of each group in ``out_xy``; an empty Polygon for one without points.
 
     Examples
     --------
@@ -93,8 +89,7 @@ def convex_hulls(out_xy: np.ndarray, codes: np.ndarray, n_groups: int) -> np.nda
 def left_outside(flag, geoms, xy, codes) -> np.ndarray:
     """Of the points ``flag`` marks, those their group's geometry does not cover.
 
-    For points left out on purpose (``outliers=``): a repair that grew a
-    polygon may have taken one in, and it is then no longer left out.
+    For points left out on purpose (``outliers=``), which a repair may take in.
 
     Examples
     --------
