@@ -333,24 +333,20 @@ def _take_in(poly, p):
     parts = list(shapely.get_parts(poly))
     i = int(np.argmin(shapely.distance(parts, p)))
     part = parts[i]
-    rings = [shapely.get_coordinates(part.exterior)] + [
-        shapely.get_coordinates(r) for r in part.interiors
-    ]
+    rings = [shapely.get_coordinates(r) for r in (part.exterior, *part.interiors)]
     which = np.concatenate([np.full(len(r) - 1, k) for k, r in enumerate(rings)])
     at = np.concatenate([np.arange(len(r) - 1) for r in rings])
     starts = np.concatenate([r[:-1] for r in rings])
     ends = np.concatenate([r[1:] for r in rings])
     segments = shapely.linestrings(np.stack([starts, ends], axis=1))
     nearest = np.argsort(shapely.distance(segments, p), kind="stable")
-    grown = None
     for e in nearest[:8]:
         changed = list(rings)
         changed[which[e]] = np.insert(rings[which[e]], at[e] + 1, [p.x, p.y], axis=0)
-        candidate = shapely.Polygon(changed[0], changed[1:])
-        if candidate.is_valid and candidate.covers(p):
-            grown = candidate
+        grown = shapely.Polygon(changed[0], changed[1:])
+        if grown.is_valid and grown.covers(p):
             break
-    if grown is None:  # fall back to adding the ear's outline, slightly widened
+    else:  # fall back to adding the ear's outline, slightly widened
         e = nearest[0]
         ear = shapely.linestrings([starts[e], (p.x, p.y), ends[e]])
         extent = max(np.ptp(rings[0], axis=0).max(), abs(p.x), abs(p.y), 1.0)

@@ -370,11 +370,9 @@ def solve_checked(
     Trusts its inputs: ``xy`` finite floats (n, 2), ``codes`` int64 in
     ``0 .. n_groups - 1``, ``alpha`` None or one float >= 0 per group, the
     options checked (:class:`geoalpha.options.Options`). The caller enforces
-    the guarantee (:func:`geoalpha.arrays.guarantee.enforce`) in the
-    coordinates it returns the polygons in: :func:`alpha_shapes` at once,
-    :func:`geoalpha.hull` once they are in the output CRS. Raises
-    :class:`InvalidInputError` for the groups the sphere refuses; warns
-    about the searches that gave up.
+    the guarantee (:func:`geoalpha.arrays.guarantee.enforce`) where it returns
+    the polygons. Raises :class:`InvalidInputError` for the groups the sphere
+    refuses; warns about the searches that gave up.
 
     Examples
     --------
