@@ -131,10 +131,9 @@ def _as_points(points: ArrayLike) -> np.ndarray:
         )
     bad = np.flatnonzero(~np.isfinite(arr).all(axis=1))
     if len(bad):
-        shown = first_n(bad, limit=5)
         raise InvalidInputError(
             "knn_hull() needs finite coordinates; got "
-            f"{len(bad)} rows with NaN or infinity (index {shown})"
+            f"{len(bad)} rows with NaN or infinity (index {first_n(bad, limit=5)})"
         )
     # + 0.0 turns -0.0 into 0.0 so that np.unique sees them as one point
     return np.unique(arr + 0.0, axis=0)
