@@ -1,15 +1,11 @@
 """The compiled kernel (:mod:`geoalpha._kernel`) and the polygons it returns.
 
-One call of :func:`solve` hands every group to the Rust kernel: points sorted
-by group, their offsets and the options. The kernel triangulates each group
-with exact predicates (spade), sweeps its circumradius spectrum, traces the
-rings of its shape and returns them as indices of input points with ring,
-polygon and group offsets; :func:`solve` builds every polygon from them in one
-``shapely.from_ragged_array`` call, so every vertex is an input point, bit for
-bit. The groups run on the kernel's threads with the GIL released.
-
-The tolerances the kernel decides with live in the kernel (``src/frame.rs``,
-``src/spectrum.rs``) and are exported here, for the docs and the messages.
+One call of :func:`solve` hands every group (points sorted by group, offsets,
+options) to the Rust kernel, which runs them on its threads without the GIL and
+returns each shape's rings as indices of input points; every polygon is built
+from them in one ``shapely.from_ragged_array`` call, so every vertex is an input
+point, bit for bit. The kernel's tolerances (``src/frame.rs``,
+``src/spectrum.rs``) are exported here, for the docs and the messages.
 """
 
 from __future__ import annotations
@@ -229,32 +225,21 @@ _PER_GROUP = ("reason", "alpha", "radius", "n_distinct", "n_parts", "area")
 _PER_GROUP += ("n_outliers", "whole", "capped")
 
 
-def _call(xy, out, offsets, alpha, budget, **kwargs) -> dict:
-    return _kernel.alpha_shapes(
-        xy, offsets, out_xy=out, alpha=alpha, budget=budget, **kwargs
-    )
-
-
-def _chunks(n_groups: int, progress) -> list[tuple[int, int]]:
-    """Return the runs of groups: one, or about 20 when a bar is shown."""
-    if progress is None or n_groups < 2 * PROGRESS_CHUNKS:
-        return [(0, n_groups)]
-    cuts = np.linspace(0, n_groups, PROGRESS_CHUNKS + 1).astype(int)
-    return list(itertools.pairwise(cuts))
-
-
 def _run(xy, out, offsets, alpha, budget, progress, **kwargs) -> dict:
-    """Run the kernel on all groups, in chunks of groups when a bar is shown."""
+    """Run the kernel on all groups: one call, or about 20 runs of groups with a bar."""
     n_groups = len(offsets) - 1
+    cuts = [0, n_groups]
+    if progress is not None and n_groups >= 2 * PROGRESS_CHUNKS:
+        cuts = np.linspace(0, n_groups, PROGRESS_CHUNKS + 1).astype(int)
     parts = []
-    for g0, g1 in _chunks(n_groups, progress):
+    for g0, g1 in itertools.pairwise(cuts):
         a, b = offsets[g0], offsets[g1]
-        res = _call(
+        res = _kernel.alpha_shapes(
             xy[a:b],
-            None if out is None else out[a:b],
             offsets[g0 : g1 + 1] - a,
-            None if alpha is None else alpha[g0:g1],
-            None if budget is None else budget[g0:g1],
+            out_xy=None if out is None else out[a:b],
+            alpha=None if alpha is None else alpha[g0:g1],
+            budget=None if budget is None else budget[g0:g1],
             **kwargs,
         )
         parts.append((a, res))
@@ -262,12 +247,7 @@ def _run(xy, out, offsets, alpha, budget, progress, **kwargs) -> dict:
             progress.update(g1 - g0)
     if len(parts) == 1:
         return parts[0][1]
-    return _concat(parts)
-
-
-def _concat(parts) -> dict:
-    """Join the kernel's results of consecutive chunks of groups."""
-    joined = {}
+    joined = {}  # the chunks' results as one: indices and offsets shifted
     for key in parts[0][1]:
         arrays, last = [], 0
         for k, (base, res) in enumerate(parts):
@@ -337,8 +317,8 @@ def solve(
     n_groups : int
         Number of groups.
     out : ndarray of shape (n, 2), optional
-        The same points in the output coordinates (polygons are built from
-        them; collinearity is decided there too); default ``xy``.
+        The same points in the output coordinates, which the polygons are built
+        from and collinearity is decided in too; default ``xy``.
     holes, components : bool, int
         The definition of the shape and of a valid one.
     alpha : ndarray of shape (n_groups,), optional
@@ -352,10 +332,9 @@ def solve(
     progress : object with ``update(n)``, optional
         Told how many groups are done, in about 20 steps.
     sphere : bool
-        ``xy`` holds longitudes and latitudes (degrees, EPSG:4326) and every
-        group is computed on the sphere (``crs="sphere"``; radii and areas in
-        metres and square metres; reason 6: a group the sphere refuses, see
-        :mod:`geoalpha.arrays.sphere`).
+        ``xy`` are longitudes and latitudes (degrees) computed on the sphere
+        (``crs="sphere"``): radii in metres, areas in square metres, reason 6
+        for a group the sphere refuses (:mod:`geoalpha.arrays.sphere`).
 
     Returns
     -------

@@ -1,9 +1,7 @@
 """The outlier budget (``outliers=``): rows each group may leave out.
 
-A float ``q`` in ``[0, 1)`` is a fraction of the group's rows,
-``k = floor(q * rows)``; an int is ``k`` itself. A location that holds several
-rows weighs as many rows, so ``n_outliers <= k`` always holds in rows, as
-users read the option.
+A location that holds several rows weighs as many rows, so ``n_outliers <= k``
+always holds in rows, as users read the option.
 """
 
 from __future__ import annotations

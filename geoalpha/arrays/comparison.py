@@ -1,10 +1,9 @@
-"""The comparison methods of :func:`geoalpha.hull`: convex, concave and KNN hulls.
+"""The comparison methods of :func:`geoalpha.hull`: concave and KNN hulls.
 
-``method="convex"`` takes its alpha from :func:`geoalpha.alpha_shapes` (0) and
-its polygons from :func:`geoalpha.arrays.guarantee.convex_hulls`, built in the output
-coordinates where they are exact. ``method="concave"`` (GEOS ``concave_hull``) and
-``method="knn"`` (:func:`geoalpha.arrays.knn.knn_hull`) are built in metres by
-:func:`comparison_hulls` and then given the input coordinates as vertices.
+``method="concave"`` (GEOS ``concave_hull``) and ``"knn"``
+(:func:`geoalpha.arrays.knn.knn_hull`) are built in metres by
+:func:`comparison_hulls`, then given the input coordinates as vertices
+(``"convex"``: :func:`geoalpha.arrays.guarantee.convex_hulls`, built there).
 """
 
 from __future__ import annotations
@@ -66,11 +65,10 @@ def comparison_hulls(
 ) -> ComparisonHulls:
     """GEOS concave (``method="concave"``) or KNN hull per group, built in metres.
 
-    ``xy`` holds the points in metres, ``out`` the same points in the output
+    ``xy`` holds the points in metres, ``out`` the same in the output
     coordinates, one row per point of ``codes``. The polygons come back in the
-    output coordinates with the input points as vertices, not yet checked:
-    the caller enforces the guarantee (:func:`geoalpha.arrays.guarantee.enforce`,
-    in :func:`geoalpha.hull`'s guarantee stage).
+    output coordinates, not yet checked (:func:`geoalpha.hull`'s guarantee
+    stage does, with :func:`geoalpha.arrays.guarantee.enforce`).
     """
     order = np.argsort(codes, kind="stable")
     sorted_xy, sc = xy[order], codes[order]

@@ -1,8 +1,7 @@
 """The guarantee in the output coordinates, and the polygons GEOS builds.
 
-The kernel's polygons (:mod:`geoalpha.kernel`) are checked here where they are
-returned: valid, and covering every point of their group (``shapely.covers``,
-distance 0), repaired where float coordinates broke them, or reported.
+Polygons are checked where they are returned: valid and covering every point of
+their group (``shapely.covers``, distance 0), repaired, or reported.
 """
 
 from __future__ import annotations
@@ -29,10 +28,9 @@ __all__ = [
 
 #: The geometry of a group with no shape (empty Polygon, so that a column of
 #: hulls keeps a single geometry type).
-EMPTY_POLYGON = shapely.Polygon()
-#: Whether ``shapely.make_valid`` takes ``method=`` (shapely >= 2.1). Shapely
-#: 2.0 (still supported, and what the QGIS plugin installs to match QGIS's
-#: GEOS 3.11) rejects the keyword with a TypeError.
+EMPTY_POLYGON = kernel.EMPTY_POLYGON
+#: Whether ``shapely.make_valid`` takes ``method=`` (shapely >= 2.1; 2.0 is what
+#: the QGIS plugin installs to match QGIS's GEOS 3.11).
 _MAKE_VALID_METHOD = "method" in inspect.signature(shapely.make_valid).parameters
 #: Points from which :func:`covered` spreads its tests over threads.
 THREAD_POINTS = 100_000
@@ -42,8 +40,7 @@ def each_or_none(func, geoms: np.ndarray, **kwargs) -> np.ndarray:
     """Apply a vectorised shapely ``func``; None where GEOS raises.
 
     A batch that raises is split in halves until the failing geometries are
-    alone (``O(f log k)`` calls for ``f`` failures among ``k``), so one bad
-    geometry does not lose the batch.
+    alone (``O(f log k)`` calls for ``f`` failures among ``k``).
 
     Examples
     --------
@@ -67,9 +64,7 @@ def each_or_none(func, geoms: np.ndarray, **kwargs) -> np.ndarray:
 
 
 def convex_hulls(out_xy: np.ndarray, codes: np.ndarray, n_groups: int) -> np.ndarray:
-    """Convex hull of each group, built in the output coordinates ``out_xy``.
-
-    Groups without a point get an empty Polygon.
+    """Convex hull of each group in ``out_xy``; an empty Polygon for one without points.
 
     Examples
     --------
@@ -94,8 +89,7 @@ def convex_hulls(out_xy: np.ndarray, codes: np.ndarray, n_groups: int) -> np.nda
 def left_outside(flag, geoms, xy, codes) -> np.ndarray:
     """Of the points ``flag`` marks, those their group's geometry does not cover.
 
-    For points left out on purpose (``outliers=``): a repair that grew a
-    polygon may have taken one in, and it is then no longer left out.
+    For points left out on purpose (``outliers=``), which a repair may take in.
 
     Examples
     --------
@@ -106,9 +100,8 @@ def left_outside(flag, geoms, xy, codes) -> np.ndarray:
     """
     if not flag.any():
         return flag
-    which = np.flatnonzero(flag)
     out = flag.copy()
-    out[which] = ~covered(geoms, np.take(xy, which, axis=0), codes[which])
+    out[flag] = ~covered(geoms, xy[flag], codes[flag])
     return out
 
 
@@ -129,10 +122,9 @@ def enforce(
     Every group in ``check`` must get a valid, non-empty Polygon or
     MultiPolygon (of at most ``components`` parts) that covers every one of
     its points (``shapely.covers``, distance 0, in these coordinates).
-    Invalid geometries are repaired with ``make_valid`` and uncovered points
-    are taken in as vertices (:func:`cover_points`); a group that still
-    fails is reported, so that the caller declares it degenerate instead of
-    returning a polygon that misses a point.
+    Invalid geometries are repaired (:func:`repair_invalid`) and uncovered
+    points taken in as vertices (:func:`cover_points`); a group that still
+    fails is reported, for the caller to declare degenerate.
 
     Parameters
     ----------
@@ -145,17 +137,15 @@ def enforce(
     check : ndarray of bool, shape (G,)
         Groups to verify (the others are returned as they are).
     cover : bool or ndarray of bool, shape (G,), default True
-        Whether every point must be covered (False: validity only, e.g. for
-        a shape at a given alpha > 0, which need not hold every point); one
-        value, or one per group.
+        Whether every point must be covered, for all groups or per group
+        (False: validity only, e.g. for a shape at a given alpha > 0).
     components : int or ndarray of float, shape (G,), optional
         Largest number of parts allowed.
     test : ndarray of bool, shape (k,), optional
-        The points whose coverage must be tested geometrically (default:
-        all). A caller may leave out points whose coverage is already
-        certain for the geometry given, e.g. vertices of a valid
-        triangulation of the shape in the very coordinates of the geometry.
-        Every point of a geometry that had to be repaired is tested.
+        The points whose coverage must be tested (default: all); a caller may
+        leave out those certain for the geometry given, e.g. vertices of a
+        valid triangulation in the very coordinates of the geometry. Every
+        point of a geometry that had to be repaired is tested.
     exempt : ndarray of bool, shape (k,), optional
         Points that need not be covered (left out on purpose, ``outliers=``):
         never tested, and never taken in when a group is repaired.
@@ -183,36 +173,33 @@ def enforce(
     if not check.any():
         return geoms, failed
     sel = np.flatnonzero(check)
-    invalid = sel[~shapely.is_valid(geoms[sel])]
-    if len(invalid):
+    repaired = np.zeros(len(geoms), dtype=bool)
+    repaired[sel] = ~shapely.is_valid(geoms[sel])
+    if repaired.any():
         try:
-            geoms[invalid] = repair_invalid(geoms[invalid])
+            geoms[repaired] = repair_invalid(geoms[repaired])
         except shapely.errors.GEOSException:  # pragma: no cover - defensive
-            failed[invalid] = True
+            failed |= repaired
     needed = np.ones(len(codes), dtype=bool) if exempt is None else ~exempt
     covering = np.broadcast_to(np.asarray(cover, dtype=bool), (len(geoms),))
     needed &= covering[codes]
     if covering.any():
         mine = check[codes] & ~failed[codes] & needed
         if test is not None:
-            repaired = np.zeros(len(geoms), dtype=bool)
-            repaired[invalid] = True
             mine &= test | repaired[codes]
         outside = ~covered(
             geoms, np.compress(mine, out_xy, axis=0), codes[mine], n_jobs=n_jobs
         )
-        repair = np.unique(codes[mine][outside]) if outside.any() else ()
+        repair = np.unique(codes[mine][outside])
         if len(repair):
             take = np.isin(codes, repair) & needed
             try:
                 geoms = cover_points(geoms, out_xy[take], codes[take])
             except shapely.errors.GEOSException:
                 failed[repair] = True
-            invalid = np.unique(np.r_[invalid, repair])
+            repaired[repair] = True
     # Whatever was repaired is verified again, from scratch.
-    again = np.zeros(len(geoms), dtype=bool)
-    again[invalid] = True
-    again &= ~failed
+    again = repaired & ~failed
     if again.any():
         g = geoms[again]
         bad = ~shapely.is_valid(g) | shapely.is_empty(g)
@@ -246,20 +233,17 @@ def cover_points(geoms, out_xy, codes) -> np.ndarray:
     Returns
     -------
     ndarray of shape (G,)
-        The geometries, where needed grown to cover their points. A group
-        whose polygon GEOS cannot grow (an invalid or folded polygon, e.g.
-        around a pole in lon/lat) is returned unchanged, points still
-        outside: callers check coverage afterwards.
+        The geometries, where needed grown to cover their points. A polygon
+        GEOS cannot grow (invalid or folded, e.g. around a pole in lon/lat) is
+        returned unchanged: callers check coverage afterwards.
 
     Notes
     -----
     A hull built in metres and given the input (e.g. lon/lat) coordinates of
-    its vertices can leave a point next to a long edge just outside. Such a
-    point becomes a vertex of its nearest shell edge (the edge a-b becomes
-    a-p-b, all input points), which changes areas by well under 1 %. The
-    same repair takes in a point that the kernel merged with a vertex as a
-    near-duplicate (closer than the tolerance of the guarantee page) and
-    that the shape around that vertex just misses.
+    its vertices can leave a point next to a long edge just outside, as can a
+    point the kernel merged with a vertex as a near-duplicate. Such a point
+    becomes a vertex of its nearest edge (a-b becomes a-p-b, all input
+    points), which changes areas by well under 1 %.
 
     Examples
     --------
@@ -287,10 +271,9 @@ def covered(
 ) -> np.ndarray:
     """Whether each point is covered by its group's geometry (distance 0).
 
-    For a point, covering and intersecting are the same predicate (the point
-    is in the interior or on the boundary), so this is ``shapely.covers``
-    evaluated as :func:`shapely.intersects_xy` on prepared geometries: no
-    Point objects are built (building them costs ten times the test).
+    For a point, covering and intersecting are the same predicate, so this is
+    ``shapely.covers`` evaluated as :func:`shapely.intersects_xy` on prepared
+    geometries, without building Point objects (ten times the test's cost).
 
     Parameters
     ----------
@@ -302,9 +285,8 @@ def covered(
         Group of each point.
     n_jobs : int or None, default 1
         Threads (None or -1: every core): from :data:`THREAD_POINTS` points
-        on, the points are tested group by group, each thread those of its
-        own share of the groups (GEOS releases the GIL; no geometry is shared
-        between threads).
+        on, each thread tests the points of its own share of the groups (GEOS
+        releases the GIL; no geometry is shared between threads).
 
     Returns
     -------
@@ -342,35 +324,29 @@ def covered(
 
 
 def _take_in(poly, p):
-    """Insert point ``p`` into one of the ring edges of ``poly`` nearest to it.
+    """Insert ``p`` into the nearest ring edge of ``poly`` (shell or hole) that works.
 
-    The shell and the holes' rings are all candidates (a point merged with a
-    vertex of a hole lies next to the hole's ring); the first insertion that
-    gives a valid polygon covering ``p`` wins, so the vertices stay input
-    points. Failing that, the outline of the ear to the nearest edge,
-    slightly widened, is added.
+    The first insertion giving a valid polygon covering ``p`` wins, so the
+    vertices stay input points; failing that, the outline of the ear to the
+    nearest edge, slightly widened, is added.
     """
     parts = list(shapely.get_parts(poly))
     i = int(np.argmin(shapely.distance(parts, p)))
     part = parts[i]
-    rings = [shapely.get_coordinates(part.exterior)] + [
-        shapely.get_coordinates(r) for r in part.interiors
-    ]
+    rings = [shapely.get_coordinates(r) for r in (part.exterior, *part.interiors)]
     which = np.concatenate([np.full(len(r) - 1, k) for k, r in enumerate(rings)])
     at = np.concatenate([np.arange(len(r) - 1) for r in rings])
     starts = np.concatenate([r[:-1] for r in rings])
     ends = np.concatenate([r[1:] for r in rings])
     segments = shapely.linestrings(np.stack([starts, ends], axis=1))
     nearest = np.argsort(shapely.distance(segments, p), kind="stable")
-    grown = None
     for e in nearest[:8]:
         changed = list(rings)
         changed[which[e]] = np.insert(rings[which[e]], at[e] + 1, [p.x, p.y], axis=0)
-        candidate = shapely.Polygon(changed[0], changed[1:])
-        if candidate.is_valid and candidate.covers(p):
-            grown = candidate
+        grown = shapely.Polygon(changed[0], changed[1:])
+        if grown.is_valid and grown.covers(p):
             break
-    if grown is None:  # fall back to adding the ear's outline, slightly widened
+    else:  # fall back to adding the ear's outline, slightly widened
         e = nearest[0]
         ear = shapely.linestrings([starts[e], (p.x, p.y), ends[e]])
         extent = max(np.ptp(rings[0], axis=0).max(), abs(p.x), abs(p.y), 1.0)
@@ -398,17 +374,15 @@ def repair_invalid(geoms: np.ndarray) -> np.ndarray:
     >>> bool(fixed.is_valid), fixed.geom_type, float(fixed.area)
     (True, 'MultiPolygon', 2.0)
     """
-    if _MAKE_VALID_METHOD:
-        return polygonal(shapely.make_valid(geoms, method="structure"))
-    return polygonal(shapely.make_valid(geoms))
+    method = {"method": "structure"} if _MAKE_VALID_METHOD else {}
+    return polygonal(shapely.make_valid(geoms, **method))
 
 
 def polygonal(geoms: np.ndarray) -> np.ndarray:
     """Keep the polygonal parts (area > 0) of repaired geometries.
 
-    Giving a hull built in metres its lon/lat vertices can make a ring touch
-    itself; ``make_valid`` then returns a MultiPolygon, sometimes with
-    collapsed lines, which are dropped here.
+    ``make_valid`` may return collapsed lines (e.g. where lon/lat vertices
+    made a ring touch itself), which are dropped here.
 
     Examples
     --------

@@ -101,7 +101,6 @@ def knn_hull(
             "knn_hull() needs points that are not all collinear; "
             f"got {n} distinct collinear points"
         )
-
     start = int(np.lexsort((pts[:, 0], pts[:, 1]))[0])
     local = pts - pts[start]  # small numbers: better-conditioned orientations
     tree = cKDTree(local)
@@ -109,14 +108,11 @@ def knn_hull(
     k_stop = n - 1 if max_k is None else min(max_k, n - 1)
     for kk in range(min(k_start, n - 1), k_stop + 1):
         ring = _walk(local, tree, start, kk)
-        if ring is None:
-            continue
-        polygon = shapely.Polygon(pts[ring])
-        if not shapely.is_valid(polygon):
-            continue
-        shapely.prepare(polygon)
-        if shapely.covers(polygon, geoms).all():
-            return polygon, kk
+        polygon = None if ring is None else shapely.Polygon(pts[ring])
+        if polygon is not None and polygon.is_valid:
+            shapely.prepare(polygon)
+            if shapely.covers(polygon, geoms).all():
+                return polygon, kk
     return orient(convex, sign=1.0), n
 
 
@@ -135,10 +131,9 @@ def _as_points(points: ArrayLike) -> np.ndarray:
         )
     bad = np.flatnonzero(~np.isfinite(arr).all(axis=1))
     if len(bad):
-        shown = first_n(bad, limit=5)
         raise InvalidInputError(
             "knn_hull() needs finite coordinates; got "
-            f"{len(bad)} rows with NaN or infinity (index {shown})"
+            f"{len(bad)} rows with NaN or infinity (index {first_n(bad, limit=5)})"
         )
     # + 0.0 turns -0.0 into 0.0 so that np.unique sees them as one point
     return np.unique(arr + 0.0, axis=0)
@@ -166,23 +161,19 @@ def _walk(local: np.ndarray, tree: cKDTree, start: int, k: int) -> np.ndarray | 
     n = len(local)
     used = np.zeros(n, dtype=bool)
     used[start] = True
-    n_used = 1
     ring = np.empty(n, dtype=np.intp)
     ring[0] = start
-    xy = np.empty((n, 2))  # ring coordinates
-    xy[0] = local[start]
-    m = 1
+    m = 1  # points on the ring, all used but the start once it may close it
     start_back = False
     ax, ay = local[start].tolist()
     dx, dy = 1.0, 0.0  # the direction of the last edge; the paper's angle 0
     while True:
-        if not start_back and (m == 4 or n_used == n):
+        if not start_back and m in (4, n):
             used[start] = False
-            n_used -= 1
             start_back = True
-        # one query; the nearest k unused points are among the k + n_used
-        # nearest (n_used >= 1, so at least 3 are asked for: arrays come back)
-        _, near = tree.query((ax, ay), k=min(n, k + n_used))
+        # one query: the nearest k unused points are among the k + (used)
+        # nearest (at least 3 are asked for: arrays come back)
+        _, near = tree.query((ax, ay), k=min(n, k + m - start_back))
         near = near[~used[near]][:k]
         ux = local[near, 0] - ax
         uy = local[near, 1] - ay
@@ -194,7 +185,7 @@ def _walk(local: np.ndarray, tree: cKDTree, start: int, k: int) -> np.ndarray | 
         angle = (np.arctan2(uy, ux) - math.atan2(-dy, -dx)) % _TWO_PI
         order = np.argsort(angle, kind="stable")
         near, ux, uy = near[order], ux[order], uy[order]
-        free = _free(ax, ay, ux, uy, near == start, xy[:m])
+        free = _free(ax, ay, ux, uy, near == start, local[ring[:m]])
         if len(free) == 0:
             return None
         i = free[0]
@@ -202,10 +193,8 @@ def _walk(local: np.ndarray, tree: cKDTree, start: int, k: int) -> np.ndarray | 
         if nxt == start:
             return ring[:m]
         ring[m] = nxt
-        xy[m] = local[nxt]
         m += 1
         used[nxt] = True
-        n_used += 1
         dx, dy = float(ux[i]), float(uy[i])
         ax, ay = local[nxt].tolist()
 

@@ -40,15 +40,12 @@ def row_positions(mask: np.ndarray, labels: Any = None) -> str:
     '1 row (index a)'
     """
     where = np.flatnonzero(mask)
-    count = where.size
+    s = "s" if where.size != 1 else ""
     if labels is None:
-        kind = "position" if count == 1 else "positions"
-        names = (str(int(i)) for i in where)
+        kind, names = f"position{s}", (str(int(i)) for i in where)
     else:
-        kind = "index"
-        names = (str(v) for v in labels[where])
-    shown = first_n(names, limit=5)
-    return f"{count} row{'s' if count != 1 else ''} ({kind} {shown})"
+        kind, names = "index", (str(v) for v in labels[where])
+    return f"{where.size} row{s} ({kind} {first_n(names, limit=5)})"
 
 
 def check_codes(codes: Any, n_groups: int, n_points: int) -> np.ndarray:
@@ -95,8 +92,7 @@ def group_min_max(
     np.minimum.at(low, codes, values)
     np.maximum.at(high, codes, values)
     empty = np.isinf(low)
-    low[empty] = np.nan
-    high[empty] = np.nan
+    low[empty] = high[empty] = np.nan
     return low, high
 
 
@@ -128,11 +124,8 @@ def group_arcs(
     if not wide.any():
         return out
     picked = wide[codes]
-    sub_lon = lon[picked]
-    sub_codes = codes[picked]
-    order = np.lexsort((sub_lon, sub_codes))
-    sorted_lon = sub_lon[order]
-    counts = np.bincount(sub_codes, minlength=n_groups)[wide]
+    sorted_lon = lon[picked][np.lexsort((lon[picked], codes[picked]))]
+    counts = np.bincount(codes[picked], minlength=n_groups)[wide]
     last = np.cumsum(counts) - 1
     first = last - counts + 1
     gaps = np.empty_like(sorted_lon)
@@ -165,7 +158,7 @@ def crosses_antimeridian(lon: Any, codes: Any, n_groups: int) -> np.ndarray:
     lon : array_like of float, shape (n,)
         Longitudes in degrees, in [-180, 180].
     codes : array_like of int, shape (n,)
-        Group code of every point, ``0 .. n_groups - 1`` (as returned by
+        Group code of every point, ``0 .. n_groups - 1`` (as from
         :func:`pandas.factorize`).
     n_groups : int
         Number of groups.
@@ -254,40 +247,28 @@ def split_antimeridian(geom: Any) -> Any:
     """
     geoms = np.asarray(geom, dtype=object)  # 0-d for one geometry
     out = geoms.copy()
-    flat = geoms.ravel()
+    flat = out.ravel()  # (a view of out)
     bounds = shapely.bounds(flat)
     with np.errstate(invalid="ignore"):
-        needs = bounds[:, 2] > 180.0  # NaN for None/empty -> False
-    todo = np.flatnonzero(needs)
+        todo = np.flatnonzero(bounds[:, 2] > 180.0)  # NaN for None/empty -> False
     if todo.size:
-        sub = flat[todo]
         minx, miny, maxx, maxy = bounds[todo].T
         west = shapely.intersection(
-            sub, shapely.box(minx - 1.0, miny - 1.0, 180.0, maxy + 1.0)
+            flat[todo], shapely.box(minx - 1.0, miny - 1.0, 180.0, maxy + 1.0)
         )
         east = shapely.intersection(
-            sub, shapely.box(180.0, miny - 1.0, maxx + 1.0, maxy + 1.0)
+            flat[todo], shapely.box(180.0, miny - 1.0, maxx + 1.0, maxy + 1.0)
         )
         west = shapely.transform(west, lambda c: _snap(c, 180.0))
         east = shapely.transform(east, _back_east)
-        west_parts, west_idx = shapely.get_parts(west, return_index=True)
-        east_parts, east_idx = shapely.get_parts(east, return_index=True)
-        parts = np.concatenate([west_parts, east_parts])
-        idx = np.concatenate([west_idx, east_idx])
-        side = np.repeat([0, 1], [west_idx.size, east_idx.size])
+        parts, idx = shapely.get_parts(np.r_[west, east], return_index=True)
         # Keep areas only: touching the line gives points/lines, not parts.
         keep = (shapely.get_type_id(parts) == 3) & ~shapely.is_empty(parts)
-        parts, idx, side = parts[keep], idx[keep], side[keep]
-        order = np.lexsort((side, idx))
-        parts, idx = parts[order], idx[order]
-        has_parts = np.zeros(todo.size, dtype=bool)
-        has_parts[idx] = True
-        rank = np.cumsum(has_parts) - 1
+        parts, idx = parts[keep], idx[keep]
+        order = np.lexsort((idx >= todo.size, idx % todo.size))  # west, then east
+        present, rank = np.unique(idx[order] % todo.size, return_inverse=True)
         if parts.size:
-            multi = shapely.multipolygons(parts, indices=rank[idx])
-            result = flat.copy()
-            result[todo[has_parts]] = multi
-            out = result.reshape(geoms.shape)
+            flat[todo[present]] = shapely.multipolygons(parts[order], indices=rank)
     return out[()] if geoms.ndim == 0 else out
 
 
@@ -367,14 +348,12 @@ def output_lonlat(
     ([179.0, 181.0, 10.0], [True, False], [False, False])
     """
     lon = coords[:, 0]
-    # crosses_antimeridian(lon, codes, n_groups), keeping its ranges
-    arcs = group_arcs(lon, None, codes, n_groups)
-    crossing = arcs["crossing"]
-    low, high = arcs["west"], arcs["east"]
+    arcs = group_arcs(lon, None, codes, n_groups)  # (crosses_antimeridian's)
+    crossing, low, high = arcs["crossing"], arcs["west"], arcs["east"]
     out = coords
-    if crossing.any():
+    if crossing.any():  # unwrap_lon on the checked codes
         out = coords.copy()
-        out[:, 0] = unwrap_lon(lon, codes, crossing)
+        out[:, 0] = np.where(crossing[codes] & (lon < 0.0), lon + 360.0, lon)
         low, high = group_min_max(out[:, 0], codes, n_groups)
     with np.errstate(invalid="ignore"):
         wide = high - low > 180.0

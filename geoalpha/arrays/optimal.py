@@ -53,42 +53,38 @@ class AlphaShapes(NamedTuple):
     geometry : ndarray of object
         Polygon, MultiPolygon (several pieces) or empty Polygon (degenerate
         group, or nothing solid at the given alpha).
-    n_points : ndarray of int
-        Input points of the group (duplicates included).
-    n_distinct : ndarray of int
-        Distinct points of the group.
+    n_points, n_distinct : ndarray of int
+        Input points of the group (duplicates included), and distinct points.
     n_parts : ndarray of int
         Edge-connected pieces of the shape.
     area : ndarray of float
         Area of the shape in the units of ``points`` squared (square metres for
         metric coordinates), whatever ``coords`` the geometry was built from.
     degenerate : ndarray of bool
-        Fewer than 3 distinct points, or all collinear: no triangle, no alpha.
-        Both are decided with a tolerance relative to the group's extent
-        (:data:`geoalpha.kernel.NEAR_RTOL`), in ``points`` and in ``coords``; a
-        group whose shape float geometry cannot make valid and covering is
-        degenerate too (never a polygon that misses a point).
+        Fewer than 3 distinct points, or all collinear, within a tolerance
+        relative to the group's extent (:data:`geoalpha.kernel.NEAR_RTOL`), in
+        ``points`` and in ``coords``: no triangle, no alpha. Also a group whose
+        shape float geometry cannot make valid and covering (never a polygon
+        that misses a point).
     n_outliers : ndarray of int
-        Rows of the group left out of the shape (``outliers=``); 0 without
-        outliers.
+        Rows of the group left out of the shape (``outliers=``), else 0.
     outlier : ndarray of bool, shape (n,)
-        One entry per input point (not per group): True where the point was
-        left out (duplicates of a left-out point too).
+        Per input point (not per group): True where the point was left out
+        (duplicates of a left-out point too).
     gave_up : ndarray of bool
         ``search="bisect"`` stopped at ``max_iterations`` and returned alpha
-        0, the convex hull (:func:`alpha_shapes` names these groups in a
-        :class:`SearchWarning`); False for the other searches.
+        0, the convex hull (named in a :class:`SearchWarning`); False for the
+        other searches.
     capped : ndarray of bool
         ``outliers=`` with several ``components``: the exact search for the
         pieces holding the most rows stopped at its node budget
-        (:data:`geoalpha.kernel.MAX_UNION_NODES`) and kept the best union
-        found (:func:`alpha_shapes` names these groups in an
-        :class:`OutlierWarning`).
+        (:data:`geoalpha.kernel.MAX_UNION_NODES`) and kept the best union found
+        (named in an :class:`OutlierWarning`).
     reason : ndarray of int
-        Why a group is degenerate: 0 (it is not), or a key of
+        Why a group is degenerate: 0 (it is not), a key of
         :data:`geoalpha.kernel.REASONS` (1: fewer than 3 distinct points, 2:
-        collinear, 3: collinear in ``coords``, 4: no rings), or 5: the
-        polygon failed the guarantee in ``coords`` and could not be repaired.
+        collinear, 3: collinear in ``coords``, 4: no rings), or 5: the polygon
+        failed the guarantee in ``coords`` and could not be repaired.
     """
 
     alpha: np.ndarray
@@ -140,29 +136,26 @@ def alpha_shapes(
     components : int, default 1
         Largest number of edge-connected pieces a valid shape may have.
     search : {"exact", "ladder", "bisect"}, default "exact"
-        How the optimum is searched: ``"exact"`` finds the true maximum over
-        the Delaunay circumradius spectrum; ``"ladder"`` is the seed paper's
-        integer ladder (5000, 3000, ..., 5, 0, then integer bisection) and
-        ``"bisect"`` ``alphashape``'s float bisection from 0 to the largest
-        float. Both use the same validity test as ``"exact"``, but their
-        answers depend on the units: integer alphas in 1/metre are nearly
-        always 0, the convex hull; the bisection cannot converge when the
-        optimum is >= 4 and then returns 0 with a :class:`SearchWarning`.
+        ``"exact"``: the true maximum over the Delaunay circumradius spectrum;
+        ``"ladder"``: the seed paper's integer ladder (5000, 3000, ..., 5, 0,
+        then integer bisection); ``"bisect"``: ``alphashape``'s float
+        bisection from 0 to the largest float. All use the same validity test,
+        but the last two depend on the units: integer alphas in 1/metre are
+        nearly always 0, the convex hull; the bisection cannot converge when
+        the optimum is >= 4 and then returns 0 with a :class:`SearchWarning`.
     max_iterations : int, default 10000
         Bisection steps before ``search="bisect"`` gives up.
     coords : array_like of shape (n, 2), optional
-        Coordinates to build the output geometries from, one row per input
-        point (default: ``points``). The GeoPandas layer passes the input
-        longitude/latitude here, so that every polygon vertex is exactly an
-        input point although the computation ran in metres.
+        Coordinates to build the output geometries from, one row per point
+        (default: ``points``): :func:`geoalpha.hull` passes the input
+        longitude/latitude, so that every vertex is exactly an input point.
     n_groups : int, optional
         Number of groups (default: largest code + 1).
     progress : object with an ``update(n)`` method, optional
         Progress of the triangulation, in groups (e.g. a ``tqdm`` bar).
     n_jobs : int, optional
-        Threads of the compiled kernel, which spreads the groups over them
-        (and the radii and sorts of one large group): None (the default) or
-        -1 for every core, 1 for one. The result is the same for every value.
+        Threads of the compiled kernel (None, the default, or -1: every core),
+        over which it spreads the groups; the result is the same for any.
     outliers : float or int, default 0
         Rows each group may leave out: a float in ``[0, 1)`` is a fraction
         of the group's rows (``k = floor(outliers * rows)``), an int a count
@@ -173,24 +166,22 @@ def alpha_shapes(
         Groups with ``k = 0`` get the result without outliers. See
         :mod:`geoalpha.arrays.budget`.
     name_groups : callable, optional
-        Turns an array of group codes into the text that names those groups
-        in a warning (:func:`geoalpha.hull` names them by key); default: the
-        codes.
+        Turns an array of group codes into the text naming those groups in a
+        warning (:func:`geoalpha.hull` names them by key); default: the codes.
     sphere : bool, default False
-        ``points`` are longitudes and latitudes in degrees (EPSG:4326) and
-        every group is computed on the sphere (``crs="sphere"`` of
-        :func:`geoalpha.hull`; see :mod:`geoalpha.arrays.sphere`): alpha in 1/metre,
-        areas in square metres on the sphere. A group with a point farther
-        than :data:`geoalpha.arrays.sphere.MAX_SPHERE_DEGREES` from its centre is an
+        ``points`` are longitudes and latitudes in degrees, computed on the
+        sphere (``crs="sphere"`` of :func:`geoalpha.hull`,
+        :mod:`geoalpha.arrays.sphere`): alpha in 1/metre, areas in square
+        metres. A group with a point farther than
+        :data:`geoalpha.arrays.sphere.MAX_SPHERE_DEGREES` from its centre is an
         error naming it. Without ``coords`` the polygons are in longitude and
-        latitude, with the longitudes of groups across +-180 degrees
-        unwrapped (beyond 180) and groups around a pole closed along it.
+        latitude, unwrapped beyond 180 for groups across +-180 degrees and
+        closed along the pole for groups around one.
     polar : array_like of bool, shape (n_groups,), optional
         With ``sphere``: the groups whose spherical hull holds a pole, whose
-        polygons are closed along the pole in longitude/latitude
-        (:func:`geoalpha.arrays.sphere.close_around_poles`). Default: found from
-        ``points`` when ``coords`` is not given (the polygons are then in
-        longitude/latitude), none otherwise.
+        polygons are closed along it
+        (:func:`geoalpha.arrays.sphere.close_around_poles`). Default: found
+        from ``points`` without ``coords``, none otherwise.
 
     Returns
     -------
@@ -252,7 +243,13 @@ def alpha_shapes(
     try:
         xy = kernel.check_points(points)  # (errors name rows of the input)
         codes, n_groups = kernel.group_codes(groups, len(xy), n_groups)
-        out_xy = _output_coordinates(xy, coords)
+        if coords is not None:  # degeneracy is decided in them too
+            coords = np.asarray(coords, dtype=float)
+            if coords.shape != xy.shape:
+                raise ValueError(
+                    f"coords must have the shape of points {xy.shape}; got "
+                    f"{coords.shape}"
+                )
     except ValueError as err:
         raise InvalidInputError(str(err)) from err
     raw = solve_checked(
@@ -260,7 +257,7 @@ def alpha_shapes(
         codes,
         n_groups,
         alpha=None if alpha is None else _given_alpha(alpha, n_groups),
-        out=out_xy,
+        out=coords,
         progress=progress,
         sphere=bool(sphere),
         polar=polar,
@@ -315,9 +312,9 @@ def _given_alpha(alpha, n_groups: int) -> np.ndarray:
 def _searched_alpha(curve, n_groups: int, search: str, max_iterations: int):
     """Return the alpha ``search="ladder"``/``"bisect"`` finds on the validity curves.
 
-    The kernel's curve holds, per group, every distinct weight (ascending)
-    and whether the shape at that threshold is valid; the shape at any
-    threshold is that of the largest weight below it (none below the first).
+    A curve holds every distinct weight of a group (ascending) and whether the
+    shape at it is valid; the shape at a threshold is that of the largest
+    weight below it (none below the first).
     """
     values, valid_at, offsets = curve
 
@@ -331,10 +328,8 @@ def _searched_alpha(curve, n_groups: int, search: str, max_iterations: int):
         return ok
 
     if search == "ladder":
-        a, _ = ladder_alpha(valid, n_groups)
-        return a, np.zeros(n_groups, dtype=bool)
-    a, gave_up, _ = bisect_alpha(valid, n_groups, max_iterations=max_iterations)
-    return a, gave_up
+        return ladder_alpha(valid, n_groups)[0], np.zeros(n_groups, dtype=bool)
+    return bisect_alpha(valid, n_groups, max_iterations=max_iterations)[:2]
 
 
 class Unverified(NamedTuple):
@@ -375,11 +370,9 @@ def solve_checked(
     Trusts its inputs: ``xy`` finite floats (n, 2), ``codes`` int64 in
     ``0 .. n_groups - 1``, ``alpha`` None or one float >= 0 per group, the
     options checked (:class:`geoalpha.options.Options`). The caller enforces
-    the guarantee (:func:`geoalpha.arrays.guarantee.enforce`) in the
-    coordinates it returns the polygons in: :func:`alpha_shapes` at once,
-    :func:`geoalpha.hull` once they are in the output CRS. Raises
-    :class:`InvalidInputError` for the groups the sphere refuses; warns
-    about the searches that gave up.
+    the guarantee (:func:`geoalpha.arrays.guarantee.enforce`) where it returns
+    the polygons. Raises :class:`InvalidInputError` for the groups the sphere
+    refuses; warns about the searches that gave up.
 
     Examples
     --------
@@ -398,84 +391,68 @@ def solve_checked(
         holes=holes, components=components, n_jobs=n_jobs, out=out, sphere=sphere
     )
     gave_up = np.zeros(n_groups, dtype=bool)
-    if alpha is None and search != "exact":
-        found = _solve(xy, codes, n_groups, curve=True, **options)
-        alpha, gave_up = _searched_alpha(found.curve, n_groups, search, max_iterations)
-    budget = outlier_budget(outliers, rows) if outliers and alpha is None else None
-    res = _solve(
-        xy, codes, n_groups, alpha=alpha, budget=budget, progress=progress, **options
-    )
+    try:
+        if alpha is None and search != "exact":
+            curve = kernel.solve(xy, codes, n_groups, curve=True, **options).curve
+            alpha, gave_up = _searched_alpha(curve, n_groups, search, max_iterations)
+        if outliers and alpha is None:
+            options["budget"] = outlier_budget(outliers, rows)
+        res = kernel.solve(
+            xy, codes, n_groups, alpha=alpha, progress=progress, **options
+        )
+    except ValueError as err:  # what the kernel refuses (e.g. |coordinate| > 1e100)
+        raise InvalidInputError(str(err)) from err
     if sphere and (res.reason == REFUSED).any():
         which = np.flatnonzero(res.reason == REFUSED)
         raise InvalidInputError(refused_message(_named(which, name_groups), len(which)))
     if sphere:
-        res, polar = _on_the_sphere(res, polar)
+        res = _on_the_sphere(res, polar)
     limit = np.where(polar, np.inf, components) if np.any(polar) else components
-    shapes, certain = _shapes(res, codes, rows, alpha, elsewhere=out is not None)
-    shapes = shapes._replace(gave_up=gave_up & ~shapes.degenerate)
+    shapes, certain = _shapes(res, codes, rows, alpha, gave_up, out is not None)
     _warn_search(shapes, max_iterations, components, name_groups)
     return Unverified(shapes, certain, limit, out)
 
 
-def _solve(*args, **kwargs) -> kernel.Solved:
-    try:
-        return kernel.solve(*args, **kwargs)
-    except ValueError as err:  # what the kernel refuses (e.g. |coordinate| > 1e100)
-        raise InvalidInputError(str(err)) from err
-
-
-def _on_the_sphere(res: kernel.Solved, polar):
+def _on_the_sphere(res: kernel.Solved, polar) -> kernel.Solved:
     """Unfold the lon/lat polygons of ``sphere=True``; close those around a pole."""
+    polar = np.zeros(len(res.reason), bool) if polar is None else np.asarray(polar)
+    geometry = res.geometry.copy()
     # Long edges of a shape concave on the sphere can fold in lon/lat.
-    folded = (res.reason == 0) & ~shapely.is_valid(res.geometry)
-    if polar is not None:
-        folded &= ~np.asarray(polar)
-    if folded.any():
-        which = np.flatnonzero(folded)
-        geometry = res.geometry.copy()
-        geometry[which] = follow_arcs(geometry[which])
-        res = res._replace(geometry=geometry)
-    if np.any(polar):
-        geometry = res.geometry.copy()
+    folded = np.flatnonzero((res.reason == 0) & ~shapely.is_valid(geometry) & ~polar)
+    geometry[folded] = follow_arcs(geometry[folded])
+    if polar.any():
         which = np.flatnonzero(polar)
         geometry[which] = restore_longitudes(
-            close_around_poles(geometry[which]),
-            which,
-            res.coords[:, 0],
-            res.coords[:, 1],
-            res.codes,
+            close_around_poles(geometry[which]), which, *res.coords.T, res.codes
         )
-        # Their vertices moved (cut at +-180, shifted): test every point.
-        res = res._replace(
-            geometry=geometry, on_ring=res.on_ring & ~np.asarray(polar)[res.codes]
-        )
-    return res, polar
+    # Their vertices moved (cut at +-180, shifted): test every point.
+    return res._replace(geometry=geometry, on_ring=res.on_ring & ~polar[res.codes])
 
 
-def _shapes(res: kernel.Solved, codes, rows, given, elsewhere: bool):
+def _shapes(res: kernel.Solved, codes, rows, given, gave_up, elsewhere: bool):
     """Return the kernel's result per group and, per point, whether it is certain.
 
     A group whose rings failed (reason 4) but whose shape is every triangle
     gets the convex hull of its points, built by GEOS.
     """
     n_groups = len(rows)
-    sorted_codes = res.codes
-    sout = res.coords
     geometry = res.geometry.copy()
-    whole = np.flatnonzero((res.reason == 4) & res.whole)
     reason = res.reason.astype(np.int64)
+    n_parts = res.n_parts.astype(np.int64)
+    whole = np.flatnonzero((res.reason == 4) & res.whole)
     if len(whole):
-        take = np.isin(sorted_codes, whole)
-        hulls = guarantee.convex_hulls(sout[take], sorted_codes[take], n_groups)
+        take = np.isin(res.codes, whole)
+        hulls = guarantee.convex_hulls(res.coords[take], res.codes[take], n_groups)
         geometry[whole] = hulls[whole]
         reason[whole] = 0
+        n_parts[whole] = 1
     degenerate = reason != 0
     geometry[degenerate] = guarantee.EMPTY_POLYGON
     # With exact predicates the kernel's rings are valid and hold every distinct
     # point in the computation coordinates; in other output coordinates only
     # the ring vertices are certain, and a near-duplicate merged into its
     # representative never is.
-    x, y, v = sout[:, 0], sout[:, 1], res.rep
+    x, y, v = res.coords[:, 0], res.coords[:, 1], res.rep
     certain = (x == x[v]) & (y == y[v])
     if elsewhere:
         certain &= res.on_ring
@@ -483,8 +460,6 @@ def _shapes(res: kernel.Solved, codes, rows, given, elsewhere: bool):
     back[res.order] = certain
     outlier = np.empty(len(codes), dtype=bool)
     outlier[res.order] = res.left_out
-    n_parts = res.n_parts.astype(np.int64)
-    n_parts[whole] = 1
     shapes = AlphaShapes(
         alpha=np.where(degenerate, np.nan, res.alpha if given is None else given),
         geometry=geometry,
@@ -495,7 +470,7 @@ def _shapes(res: kernel.Solved, codes, rows, given, elsewhere: bool):
         degenerate=degenerate,
         n_outliers=np.bincount(codes[outlier], minlength=n_groups),
         outlier=outlier,
-        gave_up=np.zeros(n_groups, dtype=bool),
+        gave_up=gave_up & ~degenerate,
         capped=res.capped & ~degenerate,
         reason=reason,
     )
@@ -533,12 +508,10 @@ def _verified(raw: Unverified, out_xy, codes, optimum: bool) -> AlphaShapes:
 
 
 def _sphere_output(lonlat, codes, n_groups):
-    """Output coordinates of ``sphere=True`` without ``coords``, and the polar groups.
+    """Output lon/lat of ``sphere=True`` without ``coords``, and the polar groups.
 
-    Longitude/latitude polygons, built (and their points tested, since their
-    straight edges are not the sphere's) in these coordinates: longitudes
-    unwrapped for groups across +-180 degrees, as given for groups around a
-    pole (closed along it, :func:`geoalpha.arrays.sphere.close_around_poles`).
+    Longitudes unwrapped for groups across +-180 degrees, as given for groups
+    around a pole (closed along it, :func:`~geoalpha.arrays.sphere.close_around_poles`).
     """
     out, crossing, wide = output_lonlat(lonlat, codes, n_groups)
     maybe = np.flatnonzero(crossing | wide)
@@ -551,67 +524,40 @@ def _sphere_output(lonlat, codes, n_groups):
     return out, polar
 
 
-def _output_coordinates(points, coords):
-    """Return the output coordinates (None: the points), checked.
-
-    Degeneracy is decided in the coordinates the result is returned in, too
-    (the kernel's ``out_xy``): points on one
-    meridian are collinear in longitude/latitude even where their image in
-    metres is a hair away from a line.
-    """
-    if coords is None:
-        return None
-    c = np.asarray(coords, dtype=float)
-    n = len(np.asarray(points))
-    if c.shape != (n, 2):
-        raise InvalidInputError(
-            f"coords must have the shape of points {(n, 2)}; got {c.shape}"
-        )
-    return c
-
-
 def _as_xy(points):
-    """Coordinates of shapely points (a MultiPoint, Points, a GeoSeries), else as is.
-
-    Any other geometry is an :class:`InvalidInputError` that says what to pass.
-    """
+    """Coordinates of shapely points (a MultiPoint, Points, a GeoSeries), else as is."""
     if isinstance(points, shapely.Geometry):
         points = [points]
     values = getattr(points, "values", points)  # a GeoSeries / Series
     if not isinstance(values, np.ndarray | list | tuple):
         values = np.asarray(values)  # e.g. a GeometryArray: its geometries
-    if isinstance(values, np.ndarray) and values.dtype != object:
+    if isinstance(values, np.ndarray):
+        if values.dtype != object:
+            return points
+    elif not (values and isinstance(values[0], shapely.Geometry)):
         return points
-    if not isinstance(values, np.ndarray):
-        if not (isinstance(values, list | tuple) and values):
-            return points
-        if not isinstance(values[0], shapely.Geometry):
-            return points
     geoms = np.asarray(values, dtype=object)
-    kinds = shapely.get_type_id(geoms)
-    if not np.isin(kinds, (0, 4)).all():
+    wrong = ~np.isin(shapely.get_type_id(geoms), (0, 4))
+    if wrong.any():
         raise InvalidInputError(
             "points must be x, y coordinates or shapely points (Point, MultiPoint, "
             "a GeoSeries of points); got "
-            + ", ".join(sorted({g.geom_type for g in geoms[~np.isin(kinds, (0, 4))]}))
+            + ", ".join(sorted({g.geom_type for g in geoms[wrong]}))
         )
     return shapely.get_coordinates(geoms)
 
 
 def _one_group(points, **kwargs) -> AlphaShapes:
-    xy = _as_xy(points)
-    res = alpha_shapes(xy, None, n_groups=1, **kwargs)
+    """:func:`alpha_shapes` of one group, warning when it has no shape."""
+    res = alpha_shapes(_as_xy(points), None, n_groups=1, **kwargs)
     if res.degenerate[0]:
-        if res.reason[0] in (1, 2, 3):
-            why = (
-                "are fewer than 3 or all collinear (within 1e-9 of their extent "
-                "of a line; points closer than that are one)"
-            )
-        else:  # the checks of the shape failed
-            why = (
-                "got no valid polygon holding all of them (float64 could not "
-                "build one: near-duplicates or slivers where pieces touch)"
-            )
+        why = (
+            "are fewer than 3 or all collinear (within 1e-9 of their extent "
+            "of a line; points closer than that are one)"
+            if res.reason[0] in (1, 2, 3)
+            else "got no valid polygon holding all of them (float64 could not "
+            "build one: near-duplicates or slivers where pieces touch)"
+        )
         warnings.warn(
             f"no alpha shape: the {res.n_distinct[0]} distinct point(s) {why}; "
             "alpha is nan and the shape empty",
@@ -669,16 +615,7 @@ def optimal_alpha(
     >>> round(optimal_alpha(stray), 6), round(optimal_alpha(stray, outliers=1), 6)
     (0.035624, 0.430769)
     """
-    return float(
-        _one_group(
-            points,
-            holes=holes,
-            components=components,
-            search=search,
-            max_iterations=max_iterations,
-            outliers=outliers,
-        ).alpha[0]
-    )
+    return float(_one_group(**locals()).alpha[0])  # (the arguments, as given)
 
 
 def alpha_shape(
@@ -726,11 +663,4 @@ def alpha_shape(
     >>> alpha_shape([[0, 0], [4, 0], [4, 4], [0, 4], [2, 3.5]], alpha=0).area
     16.0
     """
-    return _one_group(
-        points,
-        alpha=alpha,
-        holes=holes,
-        components=components,
-        search=search,
-        outliers=outliers,
-    ).geometry[0]
+    return _one_group(**locals()).geometry[0]  # (the arguments, as given)

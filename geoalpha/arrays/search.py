@@ -1,9 +1,8 @@
 """The seed paper's integer ladder and ``alphashape``'s float bisection.
 
-Both are kept for comparison with the exact optimum and use the very same
-validity test (the kernel's validity curve), vectorised over groups.
-Their answers depend on the coordinate units: an integer alpha in 1/metre is
-nearly always 0 (the convex hull), while in 1/degree it is a usable value.
+Kept for comparison with the exact optimum, on the same validity test (the
+kernel's validity curve), vectorised over groups. Their answers depend on the
+units: an integer alpha in 1/metre is nearly always 0 (the convex hull).
 """
 
 from __future__ import annotations
@@ -27,9 +26,9 @@ def ladder_alpha(
 ) -> tuple[np.ndarray, int]:
     """Largest integer alpha found by the seed paper's ladder search.
 
-    Test the descending ``rungs``; at the first rung that passes, bisect the
-    integers between it (valid) and the rung above (not valid). A group valid
-    at the top rung gets the top rung.
+    Test the descending ``rungs``; at the first that passes, bisect the
+    integers between it and the rung above. A group valid at the top rung gets
+    the top rung.
 
     Parameters
     ----------
@@ -86,10 +85,9 @@ def bisect_alpha(
     """``alphashape.optimizealpha``'s float bisection, vectorised over groups.
 
     Bisects between ``lower`` and ``upper`` until they are closer than
-    ``2 * eps`` (an absolute tolerance, so it cannot converge once the
-    optimum is >= 4, where floats are farther apart) or ``max_iterations`` is
-    exceeded, in which case it gives up and returns 0 (the convex hull), as
-    ``alphashape`` does. A group valid at ``upper`` also gets 0.
+    ``2 * eps`` (absolute, so never once the optimum is >= 4) or gives up
+    after ``max_iterations`` and returns 0 (the convex hull), as ``alphashape``
+    does. A group valid at ``upper`` also gets 0.
 
     Parameters
     ----------

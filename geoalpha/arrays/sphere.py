@@ -1,14 +1,11 @@
 """Alpha shapes on the sphere: the array side of ``crs="sphere"``.
 
-The compiled kernel does the geometry (``src/sphere.rs``: the spherical
-Delaunay triangulation of each group's unit vectors, radii as geodesic radii
-of circumscribed small circles on the sphere of WGS84's authalic radius,
-:data:`EARTH_RADIUS`). This module words the groups the kernel refuses (a
-point farther than :data:`MAX_SPHERE_DEGREES` from the group's centre) and
-turns the kernel's rings into valid longitude/latitude polygons: around a
-pole (:func:`close_around_poles`) and along great-circle arcs where a shape
-would fold in longitude/latitude (:func:`follow_arcs`). The frame's side
-(the CRS round trip, geodesic areas) is :mod:`geoalpha.frame.sphere`.
+The compiled kernel does the geometry (``src/sphere.rs``, on the sphere of
+radius :data:`EARTH_RADIUS`). This module words the groups it refuses (a point
+farther than :data:`MAX_SPHERE_DEGREES` from the group's centre) and turns its
+rings into valid longitude/latitude polygons: around a pole
+(:func:`close_around_poles`) and along great-circle arcs where a shape would
+fold (:func:`follow_arcs`). The frame's side is :mod:`geoalpha.frame.sphere`.
 """
 
 from __future__ import annotations
@@ -72,10 +69,7 @@ def polar_groups(
     >>> polar_groups(lonlat, codes, np.array([0, 1])).tolist()
     [True, False]
     """
-    lon, lat = np.radians(lonlat[:, 0]), np.radians(lonlat[:, 1])
-    unit = np.column_stack(
-        [np.cos(lat) * np.cos(lon), np.cos(lat) * np.sin(lon), np.sin(lat)]
-    )
+    unit = _unit(lonlat)
     out = np.zeros(len(which), dtype=bool)
     for k, g in enumerate(which):
         u = unit[codes == g]
@@ -88,14 +82,11 @@ def polar_groups(
         e1 /= np.linalg.norm(e1)
         e2 = np.cross(c, e1)
         z = u @ c
-        if (z <= 0).any():
+        if (z <= 0).any() or c[2] == 0:
             continue
         hull = shapely.MultiPoint(np.column_stack([u @ e1 / z, u @ e2 / z]))
-        for pole in (1.0, -1.0):
-            if pole * c[2] > 0:
-                zp = pole * c[2]
-                image = shapely.Point(pole * e1[2] / zp, pole * e2[2] / zp)
-                out[k] |= bool(shapely.covers(hull.convex_hull, image))
+        pole = shapely.Point(e1[2] / c[2], e2[2] / c[2])  # the one on c's side
+        out[k] = shapely.covers(hull.convex_hull, pole)
     return out
 
 
@@ -118,13 +109,7 @@ def close_around_poles(geometry: np.ndarray) -> np.ndarray:
     >>> closed.is_valid, closed.bounds
     (True, (-180.0, 80.0, 180.0, 90.0))
     """
-    out = geometry.copy()
-    for g, geom in enumerate(geometry):
-        if geom is None or geom.is_empty:
-            continue
-        merged = shapely.union_all([_close_one(p) for p in shapely.get_parts(geom)])
-        out[g] = merged if merged.is_valid else shapely.make_valid(merged)
-    return out
+    return _rebuilt(geometry, _close_one)
 
 
 def follow_arcs(geometry: np.ndarray) -> np.ndarray:
@@ -133,8 +118,8 @@ def follow_arcs(geometry: np.ndarray) -> np.ndarray:
     For shapes whose longitude/latitude polygon (straight edges between the
     input points) is invalid: an edge thousands of kilometres long is far
     from its arc, and a shape concave on the sphere can fold over itself.
-    Each edge gets points along its arc (:func:`_densify`); longitudes stay
-    as they are (unwrapped across +-180 degrees where they were).
+    Each edge gets points along its arc; longitudes stay as they are
+    (unwrapped across +-180 degrees where they were).
 
     Examples
     --------
@@ -143,35 +128,40 @@ def follow_arcs(geometry: np.ndarray) -> np.ndarray:
     >>> arcs.is_valid, len(arcs.exterior.coords) > 4
     (True, True)
     """
+    return _rebuilt(
+        geometry,
+        lambda p: shapely.Polygon(
+            _densify(np.asarray(p.exterior.coords), keep=True),
+            [_densify(np.asarray(h.coords), keep=True) for h in p.interiors],
+        ),
+    )
+
+
+def _rebuilt(geometry: np.ndarray, rebuild) -> np.ndarray:
+    """Rebuild every part of every geometry; the union of each made valid."""
     out = geometry.copy()
     for g, geom in enumerate(geometry):
-        if geom is None or geom.is_empty:
-            continue
-        parts = [
-            shapely.Polygon(
-                _densify(np.asarray(p.exterior.coords), keep=True),
-                [_densify(np.asarray(h.coords), keep=True) for h in p.interiors],
-            )
-            for p in shapely.get_parts(geom)
-        ]
-        merged = shapely.union_all(parts)
-        out[g] = merged if merged.is_valid else shapely.make_valid(merged)
+        if geom is not None and not geom.is_empty:
+            merged = shapely.union_all([rebuild(p) for p in shapely.get_parts(geom)])
+            out[g] = merged if merged.is_valid else shapely.make_valid(merged)
     return out
 
 
-def _densify(ring: np.ndarray, step: float = 0.25, keep: bool = False) -> np.ndarray:
-    """Points along the great-circle arcs between a ring's vertices.
-
-    Near a pole a straight edge in longitude/latitude is far from the arc on
-    the sphere; the arcs are cut into pieces of at most ``step`` degrees of
-    longitude and of arc, so that the polygon follows the sphere's shape.
-    The vertices are kept as they are; with ``keep``, the new points'
-    longitudes are unwrapped to follow their edge's (beyond 180 where it is).
-    """
-    lon, lat = np.radians(ring[:, 0]), np.radians(ring[:, 1])
-    u = np.column_stack(
+def _unit(lonlat: np.ndarray) -> np.ndarray:
+    """Return the unit vectors of longitudes and latitudes in degrees."""
+    lon, lat = np.radians(lonlat[:, 0]), np.radians(lonlat[:, 1])
+    return np.column_stack(
         [np.cos(lat) * np.cos(lon), np.cos(lat) * np.sin(lon), np.sin(lat)]
     )
+
+
+def _densify(ring: np.ndarray, step: float = 0.25, keep: bool = False) -> np.ndarray:
+    """Points along the great-circle arcs between a ring's vertices, kept as they are.
+
+    Pieces of at most ``step`` degrees of longitude and of arc; with ``keep``,
+    the new longitudes follow their edge's (beyond 180 where it is).
+    """
+    u = _unit(ring)
     out = [ring[:1]]
     for k in range(len(ring) - 1):
         a, b = u[k], u[k + 1]
