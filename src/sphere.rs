@@ -49,7 +49,7 @@ use robust::{incircle, orient2d, orient3d, Coord, Coord3D};
 use std::collections::HashMap;
 
 use crate::frame::{collinear, Frame, Xy};
-use crate::group::{finish, mesh_or_reason, per_triangle, Options, Reason, Shaped, Solved};
+use crate::group::{finish, triangulated, Options, Reason, Solved};
 use crate::mesh::{triangulate, Mesh, NONE};
 
 /// The sphere's radius in metres: the authalic radius of WGS84 (the sphere
@@ -284,41 +284,26 @@ pub fn solve(
         } as u8;
         return res;
     };
-    let n = points.len();
     let frame = Frame::of(&local.stereo);
     // Great circles are the gnomonic projection's lines.
     let line = collinear(&local.gnomonic, &Frame::of(&local.gnomonic));
-    let Some(mut mesh) = mesh_or_reason(&local.stereo, &frame, line, out, &mut res) else {
+    let radius_of = |[a, b, c]: [Xy; 3]| EARTH_RADIUS * cap_radius(a, b, c, frame.scale);
+    let Some((mut mesh, mut radius, scaled)) =
+        triangulated(&local.stereo, &frame, line, out, &mut res, radius_of)
+    else {
         return res;
     };
-
-    let s = frame.scale;
-    let scaled = |v: u32| {
-        let p = local.stereo[v as usize];
-        [p[0] * s, p[1] * s]
-    };
-    let radius_of =
-        |t: &[u32; 3]| EARTH_RADIUS * cap_radius(scaled(t[0]), scaled(t[1]), scaled(t[2]), s);
-    let mut radius = per_triangle(&mesh.tri, radius_of);
     let unit = &local.unit;
     let area_of = |t: &[u32; 3]| {
-        EARTH_RADIUS
-            * EARTH_RADIUS
-            * triangle_area(
-                unit[t[0] as usize],
-                unit[t[1] as usize],
-                unit[t[2] as usize],
-            )
+        let [a, b, c] = t.map(|v| unit[v as usize]);
+        EARTH_RADIUS * EARTH_RADIUS * triangle_area(a, b, c)
     };
-    let scaled_points: Vec<Xy> = (0..n as u32).map(scaled).collect();
     let planar = finish(
         res.clone(),
-        &Shaped {
-            mesh: &mesh,
-            radius: &radius,
-            ring_points: &scaled_points,
-            area_of: &area_of,
-        },
+        &mesh,
+        &radius,
+        &scaled,
+        &area_of,
         alpha,
         budget,
         options,
@@ -350,16 +335,7 @@ pub fn solve(
         .map(|p| [p[0] * g, p[1] * g])
         .collect();
     finish(
-        res,
-        &Shaped {
-            mesh: &mesh,
-            radius: &radius,
-            ring_points: &gnomonic,
-            area_of: &area_of,
-        },
-        alpha,
-        budget,
-        options,
+        res, &mesh, &radius, &gnomonic, &area_of, alpha, budget, options,
     )
 }
 
