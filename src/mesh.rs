@@ -103,19 +103,14 @@ fn morton(x: u32, y: u32) -> u64 {
     spread(x) | (spread(y) << 1)
 }
 
-/// The group's points along a Z-order curve through their bounding box, as
-/// sorted `(place on the curve, coordinate bits, index)`: exact duplicates
-/// end up next to each other, and ties on the curve (points closer than a
-/// cell) go by coordinates, so that the order, and with it spade's
-/// triangulation, depends on the points alone, not on the order of the rows.
-fn along_curve(points: &[Xy]) -> Vec<(u64, [u64; 2], u32)> {
-    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-    for p in points {
-        for a in 0..2 {
-            lo[a] = lo[a].min(p[a]);
-            hi[a] = hi[a].max(p[a]);
-        }
-    }
+/// The group's points along a Z-order curve through their bounding box
+/// (`frame` is theirs), as sorted `(place on the curve, coordinate bits,
+/// index)`: exact duplicates end up next to each other, and ties on the curve
+/// (points closer than a cell) go by coordinates, so that the order, and with
+/// it spade's triangulation, depends on the points alone, not on the order of
+/// the rows.
+fn along_curve(points: &[Xy], frame: &Frame) -> Vec<(u64, [u64; 2], u32)> {
+    let [lo, hi] = frame.bounds;
     // Grid cells of the bounding box; the cast saturates, so rounding at the
     // top edge stays on the grid.
     let cell = |a: usize, v: f64| {
@@ -236,7 +231,7 @@ fn reps(union: &mut Union) -> Vec<u32> {
 pub fn triangulate(points: &[Xy], frame: &Frame, build: bool) -> Mesh {
     let s = frame.scale;
     let mut union = Union::new(points.len());
-    let along = along_curve(points);
+    let along = along_curve(points, frame);
     for w in along.windows(2).filter(|w| w[0].1 == w[1].1) {
         union.union(w[0].2, w[1].2);
     }
