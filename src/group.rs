@@ -6,8 +6,7 @@ use crate::frame::{circumradius, collinear, orient, Frame, Xy};
 use crate::mesh::{triangulate, Mesh, NONE};
 use crate::rings::{trace, Polygons};
 use crate::spectrum::{
-    fill_rank, merge_ties, outlier_optimum, pieces, sweep, Curve, Spectrum, ALPHA_RTOL,
-    PARALLEL_TRIANGLES,
+    fill_rank, merge_ties, outlier_optimum, pieces, sweep, Curve, ALPHA_RTOL, PARALLEL_TRIANGLES,
 };
 
 /// Why a group has no alpha shape (0: it has one). The Python side words
@@ -177,7 +176,7 @@ pub fn finish(
     options: &Options,
 ) -> Solved {
     let n = mesh.rep.len();
-    let Spectrum { values, rank } = merge_ties(radius);
+    let (values, rank) = merge_ties(radius);
     let k = values.len();
     let w = if options.holes {
         rank

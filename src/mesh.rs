@@ -152,19 +152,30 @@ fn along_curve(points: &[Xy], frame: &Frame) -> Vec<(u64, [u64; 2], u32)> {
 /// before, where the walk that locates it starts.
 fn insertion_order(along: &[(u64, [u64; 2], u32)], rep: &[u32]) -> Vec<(u32, u32)> {
     let round = |bits: [u64; 2]| 64 - mix(bits[0] ^ mix(bits[1])).trailing_zeros() as usize;
-    let kept = || along.iter().filter(|e| rep[e.2 as usize] == e.2);
-    let mut start = [0usize; 66];
-    for &(_, bits, _) in kept() {
-        start[round(bits) + 1] += 1;
+    let kept = along.iter().filter(|e| rep[e.2 as usize] == e.2);
+    let rounds = kept
+        .enumerate()
+        .map(|(rank, &(_, bits, id))| (round(bits), (id, rank as u32)));
+    counting_sort(rounds, 65)
+}
+
+/// The values of `items`, `(bucket < k, value)` pairs, by bucket, ties in
+/// their order (a counting sort).
+pub fn counting_sort<T: Copy + Default>(
+    items: impl Iterator<Item = (usize, T)> + Clone,
+    k: usize,
+) -> Vec<T> {
+    let mut start = vec![0usize; k + 1];
+    for (b, _) in items.clone() {
+        start[b + 1] += 1;
     }
-    for r in 0..65 {
-        start[r + 1] += start[r];
+    for b in 0..k {
+        start[b + 1] += start[b];
     }
-    let mut order = vec![(0u32, 0u32); start[65]];
-    for (rank, &(_, bits, id)) in kept().enumerate() {
-        let r = round(bits);
-        order[start[r]] = (id, rank as u32);
-        start[r] += 1;
+    let mut order = vec![T::default(); start[k]];
+    for (b, value) in items {
+        order[start[b]] = value;
+        start[b] += 1;
     }
     order
 }

@@ -9,7 +9,7 @@
 
 use rayon::prelude::*;
 
-use crate::mesh::{Mesh, Union, NONE};
+use crate::mesh::{counting_sort, Mesh, Union, NONE};
 
 /// Circumradii that agree to this relative tolerance are one spectrum value:
 /// cocircular points (grids, rounded coordinates) have equal radii in exact
@@ -24,26 +24,17 @@ pub const ALPHA_RTOL: f64 = 8.0 * f64::EPSILON;
 /// Above this many triangles, sorts and per-triangle passes use every thread.
 pub const PARALLEL_TRIANGLES: usize = 1 << 16;
 
-/// A triangulation's radius spectrum: the distinct (merged) radii and the
-/// rank of each triangle's radius among them. Everything after the radii runs
-/// on ranks: integers that compare as the radii do, so the sweeps sort by
+/// A triangulation's radius spectrum: the distinct radii, ascending, radii
+/// that agree to [`TIE_RTOL`] given the largest of their values; and the rank
+/// of each triangle's radius among them. Everything after the radii runs on
+/// ranks: integers that compare as the radii do, so the sweeps sort by
 /// counting and queue by bucket.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct Spectrum {
-    /// The distinct merged radii, ascending.
-    pub values: Vec<f64>,
-    /// `values[rank[t]]` is triangle `t`'s merged radius.
-    pub rank: Vec<u32>,
-}
-
-/// Give radii that agree to [`TIE_RTOL`] the largest of their values, and rank
-/// them.
 ///
 /// Greedy runs, one value each: a run starts at the smallest radius not yet
 /// taken and holds every radius up to `start * (1 + TIE_RTOL)`; runs do not
 /// chain, so a merged value spans at most the tolerance. Radii are positive
 /// (or infinite), so their bit patterns sort as they do.
-pub fn merge_ties(radius: &[f64]) -> Spectrum {
+pub fn merge_ties(radius: &[f64]) -> (Vec<f64>, Vec<u32>) {
     let mut keyed: Vec<(u64, u32)> = radius
         .iter()
         .enumerate()
@@ -55,10 +46,7 @@ pub fn merge_ties(radius: &[f64]) -> Spectrum {
         keyed.sort_unstable();
     }
     let value = |i: usize| f64::from_bits(keyed[i].0);
-    let mut spectrum = Spectrum {
-        values: Vec::new(),
-        rank: vec![0; radius.len()],
-    };
+    let (mut values, mut rank) = (Vec::new(), vec![0; radius.len()]);
     let mut i = 0;
     while i < keyed.len() {
         let limit = value(i) * (1.0 + TIE_RTOL);
@@ -66,14 +54,13 @@ pub fn merge_ties(radius: &[f64]) -> Spectrum {
         while j + 1 < keyed.len() && value(j + 1) <= limit {
             j += 1;
         }
-        let rank = spectrum.values.len() as u32;
-        spectrum.values.push(value(j));
         for &(_, t) in &keyed[i..=j] {
-            spectrum.rank[t as usize] = rank;
+            rank[t as usize] = values.len() as u32;
         }
+        values.push(value(j));
         i = j + 1;
     }
-    spectrum
+    (values, rank)
 }
 
 /// The fill rank of every triangle: the largest, over dual paths from the
@@ -115,27 +102,6 @@ pub fn fill_rank(rank: &[u32], k: usize, nb: &[[u32; 3]]) -> Vec<u32> {
         }
     }
     fill
-}
-
-/// Triangles of rank `from` or more, in increasing rank (counting sort,
-/// ties by index).
-fn by_rank(w: &[u32], k: usize, from: u32) -> Vec<u32> {
-    let from = from as usize;
-    let mut start = vec![0u32; k + 1 - from.min(k)];
-    for &r in w.iter().filter(|&&r| r as usize >= from) {
-        start[r as usize - from + 1] += 1;
-    }
-    for i in 0..start.len() - 1 {
-        start[i + 1] += start[i];
-    }
-    let mut order = vec![0u32; start[start.len() - 1] as usize];
-    for (t, &r) in w.iter().enumerate() {
-        if r as usize >= from {
-            order[start[r as usize - from] as usize] = t as u32;
-            start[r as usize - from] += 1;
-        }
-    }
-    order
 }
 
 /// Edge-connected pieces of the triangles `t` with `inside(t)`: a label
@@ -255,10 +221,15 @@ pub fn sweep(
         }
         from = bound + 1;
     }
-    let order = by_rank(w, k, from);
+    // The triangles of rank `from` or more, in increasing rank.
+    let above = w.iter().zip(0..).filter(|&(&r, _)| r >= from);
+    let order = counting_sort(
+        above.map(|(&r, t)| ((r - from) as usize, t)),
+        k - from as usize,
+    );
     let mut curve = Curve::default();
     let mut first = None;
-    for run in order.chunk_by(|&a, &b| w[a as usize] == w[b as usize]) {
+    for run in order.chunk_by(|&a: &u32, &b| w[a as usize] == w[b as usize]) {
         run.iter().for_each(|&t| shape.add(t as usize));
         let (value, valid) = (w[run[0] as usize], valid(&shape));
         if valid && first.is_none() {
@@ -421,18 +392,18 @@ mod tests {
     #[test]
     fn ties_take_the_largest_of_their_run_and_do_not_chain() {
         let r = [2.0, 1.0, 1.0 + 1e-15, 1.0 + 0.6e-10, 1.0 + 1.2e-10];
-        let s = merge_ties(&r);
-        assert_eq!(s.values, vec![1.0 + 0.6e-10, 1.0 + 1.2e-10, 2.0]);
-        assert_eq!(s.rank, vec![2, 0, 0, 0, 1]);
+        let (values, rank) = merge_ties(&r);
+        assert_eq!(values, vec![1.0 + 0.6e-10, 1.0 + 1.2e-10, 2.0]);
+        assert_eq!(rank, vec![2, 0, 0, 0, 1]);
     }
 
     #[test]
     fn a_chain_of_close_radii_is_cut_into_runs() {
         // 40 radii 0.6e-10 apart: runs of two (a run spans at most 1e-10).
         let r: Vec<f64> = (0..40).map(|k| 1.0 + k as f64 * 0.6e-10).collect();
-        let s = merge_ties(&r);
-        assert_eq!(s.values.len(), 20);
-        let merged = s.rank.iter().map(|&k| s.values[k as usize]);
+        let (values, rank) = merge_ties(&r);
+        assert_eq!(values.len(), 20);
+        let merged = rank.iter().map(|&k| values[k as usize]);
         assert!(merged.zip(&r).all(|(a, b)| a / b - 1.0 <= TIE_RTOL));
     }
 
