@@ -1,8 +1,6 @@
 //! Every group in one call: checked input, groups spread over threads, the
 //! results as flat arrays with offsets (geoarrow's layout).
 
-use std::fmt;
-
 use rayon::prelude::*;
 
 use crate::frame::Xy;
@@ -11,37 +9,6 @@ use crate::group::{solve, Options, Solved};
 /// Coordinates beyond this magnitude are refused (their squares overflow).
 pub const MAX_COORDINATE: f64 = 1e100;
 
-/// Input the kernel refuses. The Python side checks everything first and
-/// names rows; these are the last line, turned into `ValueError`.
-#[derive(Clone, Debug, PartialEq)]
-pub enum KernelError {
-    /// Offsets that do not cut `0..n` into groups.
-    Offsets(String),
-    /// An array of the wrong length.
-    Length(String),
-    /// A coordinate that is NaN, infinite or too large (its row).
-    Coordinate(usize),
-    /// An option out of range.
-    Option(String),
-}
-
-impl fmt::Display for KernelError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            KernelError::Offsets(s) | KernelError::Length(s) | KernelError::Option(s) => {
-                f.write_str(s)
-            }
-            KernelError::Coordinate(row) => write!(
-                f,
-                "coordinates must be finite numbers of magnitude at most {MAX_COORDINATE:e}; \
-                 row {row} is not"
-            ),
-        }
-    }
-}
-
-impl std::error::Error for KernelError {}
-
 /// Everything one call takes.
 pub struct Input<'a> {
     /// Points sorted by group.
@@ -49,133 +16,115 @@ pub struct Input<'a> {
     /// The same points in the output coordinates, if they differ.
     pub out: Option<&'a [Xy]>,
     /// Group `g` is `xy[offsets[g]..offsets[g + 1]]`.
-    pub offsets: &'a [usize],
+    pub offsets: &'a [i64],
     /// A given alpha per group (instead of the optimum).
     pub alpha: Option<&'a [f64]>,
     /// Rows each group may leave out.
-    pub budget: Option<&'a [u64]>,
+    pub budget: Option<&'a [i64]>,
     /// The options of every group.
     pub options: Options,
 }
 
-/// The results, flat. Point indices are into `xy` (sorted by group).
+/// The results as flat arrays with offsets, named and described as the dict
+/// `alpha_shapes` returns (`geoalpha/_kernel.pyi`); point indices are into
+/// `xy` (sorted by group).
 #[derive(Clone, Debug, Default)]
 pub struct Output {
-    /// Per group: a [`crate::group::Reason`] code.
-    pub reason: Vec<u8>,
-    /// Per group: alpha (NaN if degenerate).
-    pub alpha: Vec<f64>,
-    /// Per group: the radius threshold.
-    pub radius: Vec<f64>,
-    /// Per group: distinct points.
-    pub n_distinct: Vec<u32>,
-    /// Per group: pieces (polygons).
-    pub n_parts: Vec<u32>,
-    /// Per group: area of the shape.
-    pub area: Vec<f64>,
-    /// Per group: rows left out.
-    pub n_outliers: Vec<u64>,
-    /// Per group: every triangle is in the shape.
-    pub whole: Vec<bool>,
-    /// Per group: the outlier search hit its node budget.
-    pub capped: Vec<bool>,
-    /// Per point: its representative.
-    pub rep: Vec<i64>,
-    /// Per point: left out (`outliers=`).
-    pub left_out: Vec<bool>,
-    /// Ring vertices (closed rings), as point indices.
-    pub ring_vertex: Vec<i64>,
-    /// Ring `k` is `ring_vertex[ring_offsets[k]..ring_offsets[k + 1]]`.
-    pub ring_offsets: Vec<i64>,
-    /// Polygon `p` has rings `polygon_offsets[p]..polygon_offsets[p + 1]`.
-    pub polygon_offsets: Vec<i64>,
-    /// Group `g` has polygons `group_offsets[g]..group_offsets[g + 1]`.
-    pub group_offsets: Vec<i64>,
-    /// The validity curves (when asked): values, ascending per group.
-    pub curve_value: Vec<f64>,
-    /// Validity at each value.
-    pub curve_valid: Vec<bool>,
-    /// Group `g`'s curve is `curve_offsets[g]..curve_offsets[g + 1]`.
-    pub curve_offsets: Vec<i64>,
+    pub(crate) reason: Vec<u8>,
+    pub(crate) alpha: Vec<f64>,
+    pub(crate) radius: Vec<f64>,
+    pub(crate) n_distinct: Vec<u32>,
+    pub(crate) n_parts: Vec<u32>,
+    pub(crate) area: Vec<f64>,
+    pub(crate) n_outliers: Vec<u64>,
+    pub(crate) whole: Vec<bool>,
+    pub(crate) capped: Vec<bool>,
+    pub(crate) rep: Vec<i64>,
+    pub(crate) left_out: Vec<bool>,
+    pub(crate) ring_vertex: Vec<i64>,
+    pub(crate) ring_offsets: Vec<i64>,
+    pub(crate) polygon_offsets: Vec<i64>,
+    pub(crate) group_offsets: Vec<i64>,
+    pub(crate) curve_value: Vec<f64>,
+    pub(crate) curve_valid: Vec<bool>,
+    pub(crate) curve_offsets: Vec<i64>,
 }
 
-fn check(input: &Input) -> Result<usize, KernelError> {
-    let n = input.xy.len();
-    let off = input.offsets;
-    if off.is_empty() || off[0] != 0 || off[off.len() - 1] != n {
-        return Err(KernelError::Offsets(format!(
+fn check(input: &Input) -> Result<usize, String> {
+    let (n, off) = (input.xy.len(), input.offsets);
+    for (name, values) in [("offsets", Some(off)), ("budget", input.budget)] {
+        if values.is_some_and(|v| v.iter().any(|&x| x < 0)) {
+            return Err(format!("{name} must be >= 0"));
+        }
+    }
+    if off.first() != Some(&0) || off.last() != Some(&(n as i64)) {
+        return Err(format!(
             "offsets must run from 0 to the number of points ({n})"
-        )));
+        ));
     }
     if off.windows(2).any(|w| w[1] < w[0]) {
-        return Err(KernelError::Offsets("offsets must not decrease".into()));
+        return Err("offsets must not decrease".into());
     }
     let groups = off.len() - 1;
-    if let Some(o) = input.out {
-        if o.len() != n {
-            return Err(KernelError::Length(format!(
-                "out_xy must have one row per point ({n}); got {}",
-                o.len()
-            )));
-        }
+    if let Some(o) = input.out.filter(|o| o.len() != n) {
+        let got = o.len();
+        return Err(format!(
+            "out_xy must have one row per point ({n}); got {got}"
+        ));
     }
     for (name, len) in [
         ("alpha", input.alpha.map(<[f64]>::len)),
-        ("budget", input.budget.map(<[u64]>::len)),
+        ("budget", input.budget.map(<[i64]>::len)),
     ] {
-        if let Some(len) = len {
-            if len != groups {
-                return Err(KernelError::Length(format!(
-                    "{name} must have one value per group ({groups}); got {len}"
-                )));
-            }
+        if let Some(len) = len.filter(|&len| len != groups) {
+            return Err(format!(
+                "{name} must have one value per group ({groups}); got {len}"
+            ));
         }
     }
-    if let Some(a) = input.alpha {
-        if a.iter().any(|x| !(x.is_finite() && *x >= 0.0)) {
-            return Err(KernelError::Option("alpha must be finite and >= 0".into()));
-        }
+    if input
+        .alpha
+        .is_some_and(|a| a.iter().any(|x| !(x.is_finite() && *x >= 0.0)))
+    {
+        return Err("alpha must be finite and >= 0".into());
     }
     if input.options.components < 1 {
-        return Err(KernelError::Option("components must be >= 1".into()));
+        return Err("components must be >= 1".into());
     }
     let bad = |p: &Xy| !(p[0].abs() <= MAX_COORDINATE && p[1].abs() <= MAX_COORDINATE);
-    let rows = input.xy.iter().chain(input.out.unwrap_or(&[]).iter());
-    if let Some(row) = rows
-        .enumerate()
-        .find(|(_, p)| bad(p))
-        .map(|(i, _)| i % n.max(1))
-    {
-        return Err(KernelError::Coordinate(row));
+    let mut rows = input.xy.iter().chain(input.out.unwrap_or(&[]));
+    if let Some(row) = rows.position(bad) {
+        return Err(format!(
+            "coordinates must be finite numbers of magnitude at most {MAX_COORDINATE:e}; \
+             row {} is not",
+            row % n.max(1)
+        ));
     }
     if input.options.sphere {
-        if let Some(row) = input
-            .xy
-            .iter()
-            .position(|p| p[1].abs().is_nan() || p[1].abs() > 90.0)
-        {
-            return Err(KernelError::Option(format!(
+        // Finite by now: a NaN latitude was refused above.
+        if let Some(row) = input.xy.iter().position(|p| p[1].abs() > 90.0) {
+            return Err(format!(
                 "with sphere=True, xy holds longitudes and latitudes in degrees; \
                  row {row} has latitude {}",
                 input.xy[row][1]
-            )));
+            ));
         }
     }
     Ok(groups)
 }
 
 /// Solve every group, spread over the threads of the current rayon pool.
-pub fn run(input: &Input) -> Result<Output, KernelError> {
+pub fn run(input: &Input) -> Result<Output, String> {
     let groups = check(input)?;
     let solved: Vec<Solved> = (0..groups)
         .into_par_iter()
         .map(|g| {
-            let (a, b) = (input.offsets[g], input.offsets[g + 1]);
+            let (a, b) = (input.offsets[g] as usize, input.offsets[g + 1] as usize);
             solve(
                 &input.xy[a..b],
                 input.out.map(|o| &o[a..b]),
                 input.alpha.map(|x| x[g]),
-                input.budget.map_or(0, |x| x[g]),
+                input.budget.map_or(0, |x| x[g] as u64),
                 &input.options,
             )
         })
@@ -183,8 +132,7 @@ pub fn run(input: &Input) -> Result<Output, KernelError> {
     Ok(flatten(&solved, input.offsets, input.xy.len()))
 }
 
-fn flatten(solved: &[Solved], offsets: &[usize], n: usize) -> Output {
-    let g = solved.len();
+fn flatten(solved: &[Solved], offsets: &[i64], n: usize) -> Output {
     let mut o = Output {
         rep: Vec::with_capacity(n),
         left_out: vec![false; n],
@@ -194,8 +142,8 @@ fn flatten(solved: &[Solved], offsets: &[usize], n: usize) -> Output {
         curve_offsets: vec![0],
         ..Output::default()
     };
-    for (k, s) in solved.iter().enumerate() {
-        let base = offsets[k] as i64;
+    for (s, range) in solved.iter().zip(offsets.windows(2)) {
+        let base = range[0];
         o.reason.push(s.reason);
         o.alpha.push(s.alpha);
         o.radius.push(s.radius);
@@ -206,13 +154,11 @@ fn flatten(solved: &[Solved], offsets: &[usize], n: usize) -> Output {
         o.whole.push(s.whole);
         o.capped.push(s.capped);
         if s.rep.is_empty() {
-            o.rep.extend(base..offsets[k + 1] as i64);
+            o.rep.extend(base..range[1]);
         } else {
             o.rep.extend(s.rep.iter().map(|&r| base + r as i64));
         }
-        for (i, &out) in s.left_out.iter().enumerate() {
-            o.left_out[offsets[k] + i] = out;
-        }
+        o.left_out[base as usize..][..s.left_out.len()].copy_from_slice(&s.left_out);
         for polygon in &s.polygons {
             for ring in polygon {
                 o.ring_vertex.extend(ring.iter().map(|&v| base + v as i64));
@@ -225,6 +171,5 @@ fn flatten(solved: &[Solved], offsets: &[usize], n: usize) -> Output {
         o.curve_valid.extend_from_slice(&s.curve.valid);
         o.curve_offsets.push(o.curve_value.len() as i64);
     }
-    debug_assert_eq!(o.reason.len(), g);
     o
 }

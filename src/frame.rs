@@ -24,6 +24,8 @@ pub struct Frame {
     pub scale: f64,
     /// The near-degeneracy tolerance, in the input units.
     pub tol: f64,
+    /// The bounding box: its smallest and its largest coordinates.
+    pub bounds: [Xy; 2],
 }
 
 /// The distance from `x` to the next float of larger magnitude (numpy's
@@ -41,15 +43,12 @@ fn power_of_two_scale(extent: f64) -> f64 {
     if extent <= 0.0 || !extent.is_finite() {
         return 1.0;
     }
-    // frexp: the exponent of the leading bit, plus one.
+    // frexp: the exponent of the leading bit, plus one (in a subnormal, whose
+    // exponent field is 0, that bit is at 63 - leading zeros, times 2^-1074).
     let bits = extent.to_bits();
-    let biased = ((bits >> 52) & 0x7ff) as i32;
-    let e = if biased == 0 {
-        // subnormal: normalise first
-        let m = extent * 2f64.powi(64);
-        (((m.to_bits() >> 52) & 0x7ff) as i32) - 1022 - 64
-    } else {
-        biased - 1022
+    let e = match bits >> 52 {
+        0 => -1010 - bits.leading_zeros() as i32,
+        biased => biased as i32 - 1022,
     };
     // 2^-e may not be representable as one float for |e| > 1022: build it in
     // two steps (the product is exact; callers multiply by it once).
@@ -80,15 +79,15 @@ impl Frame {
             }
         }
         let extent = (hi[0] - lo[0]).max(hi[1] - lo[1]);
-        let big = lo
+        let big = [lo, hi]
+            .as_flattened()
             .iter()
-            .chain(hi.iter())
             .fold(0.0f64, |m, v| m.max(v.abs()));
-        let tol = (NEAR_RTOL * extent).max(PRECISION_ULPS * ulp(big));
         Frame {
             extent,
             scale: power_of_two_scale(extent),
-            tol,
+            tol: (NEAR_RTOL * extent).max(PRECISION_ULPS * ulp(big)),
+            bounds: [lo, hi],
         }
     }
 }

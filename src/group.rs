@@ -88,13 +88,12 @@ pub fn solve(
     budget: u64,
     options: &Options,
 ) -> Solved {
-    let n = points.len();
     let mut res = Solved {
         alpha: f64::NAN,
         radius: f64::NAN,
         ..Solved::default()
     };
-    if n == 0 {
+    if points.is_empty() {
         res.reason = Reason::Few as u8;
         return res;
     }
@@ -102,64 +101,40 @@ pub fn solve(
         return crate::sphere::solve(points, out, alpha, budget, options, res);
     }
     let frame = Frame::of(points);
+    let s = frame.scale;
     let line = collinear(points, &frame);
-    let Some(mesh) = mesh_or_reason(points, &frame, line, out, &mut res) else {
+    let radius_of = |[a, b, c]: [Xy; 3]| circumradius(a, b, c) / s;
+    let Some((mesh, radius, scaled)) = triangulated(points, &frame, line, out, &mut res, radius_of)
+    else {
         return res;
     };
-
-    let s = frame.scale;
-    let scaled = |v: u32| {
-        let p = points[v as usize];
-        [p[0] * s, p[1] * s]
-    };
-    let radius_of = |t: &[u32; 3]| circumradius(scaled(t[0]), scaled(t[1]), scaled(t[2])) / s;
-    let radius = per_triangle(&mesh.tri, radius_of);
     // Orientations in the scaled coordinates: exact, and never underflowing
     // for groups whose coordinates are tiny (1e-300 across).
-    let scaled_points: Vec<Xy> = (0..n as u32).map(scaled).collect();
-    let area_of =
-        |t: &[u32; 3]| orient(scaled(t[0]), scaled(t[1]), scaled(t[2])).abs() / 2.0 / s / s;
+    let area_of = |t: &[u32; 3]| {
+        let [a, b, c] = t.map(|v| scaled[v as usize]);
+        orient(a, b, c).abs() / 2.0 / s / s
+    };
     finish(
-        res,
-        &Shaped {
-            mesh: &mesh,
-            radius: &radius,
-            ring_points: &scaled_points,
-            area_of: &area_of,
-        },
-        alpha,
-        budget,
-        options,
+        res, &mesh, &radius, &scaled, &area_of, alpha, budget, options,
     )
 }
 
-/// A triangulated group, ready for its optimum: the mesh, each triangle's
-/// radius, the points the rings are oriented by (every triangle of the mesh
-/// counter-clockwise in them) and each triangle's area.
-pub struct Shaped<'a> {
-    /// The triangulation.
-    pub mesh: &'a Mesh,
-    /// Each triangle's radius.
-    pub radius: &'a [f64],
-    /// Points in which every triangle is counter-clockwise.
-    pub ring_points: &'a [Xy],
-    /// The area of a triangle.
-    pub area_of: &'a (dyn Fn(&[u32; 3]) -> f64 + Sync),
-}
-
-/// Triangulate a group (`points` in the plane the mesh is made in, `line`
-/// whether they lie on one line there) and decide its reason code: the mesh
-/// when the group has a shape, `None` (with `res.reason` set) when it is
-/// degenerate. Collinearity is decided in the output coordinates `out` too.
-pub fn mesh_or_reason(
-    points: &[Xy],
+/// Triangulate a group in `plane` (`frame` is theirs, `line` whether they lie
+/// on one line there) and decide its reason code. When it has a shape: the
+/// mesh, each triangle's radius (`radius_of` its corners in the points scaled
+/// by `frame.scale`) and those scaled points, every triangle counter-clockwise
+/// in them; `None` (with `res.reason` set) when it is degenerate. Collinearity
+/// is decided in the output coordinates `out` too.
+pub fn triangulated(
+    plane: &[Xy],
     frame: &Frame,
     line: bool,
     out: Option<&[Xy]>,
     res: &mut Solved,
-) -> Option<Mesh> {
+    radius_of: impl Fn([Xy; 3]) -> f64 + Sync + Send,
+) -> Option<(Mesh, Vec<f64>, Vec<Xy>)> {
     let line_out = out.is_some_and(|o| collinear(o, &Frame::of(o)));
-    let mesh = triangulate(points, frame, !(line || line_out));
+    let mesh = triangulate(plane, frame, !(line || line_out));
     res.rep = mesh.rep.clone();
     res.n_distinct = mesh.n_distinct as u32;
     res.reason = if mesh.n_distinct < 3 {
@@ -171,105 +146,80 @@ pub fn mesh_or_reason(
     } else {
         Reason::Ok
     } as u8;
-    (res.reason == Reason::Ok as u8).then_some(mesh)
-}
-
-/// `f` of every triangle, on every thread when there are many.
-pub fn per_triangle<T: Send>(tri: &[[u32; 3]], f: impl Fn(&[u32; 3]) -> T + Sync + Send) -> Vec<T> {
-    if tri.len() > PARALLEL_TRIANGLES {
-        tri.par_iter().map(f).collect()
-    } else {
-        tri.iter().map(f).collect()
+    if res.reason != Reason::Ok as u8 {
+        return None;
     }
+    let s = frame.scale;
+    let scaled: Vec<Xy> = plane.iter().map(|p| [p[0] * s, p[1] * s]).collect();
+    let radius = |t: &[u32; 3]| radius_of(t.map(|v| scaled[v as usize]));
+    let radius = if mesh.tri.len() > PARALLEL_TRIANGLES {
+        mesh.tri.par_iter().map(radius).collect()
+    } else {
+        mesh.tri.iter().map(radius).collect()
+    };
+    Some((mesh, radius, scaled))
 }
 
 /// The optimum (or given alpha), the shape, its area and rings, of a
-/// triangulated group; `res` holds what the triangulation already set.
+/// triangulated group (`radius` and `area_of` of each triangle, `ring_points`
+/// the points every triangle is counter-clockwise in); `res` holds what the
+/// triangulation already set.
+#[allow(clippy::too_many_arguments)]
 pub fn finish(
     mut res: Solved,
-    shaped: &Shaped,
+    mesh: &Mesh,
+    radius: &[f64],
+    ring_points: &[Xy],
+    area_of: &(dyn Fn(&[u32; 3]) -> f64 + Sync),
     alpha: Option<f64>,
     budget: u64,
     options: &Options,
 ) -> Solved {
-    let mesh = shaped.mesh;
     let n = mesh.rep.len();
-    let radius = shaped.radius;
-    let spectrum = merge_ties(radius);
-    let k = spectrum.values.len();
+    let (values, rank) = merge_ties(radius);
+    let k = values.len();
     let w = if options.holes {
-        spectrum.rank.clone()
+        rank
     } else {
-        fill_rank(&spectrum.rank, k, &mesh.nb)
+        fill_rank(&rank, k, &mesh.nb)
     };
-    let value = |rank: u32| spectrum.values[rank as usize];
-
-    let mut weight = vec![0u64; n];
-    for &r in &mesh.rep {
-        weight[r as usize] += 1;
-    }
-    let rows = n as u64;
+    let value = |rank: u32| values[rank as usize];
+    let sweep = |curve| sweep(&w, k, mesh, options.components, curve);
     let (label, n_pieces) = if let Some(a) = alpha {
-        let r = if a > 0.0 {
-            (1.0 / a) * (1.0 + ALPHA_RTOL)
-        } else {
-            f64::INFINITY
-        };
         res.alpha = a;
         res.radius = if a > 0.0 { 1.0 / a } else { f64::INFINITY };
+        let r = res.radius * (1.0 + ALPHA_RTOL);
         // Solid: a merged radius <= r, i.e. a rank below the first value > r.
-        let solid = spectrum.values.partition_point(|&v| v <= r) as u32;
-        let inside: Vec<bool> = w.iter().map(|&x| x < solid).collect();
-        pieces(&inside, &mesh.nb)
+        let solid = values.partition_point(|&v| v <= r) as u32;
+        pieces(|t| w[t] < solid, &mesh.nb)
     } else if budget > 0 {
-        let need = rows.saturating_sub(budget);
-        let (r, cover) = outlier_optimum(
-            &w,
-            &mesh.tri,
-            &mesh.nb,
-            &weight,
-            options.components,
-            need,
-            options.max_union_nodes,
-        );
+        let mut weight = vec![0u64; n];
+        for &r in &mesh.rep {
+            weight[r as usize] += 1;
+        }
+        let need = (n as u64).saturating_sub(budget);
+        let components = options.components;
+        let (r, cover) =
+            outlier_optimum(&w, mesh, &weight, components, need, options.max_union_nodes);
         res.capped = cover.capped;
         res.radius = value(r);
+        res.n_outliers = n as u64 - cover.rows;
         // Keep the chosen pieces only, numbered 0..
         let mut renumber = vec![NONE; cover.label.len()];
         for (k, &c) in cover.chosen.iter().enumerate() {
             renumber[c as usize] = k as u32;
         }
-        let label = cover
-            .label
-            .iter()
-            .map(|&l| {
-                if l == NONE {
-                    NONE
-                } else {
-                    renumber[l as usize]
-                }
-            })
-            .collect();
-        res.n_outliers = rows - cover.rows;
-        (label, cover.chosen.len())
+        let label = cover.label.iter();
+        let label = label.map(|&l| renumber.get(l as usize).copied().unwrap_or(NONE));
+        (label.collect(), cover.chosen.len())
     } else {
-        let (first, curve) = sweep(
-            &w,
-            k,
-            &mesh.tri,
-            &mesh.nb,
-            n,
-            mesh.n_distinct,
-            options.components,
-            options.curve,
-        );
+        let (first, curve) = sweep(options.curve);
         res.curve = curve;
         // The whole triangulation is always valid: a Delaunay triangulation
         // is edge-connected and has every distinct point as a vertex.
         let r = first.unwrap_or(k as u32 - 1);
         res.radius = value(r);
-        let inside: Vec<bool> = w.iter().map(|&x| x <= r).collect();
-        pieces(&inside, &mesh.nb)
+        pieces(|t| w[t] <= r, &mesh.nb)
     };
     if alpha.is_none() {
         res.alpha = if res.radius.is_finite() {
@@ -279,44 +229,23 @@ pub fn finish(
         };
     }
     if options.curve && (alpha.is_some() || budget > 0) {
-        res.curve = sweep(
-            &w,
-            k,
-            &mesh.tri,
-            &mesh.nb,
-            n,
-            mesh.n_distinct,
-            options.components,
-            true,
-        )
-        .1;
+        res.curve = sweep(true).1;
     }
     res.curve_values = res.curve.ranks.iter().map(|&r| value(r)).collect();
-
+    let shape = || label.iter().zip(&mesh.tri).filter(|(&l, _)| l != NONE);
     // Rows left out: points whose representative no chosen piece holds.
     if budget > 0 && alpha.is_none() {
         let mut held = vec![false; n];
-        for (t, &l) in label.iter().enumerate() {
-            if l != NONE {
-                for &v in &mesh.tri[t] {
-                    held[v as usize] = true;
-                }
-            }
+        for &v in shape().flat_map(|(_, t)| t) {
+            held[v as usize] = true;
         }
         res.left_out = mesh.rep.iter().map(|&r| !held[r as usize]).collect();
     }
-
     res.whole = label.iter().all(|&l| l != NONE);
-    let mut area = 0.0;
-    for (t, &l) in label.iter().enumerate() {
-        if l != NONE {
-            area += (shaped.area_of)(&mesh.tri[t]);
-        }
-    }
-    res.area = area;
-    match trace(shaped.ring_points, &mesh.tri, &mesh.nb, &label, n_pieces) {
-        Ok(polygons) => res.polygons = polygons,
-        Err(_) => res.reason = Reason::Rings as u8,
+    res.area = shape().fold(0.0, |area, (_, t)| area + area_of(t));
+    match trace(ring_points, mesh, &label, n_pieces) {
+        Some(polygons) => res.polygons = polygons,
+        None => res.reason = Reason::Rings as u8,
     }
     res
 }

@@ -47,11 +47,20 @@ fn points<'a>(name: &str, array: &'a PyReadonlyArray2<'_, f64>) -> PyResult<&'a 
     Ok(flat.as_chunks::<2>().0)
 }
 
-fn non_negative(name: &str, values: &[i64]) -> PyResult<()> {
-    if values.iter().any(|&v| v < 0) {
-        return Err(PyValueError::new_err(format!("{name} must be >= 0")));
+/// Run `work` on [`pool`]`(threads)` with the GIL released; its error
+/// becomes `ValueError`, a panic `RuntimeError`.
+fn detached<T: Send, E: std::fmt::Display + Send>(
+    py: Python<'_>,
+    threads: usize,
+    work: impl FnOnce() -> Result<T, E> + Send,
+) -> PyResult<T> {
+    let pool = pool(threads)?;
+    match py.detach(|| catch_unwind(AssertUnwindSafe(|| pool.install(work)))) {
+        Ok(result) => result.map_err(|err| PyValueError::new_err(err.to_string())),
+        Err(_) => Err(PyRuntimeError::new_err(
+            "geoalpha's kernel failed unexpectedly (a bug: please report it with the input)",
+        )),
     }
-    Ok(())
 }
 
 fn to_dict<'py>(py: Python<'py>, o: Output) -> PyResult<Bound<'py, PyDict>> {
@@ -101,32 +110,12 @@ fn py_alpha_shapes<'py>(
     max_union_nodes: usize,
     sphere: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let xy_ = points("xy", &xy)?;
-    let out_ = match &out_xy {
-        Some(o) => Some(points("out_xy", o)?),
-        None => None,
-    };
-    let offsets_ = offsets.as_slice()?;
-    non_negative("offsets", offsets_)?;
-    let offsets_: Vec<usize> = offsets_.iter().map(|&v| v as usize).collect();
-    let alpha_ = match &alpha {
-        Some(a) => Some(a.as_slice()?),
-        None => None,
-    };
-    let budget_: Option<Vec<u64>> = match &budget {
-        Some(b) => {
-            let b = b.as_slice()?;
-            non_negative("budget", b)?;
-            Some(b.iter().map(|&v| v as u64).collect())
-        }
-        None => None,
-    };
     let input = Input {
-        xy: xy_,
-        out: out_,
-        offsets: &offsets_,
-        alpha: alpha_,
-        budget: budget_.as_deref(),
+        xy: points("xy", &xy)?,
+        out: out_xy.as_ref().map(|o| points("out_xy", o)).transpose()?,
+        offsets: offsets.as_slice()?,
+        alpha: alpha.as_ref().map(|a| a.as_slice()).transpose()?,
+        budget: budget.as_ref().map(|b| b.as_slice()).transpose()?,
         options: Options {
             holes,
             components,
@@ -135,8 +124,7 @@ fn py_alpha_shapes<'py>(
             sphere,
         },
     };
-    let output = detached(py, threads, || batch::run(&input))?;
-    to_dict(py, output)
+    to_dict(py, detached(py, threads, || batch::run(&input))?)
 }
 
 /// Areas (m²) on the WGS84 ellipsoid of (multi)polygons in longitude/latitude.
@@ -154,32 +142,14 @@ fn py_geodesic_areas<'py>(
     geometry_offsets: PyReadonlyArray1<'py, i64>,
     threads: usize,
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-    let (lon_, lat_) = (lon.as_slice()?, lat.as_slice()?);
+    let (lon, lat) = (lon.as_slice()?, lat.as_slice()?);
     let rings = ring_offsets.as_slice()?;
     let polygons = polygon_offsets.as_slice()?;
     let geometries = geometry_offsets.as_slice()?;
     let areas = detached(py, threads, || {
-        geodesic::polygon_areas(lon_, lat_, rings, polygons, geometries)
+        geodesic::polygon_areas(lon, lat, rings, polygons, geometries)
     })?;
     Ok(areas.into_pyarray(py))
-}
-
-/// Runs `work` on [`pool`]`(threads)` with the GIL released: its error comes
-/// back as a `ValueError`, a panic as a `RuntimeError` (none crosses into
-/// Python).
-fn detached<T: Send, E: Send + std::fmt::Display>(
-    py: Python<'_>,
-    threads: usize,
-    work: impl FnOnce() -> Result<T, E> + Send,
-) -> PyResult<T> {
-    let pool = pool(threads)?;
-    match py.detach(|| catch_unwind(AssertUnwindSafe(|| pool.install(work)))) {
-        Ok(Ok(value)) => Ok(value),
-        Ok(Err(err)) => Err(PyValueError::new_err(err.to_string())),
-        Err(_) => Err(PyRuntimeError::new_err(
-            "geoalpha's kernel failed unexpectedly (a bug: please report it with the input)",
-        )),
-    }
 }
 
 /// The thread pool of `threads` threads (0: one per core), built once per

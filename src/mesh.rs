@@ -42,20 +42,26 @@ impl HasPosition for Vertex {
     }
 }
 
-/// Union-find over point indices whose root is the smallest index of its set.
-pub struct MinUnion(Vec<u32>);
+/// Union-find (path halving, union by size).
+pub struct Union {
+    parent: Vec<u32>,
+    size: Vec<u32>,
+}
 
-impl MinUnion {
+impl Union {
     /// `n` singletons.
     pub fn new(n: usize) -> Self {
-        MinUnion((0..n as u32).collect())
+        Union {
+            parent: (0..n as u32).collect(),
+            size: vec![1; n],
+        }
     }
 
-    /// The root (smallest member) of `i`'s set.
+    /// The root of `i`'s set.
     pub fn find(&mut self, mut i: u32) -> u32 {
-        while self.0[i as usize] != i {
-            let up = self.0[self.0[i as usize] as usize];
-            self.0[i as usize] = up;
+        while self.parent[i as usize] != i {
+            let up = self.parent[self.parent[i as usize] as usize];
+            self.parent[i as usize] = up;
             i = up;
         }
         i
@@ -63,12 +69,15 @@ impl MinUnion {
 
     /// Merge the sets of `a` and `b`; true if they were apart.
     pub fn union(&mut self, a: u32, b: u32) -> bool {
-        let (ra, rb) = (self.find(a), self.find(b));
+        let (mut ra, mut rb) = (self.find(a), self.find(b));
         if ra == rb {
             return false;
         }
-        let (lo, hi) = if ra < rb { (ra, rb) } else { (rb, ra) };
-        self.0[hi as usize] = lo;
+        if self.size[ra as usize] < self.size[rb as usize] {
+            std::mem::swap(&mut ra, &mut rb);
+        }
+        self.parent[rb as usize] = ra;
+        self.size[ra as usize] += self.size[rb as usize];
         true
     }
 }
@@ -94,19 +103,14 @@ fn morton(x: u32, y: u32) -> u64 {
     spread(x) | (spread(y) << 1)
 }
 
-/// The group's points along a Z-order curve through their bounding box, as
-/// sorted `(place on the curve, coordinate bits, index)`: exact duplicates
-/// end up next to each other, and ties on the curve (points closer than a
-/// cell) go by coordinates, so that the order, and with it spade's
-/// triangulation, depends on the points alone, not on the order of the rows.
-fn along_curve(points: &[Xy]) -> Vec<(u64, [u64; 2], u32)> {
-    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-    for p in points {
-        for a in 0..2 {
-            lo[a] = lo[a].min(p[a]);
-            hi[a] = hi[a].max(p[a]);
-        }
-    }
+/// The group's points along a Z-order curve through their bounding box
+/// (`frame` is theirs), as sorted `(place on the curve, coordinate bits,
+/// index)`: exact duplicates end up next to each other, and ties on the curve
+/// (points closer than a cell) go by coordinates, so that the order, and with
+/// it spade's triangulation, depends on the points alone, not on the order of
+/// the rows.
+fn along_curve(points: &[Xy], frame: &Frame) -> Vec<(u64, [u64; 2], u32)> {
+    let [lo, hi] = frame.bounds;
     // Grid cells of the bounding box; the cast saturates, so rounding at the
     // top edge stays on the grid.
     let cell = |a: usize, v: f64| {
@@ -134,7 +138,7 @@ fn along_curve(points: &[Xy]) -> Vec<(u64, [u64; 2], u32)> {
     along
 }
 
-/// The order in which the points with `keep[i]` are inserted, as
+/// The order in which the points with `rep[i] == i` are inserted, as
 /// `(index, rank)` pairs, `rank` being the point's place among them along the
 /// curve ([`along_curve`]): biased randomized insertion order (BRIO) with
 /// each round in the curve's order.
@@ -146,21 +150,32 @@ fn along_curve(points: &[Xy]) -> Vec<(u64, [u64; 2], u32)> {
 /// to quadratic time on nearly collinear chains, whose points share one
 /// angle from the centre); the curve keeps each insertion next to the one
 /// before, where the walk that locates it starts.
-fn insertion_order(along: &[(u64, [u64; 2], u32)], keep: &[bool]) -> Vec<(u32, u32)> {
+fn insertion_order(along: &[(u64, [u64; 2], u32)], rep: &[u32]) -> Vec<(u32, u32)> {
     let round = |bits: [u64; 2]| 64 - mix(bits[0] ^ mix(bits[1])).trailing_zeros() as usize;
-    let kept = || along.iter().filter(|e| keep[e.2 as usize]);
-    let mut start = [0usize; 66];
-    for &(_, bits, _) in kept() {
-        start[round(bits) + 1] += 1;
+    let kept = along.iter().filter(|e| rep[e.2 as usize] == e.2);
+    let rounds = kept
+        .enumerate()
+        .map(|(rank, &(_, bits, id))| (round(bits), (id, rank as u32)));
+    counting_sort(rounds, 65)
+}
+
+/// The values of `items`, `(bucket < k, value)` pairs, by bucket, ties in
+/// their order (a counting sort).
+pub fn counting_sort<T: Copy + Default>(
+    items: impl Iterator<Item = (usize, T)> + Clone,
+    k: usize,
+) -> Vec<T> {
+    let mut start = vec![0usize; k + 1];
+    for (b, _) in items.clone() {
+        start[b + 1] += 1;
     }
-    for r in 0..65 {
-        start[r + 1] += start[r];
+    for b in 0..k {
+        start[b + 1] += start[b];
     }
-    let mut order = vec![(0u32, 0u32); start[65]];
-    for (rank, &(_, bits, id)) in kept().enumerate() {
-        let r = round(bits);
-        order[start[r]] = (id, rank as u32);
-        start[r] += 1;
+    let mut order = vec![T::default(); start[k]];
+    for (b, value) in items {
+        order[start[b]] = value;
+        start[b] += 1;
     }
     order
 }
@@ -177,14 +192,14 @@ fn mix(mut z: u64) -> u64 {
 /// Above this many points, the insertion order is sorted on every thread.
 const PARALLEL_POINTS: usize = 1 << 16;
 
-fn delaunay(
-    points: &[Xy],
-    along: &[(u64, [u64; 2], u32)],
-    keep: &[bool],
-    s: f64,
-) -> Option<DelaunayTriangulation<Vertex>> {
-    let order = insertion_order(along, keep);
+/// The Delaunay triangulation of the points that represent their set
+/// (`rep[i] == i`), without `rep`: no triangle for fewer than 3 of them.
+fn delaunay(points: &[Xy], along: &[(u64, [u64; 2], u32)], rep: &[u32], s: f64) -> Mesh {
+    let order = insertion_order(along, rep);
     let n = order.len();
+    if n < 3 {
+        return Mesh::default();
+    }
     let mut dt = DelaunayTriangulation::<Vertex>::with_capacity(n, 3 * n, 2 * n);
     let mut hint = None;
     for (id, rank) in order {
@@ -197,16 +212,23 @@ fn delaunay(
             Some(h) => dt.insert_with_hint(vertex, h),
             None => dt.insert(vertex),
         };
-        hint = Some(inserted.ok()?);
+        let Ok(inserted) = inserted else {
+            return Mesh::default();
+        };
+        hint = Some(inserted);
     }
-    Some(dt)
+    fill_arrays(&dt)
 }
 
-/// Whether each point represents its set, and how many do.
-fn roots(union: &mut MinUnion, n: usize) -> (Vec<bool>, usize) {
-    let root: Vec<bool> = (0..n as u32).map(|i| union.find(i) == i).collect();
-    let count = root.iter().filter(|&&r| r).count();
-    (root, count)
+/// Each point's representative: the smallest index of its set.
+fn reps(union: &mut Union) -> Vec<u32> {
+    let n = union.parent.len();
+    let root: Vec<u32> = (0..n as u32).map(|i| union.find(i)).collect();
+    let mut smallest = vec![NONE; n];
+    for (i, &r) in root.iter().enumerate().rev() {
+        smallest[r as usize] = i as u32;
+    }
+    root.iter().map(|&r| smallest[r as usize]).collect()
 }
 
 /// Triangulate a group's points (`frame` is theirs).
@@ -218,38 +240,31 @@ fn roots(union: &mut MinUnion, n: usize) -> (Vec<bool>, usize) {
 /// all exactly collinear or fewer than 3, or when `build` is false (then only
 /// exact duplicates are merged: a group already known to be degenerate).
 pub fn triangulate(points: &[Xy], frame: &Frame, build: bool) -> Mesh {
-    let n = points.len();
     let s = frame.scale;
-    let mut union = MinUnion::new(n);
-    let along = along_curve(points);
-    for w in along.windows(2) {
-        if w[0].1 == w[1].1 {
-            union.union(w[0].2, w[1].2);
-        }
+    let mut union = Union::new(points.len());
+    let along = along_curve(points, frame);
+    for w in along.windows(2).filter(|w| w[0].1 == w[1].1) {
+        union.union(w[0].2, w[1].2);
     }
-    let (mut root, mut n_distinct) = roots(&mut union, n);
+    let mut rep = reps(&mut union);
     let mut mesh = Mesh::default();
-    if build && n_distinct >= 3 {
-        if let Some(t) = delaunay(points, &along, &root, s) {
-            fill_arrays(&t, &mut mesh);
-        }
+    if build {
+        mesh = delaunay(points, &along, &rep, s);
         let mut merged = false;
         for (a, b) in close_pairs(points, &mesh, s * frame.tol, s) {
             merged |= union.union(a, b);
         }
         if merged {
-            (root, n_distinct) = roots(&mut union, n);
-            mesh = Mesh::default();
-            if n_distinct >= 3 {
-                if let Some(t) = delaunay(points, &along, &root, s) {
-                    fill_arrays(&t, &mut mesh);
-                }
-            }
+            rep = reps(&mut union);
+            mesh = delaunay(points, &along, &rep, s);
         }
     }
-    mesh.rep = (0..n as u32).map(|i| union.find(i)).collect();
-    mesh.n_distinct = n_distinct;
-    mesh
+    let n_distinct = rep.iter().zip(0..).filter(|&(&r, i)| r == i).count();
+    Mesh {
+        rep,
+        n_distinct,
+        ..mesh
+    }
 }
 
 /// The mesh's edges shorter than `close` (in coordinates scaled by `s`), as
@@ -283,7 +298,7 @@ type Triangles = (Vec<[u32; 3]>, Vec<[u32; 3]>);
 /// Each triangle is listed by its vertex of smallest rank on the curve, the
 /// vertices taken in rank order, on every thread: one walk around each
 /// vertex. Then spade's face numbers become places in that list.
-fn fill_arrays(t: &DelaunayTriangulation<Vertex>, mesh: &mut Mesh) {
+fn fill_arrays(t: &DelaunayTriangulation<Vertex>) -> Mesh {
     let mut by_rank = vec![0u32; t.num_vertices()];
     for v in t.vertices() {
         by_rank[v.data().rank as usize] = v.fix().index() as u32;
@@ -316,8 +331,11 @@ fn fill_arrays(t: &DelaunayTriangulation<Vertex>, mesh: &mut Mesh) {
     nb.par_iter_mut()
         .with_min_len(PARALLEL_POINTS)
         .for_each(|n| *n = n.map(|s| if s == NONE { NONE } else { place[s as usize] }));
-    mesh.tri = tri;
-    mesh.nb = nb;
+    Mesh {
+        tri,
+        nb,
+        ..Mesh::default()
+    }
 }
 
 #[cfg(test)]

@@ -9,30 +9,14 @@
 //! which is the valid OGC form GEOS expects.
 
 use crate::frame::{orient, Xy};
-use crate::mesh::NONE;
-
-/// Why the rings could not be traced (never expected on an exact
-/// triangulation; reported rather than trusted).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum RingError {
-    /// A walk around a vertex or along a ring did not end within its bound.
-    Unbounded,
-    /// A piece did not get exactly one counter-clockwise ring.
-    Shells,
-}
+use crate::mesh::{Mesh, NONE};
 
 /// One polygon per piece: its shell first, then its holes; each ring a list
 /// of point indices, closed (the first index repeated at the end).
 pub type Polygons = Vec<Vec<Vec<u32>>>;
 
 fn corner(t: &[u32; 3], v: u32) -> usize {
-    if t[0] == v {
-        0
-    } else if t[1] == v {
-        1
-    } else {
-        2
-    }
+    t.iter().position(|&x| x == v).unwrap_or(2)
 }
 
 /// The boundary edge that follows edge `j` of triangle `t` (which ends at
@@ -45,7 +29,7 @@ fn next_edge(
     label: &[u32],
     t: usize,
     j: usize,
-) -> Result<(usize, usize), RingError> {
+) -> Option<(usize, usize)> {
     let piece = label[t];
     let v = tri[t][(j + 1) % 3];
     let inside = |s: usize| label[s] == piece;
@@ -66,34 +50,32 @@ fn next_edge(
                 x = cw as usize;
                 steps += 1;
                 if steps > tri.len() {
-                    return Err(RingError::Unbounded);
+                    return None;
                 }
             }
             if inside(x) {
-                return Ok((x, corner(&tri[x], v)));
+                return Some((x, corner(&tri[x], v)));
             }
             cur = x as u32;
             continue;
         }
         let c = cur as usize;
         if inside(c) {
-            return Ok((c, corner(&tri[c], v)));
+            return Some((c, corner(&tri[c], v)));
         }
         let k = corner(&tri[c], v);
         cur = nb[c][(k + 2) % 3];
     }
-    Err(RingError::Unbounded)
+    None
 }
 
 /// Trace the rings of the pieces (`label[t]` in `0..n_pieces`, or [`NONE`]
 /// for triangles outside the shape). `points` orient the rings (exactly).
-pub fn trace(
-    points: &[Xy],
-    tri: &[[u32; 3]],
-    nb: &[[u32; 3]],
-    label: &[u32],
-    n_pieces: usize,
-) -> Result<Polygons, RingError> {
+/// `None` when a walk does not end or a piece does not get exactly one
+/// counter-clockwise ring (never expected on an exact triangulation;
+/// reported rather than trusted).
+pub fn trace(points: &[Xy], mesh: &Mesh, label: &[u32], n_pieces: usize) -> Option<Polygons> {
+    let (tri, nb) = (&mesh.tri, &mesh.nb);
     let m = tri.len();
     let boundary = |t: usize, j: usize| {
         let s = nb[t][j];
@@ -114,7 +96,7 @@ pub fn trace(
             let (mut t, mut j) = (t0, j0);
             loop {
                 if ring.len() > 3 * m {
-                    return Err(RingError::Unbounded);
+                    return None;
                 }
                 used[3 * t + j] = true;
                 ring.push(tri[t][j]);
@@ -127,7 +109,7 @@ pub fn trace(
             let p = label[t0] as usize;
             if counter_clockwise(points, &ring) {
                 if !polygons[p].is_empty() {
-                    return Err(RingError::Shells);
+                    return None;
                 }
                 polygons[p].push(ring);
             } else {
@@ -137,11 +119,11 @@ pub fn trace(
     }
     for (poly, h) in polygons.iter_mut().zip(holes) {
         if poly.is_empty() {
-            return Err(RingError::Shells);
+            return None;
         }
         poly.extend(h);
     }
-    Ok(polygons)
+    Some(polygons)
 }
 
 /// Orientation of a simple closed ring, exactly: the turn at its
@@ -167,13 +149,9 @@ mod tests {
 
     fn rings_of(points: &[Xy], keep: impl Fn(&[Xy; 3]) -> bool) -> Polygons {
         let mesh = triangulate(points, &Frame::of(points), true);
-        let inside: Vec<bool> = mesh
-            .tri
-            .iter()
-            .map(|t| keep(&t.map(|v| points[v as usize])))
-            .collect();
-        let (label, n) = pieces(&inside, &mesh.nb);
-        trace(points, &mesh.tri, &mesh.nb, &label, n).unwrap()
+        let inside = |t: usize| keep(&mesh.tri[t].map(|v| points[v as usize]));
+        let (label, n) = pieces(inside, &mesh.nb);
+        trace(points, &mesh, &label, n).unwrap()
     }
 
     #[test]

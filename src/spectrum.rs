@@ -9,7 +9,7 @@
 
 use rayon::prelude::*;
 
-use crate::mesh::NONE;
+use crate::mesh::{counting_sort, Mesh, Union, NONE};
 
 /// Circumradii that agree to this relative tolerance are one spectrum value:
 /// cocircular points (grids, rounded coordinates) have equal radii in exact
@@ -24,26 +24,17 @@ pub const ALPHA_RTOL: f64 = 8.0 * f64::EPSILON;
 /// Above this many triangles, sorts and per-triangle passes use every thread.
 pub const PARALLEL_TRIANGLES: usize = 1 << 16;
 
-/// A triangulation's radius spectrum: the distinct (merged) radii and the
-/// rank of each triangle's radius among them. Everything after the radii runs
-/// on ranks: integers that compare as the radii do, so the sweeps sort by
+/// A triangulation's radius spectrum: the distinct radii, ascending, radii
+/// that agree to [`TIE_RTOL`] given the largest of their values; and the rank
+/// of each triangle's radius among them. Everything after the radii runs on
+/// ranks: integers that compare as the radii do, so the sweeps sort by
 /// counting and queue by bucket.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct Spectrum {
-    /// The distinct merged radii, ascending.
-    pub values: Vec<f64>,
-    /// `values[rank[t]]` is triangle `t`'s merged radius.
-    pub rank: Vec<u32>,
-}
-
-/// Give radii that agree to [`TIE_RTOL`] the largest of their values, and rank
-/// them.
 ///
 /// Greedy runs, one value each: a run starts at the smallest radius not yet
 /// taken and holds every radius up to `start * (1 + TIE_RTOL)`; runs do not
 /// chain, so a merged value spans at most the tolerance. Radii are positive
 /// (or infinite), so their bit patterns sort as they do.
-pub fn merge_ties(radius: &[f64]) -> Spectrum {
+pub fn merge_ties(radius: &[f64]) -> (Vec<f64>, Vec<u32>) {
     let mut keyed: Vec<(u64, u32)> = radius
         .iter()
         .enumerate()
@@ -55,10 +46,7 @@ pub fn merge_ties(radius: &[f64]) -> Spectrum {
         keyed.sort_unstable();
     }
     let value = |i: usize| f64::from_bits(keyed[i].0);
-    let mut spectrum = Spectrum {
-        values: Vec::new(),
-        rank: vec![0; radius.len()],
-    };
+    let (mut values, mut rank) = (Vec::new(), vec![0; radius.len()]);
     let mut i = 0;
     while i < keyed.len() {
         let limit = value(i) * (1.0 + TIE_RTOL);
@@ -66,14 +54,13 @@ pub fn merge_ties(radius: &[f64]) -> Spectrum {
         while j + 1 < keyed.len() && value(j + 1) <= limit {
             j += 1;
         }
-        let rank = spectrum.values.len() as u32;
-        spectrum.values.push(value(j));
         for &(_, t) in &keyed[i..=j] {
-            spectrum.rank[t as usize] = rank;
+            rank[t as usize] = values.len() as u32;
         }
+        values.push(value(j));
         i = j + 1;
     }
-    spectrum
+    (values, rank)
 }
 
 /// The fill rank of every triangle: the largest, over dual paths from the
@@ -117,93 +104,29 @@ pub fn fill_rank(rank: &[u32], k: usize, nb: &[[u32; 3]]) -> Vec<u32> {
     fill
 }
 
-/// Triangles of rank `from` or more, in increasing rank (counting sort,
-/// ties by index).
-fn by_rank(w: &[u32], k: usize, from: u32) -> Vec<u32> {
-    let from = from as usize;
-    let mut start = vec![0u32; k + 1 - from.min(k)];
-    for &r in w.iter().filter(|&&r| r as usize >= from) {
-        start[r as usize - from + 1] += 1;
-    }
-    for i in 0..start.len() - 1 {
-        start[i + 1] += start[i];
-    }
-    let mut order = vec![0u32; start[start.len() - 1] as usize];
-    for (t, &r) in w.iter().enumerate() {
-        if r as usize >= from {
-            order[start[r as usize - from] as usize] = t as u32;
-            start[r as usize - from] += 1;
-        }
-    }
-    order
-}
-
-/// Union-find over triangles (path halving, union by size).
-pub struct Union {
-    parent: Vec<u32>,
-    size: Vec<u32>,
-}
-
-impl Union {
-    /// `n` singletons.
-    pub fn new(n: usize) -> Self {
-        Union {
-            parent: (0..n as u32).collect(),
-            size: vec![1; n],
-        }
-    }
-
-    /// The root of `i`'s set.
-    pub fn find(&mut self, mut i: u32) -> u32 {
-        while self.parent[i as usize] != i {
-            let up = self.parent[self.parent[i as usize] as usize];
-            self.parent[i as usize] = up;
-            i = up;
-        }
-        i
-    }
-
-    /// Merge the sets of `a` and `b`; true if they were apart.
-    pub fn union(&mut self, a: u32, b: u32) -> bool {
-        let (mut ra, mut rb) = (self.find(a), self.find(b));
-        if ra == rb {
-            return false;
-        }
-        if self.size[ra as usize] < self.size[rb as usize] {
-            std::mem::swap(&mut ra, &mut rb);
-        }
-        self.parent[rb as usize] = ra;
-        self.size[ra as usize] += self.size[rb as usize];
-        true
-    }
-}
-
-/// Edge-connected pieces of the triangles with `inside[t]`: a label `0..P`
-/// per triangle inside (numbered by their first triangle), [`NONE`] outside.
-pub fn pieces(inside: &[bool], nb: &[[u32; 3]]) -> (Vec<u32>, usize) {
-    let m = inside.len();
+/// Edge-connected pieces of the triangles `t` with `inside(t)`: a label
+/// `0..P` per triangle inside (numbered by their first triangle), [`NONE`]
+/// outside.
+pub fn pieces(inside: impl Fn(usize) -> bool, nb: &[[u32; 3]]) -> (Vec<u32>, usize) {
+    let m = nb.len();
     let mut union = Union::new(m);
-    for t in 0..m {
-        if inside[t] {
-            for &s in &nb[t] {
-                if s != NONE && inside[s as usize] {
-                    union.union(t as u32, s);
-                }
+    for t in (0..m).filter(|&t| inside(t)) {
+        for &s in &nb[t] {
+            if s != NONE && inside(s as usize) {
+                union.union(t as u32, s);
             }
         }
     }
     let mut label = vec![NONE; m];
     let mut of_root = vec![NONE; m];
     let mut count = 0;
-    for t in 0..m {
-        if inside[t] {
-            let r = union.find(t as u32) as usize;
-            if of_root[r] == NONE {
-                of_root[r] = count;
-                count += 1;
-            }
-            label[t] = of_root[r];
+    for t in (0..m).filter(|&t| inside(t)) {
+        let r = union.find(t as u32) as usize;
+        if of_root[r] == NONE {
+            of_root[r] = count;
+            count += 1;
         }
+        label[t] = of_root[r];
     }
     (label, count as usize)
 }
@@ -222,8 +145,7 @@ pub struct Curve {
 /// The shape as triangles are added: its pieces (union-find over triangles)
 /// and the points it covers.
 struct Growing<'a> {
-    tri: &'a [[u32; 3]],
-    nb: &'a [[u32; 3]],
+    mesh: &'a Mesh,
     union: Union,
     added: Vec<bool>,
     covered: Vec<bool>,
@@ -235,13 +157,13 @@ impl Growing<'_> {
     fn add(&mut self, t: usize) {
         self.added[t] = true;
         self.n_pieces += 1;
-        for &v in &self.tri[t] {
+        for &v in &self.mesh.tri[t] {
             if !self.covered[v as usize] {
                 self.covered[v as usize] = true;
                 self.n_covered += 1;
             }
         }
-        for &s in &self.nb[t] {
+        for &s in &self.mesh.nb[t] {
             if s != NONE && self.added[s as usize] && self.union.union(t as u32, s) {
                 self.n_pieces -= 1;
             }
@@ -251,9 +173,9 @@ impl Growing<'_> {
 
 /// The largest, over the points, of the smallest weight of a triangle at the
 /// point: no threshold below covers every point.
-fn coverage_bound(w: &[u32], tri: &[[u32; 3]], n_points: usize) -> u32 {
-    let mut lowest = vec![NONE; n_points];
-    for (t, v) in tri.iter().enumerate() {
+fn coverage_bound(w: &[u32], mesh: &Mesh) -> u32 {
+    let mut lowest = vec![NONE; mesh.rep.len()];
+    for (t, v) in mesh.tri.iter().enumerate() {
         for &p in v {
             lowest[p as usize] = lowest[p as usize].min(w[t]);
         }
@@ -270,33 +192,27 @@ fn coverage_bound(w: &[u32], tri: &[[u32; 3]], n_points: usize) -> u32 {
 /// threshold covers every point), adding the triangles below it in index
 /// order, whose neighbours are close in memory, and only the rest in order of
 /// weight.
-///
-/// `n_distinct` is the number of distinct points, all of them triangle
-/// vertices; `tri` indexes points `0..n_points`.
-#[allow(clippy::too_many_arguments)]
 pub fn sweep(
     w: &[u32],
     k: usize,
-    tri: &[[u32; 3]],
-    nb: &[[u32; 3]],
-    n_points: usize,
-    n_distinct: usize,
+    mesh: &Mesh,
     components: usize,
     want_curve: bool,
 ) -> (Option<u32>, Curve) {
     let mut shape = Growing {
-        tri,
-        nb,
+        mesh,
         union: Union::new(w.len()),
         added: vec![false; w.len()],
-        covered: vec![false; n_points],
+        covered: vec![false; mesh.rep.len()],
         n_covered: 0,
         n_pieces: 0,
     };
-    let valid = |shape: &Growing| shape.n_covered == n_distinct && shape.n_pieces <= components;
+    // The distinct points are all triangle vertices.
+    let valid =
+        |shape: &Growing| shape.n_covered == mesh.n_distinct && shape.n_pieces <= components;
     let mut from = 0;
     if !want_curve && !w.is_empty() {
-        let bound = coverage_bound(w, tri, n_points);
+        let bound = coverage_bound(w, mesh);
         for t in (0..w.len()).filter(|&t| w[t] <= bound) {
             shape.add(t);
         }
@@ -305,17 +221,17 @@ pub fn sweep(
         }
         from = bound + 1;
     }
-    let order = by_rank(w, k, from);
+    // The triangles of rank `from` or more, in increasing rank.
+    let above = w.iter().zip(0..).filter(|&(&r, _)| r >= from);
+    let order = counting_sort(
+        above.map(|(&r, t)| ((r - from) as usize, t)),
+        k - from as usize,
+    );
     let mut curve = Curve::default();
     let mut first = None;
-    let mut i = 0;
-    while i < order.len() {
-        let value = w[order[i] as usize];
-        while i < order.len() && w[order[i] as usize] == value {
-            shape.add(order[i] as usize);
-            i += 1;
-        }
-        let valid = valid(&shape);
+    for run in order.chunk_by(|&a: &u32, &b| w[a as usize] == w[b as usize]) {
+        run.iter().for_each(|&t| shape.add(t as usize));
+        let (value, valid) = (w[run[0] as usize], valid(&shape));
         if valid && first.is_none() {
             first = Some(value);
             if !want_curve {
@@ -348,61 +264,49 @@ pub struct Cover {
 pub const MAX_UNION_NODES: usize = 1_000_000;
 
 struct BestUnion<'a> {
-    sets: &'a [Vec<u32>],
+    /// Each piece's rows, label and points, in decreasing rows.
+    sets: Vec<(u64, u32, Vec<u32>)>,
     weight: &'a [u64],
-    set_weight: Vec<u64>,
     count: Vec<u32>,
-    best: u64,
-    best_choice: Vec<usize>,
-    choice: Vec<usize>,
-    nodes: usize,
-    max_nodes: usize,
+    best: (u64, Vec<u32>),
+    choice: Vec<u32>,
+    nodes_left: usize,
     capped: bool,
 }
 
 impl BestUnion<'_> {
-    fn add(&mut self, k: usize) -> u64 {
-        let mut gained = 0;
-        for &v in &self.sets[k] {
-            if self.count[v as usize] == 0 {
-                gained += self.weight[v as usize];
-            }
-            self.count[v as usize] += 1;
-        }
-        gained
-    }
-
-    fn remove(&mut self, k: usize) {
-        for &v in &self.sets[k] {
-            self.count[v as usize] -= 1;
-        }
-    }
-
-    /// Sets in decreasing weight; `from`: first set still allowed.
+    /// Add up to `left` more pieces, from the `from`-th on.
     fn search(&mut self, from: usize, left: usize, current: u64) {
-        if current > self.best {
-            self.best = current;
-            self.best_choice = self.choice.clone();
+        if current > self.best.0 {
+            self.best = (current, self.choice.clone());
         }
         if left == 0 {
             return;
         }
         for k in from..self.sets.len() {
             // The most the rest can add: the next `left` weights.
-            let bound: u64 = self.set_weight[k..].iter().take(left).sum();
-            if current + bound <= self.best {
+            let bound: u64 = self.sets[k..].iter().take(left).map(|s| s.0).sum();
+            if current + bound <= self.best.0 {
                 return;
             }
-            self.nodes += 1;
-            if self.nodes > self.max_nodes {
+            if self.nodes_left == 0 {
                 self.capped = true;
                 return;
             }
-            let gained = self.add(k);
-            self.choice.push(k);
+            self.nodes_left -= 1;
+            let mut gained = 0;
+            for &v in &self.sets[k].2 {
+                if self.count[v as usize] == 0 {
+                    gained += self.weight[v as usize];
+                }
+                self.count[v as usize] += 1;
+            }
+            self.choice.push(self.sets[k].1);
             self.search(k + 1, left - 1, current + gained);
             self.choice.pop();
-            self.remove(k);
+            for &v in &self.sets[k].2 {
+                self.count[v as usize] -= 1;
+            }
         }
     }
 }
@@ -416,54 +320,36 @@ impl BestUnion<'_> {
 pub fn best_cover(
     w: &[u32],
     r: u32,
-    tri: &[[u32; 3]],
-    nb: &[[u32; 3]],
+    mesh: &Mesh,
     weight: &[u64],
     components: usize,
     max_nodes: usize,
 ) -> Cover {
-    let inside: Vec<bool> = w.iter().map(|&x| x <= r).collect();
-    let (label, n) = pieces(&inside, nb);
-    // Each piece's points (once each).
-    let mut sets: Vec<Vec<u32>> = vec![Vec::new(); n];
-    for (t, &p) in label.iter().enumerate() {
-        if p != NONE {
-            sets[p as usize].extend_from_slice(&tri[t]);
-        }
+    let (label, n) = pieces(|t| w[t] <= r, &mesh.nb);
+    let mut points = vec![Vec::new(); n];
+    for (&p, tri) in label.iter().zip(&mesh.tri).filter(|(&p, _)| p != NONE) {
+        points[p as usize].extend_from_slice(tri);
     }
-    let mut set_weight = Vec::with_capacity(n);
-    for s in &mut sets {
+    let points = points.into_iter().zip(0..).map(|(mut s, p)| {
         s.sort_unstable();
         s.dedup();
-        set_weight.push(s.iter().map(|&v| weight[v as usize]).sum::<u64>());
-    }
-    let mut by_weight: Vec<usize> = (0..n).collect();
-    by_weight.sort_by(|&a, &b| set_weight[b].cmp(&set_weight[a]).then(a.cmp(&b)));
-    let sorted_sets: Vec<Vec<u32>> = by_weight
-        .iter()
-        .map(|&k| std::mem::take(&mut sets[k]))
-        .collect();
-    let sorted_weight: Vec<u64> = by_weight.iter().map(|&k| set_weight[k]).collect();
+        (s.iter().map(|&v| weight[v as usize]).sum(), p, s)
+    });
+    let mut sets: Vec<(u64, u32, Vec<u32>)> = points.collect();
+    sets.sort_by_key(|s| std::cmp::Reverse(s.0));
     let mut search = BestUnion {
-        sets: &sorted_sets,
+        sets,
         weight,
-        set_weight: sorted_weight,
         count: vec![0; weight.len()],
-        best: 0,
-        best_choice: Vec::new(),
+        best: (0, Vec::new()),
         choice: Vec::new(),
-        nodes: 0,
-        max_nodes,
+        nodes_left: max_nodes,
         capped: false,
     };
     search.search(0, components, 0);
     Cover {
-        rows: search.best,
-        chosen: search
-            .best_choice
-            .iter()
-            .map(|&k| by_weight[k] as u32)
-            .collect(),
+        rows: search.best.0,
+        chosen: search.best.1,
         capped: search.capped,
         label,
     }
@@ -476,8 +362,7 @@ pub fn best_cover(
 /// so a binary search over the distinct weights finds the first one.
 pub fn outlier_optimum(
     w: &[u32],
-    tri: &[[u32; 3]],
-    nb: &[[u32; 3]],
+    mesh: &Mesh,
     weight: &[u64],
     components: usize,
     need: u64,
@@ -486,18 +371,18 @@ pub fn outlier_optimum(
     let mut values: Vec<u32> = w.to_vec();
     values.sort_unstable();
     values.dedup();
+    let cover = |r| best_cover(w, r, mesh, weight, components, max_nodes);
     // Invariant: values[hi] is enough (the last one: one piece, every row).
     let (mut lo, mut hi) = (0usize, values.len() - 1);
     while lo < hi {
         let mid = lo + (hi - lo) / 2;
-        if best_cover(w, values[mid], tri, nb, weight, components, max_nodes).rows >= need {
+        if cover(values[mid]).rows >= need {
             hi = mid;
         } else {
             lo = mid + 1;
         }
     }
-    let cover = best_cover(w, values[hi], tri, nb, weight, components, max_nodes);
-    (values[hi], cover)
+    (values[hi], cover(values[hi]))
 }
 
 #[cfg(test)]
@@ -507,18 +392,18 @@ mod tests {
     #[test]
     fn ties_take_the_largest_of_their_run_and_do_not_chain() {
         let r = [2.0, 1.0, 1.0 + 1e-15, 1.0 + 0.6e-10, 1.0 + 1.2e-10];
-        let s = merge_ties(&r);
-        assert_eq!(s.values, vec![1.0 + 0.6e-10, 1.0 + 1.2e-10, 2.0]);
-        assert_eq!(s.rank, vec![2, 0, 0, 0, 1]);
+        let (values, rank) = merge_ties(&r);
+        assert_eq!(values, vec![1.0 + 0.6e-10, 1.0 + 1.2e-10, 2.0]);
+        assert_eq!(rank, vec![2, 0, 0, 0, 1]);
     }
 
     #[test]
     fn a_chain_of_close_radii_is_cut_into_runs() {
         // 40 radii 0.6e-10 apart: runs of two (a run spans at most 1e-10).
         let r: Vec<f64> = (0..40).map(|k| 1.0 + k as f64 * 0.6e-10).collect();
-        let s = merge_ties(&r);
-        assert_eq!(s.values.len(), 20);
-        let merged = s.rank.iter().map(|&k| s.values[k as usize]);
+        let (values, rank) = merge_ties(&r);
+        assert_eq!(values.len(), 20);
+        let merged = rank.iter().map(|&k| values[k as usize]);
         assert!(merged.zip(&r).all(|(a, b)| a / b - 1.0 <= TIE_RTOL));
     }
 
@@ -536,13 +421,17 @@ mod tests {
         // Pieces {0,1,2} and {2,3,4} share point 2 (10 rows): 12 rows each,
         // 14 together; {5,6,7} has 7 rows. Summing weights would pick the
         // first two (24); their union is 14, and 12 + 7 = 19 is the best.
-        let tri = [[0, 1, 2], [2, 3, 4], [5, 6, 7]];
-        let nb = [[NONE; 3]; 3];
+        let mesh = Mesh {
+            rep: (0..8).collect(),
+            n_distinct: 8,
+            tri: vec![[0, 1, 2], [2, 3, 4], [5, 6, 7]],
+            nb: vec![[NONE; 3]; 3],
+        };
         let weight = [1, 1, 10, 1, 1, 1, 1, 5];
-        let c = best_cover(&[0, 0, 0], 0, &tri, &nb, &weight, 2, MAX_UNION_NODES);
+        let c = best_cover(&[0, 0, 0], 0, &mesh, &weight, 2, MAX_UNION_NODES);
         assert_eq!(c.rows, 19);
         assert!(c.chosen.contains(&2));
-        let c = best_cover(&[0, 0, 0], 0, &tri, &nb, &weight, 1, MAX_UNION_NODES);
+        let c = best_cover(&[0, 0, 0], 0, &mesh, &weight, 1, MAX_UNION_NODES);
         assert_eq!(c.rows, 12);
     }
 }

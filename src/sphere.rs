@@ -49,7 +49,7 @@ use robust::{incircle, orient2d, orient3d, Coord, Coord3D};
 use std::collections::HashMap;
 
 use crate::frame::{collinear, Frame, Xy};
-use crate::group::{finish, mesh_or_reason, per_triangle, Options, Reason, Shaped, Solved};
+use crate::group::{finish, triangulated, Options, Reason, Solved};
 use crate::mesh::{triangulate, Mesh, NONE};
 
 /// The sphere's radius in metres: the authalic radius of WGS84 (the sphere
@@ -90,16 +90,20 @@ pub fn unit_vector(p: Xy) -> V3 {
     [cp * cl, cp * sl, sp]
 }
 
-/// `det[a, b, c]` with an exact sign (positive: `a, b, c` counter-clockwise
-/// seen from outside the sphere).
-pub fn det3(a: V3, b: V3, c: V3) -> f64 {
+/// The orientation of `a, b, c, d` with an exact sign; with `d` the centre
+/// ([`O`]), `det[a, b, c]` (positive: `a, b, c` counter-clockwise seen from
+/// outside the sphere).
+pub fn orient3(a: V3, b: V3, c: V3, d: V3) -> f64 {
     let k = |p: V3| Coord3D {
         x: p[0],
         y: p[1],
         z: p[2],
     };
-    orient3d(k(a), k(b), k(c), k([0.0; 3]))
+    orient3d(k(a), k(b), k(c), k(d))
 }
+
+/// The centre of the sphere.
+pub const O: V3 = [0.0; 3];
 
 /// One group in the frame of its centre.
 pub struct Local {
@@ -117,12 +121,9 @@ pub struct Local {
 /// point is farther than [`MAX_ANGLE_DEGREES`] from it (or there is no centre).
 pub fn local(points: &[Xy]) -> Option<Local> {
     let world: Vec<V3> = points.iter().map(|&p| unit_vector(p)).collect();
-    let mut mean = [0.0; 3];
-    for u in &world {
-        for k in 0..3 {
-            mean[k] += u[k];
-        }
-    }
+    let mean = world
+        .iter()
+        .fold([0.0; 3], |m, u| [m[0] + u[0], m[1] + u[1], m[2] + u[2]]);
     let m = norm(mean);
     if !(m > 0.0 && m.is_finite()) {
         return None;
@@ -185,7 +186,7 @@ pub fn cap_radius(a: Xy, b: Xy, c: Xy, s: f64) -> f64 {
 /// Area (steradians) of the spherical triangle `a, b, c` (unit vectors):
 /// `2 atan2(|det|, 1 + a.b + b.c + c.a)` (Van Oosterom and Strackee).
 pub fn triangle_area(a: V3, b: V3, c: V3) -> f64 {
-    let d = det3(a, b, c).abs();
+    let d = orient3(a, b, c, O).abs();
     2.0 * d.atan2(1.0 + dot(a, b) + dot(b, c) + dot(c, a))
 }
 
@@ -216,21 +217,13 @@ pub fn complete(mesh: &mut Mesh, unit: &[V3]) -> Option<usize> {
         let tri = mesh.tri[t as usize];
         let (u, v) = (tri[j], tri[(j + 1) % 3]);
         let (pu, pv) = (unit[u as usize], unit[v as usize]);
-        let mut best: Option<u32> = None;
-        for &w in &link {
-            if w == u || w == v || det3(pu, pv, unit[w as usize]) >= 0.0 {
-                continue;
-            }
-            best = match best {
-                None => Some(w),
-                // w strictly inside the cap of (v, u, b), beyond its plane
-                Some(b) if orient3d_units(pv, pu, unit[b as usize], unit[w as usize]) < 0.0 => {
-                    Some(w)
-                }
-                keep => keep,
-            };
-        }
-        let Some(w) = best else { continue };
+        let beyond = |&w: &u32| w != u && w != v && orient3(pu, pv, unit[w as usize], O) < 0.0;
+        // w strictly inside the cap of (v, u, b), beyond its plane
+        let inside = |b: u32, w: u32| orient3(pv, pu, unit[b as usize], unit[w as usize]) < 0.0;
+        let best = link.iter().copied().filter(beyond);
+        let Some(w) = best.reduce(|b, w| if inside(b, w) { w } else { b }) else {
+            continue;
+        };
         if mesh.tri.len() - start >= bound {
             return None;
         }
@@ -250,15 +243,6 @@ pub fn complete(mesh: &mut Mesh, unit: &[V3]) -> Option<usize> {
         }
     }
     Some(mesh.tri.len() - start)
-}
-
-fn orient3d_units(a: V3, b: V3, c: V3, d: V3) -> f64 {
-    let k = |p: V3| Coord3D {
-        x: p[0],
-        y: p[1],
-        z: p[2],
-    };
-    orient3d(k(a), k(b), k(c), k(d))
 }
 
 /// Solve one group of longitudes and latitudes (degrees) on the sphere; the
@@ -284,41 +268,26 @@ pub fn solve(
         } as u8;
         return res;
     };
-    let n = points.len();
     let frame = Frame::of(&local.stereo);
     // Great circles are the gnomonic projection's lines.
     let line = collinear(&local.gnomonic, &Frame::of(&local.gnomonic));
-    let Some(mut mesh) = mesh_or_reason(&local.stereo, &frame, line, out, &mut res) else {
+    let radius_of = |[a, b, c]: [Xy; 3]| EARTH_RADIUS * cap_radius(a, b, c, frame.scale);
+    let Some((mut mesh, mut radius, scaled)) =
+        triangulated(&local.stereo, &frame, line, out, &mut res, radius_of)
+    else {
         return res;
     };
-
-    let s = frame.scale;
-    let scaled = |v: u32| {
-        let p = local.stereo[v as usize];
-        [p[0] * s, p[1] * s]
-    };
-    let radius_of =
-        |t: &[u32; 3]| EARTH_RADIUS * cap_radius(scaled(t[0]), scaled(t[1]), scaled(t[2]), s);
-    let mut radius = per_triangle(&mesh.tri, radius_of);
     let unit = &local.unit;
     let area_of = |t: &[u32; 3]| {
-        EARTH_RADIUS
-            * EARTH_RADIUS
-            * triangle_area(
-                unit[t[0] as usize],
-                unit[t[1] as usize],
-                unit[t[2] as usize],
-            )
+        let [a, b, c] = t.map(|v| unit[v as usize]);
+        EARTH_RADIUS * EARTH_RADIUS * triangle_area(a, b, c)
     };
-    let scaled_points: Vec<Xy> = (0..n as u32).map(scaled).collect();
     let planar = finish(
         res.clone(),
-        &Shaped {
-            mesh: &mesh,
-            radius: &radius,
-            ring_points: &scaled_points,
-            area_of: &area_of,
-        },
+        &mesh,
+        &radius,
+        &scaled,
+        &area_of,
         alpha,
         budget,
         options,
@@ -344,22 +313,9 @@ pub fn solve(
     }
     // Every triangle is counter-clockwise in the gnomonic projection.
     let g = Frame::of(&local.gnomonic).scale;
-    let gnomonic: Vec<Xy> = local
-        .gnomonic
-        .iter()
-        .map(|p| [p[0] * g, p[1] * g])
-        .collect();
+    let gnomonic: Vec<Xy> = local.gnomonic.iter().map(|p| p.map(|x| x * g)).collect();
     finish(
-        res,
-        &Shaped {
-            mesh: &mesh,
-            radius: &radius,
-            ring_points: &gnomonic,
-            area_of: &area_of,
-        },
-        alpha,
-        budget,
-        options,
+        res, &mesh, &radius, &gnomonic, &area_of, alpha, budget, options,
     )
 }
 
@@ -384,7 +340,7 @@ mod tests {
 
     #[test]
     fn the_determinant_is_positive_counter_clockwise_from_outside() {
-        assert!(det3([1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]) > 0.0);
+        assert!(orient3([1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], O) > 0.0);
     }
 
     #[test]
