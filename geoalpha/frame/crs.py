@@ -64,8 +64,6 @@ UTM_MAX_LAT = 84.0
 #: centre by at most 0.7 degrees, which changes the scale by less than 0.01 %.
 LAEA_CENTRE_STEP = 1.0
 
-_WGS84 = "EPSG:4326"
-
 
 def _as_coords(lon: Any, lat: Any) -> tuple[np.ndarray, np.ndarray]:
     lon = np.asarray(lon, dtype=np.float64).ravel()
@@ -114,17 +112,14 @@ def check_lonlat(lon: Any, lat: Any, labels: Any = None) -> None:
             "coordinates must be finite numbers; got NaN or infinite "
             f"longitude/latitude in {row_positions(bad, labels)}"
         )
-    bad_lat = np.abs(lat) > 90.0
-    bad_lon = np.abs(lon) > 180.0
-    problems = []
-    if bad_lat.any():
-        problems.append(
-            f"latitude outside [-90, 90] in {row_positions(bad_lat, labels)}"
+    problems = [
+        f"{name} outside [-{limit}, {limit}] in {row_positions(bad, labels)}"
+        for name, limit, bad in (
+            ("latitude", 90, np.abs(lat) > 90.0),
+            ("longitude", 180, np.abs(lon) > 180.0),
         )
-    if bad_lon.any():
-        problems.append(
-            f"longitude outside [-180, 180] in {row_positions(bad_lon, labels)}"
-        )
+        if bad.any()
+    ]
     if problems:
         message = (
             "points in a geographic CRS must be longitude/latitude degrees; "
@@ -185,9 +180,7 @@ def _wrap180(lon: np.ndarray) -> np.ndarray:
     return (np.asarray(lon) + 180.0) % 360.0 - 180.0
 
 
-def _utm_keys(
-    west: np.ndarray, east: np.ndarray, south: np.ndarray, north: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
+def _utm_keys(west, east, south, north) -> tuple[np.ndarray, np.ndarray]:
     """UTM EPSG code of each extent's centre, and whether the extent fits it."""
     centre = _wrap180((west + east) / 2.0)
     zone = np.clip(np.floor((centre + 180.0) / 6.0).astype(np.int64), 0, 59) + 1
@@ -203,9 +196,7 @@ def _utm_keys(
     return epsg, fits
 
 
-def _laea_key(
-    west: np.ndarray, east: np.ndarray, south: np.ndarray, north: np.ndarray
-) -> np.ndarray:
+def _laea_key(west, east, south, north) -> np.ndarray:
     """Integer key of a local LAEA CRS centred on each extent (or its pole)."""
     lat0 = (south + north) / 2.0
     lon0 = _wrap180((west + east) / 2.0)
@@ -302,23 +293,17 @@ def metric_crs(
         crs_list, crs_index = [forced], np.zeros(n_groups, dtype=np.intp)
 
     xy = np.empty((lon.size, 2), dtype=np.float64)
-    if len(crs_list) == 1:
-        segments = [(crs_list[0], slice(None))]
-    else:
+    segments = [slice(None)]
+    if len(crs_list) > 1:  # the points by CRS
         point_crs = crs_index[codes]
         order = np.argsort(point_crs, kind="stable")
-        bounds = np.concatenate(
-            [[0], np.cumsum(np.bincount(point_crs, minlength=len(crs_list)))]
-        )
-        segments = [
-            (target, order[bounds[k] : bounds[k + 1]])
-            for k, target in enumerate(crs_list)
-        ]
-    for target, rows in segments:
+        ends = np.searchsorted(point_crs[order], np.arange(1, len(crs_list)))
+        segments = np.split(order, ends)
+    for target, rows in zip(crs_list, segments, strict=False):
         transformer = _transformer(source_key, _crs_key(target))
         x, y = transformer.transform(lon[rows], lat[rows])
         xy[rows] = np.column_stack([x, y]) * unit_factor(target)
-    failed = ~(np.isfinite(xy[:, 0]) & np.isfinite(xy[:, 1]))
+    failed = ~np.isfinite(xy).all(axis=1)
     if failed.any():
         names = sorted({crs_name(crs_list[k]) for k in crs_index[codes[failed]]})
         raise InvalidInputError(
@@ -330,11 +315,7 @@ def metric_crs(
 
 
 def _choose_auto(
-    lon: np.ndarray,
-    lat: np.ndarray,
-    codes: np.ndarray,
-    n_groups: int,
-    whole: bool = True,
+    lon, lat, codes, n_groups: int, whole: bool = True
 ) -> tuple[list[pyproj.CRS], np.ndarray]:
     """CRS choice of ``metric_crs(crs="auto")``; ``whole=False``: "auto-group"."""
     if lon.size == 0:
@@ -352,9 +333,9 @@ def _choose_auto(
 
     arcs = group_arcs(lon, lat, codes, n_groups)
     filled = ~np.isnan(arcs["west"])
-    sub = {name: values[filled] for name, values in arcs.items()}
-    epsg, fits = _utm_keys(sub["west"], sub["east"], sub["south"], sub["north"])
-    laea = _laea_key(sub["west"], sub["east"], sub["south"], sub["north"])
+    sides = [arcs[side][filled] for side in ("west", "east", "south", "north")]
+    epsg, fits = _utm_keys(*sides)
+    laea = _laea_key(*sides)
     keys = np.empty(n_groups, dtype=np.int64)
     keys[filled] = np.where(fits, epsg, laea)
     keys[~filled] = keys[filled][0]  # groups without points: any CRS in use

@@ -6,39 +6,18 @@
           ─ compute ─ grow ─ split_at_antimeridian ─ guarantee
           ─ degenerate_policy ─ warn_output_crs ─ area_m2 ─ table
 
-- :func:`group`: a group code per row and the table of group keys (as
-  :meth:`GeoDataFrame.dissolve` groups);
-- :func:`~geoalpha.frame.checks.check_grouping`: a warning when ``by`` makes nearly
-  one group per row;
-- :func:`read_points`: the point coordinates, with missing, empty and NaN
-  geometries and missing keys dropped (and counted in a warning), non-points
-  and infinite coordinates refused (:func:`scan_rows`, :func:`report_rows`);
-- :func:`~geoalpha.frame.checks.check_distortion`: a warning when the computation
-  CRS stretches areas where the points are;
-- :func:`project`: the metric CRS round trip (:class:`geoalpha.frame.crs.Projection`);
-- :func:`compute`: the hulls, by method (one kernel call,
-  :func:`geoalpha.arrays.optimal.solve_checked`, which trusts the values
-  checked above, or :mod:`geoalpha.arrays.comparison`), built in the output CRS;
-- :func:`grow`: ``grow=``, in metres;
-- :func:`split_at_antimeridian`: hulls across +-180 degrees split there;
-- :func:`guarantee`: the one check of every polygon, in the output CRS: valid
-  and covering its points, repaired, or the group declared degenerate;
-- :func:`degenerate_policy`: groups without a shape, by ``degenerate=``;
-- :func:`warn_output_crs`: the groups split at +-180 degrees or wider than 180;
-- :func:`area_m2`: the areas on the WGS84 ellipsoid (planar with ``crs=None``);
-- :func:`table`: the result (:mod:`geoalpha.frame.schema`).
-
-One progress bar (:mod:`geoalpha.frame.progress`) follows the phases ``group``,
-``project``, ``compute`` and ``check``; inside the ``geoalpha`` command, the
-command's bar, which also has ``read`` and ``write``.
-
-:func:`geoalpha.hull` checks the options and calls :func:`run` (or
-:func:`geoalpha.dask.hull`, which calls :func:`run` on every partition).
+Each stage hands its result to the next by return value; values are checked
+once, where they enter (:func:`group`, :func:`read_points`), and
+:func:`guarantee` is the one check of every polygon, in the output CRS. One
+progress bar (:mod:`geoalpha.frame.progress`) follows the phases ``group``,
+``project``, ``compute`` and ``check``. :func:`geoalpha.hull` checks the
+options and calls :func:`run` (:func:`geoalpha.dask.hull`: on every partition).
 """
 
 from __future__ import annotations
 
 import warnings
+from collections import Counter
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from functools import partial
@@ -115,10 +94,9 @@ _POINT_TYPES = (0, 4)  # shapely type ids of Point and MultiPoint
 class Groups:
     """Output of :func:`group`: a code per row and the key of every group.
 
-    The key columns are kept as arrays (``names``, ``columns``); the
-    DataFrame :attr:`keys` is built only when asked for (a message, dask's
-    ``meta``): on small inputs building DataFrames is a large share of the
-    run.
+    The key columns are kept as arrays; the DataFrame :attr:`keys` is built
+    only when asked for (a message, dask's ``meta``): on small inputs
+    building DataFrames is a large share of the run.
     """
 
     __slots__ = ("_keys", "codes", "columns", "n_groups", "names")
@@ -140,10 +118,10 @@ class Groups:
     def keys(self) -> pd.DataFrame:
         """One row per group: the key column(s) (none for one group of all rows)."""
         if self._keys is None:
-            columns = dict(enumerate(self.columns))
-            keys = pd.DataFrame(columns, index=range(self.n_groups))
-            keys.columns = list(self.names)
-            self._keys = keys
+            self._keys = pd.DataFrame(
+                dict(enumerate(self.columns)), range(self.n_groups)
+            )
+            self._keys.columns = list(self.names)
         return self._keys
 
     def take(self, which: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -205,11 +183,10 @@ def run(frame, by, options: Options, *, checks: bool = True, rows: bool = True):
 
 
 def _per_group_crs(source, crs, coords: np.ndarray) -> bool:
-    """Whether groups are likely to get a metric CRS each (for the progress bar).
+    """Guess whether groups get a metric CRS each (for the progress bar).
 
-    Longitude/latitude points wider than one UTM zone takes
-    (:data:`geoalpha.frame.crs.UTM_HALF_WIDTH` either side) with ``crs="auto"``: a
-    rough guess of the choice of :func:`geoalpha.frame.crs.metric_crs`.
+    Lon/lat points wider than a UTM zone with ``crs="auto"``
+    (:func:`geoalpha.frame.crs.metric_crs` decides).
     """
     auto = isinstance(crs, str) and crs.strip().lower() in ("auto", "auto-group")
     src = parse_crs(source) if auto else None
@@ -255,26 +232,27 @@ def _stages(frame, by, options: Options, bar: Phases, checks: bool, rows: bool):
     return out, report_outliers(hulls, groups, points, len(frame), options)
 
 
-def _names(groups: Groups, which: np.ndarray, counts=None) -> str:
+def _names(groups: Groups, which: np.ndarray, counts=None, value=None) -> str:
     """Name groups by key for messages (with their row counts when given).
 
-    A missing key (``dropna=False``) is ``nan`` whatever its dtype holds
-    (``None``, ``NaN``, ``pd.NA`` of the string dtype dask gives).
+    A key is its values joined, quoted as a whole; ``value=repr``: each value
+    quoted. A missing key (``dropna=False``) is ``nan`` whatever its dtype
+    holds (``None``, ``NaN``, ``pd.NA`` of the string dtype dask gives).
     """
     shown = which[:11]  # first_n shows 10, and "..." when there is an 11th
-    columns = groups.columns
 
     def key(value) -> str:
         missing = pd.api.types.is_scalar(value) and pd.isna(value)
         return "nan" if missing else str(value)
 
     names = [
-        ", ".join(key(column[i]) for column in columns) or "all points"
+        ", ".join(map(value or key, (column[i] for column in groups.columns)))
+        or "all points"
         for i in np.asarray(shown).tolist()
     ]
     if counts is not None:
         names = [
-            f"{n!r} ({c} row{'s' if c != 1 else ''})"
+            f"{n if value else repr(n)} ({c} row{'s' if c != 1 else ''})"
             for n, c in zip(names, counts[shown], strict=True)
         ]
     return first_n(names, limit=10, sep="; ")
@@ -351,13 +329,10 @@ def _key_choices(frame, levels: list) -> list:
 
 
 def _factorize_column(frame, by, options: Options) -> Groups | None:
-    """Group codes and keys of one plain column, as ``groupby`` makes them.
+    """Group one plain column with :func:`pandas.factorize`, as ``groupby`` does.
 
-    For a single column that is not categorical, ``groupby`` numbers the
-    groups with :func:`pandas.factorize` (``sort``, ``dropna`` as the
-    sentinel -1); calling it directly skips building a GroupBy (several
-    times the cost on small frames). Returns None for every other ``by``,
-    which goes through ``groupby``.
+    Skips building a GroupBy (several times the cost on small frames);
+    None for every other ``by``.
     """
     name = by[0] if isinstance(by, list) and len(by) == 1 else by
     if not isinstance(name, str) or name in frame.index.names:
@@ -427,11 +402,9 @@ def scan_rows(frame, codes: np.ndarray, vertices: bool, n_jobs: int | None = 1):
         The report, the (n, 2) coordinates of the rows kept, and the row
         position of each coordinate.
     """
-    array = frame[frame._geometry_column_name].array
-    geoms = np.asarray(array, dtype=object)
-    index = frame.index
+    geoms = np.asarray(frame[frame._geometry_column_name].array, dtype=object)
     kind, missing = _threaded(_kinds, geoms, n_jobs)  # kind -1: missing
-    point = (kind == _POINT_TYPES[0]) | (kind == _POINT_TYPES[1])
+    point = np.isin(kind, _POINT_TYPES)
     non_point = ~missing & ~point
     usable = np.flatnonzero(~missing & (point | vertices))
     if (kind[usable] == _POINT_TYPES[0]).all():  # one coordinate pair per row
@@ -445,31 +418,28 @@ def scan_rows(frame, codes: np.ndarray, vertices: bool, n_jobs: int | None = 1):
         missing = missing.copy()
         missing[which[nan]] = True
     no_key = (codes < 0) & ~missing
-    dropped = missing | no_key
-    keep = ~dropped[which]
+    keep = ~(missing | no_key)[which]
     if not keep.all():
         coords, which = coords[keep], which[keep]
     infinite = np.zeros(len(geoms), dtype=bool)
     infinite[which[~np.isfinite(coords).all(axis=1)]] = True
     masks = {
-        "non_point": non_point if not vertices else np.zeros_like(non_point),
+        "non_point": non_point & (not vertices),
         "missing": missing,
         "no_key": no_key,
         "infinite": infinite,
     }
-    types: dict[str, int] = {}
+    types = Counter()
     if masks["non_point"].any():
-        names = np.asarray(frame.geom_type)[masks["non_point"]]
-        for name in names.tolist():
-            types[name] = types.get(name, 0) + 1
+        types.update(np.asarray(frame.geom_type)[masks["non_point"]].tolist())
     report = RowReport(
         n_rows=len(geoms),
         counts={k: int(m.sum()) for k, m in masks.items()},
         labels={
-            k: index[np.flatnonzero(m)[:_SHOWN]].tolist() if m.any() else []
+            k: frame.index[np.flatnonzero(m)[:_SHOWN]].tolist() if m.any() else []
             for k, m in masks.items()
         },
-        types=types,
+        types=dict(types),
     )
     return report, coords, which
 
@@ -500,10 +470,9 @@ def _threaded(func, geoms: np.ndarray, n_jobs: int | None) -> tuple:
 def merge_reports(reports) -> RowReport:
     """Add up the :class:`RowReport` of consecutive parts of a frame (in order)."""
     reports = list(reports)
-    types: dict[str, int] = {}
+    types = Counter()
     for report in reports:
-        for name, n in report.types.items():
-            types[name] = types.get(name, 0) + n
+        types.update(report.types)
     return RowReport(
         n_rows=sum(r.n_rows for r in reports),
         counts={k: sum(r.counts[k] for r in reports) for k in _ROW_KINDS},
@@ -511,7 +480,7 @@ def merge_reports(reports) -> RowReport:
             k: [label for r in reports for label in r.labels[k]][:_SHOWN]
             for k in _ROW_KINDS
         },
-        types=types,
+        types=dict(types),
     )
 
 
@@ -607,22 +576,10 @@ def project(points: Points, source, options: Options) -> gcrs.Projection:
     ``crs="sphere"``: :class:`~.sphere.SphereProjection` (longitudes and
     latitudes for the kernel, metres made only if another stage needs them).
     """
+    args = (points.coords, points.codes, len(points.n_points), source)
     if is_sphere(options.crs):
-        return SphereProjection(
-            points.coords,
-            points.codes,
-            len(points.n_points),
-            source,
-            labels=points.labels,
-        )
-    return gcrs.Projection(
-        points.coords,
-        points.codes,
-        len(points.n_points),
-        source,
-        options.crs,
-        labels=points.labels,
-    )
+        return SphereProjection(*args, labels=points.labels)
+    return gcrs.Projection(*args, options.crs, labels=points.labels)
 
 
 def compute(
@@ -803,12 +760,10 @@ def degenerate_policy(
 
 
 def _why_degenerate(reason, which, groups: Groups, n_points, wide) -> str:
-    """Word why the groups ``which`` have no shape, from their reason codes.
+    """Word why the groups ``which`` have no shape (the one place it is worded).
 
-    The one place a degenerate group's reason becomes words in :func:`hull`'s
-    warning: fewer than 3 distinct points or a line (the kernel's codes 1 to
-    3, and groups left without points), wider than 180 degrees of longitude
-    (``wide``), or no valid polygon in the output CRS (the others).
+    Codes 1-3 and groups without points: too few or collinear points;
+    ``wide``: over 180 degrees of longitude; the others: no polygon in the output.
     """
     thin = np.isin(reason[which], (1, 2, 3)) | (n_points[which] == 0)
     reasons = []
@@ -838,12 +793,7 @@ def _why_degenerate(reason, which, groups: Groups, n_points, wide) -> str:
 
 
 def _reasons(degenerate, points: Points, proj: gcrs.Projection) -> np.ndarray:
-    """Return the kernel's reason codes of the groups a comparison method left bare.
-
-    Fewer than 3 distinct points (1), or all on a line by the kernel's
-    tolerances (:data:`geoalpha.kernel.NEAR_RTOL`), in metres (2) or in the
-    output coordinates (3); 5 for the others.
-    """
+    """Reason codes (the kernel's 1-3, else 5) of groups a comparison left bare."""
     which = np.flatnonzero(degenerate)
     reason = np.zeros(len(degenerate), dtype=np.int64)
     if not len(which):
@@ -866,13 +816,10 @@ def _reasons(degenerate, points: Points, proj: gcrs.Projection) -> np.ndarray:
 def _buffer_in_output(geometry, sel, codes, proj: gcrs.Projection) -> np.ndarray:
     """Replace degenerate buffers that fail in the output CRS by ones made there.
 
-    A buffer made in metres and moved to longitude/latitude around a pole
-    holds the pole, which no lon/lat polygon can; such groups (and any whose
-    buffer is not valid or misses a point there) get the buffer of their
-    points' convex hull in the output coordinates instead,
-    :data:`geoalpha.kernel.OUTPUT_BUFFER_RTOL` of their extent wide (valid,
-    and holding every point), clipped to latitudes -90..90. Changes
-    ``geometry`` in place and returns the groups redone.
+    A buffer invalid or missing a point there (around a pole in lon/lat)
+    becomes the convex hull of the points in the output coordinates, widened by
+    :data:`geoalpha.kernel.OUTPUT_BUFFER_RTOL` of their extent, clipped to
+    latitudes -90..90. Changes ``geometry`` in place; returns the groups redone.
     """
     mine = codes[sel]
     groups = np.unique(mine)
@@ -886,9 +833,9 @@ def _buffer_in_output(geometry, sel, codes, proj: gcrs.Projection) -> np.ndarray
     if not len(redo):
         return redo
     take = sel[bad[mine]]
-    hull = convex_hulls(proj.out[take], codes[take], len(geometry))[redo]
-    lo = np.minimum.reduceat(proj.out[take], np.searchsorted(codes[take], redo))
-    hi = np.maximum.reduceat(proj.out[take], np.searchsorted(codes[take], redo))
+    out, starts = proj.out[take], np.searchsorted(codes[take], redo)
+    hull = convex_hulls(out, codes[take], len(geometry))[redo]
+    lo, hi = np.minimum.reduceat(out, starts), np.maximum.reduceat(out, starts)
     extent = (hi - lo).max(axis=1)
     scale = np.abs(np.r_[lo, hi]).reshape(2, -1, 2).max(axis=(0, 2))
     rtol = kernel.OUTPUT_BUFFER_RTOL
@@ -921,18 +868,16 @@ def _split(geoms: np.ndarray, which: np.ndarray, points: Points) -> np.ndarray:
     GEOS cuts only valid polygons: invalid ones are repaired first (and the
     parts again, should restoring the longitudes break one).
     """
-    parts = _valid(geoms)
-    parts = gcrs.split_antimeridian(parts)
+    parts = gcrs.split_antimeridian(_valid(geoms))
     lon, lat = points.coords[:, 0], points.coords[:, 1]
     return _valid(gcrs.restore_longitudes(parts, which, lon, lat, points.codes))
 
 
 def _valid(geoms: np.ndarray) -> np.ndarray:
     invalid = ~shapely.is_valid(geoms)
-    if not invalid.any():
-        return geoms
-    geoms = geoms.copy()
-    geoms[invalid] = repair_invalid(geoms[invalid])
+    if invalid.any():
+        geoms = geoms.copy()
+        geoms[invalid] = repair_invalid(geoms[invalid])
     return geoms
 
 
@@ -1132,10 +1077,10 @@ def table(
         "crs_used": proj.names,
         "method": hulls.labels,
     }
+    columns = groups.columns
     if not keep.all():
         values = {name: np.asarray(v)[keep] for name, v in values.items()}
-        geometry = geometry[keep]
-    columns = groups.take(keep) if not keep.all() else groups.columns
+        geometry, columns = geometry[keep], groups.take(keep)
     keys = dict(zip(groups.names, columns, strict=True))
     return result_frame(keys, values, geometry, crs, geometry_name)
 
@@ -1192,17 +1137,7 @@ def report_outliers(
             points.codes[hulls.outlier], minlength=len(points.n_points)
         )
         which = np.flatnonzero(n_outliers)
-        shown = which[:11]  # first_n shows 10, and "..." when there is an 11th
-        rows = list(zip(*groups.take(shown), strict=True)) or [()] * len(shown)
-        each = first_n(
-            (
-                f"{', '.join(map(repr, key)) or 'all points'} "
-                f"({n} row{'s' if n != 1 else ''})"
-                for key, n in zip(rows, n_outliers[shown], strict=True)
-            ),
-            limit=10,
-            sep="; ",
-        )
+        each = _names(groups, which, n_outliers, value=repr)
         warnings.warn(
             f"{spelled('hull()')} left {n_outliers.sum()} row(s) of {len(which)} "
             f"group(s) outside their hulls ({setting('outliers', options.outliers)}): "
