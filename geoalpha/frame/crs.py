@@ -1,12 +1,9 @@
 """Metric CRS choice, longitude/latitude checks and antimeridian handling.
 
-Functions on numpy arrays that the frame layer calls around the computation:
-:func:`check_lonlat`, :func:`metric_crs` (a UTM zone or a local equal-area
-CRS per group, one cached transformer per CRS) and :class:`Projection`, the
-whole round trip; :func:`geodesic_areas` measures the output polygons on the
-WGS84 ellipsoid (``area_m2``), whatever CRS they are in. Group membership
-is given as integer codes ``0 .. n_groups - 1`` per point, so that per-group
-quantities need no Python loop over groups.
+:func:`check_lonlat`, :func:`metric_crs` (a UTM zone or a local equal-area CRS
+per group), :class:`Projection` (the whole round trip) and
+:func:`geodesic_areas` (``area_m2`` on the WGS84 ellipsoid), on numpy arrays;
+groups are integer codes ``0 .. n_groups - 1`` per point.
 """
 
 from __future__ import annotations
@@ -84,16 +81,14 @@ def check_lonlat(lon: Any, lat: Any, labels: Any = None) -> None:
     lon, lat : array_like of float
         Longitudes (x) and latitudes (y) of the points, in degrees.
     labels : array_like, optional
-        A label per point to name the offending rows by (e.g. the index
-        labels of a frame); default: their positions.
+        A label per point to name the offending rows by (default: positions).
 
     Raises
     ------
     InvalidInputError
-        If any coordinate is NaN or infinite, any latitude is outside
-        [-90, 90] or any longitude outside [-180, 180]. The message gives the
-        number of offending rows and their first positions, and says when
-        latitude and longitude look swapped.
+        On NaN or infinite coordinates, latitudes outside [-90, 90] or
+        longitudes outside [-180, 180], naming the rows (and saying when
+        latitude and longitude look swapped).
 
     Examples
     --------
@@ -141,8 +136,7 @@ _OWN_LAEA = re.compile(
 def _transformer(source: str, target: str) -> pyproj.Transformer:
     """Return one cached (thread-safe) transformer per pair of CRS definitions.
 
-    Between WGS 84 and the local LAEA CRSs built here it is a PROJ pipeline,
-    about 100 times faster to build than a search of the operation database.
+    A PROJ pipeline between WGS 84 and our LAEA CRSs: 100 times faster to build.
     """
     laea = target if source == _WGS84 else source if target == _WGS84 else ""
     if _OWN_LAEA.fullmatch(laea):
@@ -223,32 +217,27 @@ def metric_crs(
     Parameters
     ----------
     lon, lat : array_like of float, shape (n,)
-        Coordinates in degrees in ``source_crs``; checked with
-        :func:`check_lonlat`.
+        Degrees in ``source_crs`` (checked with :func:`check_lonlat`).
     codes : array_like of int, shape (n,)
-        Group code of every point, ``0 .. n_groups - 1`` (as returned by
-        :func:`pandas.factorize`; drop the ``-1`` of missing groups first).
+        Group code of every point, ``0 .. n_groups - 1`` (no ``-1``).
     n_groups : int
         Number of groups.
     crs : "auto", "auto-group" or CRS, default "auto"
-        ``"auto"``: one WGS 84 UTM zone for every group when all points lie
-        within ``UTM_HALF_WIDTH`` degrees of its central meridian and 84
-        degrees of the equator; else, per group, the UTM zone of its centre
-        if it fits by the same rule, or a Lambert azimuthal equal-area CRS
-        centred on it. ``"auto-group"``: the per-group choice only. Any other
-        value is checked by :func:`target_crs` and used for every group
-        (scaled to metres when in feet).
+        ``"auto"``: one WGS 84 UTM zone for all groups when every point lies
+        within ``UTM_HALF_WIDTH`` degrees of its central meridian and 84 of
+        the equator; else, per group, its centre's UTM zone if it fits so,
+        or a Lambert azimuthal equal-area CRS centred on it. ``"auto-group"``:
+        the per-group choice only. Another CRS (checked by
+        :func:`target_crs`) is used for every group.
     source_crs : CRS, optional
         The geographic CRS of ``lon``/``lat``; default EPSG:4326 (WGS 84).
     labels : array_like, optional
-        A label per point to name rows by in error messages (default: their
-        positions).
+        A label per point to name rows by in errors (default: positions).
 
     Returns
     -------
     xy : numpy.ndarray of float64, shape (n, 2)
-        Metric coordinates of every point, in the CRS of its group (scaled
-        to metres when that CRS is in feet).
+        Coordinates in the CRS of each point's group, in metres (feet scaled).
     crs_list : list of pyproj.CRS
         The distinct CRSs used.
     crs_index : numpy.ndarray of int, shape (n_groups,)
@@ -257,9 +246,9 @@ def metric_crs(
     Raises
     ------
     InvalidInputError
-        On invalid coordinates or codes, a forced ``crs`` that is not a
-        projected metric CRS, a ``source_crs`` that is not geographic, or
-        points the chosen CRS cannot project (their positions are named).
+        On bad coordinates or codes, a ``crs`` that is not a projected metric
+        CRS, a ``source_crs`` that is not geographic, or points the CRS
+        cannot project (named).
 
     Examples
     --------
@@ -411,9 +400,9 @@ class Projection:
     """The whole CRS round trip of :func:`geoalpha.hull`: input -> metres -> input.
 
     ``crs=None`` computes in the coordinates as they are; ``crs="auto"``
-    sends longitude/latitude and Mercator input through :func:`metric_crs`
-    and keeps other projected input; a projected ``crs=`` is used for every
-    group. Coordinates in feet are scaled to metres.
+    sends lon/lat and Mercator input through :func:`metric_crs` and keeps
+    other projected input; a projected ``crs=`` is used for every group.
+    Feet are scaled to metres.
 
     Parameters
     ----------
@@ -431,11 +420,10 @@ class Projection:
     xy : numpy.ndarray, shape (n, 2)
         Coordinates to compute in: metres (the input units with ``crs=None``).
     out : numpy.ndarray, shape (n, 2)
-        Coordinates of the output geometries' vertices: the input coordinates
-        (longitudes of antimeridian-crossing groups unwrapped).
+        The output vertices: the input coordinates (longitudes unwrapped in
+        groups across the antimeridian).
     crossing, wide : numpy.ndarray of bool, shape (n_groups,)
-        Groups across +-180 degrees; groups spanning more than 180 degrees of
-        longitude (lon/lat input only).
+        Groups across +-180 degrees; wider than 180 degrees (lon/lat input).
     names : numpy.ndarray of str, shape (n_groups,)
         The computation CRS of each group, for the output table.
     unit : str
@@ -445,7 +433,7 @@ class Projection:
     ------
     InvalidInputError
         Input without CRS (unless ``crs=None``), a bad ``crs=``, lon/lat out
-        of range or points the CRS cannot project (rows named by ``labels``).
+        of range or points the CRS cannot project (named by ``labels``).
 
     Examples
     --------
@@ -512,7 +500,7 @@ class Projection:
             forward = _transformer(_crs_key(src), _crs_key(target))
             x, y = forward.transform(coords[:, 0], coords[:, 1])
             self.xy = np.column_stack([x, y]) * unit_factor(target)
-            failed = ~(np.isfinite(self.xy[:, 0]) & np.isfinite(self.xy[:, 1]))
+            failed = ~np.isfinite(self.xy).all(axis=1)
             if failed.any():
                 raise InvalidInputError(
                     f"could not project {row_positions(failed, labels)} to "
@@ -530,24 +518,15 @@ class Projection:
         """
         if not self._crs_list:
             return geoms
-        out = geoms.copy()
+        out, src = geoms.copy(), self.source
         for k, target in enumerate(self._crs_list):
             sel = self._crs_index[groups] == k
             factor = unit_factor(target)
-            same = target == self.source
+            same = target == src
             if not sel.any() or (same and factor == 1.0):
                 continue
-            back = (
-                None if same else _transformer(_crs_key(target), _crs_key(self.source))
-            )
-
-            def move(c, back=back, factor=factor):
-                if factor != 1.0:
-                    c = c / factor
-                if back is None:
-                    return c
-                return np.column_stack(back.transform(c[:, 0], c[:, 1]))
-
+            back = None if same else _transformer(_crs_key(target), _crs_key(src))
+            move = functools.partial(_moved, back=back, factor=factor)
             out[sel] = shapely.transform(geoms[sel], move)
         wrap = self.crossing[groups]
         if wrap.any():
@@ -555,3 +534,9 @@ class Projection:
                 out[wrap], lambda c: np.column_stack([c[:, 0] % 360.0, c[:, 1]])
             )
         return out
+
+
+def _moved(c: np.ndarray, back, factor: float) -> np.ndarray:
+    """Coordinates ``c`` of a computation CRS in feet or metres back to the input's."""
+    c = c / factor if factor != 1.0 else c
+    return c if back is None else np.column_stack(back.transform(c[:, 0], c[:, 1]))

@@ -1,10 +1,6 @@
-"""``crs="sphere"`` in the frame: the CRS round trip.
+"""``crs="sphere"`` in the frame: the CRS round trip (:class:`SphereProjection`).
 
-:class:`SphereProjection` gives the kernel longitudes and latitudes in
-EPSG:4326 and keeps the input coordinates to build the polygons from
-(``area_m2`` is on the WGS84 ellipsoid for every ``crs=``:
-:func:`geoalpha.frame.crs.geodesic_areas`). The geometry is the kernel's
-(``src/sphere.rs``) and :mod:`geoalpha.arrays.sphere`'s.
+The geometry is the kernel's (``src/sphere.rs``) and :mod:`geoalpha.arrays.sphere`'s.
 """
 
 from __future__ import annotations
@@ -26,13 +22,11 @@ _WGS84 = parse_crs("EPSG:4326")
 class SphereProjection(gcrs.Projection):
     """The CRS round trip of ``crs="sphere"``.
 
-    :attr:`lonlat` holds the longitudes and latitudes (EPSG:4326, degrees)
-    the kernel computes in; :attr:`out` the input coordinates the polygons
-    are built from (longitudes of antimeridian-crossing groups unwrapped, as
-    with ``crs="auto"``). The stages that need metres for other things than
-    the alpha shape (buffers of degenerate groups, ``grow=``, the comparison
-    methods) get them from :attr:`xy`, the ``crs="auto"`` projection, made on
-    first use.
+    :attr:`lonlat` holds the longitudes and latitudes (EPSG:4326) the kernel
+    computes in; :attr:`out` the input coordinates the polygons are built
+    from (unwrapped across the antimeridian, as with ``crs="auto"``). Stages
+    that need metres (degenerate buffers, ``grow=``, the comparison methods)
+    get them from :attr:`xy`, the ``crs="auto"`` projection, made on first use.
 
     Parameters
     ----------
@@ -84,10 +78,8 @@ class SphereProjection(gcrs.Projection):
             self.out, self.crossing, self.wide = gcrs.output_lonlat(
                 coords, codes, n_groups
             )
-            # Groups around a pole: polygons closed along it (close_around_poles),
-            # from the input longitudes as they are.
+            # Groups around a pole: polygons closed along it, input longitudes.
             maybe = np.flatnonzero(self.crossing | self.wide)
-            self.polar = np.zeros(n_groups, dtype=bool)
             if len(maybe):
                 self.polar[maybe] = polar_groups(coords, codes, maybe)
             if self.polar.any():
@@ -112,12 +104,10 @@ class SphereProjection(gcrs.Projection):
         return self._auto
 
     def metric_of(self, sel: np.ndarray, which: np.ndarray):
-        """Metres for the points ``sel`` of the groups ``which`` only.
+        """Metres for the points ``sel`` of the groups ``which`` only (``crs="auto"``).
 
-        Returns their coordinates in ``crs="auto"``'s CRS for those groups
-        alone, and the function that moves geometries of ``which`` (in that
-        order) back to the input CRS: the degenerate groups' buffers need no
-        projection of the whole input.
+        Also returns the function that moves geometries of ``which`` (in that
+        order) back to the input CRS: no projection of the whole input.
         """
         coords, codes, _, source, labels = self._args
         local = gcrs.Projection(
