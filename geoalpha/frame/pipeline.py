@@ -151,13 +151,11 @@ class Hulls(NamedTuple):
     degenerate: np.ndarray  #: no shape (fewer than 3 distinct points, a line)
     keep: np.ndarray  #: groups that get a row
     outlier: np.ndarray  #: per point: left out of its group's hull (outliers=)
-    #: why a group has no shape: 0, or a code of :data:`geoalpha.kernel.REASONS`
-    #: (5: no valid polygon holding its points in the output coordinates)
+    #: why a group has no shape: 0, a code of :data:`geoalpha.kernel.REASONS`,
+    #: or 5 (no valid polygon holding its points in the output coordinates)
     reason: np.ndarray
-    #: the polygons as :func:`compute` made them, and per point whether it is
-    #: certain to be covered by its group's polygon there (a ring vertex in
-    #: the output coordinates) while that polygon is valid: :func:`guarantee`
-    #: skips testing those points where a group's polygon is still that object
+    #: the polygons :func:`compute` made, and per point whether it is a ring
+    #: vertex of its group's (not tested by :func:`guarantee` while it is that)
     made: np.ndarray
     certain: np.ndarray
 
@@ -167,13 +165,10 @@ def run(frame, by, options: Options, *, checks: bool = True, rows: bool = True):
 
     Returns the result table and, per row of ``frame``, whether it was left
     out of its group's hull (``outliers=``; :func:`geoalpha.outlier_rows`).
-
-    With a progress bar over the phases (``options.progress``), or inside the
-    one of the enclosing :func:`geoalpha.frame.progress.phases` (the command's).
-    ``checks=False`` leaves out the warnings about the set-up
-    (:mod:`geoalpha.frame.checks`), and ``rows=False`` the one about dropped rows
-    (:func:`report_rows`), which :func:`geoalpha.dask.hull` makes once for
-    the whole dataset instead of once per partition.
+    The progress bar is the enclosing :func:`~geoalpha.frame.progress.phases`'s
+    (the command's) or its own. ``checks=False`` leaves out the set-up
+    warnings (:mod:`geoalpha.frame.checks`), ``rows=False`` the dropped rows'
+    (:func:`report_rows`): :func:`geoalpha.dask.hull` makes them once.
     """
     outer = current()
     if outer is not None and options.progress is not False:
@@ -204,20 +199,15 @@ def _stages(frame, by, options: Options, bar: Phases, checks: bool, rows: bool):
         check_grouping(n_groups, len(frame), by)
     points = read_points(frame, groups, options, warn=rows)
     crs = points.crs  # (frame.crs builds a GeoSeries each time)
-    per_group_crs = _per_group_crs(crs, options.crs, points.coords)
-    bar.sized(len(points.codes), n_groups, per_group_crs=per_group_crs)
+    many = _per_group_crs(crs, options.crs, points.coords)
+    bar.sized(len(points.codes), n_groups, per_group_crs=many)
     bar.start("project")
     if checks:
         check_distortion(points.coords, crs, options.crs)
     proj = project(points, crs, options)
     bar.start("compute", units=n_groups)
-    hulls = compute(
-        points,
-        proj,
-        n_groups,
-        options,
-        names=partial(_names, groups, counts=points.n_points),
-    )
+    names = partial(_names, groups, counts=points.n_points)
+    hulls = compute(points, proj, n_groups, options, names=names)
     bar.start("check")
     hulls = grow(hulls, points, proj, options)
     grown = hulls.geometry
@@ -290,15 +280,13 @@ def group(frame, by, options: Options) -> Groups:
     for name in names:
         if isinstance(name, str | int | tuple) and not isinstance(name, bool):
             if name not in frame.columns and name not in levels:
+                geometry = frame._geometry_column_name
+                choices = [c for c in frame.columns if c != geometry] + levels
+                also = f" and the index levels {', '.join(map(str, levels))}"
                 raise InvalidInputError(
                     f"hull(by={by!r}): no column {name!r}"
-                    f"{did_you_mean(name, _key_choices(frame, levels))}; the columns "
-                    f"are {', '.join(map(str, frame.columns))}"
-                    + (
-                        f" and the index levels {', '.join(map(str, levels))}"
-                        if levels
-                        else ""
-                    )
+                    f"{did_you_mean(name, choices)}; the columns "
+                    f"are {', '.join(map(str, frame.columns))}{also if levels else ''}"
                 )
     try:
         groups = _factorize_column(frame, by, options)
@@ -309,9 +297,7 @@ def group(frame, by, options: Options) -> Groups:
             groups = Groups.from_frame(codes, keys)
     except (ValueError, KeyError, TypeError) as err:
         raise InvalidInputError(f"hull(by=...) cannot group the rows: {err}") from err
-    if len(groups.names) == 1 and (
-        groups.names[0] is None or isinstance(groups.names[0], int)
-    ):
+    if len(groups.names) == 1 and isinstance(groups.names[0], int | None):
         groups.names = ("group",)
     clash = [c for c in groups.names if c in (*RESULT_COLUMNS, "geometry")]
     if clash:
@@ -320,12 +306,6 @@ def group(frame, by, options: Options) -> Groups:
             f"(result columns: {', '.join(RESULT_COLUMNS)}, geometry)"
         )
     return groups
-
-
-def _key_choices(frame, levels: list) -> list:
-    """Return the columns and index levels a ``by`` may name (for "did you mean")."""
-    geometry = frame._geometry_column_name
-    return [c for c in frame.columns if c != geometry] + levels
 
 
 def _factorize_column(frame, by, options: Options) -> Groups | None:
@@ -360,18 +340,16 @@ class _RowLabels:
         return np.asarray(self._index[self._rows[where]], dtype=object)
 
 
-#: Index labels a :class:`RowReport` keeps of each kind of bad row: the
-#: messages show 10 (:func:`geoalpha.errors.first_n`), and "..." for an 11th.
+#: Index labels a :class:`RowReport` keeps of each kind of bad row (10 shown,
+#: and "..." for an 11th: :func:`geoalpha.errors.first_n`).
 _SHOWN = 11
 
 
 class RowReport(NamedTuple):
     """What :func:`scan_rows` found in some rows: how many bad rows, of what kind.
 
-    The one input of the errors and the warning about bad rows
-    (:func:`report_rows`); :func:`merge_reports` adds up those of the
-    partitions of a dask-geopandas frame, so that their messages are those of
-    the eager call on the whole frame.
+    The input of :func:`report_rows`; :func:`merge_reports` adds up those of a
+    dask frame's partitions, so that the messages are the eager call's.
     """
 
     n_rows: int  #: rows scanned
@@ -390,11 +368,10 @@ def scan_rows(frame, codes: np.ndarray, vertices: bool, n_jobs: int | None = 1):
     """Sort the rows of ``frame`` into usable and bad ones.
 
     A row is dropped when its geometry is missing or empty, has a NaN
-    coordinate (what ``POINT (NaN NaN)`` is in WKB and in a GeoPackage: an
-    empty point; what ``points_from_xy`` makes of a missing longitude or
-    latitude) or its group key is missing (``codes`` -1). Non-point
-    geometries (unless ``vertices``) and infinite coordinates are errors.
-    Large frames are read on ``n_jobs`` threads (GEOS releases the GIL).
+    coordinate (an empty point in WKB; a missing longitude or latitude in
+    ``points_from_xy``) or its group key is missing (``codes`` -1).
+    Non-point geometries (unless ``vertices``) and infinite coordinates are
+    errors. Large frames are read on ``n_jobs`` threads.
 
     Returns
     -------
@@ -550,11 +527,8 @@ def read_points(
 ) -> Points:
     """Read the coordinates of the points that take part, with their group codes.
 
-    Rows with a missing or empty geometry, a NaN coordinate, or a missing key,
-    are dropped and counted in a :class:`DroppedRowsWarning` (``warn=False``:
-    not warned, when the caller has warned for the whole dataset); non-point
-    geometries are an error unless ``vertices=True``; infinite coordinates
-    are an error (:func:`scan_rows`, :func:`report_rows`).
+    Bad rows are dropped with a warning (``warn=False``: none) or refused:
+    :func:`scan_rows`, :func:`report_rows`.
     """
     codes = groups.codes
     report, coords, which = scan_rows(frame, codes, options.vertices, options.n_jobs)
@@ -591,12 +565,10 @@ def compute(
 ) -> Hulls:
     """Compute the shape of every group, by ``method``, in the output coordinates.
 
-    ``"alpha"`` and ``"convex"``: one batched :func:`geoalpha.alpha_shapes`
-    call in metres whose polygons are built from the input coordinates;
-    ``"concave"`` and ``"knn"``: :func:`geoalpha.arrays.comparison.comparison_hulls`.
-    The run's progress bar (:func:`geoalpha.frame.progress.current`, in its
-    ``compute`` phase), when it is shown, counts the groups done, batch by
-    batch. ``names`` names groups (given their codes) in warnings.
+    ``"alpha"`` and ``"convex"``: one kernel call in metres, polygons built
+    from the input coordinates; ``"concave"`` and ``"knn"``:
+    :func:`geoalpha.arrays.comparison.comparison_hulls`. A shown progress bar
+    counts the groups done. ``names`` names groups (by code) in warnings.
     """
     method = options.method
     bar = current()
@@ -850,9 +822,8 @@ def _buffer_in_output(geometry, sel, codes, proj: gcrs.Projection) -> np.ndarray
 def split_at_antimeridian(hulls: Hulls, points: Points, proj: gcrs.Projection) -> Hulls:
     """Split the hulls of groups across +-180 degrees there (RFC 7946).
 
-    Their polygons were built with unwrapped longitudes (beyond 180); the
-    parts get their input points' exact longitudes back (the round trip
-    through unwrapped longitudes rounds). :func:`guarantee` checks them.
+    Built with unwrapped longitudes (beyond 180), the parts get their input
+    points' exact longitudes back. :func:`guarantee` checks them.
     """
     which = np.flatnonzero(proj.crossing & ~hulls.degenerate)
     if not len(which):
@@ -890,17 +861,13 @@ def guarantee(
 ) -> Hulls:
     """Check every group's polygon once, in the output CRS: repaired, or degenerate.
 
-    The guarantee of :func:`geoalpha.hull`, after the last stage that makes a
-    polygon: a valid (Multi)Polygon covering every input point of its group
-    (``shapely.covers``, distance 0) in the CRS it is returned in, repaired
-    where needed (:func:`geoalpha.arrays.guarantee.enforce`), or the group is
-    declared degenerate (a :class:`DegenerateGroupWarning`) for the
-    ``degenerate=`` policy. Only the points that are not vertices of the
-    polygon :func:`compute` made (``Hulls.made``) are tested, where a group
-    still has it. Not checked: the rows left out on purpose (``outliers=``),
-    coverage at a given ``alpha``, groups wider than 180 degrees of longitude
-    (warned about), and a point at -180 degrees that a split hull holds at
-    +180 (or the reverse), named in the :class:`AntimeridianWarning`.
+    A valid (Multi)Polygon covering every point of its group (distance 0),
+    repaired where needed (:func:`geoalpha.arrays.guarantee.enforce`), or the
+    group is degenerate (:class:`DegenerateGroupWarning`). Points that are
+    vertices of the polygon :func:`compute` made are not tested where a group
+    still has it. Not checked: rows left out (``outliers=``), coverage at a
+    given ``alpha``, groups wider than 180 degrees of longitude, and a point
+    at -180 degrees held at +180 (or the reverse; :func:`warn_output_crs`).
     """
     xy, codes, geometry = points.coords, points.codes, hulls.geometry
     check = ~hulls.degenerate
@@ -1090,8 +1057,8 @@ def grow(
 ) -> Hulls:
     """Buffer the hulls (not the degenerate buffers) by ``grow`` metres.
 
-    Built in the metric CRS from the metric coordinates of the hull vertices
-    (which are input points), then moved back to the output CRS.
+    Built in the metric CRS from the hull vertices' (input points') metric
+    coordinates, then moved back to the output CRS.
     """
     distance = options.grow
     if not distance:

@@ -1,10 +1,8 @@
 """One progress bar over every phase of a run: read, group, ..., check, write.
 
 :func:`geoalpha.hull` goes through :data:`HULL_PHASES`; the ``geoalpha``
-command adds ``read`` before them and ``write`` after, on the same bar
-(:func:`phases`, :func:`current`). Each phase gets a share of the bar
-estimated from the numbers of rows and groups (:func:`hull_costs`), so the
-bar never goes backwards and ends exactly full.
+command adds ``read`` and ``write`` on the same bar (:func:`phases`). Each
+phase gets a share estimated from the rows and groups (:func:`hull_costs`).
 """
 
 from __future__ import annotations
@@ -42,16 +40,15 @@ _CURRENT: contextvars.ContextVar[Phases | None] = contextvars.ContextVar(
 def hull_costs(n_rows: int, n_groups: int, *, per_group_crs: bool) -> dict:
     """Estimate the time of each phase of :func:`geoalpha.hull`, in microseconds.
 
-    Measured: about 4 us a point to compute, and with a metric CRS per group
-    about 150 us a group both to project and to check. Only the ratios matter.
+    Measured: about 4 us a point to compute; with a metric CRS per group,
+    about 150 us a group to project and to check. Only the ratios matter.
 
     Parameters
     ----------
     n_rows, n_groups : int
         Points and groups of the run.
     per_group_crs : bool
-        Whether groups are likely to get a metric CRS each
-        (longitude/latitude input wider than a UTM zone, ``crs="auto"``).
+        Whether groups likely get a metric CRS each (wide lon/lat input).
 
     Returns
     -------
@@ -83,19 +80,17 @@ class Phases:
     Parameters
     ----------
     names : sequence of str
-        The phases, in the order they run (:data:`HULL_PHASES` for
-        :func:`geoalpha.hull`).
+        The phases, in the order they run.
     show : bool or None
         True: show the bar from the start (needs tqdm); False: never;
-        None: decide with :meth:`sized` once the number of groups is known.
+        None: decide in :meth:`sized`, once the number of groups is known.
     desc : str, optional
         Start of the bar's description; the current phase follows it.
     file : file-like, optional
         Where the bar is drawn (default: ``sys.stderr``).
     costs : callable, optional
-        ``costs(n_rows, n_groups)`` -> estimated costs of the phases that are
-        not :func:`geoalpha.hull`'s (the command's ``write``), for
-        :meth:`sized`.
+        ``costs(n_rows, n_groups)`` -> estimated costs of phases other than
+        :func:`geoalpha.hull`'s (the command's ``write``), for :meth:`sized`.
 
     Raises
     ------
