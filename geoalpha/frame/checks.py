@@ -1,12 +1,8 @@
 """Warnings about a run's set-up: a ``by`` that looks wrong, a CRS that stretches areas.
 
-Stages of :func:`geoalpha.hull` (once over the whole dataset in
+Stages of :func:`geoalpha.hull` (once for the whole dataset in
 :func:`geoalpha.dask.hull`), naming the options as the user spells them
-(:func:`geoalpha.errors.setting`: ``by=`` in Python, ``--by`` in the command).
-
-``check_distortion`` warns that ``radius`` and ``alpha`` are not in true
-metres where the CRS stretches; ``area_m2`` is measured on the WGS84
-ellipsoid, not in that CRS.
+(:func:`geoalpha.errors.setting`).
 """
 
 from __future__ import annotations
@@ -52,10 +48,8 @@ def check_grouping(n_groups: int, n_rows: int, by: Any) -> None:
 
     Parameters
     ----------
-    n_groups : int
-        Groups that ``by`` makes.
-    n_rows : int
-        Input rows.
+    n_groups, n_rows : int
+        Groups that ``by`` makes, and input rows.
     by : str, list or array_like or None
         The ``by`` of :func:`geoalpha.hull` (None: one group, never warned).
 
@@ -103,8 +97,8 @@ def computation_crs(source: Any, crs: Any) -> tuple[pyproj.CRS | None, str]:
     Returns
     -------
     (pyproj.CRS or None, str)
-        The CRS and ``"crs="`` (forced) or ``"input"`` (kept by
-        ``crs="auto"``); ``(None, "")`` when there is no one such CRS.
+        The CRS and ``"crs="`` (forced) or ``"input"`` (kept by ``"auto"``);
+        ``(None, "")`` when there is no one such CRS.
 
     Examples
     --------
@@ -121,9 +115,8 @@ def computation_crs(source: Any, crs: Any) -> tuple[pyproj.CRS | None, str]:
     if src is None or crs is None or is_sphere(crs):
         return None, ""
     if isinstance(crs, str) and crs.strip().lower() in ("auto", "auto-group"):
-        if src.is_projected and not is_mercator(src):
-            return src, "input"
-        return None, ""
+        kept = src.is_projected and not is_mercator(src)
+        return (src, "input") if kept else (None, "")
     try:
         parsed = parse_crs(crs)
     except Exception:  # the projection stage reports a bad crs=
@@ -157,16 +150,14 @@ def check_distortion(coords: np.ndarray, source: Any, crs: Any) -> None:
     ----------
     coords : numpy.ndarray, shape (n, 2)
         The points (or a sample of them) in ``source``.
-    source : CRS or None
-        The input CRS.
-    crs : "auto", "auto-group", CRS or None
-        The ``crs=`` option (:func:`computation_crs`).
+    source, crs
+        As for :func:`computation_crs`.
 
     Warns
     -----
     CRSWarning
-        When the areal scale factor of the computation CRS is further than
-        :data:`geoalpha.frame.distortion.AREA_TOLERANCE` from 1 at some point
+        When the computation CRS's areal scale is further than
+        :data:`geoalpha.frame.distortion.AREA_TOLERANCE` from 1 at a point
         (Web Mercator: 2.6 at London; a UTM zone far from the data).
 
     Examples
@@ -199,12 +190,10 @@ def check_distortion(coords: np.ndarray, source: Any, crs: Any) -> None:
     else:
         how = "the input's CRS"
         advice = f"pass {setting('crs')} with a UTM zone or an equal-area CRS for "
-        advice += "these points"
-        advice += _suggestion(coords, src)
-    middle = float(np.median(scale))
+        advice += f"these points{_suggestion(coords, src)}"
     warnings.warn(
         f"the shapes are computed in {crs_name(target)} ({how}), which stretches "
-        f"areas {middle:.3g} times (median at the points; "
+        f"areas {float(np.median(scale)):.3g} times (median at the points; "
         f"{float(scale.min()):.3g}-{float(scale.max()):.3g}), so 'radius' and "
         "'alpha' are not in true metres ('area_m2' is: it is measured on the "
         f"WGS84 ellipsoid): {advice}",

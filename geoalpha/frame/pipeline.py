@@ -871,7 +871,7 @@ def guarantee(
     """
     xy, codes, geometry = points.coords, points.codes, hulls.geometry
     check = ~hulls.degenerate
-    beyond = _beyond_the_line(geometry, xy, codes, proj.crossing & check)
+    beyond = _beyond_the_line(geometry, points, proj.crossing & check)
     exempt = hulls.outlier | beyond
     fixed = options.method == "alpha" and options.alpha is not None
     limit, unfaithful = None, np.zeros_like(check)
@@ -928,17 +928,16 @@ def _still_certain(hulls: Hulls, codes: np.ndarray) -> np.ndarray:
     return hulls.certain & same[codes]
 
 
-def _beyond_the_line(geometry, xy, codes, crossing) -> np.ndarray:
+def _beyond_the_line(geometry, points: Points, crossing) -> np.ndarray:
     """Points at exactly +-180 degrees that their group's hull holds only at -+180.
 
     -180 and +180 are one meridian but not one coordinate: a split hull that
     reaches the line from the east, at +180, misses a point given at -180.
     """
+    xy, codes = points.coords, points.codes
     beyond = np.zeros(len(codes), dtype=bool)
-    if not crossing.any():
-        return beyond
-    at = np.flatnonzero(crossing[codes] & (np.abs(xy[:, 0]) == 180.0))
-    if len(at):
+    if crossing.any():
+        at = np.flatnonzero(crossing[codes] & (np.abs(xy[:, 0]) == 180.0))
         mirror = xy[at] * np.array([-1.0, 1.0])
         beyond[at] = ~covered(geometry, xy[at], codes[at]) & covered(
             geometry, mirror, codes[at]
@@ -953,12 +952,8 @@ def warn_output_crs(hulls: Hulls, groups: Groups, points: Points, proj) -> None:
     the reverse) are named (:func:`_beyond_the_line`).
     """
     if proj.crossing.any():
-        beyond = _beyond_the_line(
-            hulls.geometry,
-            points.coords,
-            points.codes,
-            proj.crossing & ~hulls.degenerate,
-        )
+        split = proj.crossing & ~hulls.degenerate
+        beyond = _beyond_the_line(hulls.geometry, points, split)
         crossing = np.flatnonzero(proj.crossing)
         message = (
             f"{len(crossing)} group(s) cross the antimeridian (+-180 degrees): "
@@ -967,15 +962,12 @@ def warn_output_crs(hulls: Hulls, groups: Groups, points: Points, proj) -> None:
         )
         if beyond.any():
             missed = points.codes[beyond]
+            counts = np.bincount(missed, minlength=len(proj.crossing))
             message += (
                 f"; {beyond.sum()} of their point(s) lie outside the split hull, on "
                 "the other side of the +-180 line from it (a longitude of -180 for a "
                 "hull that reaches the line at +180, or the reverse): "
-                + _names(
-                    groups,
-                    np.unique(missed),
-                    np.bincount(missed, minlength=len(proj.crossing)),
-                )
+                + _names(groups, np.unique(missed), counts)
             )
         warnings.warn(message, AntimeridianWarning, stacklevel=user_stacklevel())
     wide = proj.wide & ~hulls.degenerate

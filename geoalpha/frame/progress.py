@@ -131,7 +131,7 @@ class Phases:
         self._costs = dict.fromkeys(self.names, 1.0)
         self._show = show
         self._desc = desc
-        self._file = file
+        self._file = sys.stderr if file is None else file
         self._phase = -1
         self._start = 0
         self._budget = 0
@@ -143,8 +143,6 @@ class Phases:
         self._showwarning = None
         if show:  # the bar appears at the first phase; tqdm is needed now
             self._tqdm()
-
-    # -- the bar ------------------------------------------------------------------
 
     @staticmethod
     def _tqdm():
@@ -158,7 +156,7 @@ class Phases:
 
     def _open(self) -> None:
         tqdm = self._tqdm()
-        file = self._out()
+        file = self._file
         self._bar = tqdm(
             total=TICKS,
             initial=self.done,
@@ -176,9 +174,6 @@ class Phases:
 
         self._showwarning = (shown, above_the_bar)
         warnings.showwarning = above_the_bar
-
-    def _out(self):
-        return self._file if self._file is not None else sys.stderr
 
     def _description(self) -> str:
         if 0 <= self._phase < len(self.names):
@@ -200,8 +195,6 @@ class Phases:
     def shown(self) -> bool:
         """Whether a bar is on the screen."""
         return self._bar is not None
-
-    # -- the run ------------------------------------------------------------------
 
     def estimate(self, costs: dict) -> None:
         """Set the estimated costs of phases (any unit); started ones keep theirs."""
@@ -225,7 +218,7 @@ class Phases:
             return
         if self._show is not None or n_groups < PROGRESS_MIN_GROUPS:
             return
-        if not getattr(self._out(), "isatty", lambda: False)():
+        if not getattr(self._file, "isatty", lambda: False)():
             return
         with contextlib.suppress(ImportError):
             self._open()
@@ -237,13 +230,11 @@ class Phases:
             raise ValueError(f"phase {name!r} has already started")
         self._advance(self._start + self._budget)
         rest = [self._costs[n] for n in self.names[index:]]
-        left = TICKS - self.done
-        total = sum(rest)
-        last = index == len(self.names) - 1
-        share = 1.0 if total <= 0 else rest[0] / total
+        left, total = TICKS - self.done, sum(rest)
+        share = 1.0 if total <= 0 or len(rest) == 1 else rest[0] / total  # last: all
         self._phase = index
         self._start = self.done
-        self._budget = left if last else min(left, round(left * share))
+        self._budget = min(left, round(left * share))
         self._units = max(int(units), 0)
         self._units_done = 0
         if self._bar is not None:
