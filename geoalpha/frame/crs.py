@@ -49,16 +49,13 @@ __all__ = [
     "unwrap_lon",
 ]
 
-#: Half width, in degrees of longitude, of the band around a UTM zone's central
-#: meridian that counts as "fits the zone": the zone's own 3 degrees plus a
-#: 1.5 degree margin (scale error at most about 0.3 % at the equator, less
-#: towards the poles).
+#: Degrees of longitude either side of a UTM zone's central meridian that "fit
+#: the zone": its own 3 and a 1.5 margin (scale error at most about 0.3 %).
 UTM_HALF_WIDTH = 4.5
 #: Largest absolute latitude projected with UTM; beyond it a local CRS is used.
 UTM_MAX_LAT = 84.0
 #: Local LAEA CRSs are centred on the group centre rounded to this many degrees,
-#: so that nearby groups share a CRS (and a transformer). Rounding moves the
-#: centre by at most 0.7 degrees, which changes the scale by less than 0.01 %.
+#: so that nearby groups share a CRS (the scale changes by less than 0.01 %).
 LAEA_CENTRE_STEP = 1.0
 
 
@@ -146,11 +143,7 @@ def _transformer(source: str, target: str) -> pyproj.Transformer:
         if laea == source:  # the way back
             steps = f"+step +inv {params} {degrees.format('rad', 'deg')}"
         return pyproj.Transformer.from_pipeline(f"+proj=pipeline {steps}")
-    return pyproj.Transformer.from_crs(
-        pyproj.CRS.from_user_input(source),
-        pyproj.CRS.from_user_input(target),
-        always_xy=True,
-    )
+    return pyproj.Transformer.from_crs(source, target, always_xy=True)
 
 
 @functools.lru_cache(maxsize=512)

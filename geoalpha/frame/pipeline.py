@@ -684,17 +684,13 @@ def degenerate_policy(
         codes = points.codes
         sel = np.flatnonzero(np.isin(codes, which))
         sel = sel[np.argsort(codes[sel], kind="stable")]
-        present = np.unique(codes[sel])  # groups with points left
-        buffered = np.full(len(which), EMPTY_POLYGON, dtype=object)
         if getattr(proj, "sphere", False):  # metres for these groups only
             xy, to_output = proj.metric_of(sel, which)
         else:
             xy, to_output = proj.xy[sel], partial(proj.to_output, groups=which)
-        if len(present):
-            mp = shapely.multipoints(xy, indices=np.searchsorted(present, codes[sel]))
-            buffered[np.searchsorted(which, present)] = shapely.buffer(
-                shapely.convex_hull(mp), options.buffer
-            )
+        hull = convex_hulls(xy, np.searchsorted(which, codes[sel]), len(which))
+        buffered = shapely.buffer(hull, options.buffer)
+        buffered[shapely.is_empty(hull)] = EMPTY_POLYGON  # no point left
         area[which] = shapely.area(buffered)
         geometry[which] = to_output(buffered)
         done = (
