@@ -2,7 +2,7 @@
 
 :mod:`~geoalpha.frame.pipeline` runs them; :mod:`~geoalpha.frame.crs` owns the
 CRS round trip, :mod:`~geoalpha.frame.schema` the result table,
-:mod:`~geoalpha.frame.checks` and :mod:`~geoalpha.frame.distortion` the set-up
-warnings, :mod:`~geoalpha.frame.progress` the progress bar. It calls the array
-API (:mod:`geoalpha.arrays`), never the faces above it.
+:mod:`~geoalpha.frame.checks` the set-up warnings, and
+:mod:`~geoalpha.frame.progress` the progress bar. It calls the array API
+(:mod:`geoalpha.arrays`), never the faces above it.
 """
