@@ -133,7 +133,7 @@ _OWN_LAEA = re.compile(
 def _transformer(source: str, target: str) -> pyproj.Transformer:
     """Return one cached (thread-safe) transformer per pair of CRS definitions.
 
-    A PROJ pipeline between WGS 84 and our LAEA CRSs: 100 times faster to build.
+    A PROJ pipeline between WGS 84 and our LAEA CRSs (100 times faster to build).
     """
     laea = target if source == _WGS84 else source if target == _WGS84 else ""
     if _OWN_LAEA.fullmatch(laea):

@@ -53,15 +53,9 @@ from geoalpha.errors import (
     user_stacklevel,
 )
 from geoalpha.frame import crs as gcrs
+from geoalpha.frame import progress
 from geoalpha.frame.checks import check_distortion, check_grouping
-from geoalpha.frame.progress import (
-    HULL_PHASES,
-    PROGRESS_MIN_GROUPS,
-    Phases,
-    current,
-    hull_costs,
-    phases,
-)
+from geoalpha.frame.progress import PROGRESS_MIN_GROUPS
 from geoalpha.frame.schema import RESULT_COLUMNS, result_frame, result_geometry_name
 from geoalpha.frame.sphere import SphereProjection
 from geoalpha.options import Options
@@ -170,19 +164,15 @@ def run(frame, by, options: Options, *, checks: bool = True, rows: bool = True):
     warnings (:mod:`geoalpha.frame.checks`), ``rows=False`` the dropped rows'
     (:func:`report_rows`): :func:`geoalpha.dask.hull` makes them once.
     """
-    outer = current()
+    outer = progress.current()
     if outer is not None and options.progress is not False:
         return _stages(frame, by, options, outer, checks, rows)
-    with phases(HULL_PHASES, options.progress) as bar:
+    with progress.phases(progress.HULL_PHASES, options.progress) as bar:
         return _stages(frame, by, options, bar, checks, rows)
 
 
 def _per_group_crs(source, crs, coords: np.ndarray) -> bool:
-    """Guess whether groups get a metric CRS each (for the progress bar).
-
-    Lon/lat points wider than a UTM zone with ``crs="auto"``
-    (:func:`geoalpha.frame.crs.metric_crs` decides).
-    """
+    """Guess whether groups get a metric CRS each: wide lon/lat, ``crs="auto"``."""
     auto = isinstance(crs, str) and crs.strip().lower() in ("auto", "auto-group")
     src = parse_crs(source) if auto else None
     if src is None or not src.is_geographic or not len(coords):
@@ -190,8 +180,8 @@ def _per_group_crs(source, crs, coords: np.ndarray) -> bool:
     return bool(np.ptp(coords[:, 0]) > 2 * gcrs.UTM_HALF_WIDTH)
 
 
-def _stages(frame, by, options: Options, bar: Phases, checks: bool, rows: bool):
-    bar.estimate(hull_costs(len(frame), 0, per_group_crs=False))  # groups: unknown
+def _stages(frame, by, options, bar: progress.Phases, checks: bool, rows: bool):
+    bar.estimate(progress.hull_costs(len(frame), 0, per_group_crs=False))  # 0: unknown
     bar.start("group")
     groups = group(frame, by, options)
     n_groups = groups.n_groups
@@ -225,9 +215,7 @@ def _stages(frame, by, options: Options, bar: Phases, checks: bool, rows: bool):
 def _names(groups: Groups, which: np.ndarray, counts=None, value=None) -> str:
     """Name groups by key for messages (with their row counts when given).
 
-    A key is its values joined, quoted as a whole; ``value=repr``: each value
-    quoted. A missing key (``dropna=False``) is ``nan`` whatever its dtype
-    holds (``None``, ``NaN``, ``pd.NA`` of the string dtype dask gives).
+    The key quoted whole, or ``value=repr``: each value; a missing one is ``nan``.
     """
     shown = which[:11]  # first_n shows 10, and "..." when there is an 11th
 
@@ -309,11 +297,7 @@ def group(frame, by, options: Options) -> Groups:
 
 
 def _factorize_column(frame, by, options: Options) -> Groups | None:
-    """Group one plain column with :func:`pandas.factorize`, as ``groupby`` does.
-
-    Skips building a GroupBy (several times the cost on small frames);
-    None for every other ``by``.
-    """
+    """Group one plain column as ``groupby`` does, without its cost; else None."""
     name = by[0] if isinstance(by, list) and len(by) == 1 else by
     if not isinstance(name, str) or name in frame.index.names:
         return None
@@ -447,9 +431,7 @@ def _threaded(func, geoms: np.ndarray, n_jobs: int | None) -> tuple:
 def merge_reports(reports) -> RowReport:
     """Add up the :class:`RowReport` of consecutive parts of a frame (in order)."""
     reports = list(reports)
-    types = Counter()
-    for report in reports:
-        types.update(report.types)
+    types = sum((Counter(r.types) for r in reports), Counter())
     return RowReport(
         n_rows=sum(r.n_rows for r in reports),
         counts={k: sum(r.counts[k] for r in reports) for k in _ROW_KINDS},
@@ -571,7 +553,7 @@ def compute(
     counts the groups done. ``names`` names groups (by code) in warnings.
     """
     method = options.method
-    bar = current()
+    bar = progress.current()
     if bar is not None and not bar.shown:
         bar = None  # nobody to tell: one batch, not one per PROGRESS_GROUPS groups
     try:
@@ -728,11 +710,7 @@ def degenerate_policy(
 
 
 def _why_degenerate(reason, which, groups: Groups, n_points, wide) -> str:
-    """Word why the groups ``which`` have no shape (the one place it is worded).
-
-    Codes 1-3 and groups without points: too few or collinear points;
-    ``wide``: over 180 degrees of longitude; the others: no polygon in the output.
-    """
+    """Word why the groups ``which`` have no shape, from their reason codes."""
     thin = np.isin(reason[which], (1, 2, 3)) | (n_points[which] == 0)
     reasons = []
     if thin.any():
@@ -784,10 +762,7 @@ def _reasons(degenerate, points: Points, proj: gcrs.Projection) -> np.ndarray:
 def _buffer_in_output(geometry, sel, codes, proj: gcrs.Projection) -> np.ndarray:
     """Replace degenerate buffers that fail in the output CRS by ones made there.
 
-    A buffer invalid or missing a point there (around a pole in lon/lat)
-    becomes the convex hull of the points in the output coordinates, widened by
-    :data:`geoalpha.kernel.OUTPUT_BUFFER_RTOL` of their extent, clipped to
-    latitudes -90..90. Changes ``geometry`` in place; returns the groups redone.
+    Changes ``geometry`` in place and returns the groups redone.
     """
     mine = codes[sel]
     groups = np.unique(mine)
@@ -832,8 +807,7 @@ def split_at_antimeridian(hulls: Hulls, points: Points, proj: gcrs.Projection) -
 def _split(geoms: np.ndarray, which: np.ndarray, points: Points) -> np.ndarray:
     """Split ``geoms`` (groups ``which``) at +-180 degrees, input longitudes back.
 
-    GEOS cuts only valid polygons: invalid ones are repaired first (and the
-    parts again, should restoring the longitudes break one).
+    GEOS cuts only valid polygons: invalid ones (before or after) are repaired.
     """
     parts = gcrs.split_antimeridian(_valid(geoms))
     lon, lat = points.coords[:, 0], points.coords[:, 1]
@@ -927,8 +901,7 @@ def _still_certain(hulls: Hulls, codes: np.ndarray) -> np.ndarray:
 def _beyond_the_line(geometry, points: Points, crossing) -> np.ndarray:
     """Points at exactly +-180 degrees that their group's hull holds only at -+180.
 
-    -180 and +180 are one meridian but not one coordinate: a split hull that
-    reaches the line from the east, at +180, misses a point given at -180.
+    (-180 and +180 are one meridian but not one coordinate.)
     """
     xy, codes = points.coords, points.codes
     beyond = np.zeros(len(codes), dtype=bool)

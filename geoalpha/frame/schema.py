@@ -194,10 +194,7 @@ def result_frame(
 
 
 def _geodataframe(columns: dict[Any, Any], geometry_name: str):
-    """``GeoDataFrame(columns, geometry=geometry_name)`` without a second copy.
-
-    The constructor copies the GeometryArray again (a third of a small result).
-    """
+    """``GeoDataFrame(columns, geometry=geometry_name)`` without a second copy."""
     import geopandas as gpd
     import pandas as pd
 

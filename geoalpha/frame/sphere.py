@@ -106,8 +106,7 @@ class SphereProjection(gcrs.Projection):
     def metric_of(self, sel: np.ndarray, which: np.ndarray):
         """Metres for the points ``sel`` of the groups ``which`` only (``crs="auto"``).
 
-        Also returns the function that moves geometries of ``which`` (in that
-        order) back to the input CRS: no projection of the whole input.
+        And the function that moves geometries of ``which`` back to the input CRS.
         """
         coords, codes, _, source, labels = self._args
         local = gcrs.Projection(
