@@ -5,6 +5,7 @@ The geometry is the kernel's (``src/sphere.rs``) and :mod:`geoalpha.arrays.spher
 
 from __future__ import annotations
 
+import functools
 from typing import Any
 
 import numpy as np
@@ -65,15 +66,14 @@ class SphereProjection(gcrs.Projection):
             )
         self.source = src
         self._args = (coords, codes, n_groups, source, labels)
-        self._auto: gcrs.Projection | None = None
         self.unit = "m"
         self.names = np.full(n_groups, "sphere", dtype=object)
         self.out = coords
         self.crossing = np.zeros(n_groups, dtype=bool)
         self.wide = np.zeros(n_groups, dtype=bool)
         self.polar = np.zeros(n_groups, dtype=bool)
+        lon, lat = coords[:, 0], coords[:, 1]
         if src.is_geographic:
-            lon, lat = coords[:, 0], coords[:, 1]
             gcrs.check_lonlat(lon, lat, labels)
             self.out, self.crossing, self.wide = gcrs.output_lonlat(
                 coords, codes, n_groups
@@ -89,19 +89,13 @@ class SphereProjection(gcrs.Projection):
                     self.out[mine] = coords[mine]
                 self.crossing &= ~self.polar
                 self.wide &= ~self.polar
-            if src != _WGS84:
-                lon, lat = gcrs.to_wgs84(src, lon, lat, labels)
-        else:
-            lon, lat = gcrs.to_wgs84(src, coords[:, 0], coords[:, 1], labels)
+        if src != _WGS84:
+            lon, lat = gcrs.to_wgs84(src, lon, lat, labels)
         self.lonlat = np.ascontiguousarray(np.column_stack([lon, lat]), dtype=float)
 
+    @functools.cached_property
     def _metric(self) -> gcrs.Projection:
-        if self._auto is None:
-            coords, codes, n_groups, source, labels = self._args
-            self._auto = gcrs.Projection(
-                coords, codes, n_groups, source, "auto", labels
-            )
-        return self._auto
+        return gcrs.Projection(*self._args[:4], "auto", self._args[4])
 
     def metric_of(self, sel: np.ndarray, which: np.ndarray):
         """Metres for the points ``sel`` of the groups ``which`` only (``crs="auto"``).
@@ -109,26 +103,21 @@ class SphereProjection(gcrs.Projection):
         And the function that moves geometries of ``which`` back to the input CRS.
         """
         coords, codes, _, source, labels = self._args
-        local = gcrs.Projection(
-            coords[sel],
-            np.searchsorted(which, codes[sel]),
-            len(which),
-            source,
-            "auto",
-            None if labels is None else labels[sel],
-        )
+        mine = np.searchsorted(which, codes[sel])
+        labels = None if labels is None else labels[sel]
+        local = gcrs.Projection(coords[sel], mine, len(which), source, "auto", labels)
         groups = np.arange(len(which))
         return local.xy, lambda geoms: local.to_output(geoms, groups)
 
     @property
     def xy(self) -> np.ndarray:  # type: ignore[override]
         """Metres (``crs="auto"``'s projection), for stages other than the shape."""
-        return self._metric().xy
+        return self._metric.xy
 
     @property
     def _crs_list(self):  # the way back of :attr:`xy`
-        return self._metric()._crs_list
+        return self._metric._crs_list
 
     @property
     def _crs_index(self):
-        return self._metric()._crs_index
+        return self._metric._crs_index
