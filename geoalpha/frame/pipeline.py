@@ -206,9 +206,8 @@ def _stages(frame, by, options, bar: progress.Phases, checks: bool, rows: bool):
     hulls = degenerate_policy(hulls, groups, points, proj, options)
     warn_output_crs(hulls, groups, points, proj)
     hulls = hulls._replace(area=area_m2(hulls, grown, proj, options))
-    out = table(
-        groups, points, proj, hulls, crs, result_geometry_name(frame, groups.names)
-    )
+    name = result_geometry_name(frame, groups.names)
+    out = table(groups, points, proj, hulls, crs, name)
     return out, report_outliers(hulls, groups, points, len(frame), options)
 
 
@@ -571,8 +570,7 @@ def compute(
             search=options.search,
             max_iterations=options.max_iterations,
             outliers=options.outliers,
-            # None: the computation coordinates are the output ones
-            # (projected input used as it is)
+            # None: the output coordinates are the computation's (projected input)
             out=proj.out if sphere or proj.out is not proj.xy else None,
             progress=bar,
             n_jobs=options.n_jobs,
