@@ -389,9 +389,8 @@ def scan_rows(frame, codes: np.ndarray, vertices: bool, n_jobs: int | None = 1):
         "no_key": no_key,
         "infinite": infinite,
     }
-    types = Counter()
-    if masks["non_point"].any():
-        types.update(np.asarray(frame.geom_type)[masks["non_point"]].tolist())
+    bad = masks["non_point"]  # (geom_type names every row: only when needed)
+    types = Counter(np.asarray(frame.geom_type)[bad].tolist()) if bad.any() else {}
     report = RowReport(
         n_rows=len(geoms),
         counts={k: int(m.sum()) for k, m in masks.items()},
@@ -604,17 +603,9 @@ def compute(
 
 def _comparison(points, proj, n_groups: int, options: Options, names, bar) -> Hulls:
     """:func:`compute` for ``"concave"`` and ``"knn"``: no alpha, no kernel sweep."""
-    method = options.method
+    kw = {"holes": options.holes, "ratio": options.ratio, "k": options.k, "bar": bar}
     made = comparison_hulls(
-        method,
-        proj.xy,
-        proj.out,
-        points.codes,
-        n_groups,
-        holes=options.holes,
-        ratio=options.ratio,
-        k=options.k,
-        bar=bar,
+        options.method, proj.xy, proj.out, points.codes, n_groups, **kw
     )
     if made.without_holes.any():
         which = np.flatnonzero(made.without_holes)

@@ -133,14 +133,10 @@ class Phases:
         self._desc = desc
         self._file = sys.stderr if file is None else file
         self._phase = -1
-        self._start = 0
-        self._budget = 0
-        self._units = 0
-        self._units_done = 0
+        self._start = self._budget = self._units = self._units_done = 0
         self._groups: int | None = None
         self._extra_costs = costs
-        self._bar = None
-        self._showwarning = None
+        self._bar = self._showwarning = None
         if show:  # the bar appears at the first phase; tqdm is needed now
             self._tqdm()
 
