@@ -264,16 +264,11 @@ def metric_crs(
         )
     source_key = _WGS84 if source is None else source.srs
     check_lonlat(lon, lat, labels)
-
     mode = crs.strip().lower() if isinstance(crs, str) else None
     if mode in ("auto", "auto-group"):
-        crs_list, crs_index = _choose_auto(
-            lon, lat, codes, n_groups, whole=mode == "auto"
-        )
+        crs_list, crs_index = _choose_auto(lon, lat, codes, n_groups, mode == "auto")
     else:
-        forced = target_crs(crs)
-        crs_list, crs_index = [forced], np.zeros(n_groups, dtype=np.intp)
-
+        crs_list, crs_index = [target_crs(crs)], np.zeros(n_groups, dtype=np.intp)
     xy = np.empty((lon.size, 2), dtype=np.float64)
     segments = [slice(None)]
     if len(crs_list) > 1:  # the points by CRS
@@ -312,7 +307,6 @@ def _choose_auto(
         epsg, fits = _utm_keys(west, east, south, north)
         if fits[0]:
             return [_crs_from_key(int(epsg[0]))], np.zeros(n_groups, dtype=np.intp)
-
     arcs = group_arcs(lon, lat, codes, n_groups)
     filled = ~np.isnan(arcs["west"])
     sides = [arcs[side][filled] for side in ("west", "east", "south", "north")]
