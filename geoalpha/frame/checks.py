@@ -1,18 +1,17 @@
 """Warnings about a run's set-up: a ``by`` that looks wrong, a CRS that stretches areas.
 
-Stages of :func:`geoalpha.hull` (once over the whole dataset in
+Stages of :func:`geoalpha.hull` (once for the whole dataset in
 :func:`geoalpha.dask.hull`), naming the options as the user spells them
-(:func:`geoalpha.errors.setting`: ``by=`` in Python, ``--by`` in the command).
-
-``check_distortion`` warns that ``radius`` and ``alpha`` are not in true
-metres where the CRS stretches; ``area_m2`` is measured on the WGS84
-ellipsoid, not in that CRS.
+(:func:`geoalpha.errors.setting`). :func:`area_scale` measures how much a
+projected CRS stretches areas where the points are (Web Mercator: 2.6 times at
+London), which makes ``radius`` and ``alpha`` wrong without any error.
 """
 
 from __future__ import annotations
 
 import contextlib
 import warnings
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
@@ -21,11 +20,12 @@ import pyproj
 from geoalpha.crs_parsing import crs_name, is_mercator, is_sphere, parse_crs
 from geoalpha.errors import CRSWarning, GroupingWarning, setting, user_stacklevel
 from geoalpha.frame.crs import metric_crs
-from geoalpha.frame.distortion import AREA_TOLERANCE, area_scale
 
 __all__ = [
+    "AREA_TOLERANCE",
     "MANY_GROUPS_MIN_ROWS",
     "MANY_GROUPS_SHARE",
+    "area_scale",
     "check_distortion",
     "check_grouping",
     "computation_crs",
@@ -35,6 +35,74 @@ __all__ = [
 MANY_GROUPS_SHARE = 0.5
 #: ... and this many rows.
 MANY_GROUPS_MIN_ROWS = 50
+#: Areal scale factors further than this from 1 are reported (2 %; a UTM
+#: zone within its own width stays under 0.3 %).
+AREA_TOLERANCE = 0.02
+#: Points the scale is measured at, evenly spaced through the input, and those
+#: at the extremes of x and y (the scale varies most towards the edges).
+_SAMPLE = 256
+
+
+def area_scale(crs: Any, x: Any, y: Any, source_crs: Any) -> np.ndarray:
+    """Return the areal scale factor of ``crs`` at some of the given points.
+
+    Parameters
+    ----------
+    crs : pyproj.CRS or anything pyproj accepts
+        A projected CRS.
+    x, y : array_like of float
+        Coordinates of the points in ``source_crs``.
+    source_crs : pyproj.CRS or anything pyproj accepts
+        CRS of ``x``/``y``.
+
+    Returns
+    -------
+    numpy.ndarray of float
+        Area on the map / true area at up to 260 of the points (``inf``
+        where ``crs`` cannot represent a point); empty without finite points.
+
+    Examples
+    --------
+    >>> from geoalpha.frame.checks import area_scale
+    >>> float(area_scale("EPSG:3857", [-0.12], [51.5], "EPSG:4326")[0])
+    ... # doctest: +ELLIPSIS
+    2.58...
+    >>> float(area_scale("EPSG:32630", [-3.0], [51.5], "EPSG:4326")[0])
+    ... # doctest: +ELLIPSIS
+    0.999...
+    """
+    x = np.asarray(x, dtype=float).ravel()
+    y = np.asarray(y, dtype=float).ravel()
+    finite = np.isfinite(x) & np.isfinite(y)
+    x, y = x[finite], y[finite]
+    if x.size > _SAMPLE:
+        pick = np.linspace(0, x.size - 1, _SAMPLE).astype(np.intp)
+        ends = [np.argmin(x), np.argmax(x), np.argmin(y), np.argmax(y)]
+        pick = np.concatenate([pick, ends])
+        x, y = x[pick], y[pick]
+    if x.size == 0:
+        return np.empty(0)
+    to_lonlat, proj = _factors_of(_key(source_crs), _key(crs))
+    lon, lat = to_lonlat.transform(x, y)
+    with np.errstate(all="ignore"):
+        factors = proj.get_factors(lon, lat, errcheck=False)
+        scale = np.asarray(factors.areal_scale, dtype=float)
+    scale[~np.isfinite(scale)] = np.inf
+    return scale
+
+
+def _key(crs: Any) -> str:
+    """Return a hashable spelling of a CRS (for the cache of :func:`_factors_of`)."""
+    return pyproj.CRS.from_user_input(crs).srs
+
+
+@lru_cache(maxsize=32)
+def _factors_of(source: str, target: str) -> tuple[pyproj.Transformer, pyproj.Proj]:
+    """Return the way from ``source`` to lon/lat on ``target``'s datum, and it."""
+    crs = pyproj.CRS.from_user_input(target)
+    geographic = crs.geodetic_crs or pyproj.CRS.from_epsg(4326)
+    to_lonlat = pyproj.Transformer.from_crs(source, geographic, always_xy=True)
+    return to_lonlat, pyproj.Proj(crs)
 
 
 def _by_text(by) -> tuple[str, str]:
@@ -52,10 +120,8 @@ def check_grouping(n_groups: int, n_rows: int, by: Any) -> None:
 
     Parameters
     ----------
-    n_groups : int
-        Groups that ``by`` makes.
-    n_rows : int
-        Input rows.
+    n_groups, n_rows : int
+        Groups that ``by`` makes, and input rows.
     by : str, list or array_like or None
         The ``by`` of :func:`geoalpha.hull` (None: one group, never warned).
 
@@ -103,8 +169,8 @@ def computation_crs(source: Any, crs: Any) -> tuple[pyproj.CRS | None, str]:
     Returns
     -------
     (pyproj.CRS or None, str)
-        The CRS and ``"crs="`` (forced) or ``"input"`` (kept by
-        ``crs="auto"``); ``(None, "")`` when there is no one such CRS.
+        The CRS and ``"crs="`` (forced) or ``"input"`` (kept by ``"auto"``);
+        ``(None, "")`` when there is no one such CRS.
 
     Examples
     --------
@@ -121,9 +187,8 @@ def computation_crs(source: Any, crs: Any) -> tuple[pyproj.CRS | None, str]:
     if src is None or crs is None or is_sphere(crs):
         return None, ""
     if isinstance(crs, str) and crs.strip().lower() in ("auto", "auto-group"):
-        if src.is_projected and not is_mercator(src):
-            return src, "input"
-        return None, ""
+        kept = src.is_projected and not is_mercator(src)
+        return (src, "input") if kept else (None, "")
     try:
         parsed = parse_crs(crs)
     except Exception:  # the projection stage reports a bad crs=
@@ -157,16 +222,14 @@ def check_distortion(coords: np.ndarray, source: Any, crs: Any) -> None:
     ----------
     coords : numpy.ndarray, shape (n, 2)
         The points (or a sample of them) in ``source``.
-    source : CRS or None
-        The input CRS.
-    crs : "auto", "auto-group", CRS or None
-        The ``crs=`` option (:func:`computation_crs`).
+    source, crs
+        As for :func:`computation_crs`.
 
     Warns
     -----
     CRSWarning
-        When the areal scale factor of the computation CRS is further than
-        :data:`geoalpha.frame.distortion.AREA_TOLERANCE` from 1 at some point
+        When the computation CRS's areal scale is further than
+        :data:`AREA_TOLERANCE` from 1 at a point
         (Web Mercator: 2.6 at London; a UTM zone far from the data).
 
     Examples
@@ -199,12 +262,10 @@ def check_distortion(coords: np.ndarray, source: Any, crs: Any) -> None:
     else:
         how = "the input's CRS"
         advice = f"pass {setting('crs')} with a UTM zone or an equal-area CRS for "
-        advice += "these points"
-        advice += _suggestion(coords, src)
-    middle = float(np.median(scale))
+        advice += f"these points{_suggestion(coords, src)}"
     warnings.warn(
         f"the shapes are computed in {crs_name(target)} ({how}), which stretches "
-        f"areas {middle:.3g} times (median at the points; "
+        f"areas {float(np.median(scale)):.3g} times (median at the points; "
         f"{float(scale.min()):.3g}-{float(scale.max()):.3g}), so 'radius' and "
         "'alpha' are not in true metres ('area_m2' is: it is measured on the "
         f"WGS84 ellipsoid): {advice}",

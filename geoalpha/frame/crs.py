@@ -1,12 +1,9 @@
 """Metric CRS choice, longitude/latitude checks and antimeridian handling.
 
-Functions on numpy arrays that the frame layer calls around the computation:
-:func:`check_lonlat`, :func:`metric_crs` (a UTM zone or a local equal-area
-CRS per group, one cached transformer per CRS) and :class:`Projection`, the
-whole round trip; :func:`geodesic_areas` measures the output polygons on the
-WGS84 ellipsoid (``area_m2``), whatever CRS they are in. Group membership
-is given as integer codes ``0 .. n_groups - 1`` per point, so that per-group
-quantities need no Python loop over groups.
+:func:`check_lonlat`, :func:`metric_crs` (a UTM zone or a local equal-area CRS
+per group), :class:`Projection` (the whole round trip) and
+:func:`geodesic_areas` (``area_m2`` on the WGS84 ellipsoid), on numpy arrays;
+groups are integer codes ``0 .. n_groups - 1`` per point.
 """
 
 from __future__ import annotations
@@ -52,19 +49,14 @@ __all__ = [
     "unwrap_lon",
 ]
 
-#: Half width, in degrees of longitude, of the band around a UTM zone's central
-#: meridian that counts as "fits the zone": the zone's own 3 degrees plus a
-#: 1.5 degree margin (scale error at most about 0.3 % at the equator, less
-#: towards the poles).
+#: Degrees of longitude either side of a UTM zone's central meridian that "fit
+#: the zone": its own 3 and a 1.5 margin (scale error at most about 0.3 %).
 UTM_HALF_WIDTH = 4.5
 #: Largest absolute latitude projected with UTM; beyond it a local CRS is used.
 UTM_MAX_LAT = 84.0
 #: Local LAEA CRSs are centred on the group centre rounded to this many degrees,
-#: so that nearby groups share a CRS (and a transformer). Rounding moves the
-#: centre by at most 0.7 degrees, which changes the scale by less than 0.01 %.
+#: so that nearby groups share a CRS (the scale changes by less than 0.01 %).
 LAEA_CENTRE_STEP = 1.0
-
-_WGS84 = "EPSG:4326"
 
 
 def _as_coords(lon: Any, lat: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -86,16 +78,14 @@ def check_lonlat(lon: Any, lat: Any, labels: Any = None) -> None:
     lon, lat : array_like of float
         Longitudes (x) and latitudes (y) of the points, in degrees.
     labels : array_like, optional
-        A label per point to name the offending rows by (e.g. the index
-        labels of a frame); default: their positions.
+        A label per point to name the offending rows by (default: positions).
 
     Raises
     ------
     InvalidInputError
-        If any coordinate is NaN or infinite, any latitude is outside
-        [-90, 90] or any longitude outside [-180, 180]. The message gives the
-        number of offending rows and their first positions, and says when
-        latitude and longitude look swapped.
+        On NaN or infinite coordinates, latitudes outside [-90, 90] or
+        longitudes outside [-180, 180], naming the rows (and saying when
+        latitude and longitude look swapped).
 
     Examples
     --------
@@ -114,17 +104,14 @@ def check_lonlat(lon: Any, lat: Any, labels: Any = None) -> None:
             "coordinates must be finite numbers; got NaN or infinite "
             f"longitude/latitude in {row_positions(bad, labels)}"
         )
-    bad_lat = np.abs(lat) > 90.0
-    bad_lon = np.abs(lon) > 180.0
-    problems = []
-    if bad_lat.any():
-        problems.append(
-            f"latitude outside [-90, 90] in {row_positions(bad_lat, labels)}"
+    problems = [
+        f"{name} outside [-{limit}, {limit}] in {row_positions(bad, labels)}"
+        for name, limit, bad in (
+            ("latitude", 90, np.abs(lat) > 90.0),
+            ("longitude", 180, np.abs(lon) > 180.0),
         )
-    if bad_lon.any():
-        problems.append(
-            f"longitude outside [-180, 180] in {row_positions(bad_lon, labels)}"
-        )
+        if bad.any()
+    ]
     if problems:
         message = (
             "points in a geographic CRS must be longitude/latitude degrees; "
@@ -146,8 +133,7 @@ _OWN_LAEA = re.compile(
 def _transformer(source: str, target: str) -> pyproj.Transformer:
     """Return one cached (thread-safe) transformer per pair of CRS definitions.
 
-    Between WGS 84 and the local LAEA CRSs built here it is a PROJ pipeline,
-    about 100 times faster to build than a search of the operation database.
+    A PROJ pipeline between WGS 84 and our LAEA CRSs (100 times faster to build).
     """
     laea = target if source == _WGS84 else source if target == _WGS84 else ""
     if _OWN_LAEA.fullmatch(laea):
@@ -157,11 +143,7 @@ def _transformer(source: str, target: str) -> pyproj.Transformer:
         if laea == source:  # the way back
             steps = f"+step +inv {params} {degrees.format('rad', 'deg')}"
         return pyproj.Transformer.from_pipeline(f"+proj=pipeline {steps}")
-    return pyproj.Transformer.from_crs(
-        pyproj.CRS.from_user_input(source),
-        pyproj.CRS.from_user_input(target),
-        always_xy=True,
-    )
+    return pyproj.Transformer.from_crs(source, target, always_xy=True)
 
 
 @functools.lru_cache(maxsize=512)
@@ -185,9 +167,7 @@ def _wrap180(lon: np.ndarray) -> np.ndarray:
     return (np.asarray(lon) + 180.0) % 360.0 - 180.0
 
 
-def _utm_keys(
-    west: np.ndarray, east: np.ndarray, south: np.ndarray, north: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
+def _utm_keys(west, east, south, north) -> tuple[np.ndarray, np.ndarray]:
     """UTM EPSG code of each extent's centre, and whether the extent fits it."""
     centre = _wrap180((west + east) / 2.0)
     zone = np.clip(np.floor((centre + 180.0) / 6.0).astype(np.int64), 0, 59) + 1
@@ -203,9 +183,7 @@ def _utm_keys(
     return epsg, fits
 
 
-def _laea_key(
-    west: np.ndarray, east: np.ndarray, south: np.ndarray, north: np.ndarray
-) -> np.ndarray:
+def _laea_key(west, east, south, north) -> np.ndarray:
     """Integer key of a local LAEA CRS centred on each extent (or its pole)."""
     lat0 = (south + north) / 2.0
     lon0 = _wrap180((west + east) / 2.0)
@@ -232,32 +210,27 @@ def metric_crs(
     Parameters
     ----------
     lon, lat : array_like of float, shape (n,)
-        Coordinates in degrees in ``source_crs``; checked with
-        :func:`check_lonlat`.
+        Degrees in ``source_crs`` (checked with :func:`check_lonlat`).
     codes : array_like of int, shape (n,)
-        Group code of every point, ``0 .. n_groups - 1`` (as returned by
-        :func:`pandas.factorize`; drop the ``-1`` of missing groups first).
+        Group code of every point, ``0 .. n_groups - 1`` (no ``-1``).
     n_groups : int
         Number of groups.
     crs : "auto", "auto-group" or CRS, default "auto"
-        ``"auto"``: one WGS 84 UTM zone for every group when all points lie
-        within ``UTM_HALF_WIDTH`` degrees of its central meridian and 84
-        degrees of the equator; else, per group, the UTM zone of its centre
-        if it fits by the same rule, or a Lambert azimuthal equal-area CRS
-        centred on it. ``"auto-group"``: the per-group choice only. Any other
-        value is checked by :func:`target_crs` and used for every group
-        (scaled to metres when in feet).
+        ``"auto"``: one WGS 84 UTM zone for all groups when every point lies
+        within ``UTM_HALF_WIDTH`` degrees of its central meridian and 84 of
+        the equator; else, per group, its centre's UTM zone if it fits so,
+        or a Lambert azimuthal equal-area CRS centred on it. ``"auto-group"``:
+        the per-group choice only. Another CRS (checked by
+        :func:`target_crs`) is used for every group.
     source_crs : CRS, optional
         The geographic CRS of ``lon``/``lat``; default EPSG:4326 (WGS 84).
     labels : array_like, optional
-        A label per point to name rows by in error messages (default: their
-        positions).
+        A label per point to name rows by in errors (default: positions).
 
     Returns
     -------
     xy : numpy.ndarray of float64, shape (n, 2)
-        Metric coordinates of every point, in the CRS of its group (scaled
-        to metres when that CRS is in feet).
+        Coordinates in the CRS of each point's group, in metres (feet scaled).
     crs_list : list of pyproj.CRS
         The distinct CRSs used.
     crs_index : numpy.ndarray of int, shape (n_groups,)
@@ -266,9 +239,9 @@ def metric_crs(
     Raises
     ------
     InvalidInputError
-        On invalid coordinates or codes, a forced ``crs`` that is not a
-        projected metric CRS, a ``source_crs`` that is not geographic, or
-        points the chosen CRS cannot project (their positions are named).
+        On bad coordinates or codes, a ``crs`` that is not a projected metric
+        CRS, a ``source_crs`` that is not geographic, or points the CRS
+        cannot project (named).
 
     Examples
     --------
@@ -291,34 +264,23 @@ def metric_crs(
         )
     source_key = _WGS84 if source is None else source.srs
     check_lonlat(lon, lat, labels)
-
     mode = crs.strip().lower() if isinstance(crs, str) else None
     if mode in ("auto", "auto-group"):
-        crs_list, crs_index = _choose_auto(
-            lon, lat, codes, n_groups, whole=mode == "auto"
-        )
+        crs_list, crs_index = _choose_auto(lon, lat, codes, n_groups, mode == "auto")
     else:
-        forced = target_crs(crs)
-        crs_list, crs_index = [forced], np.zeros(n_groups, dtype=np.intp)
-
+        crs_list, crs_index = [target_crs(crs)], np.zeros(n_groups, dtype=np.intp)
     xy = np.empty((lon.size, 2), dtype=np.float64)
-    if len(crs_list) == 1:
-        segments = [(crs_list[0], slice(None))]
-    else:
+    segments = [slice(None)]
+    if len(crs_list) > 1:  # the points by CRS
         point_crs = crs_index[codes]
         order = np.argsort(point_crs, kind="stable")
-        bounds = np.concatenate(
-            [[0], np.cumsum(np.bincount(point_crs, minlength=len(crs_list)))]
-        )
-        segments = [
-            (target, order[bounds[k] : bounds[k + 1]])
-            for k, target in enumerate(crs_list)
-        ]
-    for target, rows in segments:
+        ends = np.searchsorted(point_crs[order], np.arange(1, len(crs_list)))
+        segments = np.split(order, ends)
+    for target, rows in zip(crs_list, segments, strict=False):
         transformer = _transformer(source_key, _crs_key(target))
         x, y = transformer.transform(lon[rows], lat[rows])
         xy[rows] = np.column_stack([x, y]) * unit_factor(target)
-    failed = ~(np.isfinite(xy[:, 0]) & np.isfinite(xy[:, 1]))
+    failed = ~np.isfinite(xy).all(axis=1)
     if failed.any():
         names = sorted({crs_name(crs_list[k]) for k in crs_index[codes[failed]]})
         raise InvalidInputError(
@@ -330,11 +292,7 @@ def metric_crs(
 
 
 def _choose_auto(
-    lon: np.ndarray,
-    lat: np.ndarray,
-    codes: np.ndarray,
-    n_groups: int,
-    whole: bool = True,
+    lon, lat, codes, n_groups: int, whole: bool = True
 ) -> tuple[list[pyproj.CRS], np.ndarray]:
     """CRS choice of ``metric_crs(crs="auto")``; ``whole=False``: "auto-group"."""
     if lon.size == 0:
@@ -349,12 +307,11 @@ def _choose_auto(
         epsg, fits = _utm_keys(west, east, south, north)
         if fits[0]:
             return [_crs_from_key(int(epsg[0]))], np.zeros(n_groups, dtype=np.intp)
-
     arcs = group_arcs(lon, lat, codes, n_groups)
     filled = ~np.isnan(arcs["west"])
-    sub = {name: values[filled] for name, values in arcs.items()}
-    epsg, fits = _utm_keys(sub["west"], sub["east"], sub["south"], sub["north"])
-    laea = _laea_key(sub["west"], sub["east"], sub["south"], sub["north"])
+    sides = [arcs[side][filled] for side in ("west", "east", "south", "north")]
+    epsg, fits = _utm_keys(*sides)
+    laea = _laea_key(*sides)
     keys = np.empty(n_groups, dtype=np.int64)
     keys[filled] = np.where(fits, epsg, laea)
     keys[~filled] = keys[filled][0]  # groups without points: any CRS in use
@@ -430,9 +387,9 @@ class Projection:
     """The whole CRS round trip of :func:`geoalpha.hull`: input -> metres -> input.
 
     ``crs=None`` computes in the coordinates as they are; ``crs="auto"``
-    sends longitude/latitude and Mercator input through :func:`metric_crs`
-    and keeps other projected input; a projected ``crs=`` is used for every
-    group. Coordinates in feet are scaled to metres.
+    sends lon/lat and Mercator input through :func:`metric_crs` and keeps
+    other projected input; a projected ``crs=`` is used for every group.
+    Feet are scaled to metres.
 
     Parameters
     ----------
@@ -450,11 +407,10 @@ class Projection:
     xy : numpy.ndarray, shape (n, 2)
         Coordinates to compute in: metres (the input units with ``crs=None``).
     out : numpy.ndarray, shape (n, 2)
-        Coordinates of the output geometries' vertices: the input coordinates
-        (longitudes of antimeridian-crossing groups unwrapped).
+        The output vertices: the input coordinates (longitudes unwrapped in
+        groups across the antimeridian).
     crossing, wide : numpy.ndarray of bool, shape (n_groups,)
-        Groups across +-180 degrees; groups spanning more than 180 degrees of
-        longitude (lon/lat input only).
+        Groups across +-180 degrees; wider than 180 degrees (lon/lat input).
     names : numpy.ndarray of str, shape (n_groups,)
         The computation CRS of each group, for the output table.
     unit : str
@@ -464,7 +420,7 @@ class Projection:
     ------
     InvalidInputError
         Input without CRS (unless ``crs=None``), a bad ``crs=``, lon/lat out
-        of range or points the CRS cannot project (rows named by ``labels``).
+        of range or points the CRS cannot project (named by ``labels``).
 
     Examples
     --------
@@ -531,7 +487,7 @@ class Projection:
             forward = _transformer(_crs_key(src), _crs_key(target))
             x, y = forward.transform(coords[:, 0], coords[:, 1])
             self.xy = np.column_stack([x, y]) * unit_factor(target)
-            failed = ~(np.isfinite(self.xy[:, 0]) & np.isfinite(self.xy[:, 1]))
+            failed = ~np.isfinite(self.xy).all(axis=1)
             if failed.any():
                 raise InvalidInputError(
                     f"could not project {row_positions(failed, labels)} to "
@@ -549,24 +505,15 @@ class Projection:
         """
         if not self._crs_list:
             return geoms
-        out = geoms.copy()
+        out, src = geoms.copy(), self.source
         for k, target in enumerate(self._crs_list):
             sel = self._crs_index[groups] == k
             factor = unit_factor(target)
-            same = target == self.source
+            same = target == src
             if not sel.any() or (same and factor == 1.0):
                 continue
-            back = (
-                None if same else _transformer(_crs_key(target), _crs_key(self.source))
-            )
-
-            def move(c, back=back, factor=factor):
-                if factor != 1.0:
-                    c = c / factor
-                if back is None:
-                    return c
-                return np.column_stack(back.transform(c[:, 0], c[:, 1]))
-
+            back = None if same else _transformer(_crs_key(target), _crs_key(src))
+            move = functools.partial(_moved, back=back, factor=factor)
             out[sel] = shapely.transform(geoms[sel], move)
         wrap = self.crossing[groups]
         if wrap.any():
@@ -574,3 +521,9 @@ class Projection:
                 out[wrap], lambda c: np.column_stack([c[:, 0] % 360.0, c[:, 1]])
             )
         return out
+
+
+def _moved(c: np.ndarray, back, factor: float) -> np.ndarray:
+    """Coordinates ``c`` of a computation CRS in feet or metres back to the input's."""
+    c = c / factor if factor != 1.0 else c
+    return c if back is None else np.column_stack(back.transform(c[:, 0], c[:, 1]))

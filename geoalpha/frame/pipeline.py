@@ -6,39 +6,18 @@
           ─ compute ─ grow ─ split_at_antimeridian ─ guarantee
           ─ degenerate_policy ─ warn_output_crs ─ area_m2 ─ table
 
-- :func:`group`: a group code per row and the table of group keys (as
-  :meth:`GeoDataFrame.dissolve` groups);
-- :func:`~geoalpha.frame.checks.check_grouping`: a warning when ``by`` makes nearly
-  one group per row;
-- :func:`read_points`: the point coordinates, with missing, empty and NaN
-  geometries and missing keys dropped (and counted in a warning), non-points
-  and infinite coordinates refused (:func:`scan_rows`, :func:`report_rows`);
-- :func:`~geoalpha.frame.checks.check_distortion`: a warning when the computation
-  CRS stretches areas where the points are;
-- :func:`project`: the metric CRS round trip (:class:`geoalpha.frame.crs.Projection`);
-- :func:`compute`: the hulls, by method (one kernel call,
-  :func:`geoalpha.arrays.optimal.solve_checked`, which trusts the values
-  checked above, or :mod:`geoalpha.arrays.comparison`), built in the output CRS;
-- :func:`grow`: ``grow=``, in metres;
-- :func:`split_at_antimeridian`: hulls across +-180 degrees split there;
-- :func:`guarantee`: the one check of every polygon, in the output CRS: valid
-  and covering its points, repaired, or the group declared degenerate;
-- :func:`degenerate_policy`: groups without a shape, by ``degenerate=``;
-- :func:`warn_output_crs`: the groups split at +-180 degrees or wider than 180;
-- :func:`area_m2`: the areas on the WGS84 ellipsoid (planar with ``crs=None``);
-- :func:`table`: the result (:mod:`geoalpha.frame.schema`).
-
-One progress bar (:mod:`geoalpha.frame.progress`) follows the phases ``group``,
-``project``, ``compute`` and ``check``; inside the ``geoalpha`` command, the
-command's bar, which also has ``read`` and ``write``.
-
-:func:`geoalpha.hull` checks the options and calls :func:`run` (or
-:func:`geoalpha.dask.hull`, which calls :func:`run` on every partition).
+Each stage hands its result to the next by return value; values are checked
+once, where they enter (:func:`group`, :func:`read_points`), and
+:func:`guarantee` is the one check of every polygon, in the output CRS. One
+progress bar (:mod:`geoalpha.frame.progress`) follows the phases ``group``,
+``project``, ``compute`` and ``check``. :func:`geoalpha.hull` checks the
+options and calls :func:`run` (:func:`geoalpha.dask.hull`: on every partition).
 """
 
 from __future__ import annotations
 
 import warnings
+from collections import Counter
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from functools import partial
@@ -74,15 +53,9 @@ from geoalpha.errors import (
     user_stacklevel,
 )
 from geoalpha.frame import crs as gcrs
+from geoalpha.frame import progress
 from geoalpha.frame.checks import check_distortion, check_grouping
-from geoalpha.frame.progress import (
-    HULL_PHASES,
-    PROGRESS_MIN_GROUPS,
-    Phases,
-    current,
-    hull_costs,
-    phases,
-)
+from geoalpha.frame.progress import PROGRESS_MIN_GROUPS
 from geoalpha.frame.schema import RESULT_COLUMNS, result_frame, result_geometry_name
 from geoalpha.frame.sphere import SphereProjection
 from geoalpha.options import Options
@@ -115,10 +88,9 @@ _POINT_TYPES = (0, 4)  # shapely type ids of Point and MultiPoint
 class Groups:
     """Output of :func:`group`: a code per row and the key of every group.
 
-    The key columns are kept as arrays (``names``, ``columns``); the
-    DataFrame :attr:`keys` is built only when asked for (a message, dask's
-    ``meta``): on small inputs building DataFrames is a large share of the
-    run.
+    The key columns are kept as arrays; the DataFrame :attr:`keys` is built
+    only when asked for (a message, dask's ``meta``): on small inputs
+    building DataFrames is a large share of the run.
     """
 
     __slots__ = ("_keys", "codes", "columns", "n_groups", "names")
@@ -140,10 +112,10 @@ class Groups:
     def keys(self) -> pd.DataFrame:
         """One row per group: the key column(s) (none for one group of all rows)."""
         if self._keys is None:
-            columns = dict(enumerate(self.columns))
-            keys = pd.DataFrame(columns, index=range(self.n_groups))
-            keys.columns = list(self.names)
-            self._keys = keys
+            self._keys = pd.DataFrame(
+                dict(enumerate(self.columns)), range(self.n_groups)
+            )
+            self._keys.columns = list(self.names)
         return self._keys
 
     def take(self, which: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -173,13 +145,11 @@ class Hulls(NamedTuple):
     degenerate: np.ndarray  #: no shape (fewer than 3 distinct points, a line)
     keep: np.ndarray  #: groups that get a row
     outlier: np.ndarray  #: per point: left out of its group's hull (outliers=)
-    #: why a group has no shape: 0, or a code of :data:`geoalpha.kernel.REASONS`
-    #: (5: no valid polygon holding its points in the output coordinates)
+    #: why a group has no shape: 0, a code of :data:`geoalpha.kernel.REASONS`,
+    #: or 5 (no valid polygon holding its points in the output coordinates)
     reason: np.ndarray
-    #: the polygons as :func:`compute` made them, and per point whether it is
-    #: certain to be covered by its group's polygon there (a ring vertex in
-    #: the output coordinates) while that polygon is valid: :func:`guarantee`
-    #: skips testing those points where a group's polygon is still that object
+    #: the polygons :func:`compute` made, and per point whether it is a ring
+    #: vertex of its group's (not tested by :func:`guarantee` while it is that)
     made: np.ndarray
     certain: np.ndarray
 
@@ -189,28 +159,20 @@ def run(frame, by, options: Options, *, checks: bool = True, rows: bool = True):
 
     Returns the result table and, per row of ``frame``, whether it was left
     out of its group's hull (``outliers=``; :func:`geoalpha.outlier_rows`).
-
-    With a progress bar over the phases (``options.progress``), or inside the
-    one of the enclosing :func:`geoalpha.frame.progress.phases` (the command's).
-    ``checks=False`` leaves out the warnings about the set-up
-    (:mod:`geoalpha.frame.checks`), and ``rows=False`` the one about dropped rows
-    (:func:`report_rows`), which :func:`geoalpha.dask.hull` makes once for
-    the whole dataset instead of once per partition.
+    The progress bar is the enclosing :func:`~geoalpha.frame.progress.phases`'s
+    (the command's) or its own. ``checks=False`` leaves out the set-up
+    warnings (:mod:`geoalpha.frame.checks`), ``rows=False`` the dropped rows'
+    (:func:`report_rows`): :func:`geoalpha.dask.hull` makes them once.
     """
-    outer = current()
+    outer = progress.current()
     if outer is not None and options.progress is not False:
         return _stages(frame, by, options, outer, checks, rows)
-    with phases(HULL_PHASES, options.progress) as bar:
+    with progress.phases(progress.HULL_PHASES, options.progress) as bar:
         return _stages(frame, by, options, bar, checks, rows)
 
 
 def _per_group_crs(source, crs, coords: np.ndarray) -> bool:
-    """Whether groups are likely to get a metric CRS each (for the progress bar).
-
-    Longitude/latitude points wider than one UTM zone takes
-    (:data:`geoalpha.frame.crs.UTM_HALF_WIDTH` either side) with ``crs="auto"``: a
-    rough guess of the choice of :func:`geoalpha.frame.crs.metric_crs`.
-    """
+    """Guess whether groups get a metric CRS each: wide lon/lat, ``crs="auto"``."""
     auto = isinstance(crs, str) and crs.strip().lower() in ("auto", "auto-group")
     src = parse_crs(source) if auto else None
     if src is None or not src.is_geographic or not len(coords):
@@ -218,8 +180,8 @@ def _per_group_crs(source, crs, coords: np.ndarray) -> bool:
     return bool(np.ptp(coords[:, 0]) > 2 * gcrs.UTM_HALF_WIDTH)
 
 
-def _stages(frame, by, options: Options, bar: Phases, checks: bool, rows: bool):
-    bar.estimate(hull_costs(len(frame), 0, per_group_crs=False))  # groups: unknown
+def _stages(frame, by, options, bar: progress.Phases, checks: bool, rows: bool):
+    bar.estimate(progress.hull_costs(len(frame), 0, per_group_crs=False))  # 0: unknown
     bar.start("group")
     groups = group(frame, by, options)
     n_groups = groups.n_groups
@@ -227,20 +189,15 @@ def _stages(frame, by, options: Options, bar: Phases, checks: bool, rows: bool):
         check_grouping(n_groups, len(frame), by)
     points = read_points(frame, groups, options, warn=rows)
     crs = points.crs  # (frame.crs builds a GeoSeries each time)
-    per_group_crs = _per_group_crs(crs, options.crs, points.coords)
-    bar.sized(len(points.codes), n_groups, per_group_crs=per_group_crs)
+    many = _per_group_crs(crs, options.crs, points.coords)
+    bar.sized(len(points.codes), n_groups, per_group_crs=many)
     bar.start("project")
     if checks:
         check_distortion(points.coords, crs, options.crs)
     proj = project(points, crs, options)
     bar.start("compute", units=n_groups)
-    hulls = compute(
-        points,
-        proj,
-        n_groups,
-        options,
-        names=partial(_names, groups, counts=points.n_points),
-    )
+    names = partial(_names, groups, counts=points.n_points)
+    hulls = compute(points, proj, n_groups, options, names=names)
     bar.start("check")
     hulls = grow(hulls, points, proj, options)
     grown = hulls.geometry
@@ -249,32 +206,30 @@ def _stages(frame, by, options: Options, bar: Phases, checks: bool, rows: bool):
     hulls = degenerate_policy(hulls, groups, points, proj, options)
     warn_output_crs(hulls, groups, points, proj)
     hulls = hulls._replace(area=area_m2(hulls, grown, proj, options))
-    out = table(
-        groups, points, proj, hulls, crs, result_geometry_name(frame, groups.names)
-    )
+    name = result_geometry_name(frame, groups.names)
+    out = table(groups, points, proj, hulls, crs, name)
     return out, report_outliers(hulls, groups, points, len(frame), options)
 
 
-def _names(groups: Groups, which: np.ndarray, counts=None) -> str:
+def _names(groups: Groups, which: np.ndarray, counts=None, value=None) -> str:
     """Name groups by key for messages (with their row counts when given).
 
-    A missing key (``dropna=False``) is ``nan`` whatever its dtype holds
-    (``None``, ``NaN``, ``pd.NA`` of the string dtype dask gives).
+    The key quoted whole, or ``value=repr``: each value; a missing one is ``nan``.
     """
     shown = which[:11]  # first_n shows 10, and "..." when there is an 11th
-    columns = groups.columns
 
     def key(value) -> str:
         missing = pd.api.types.is_scalar(value) and pd.isna(value)
         return "nan" if missing else str(value)
 
     names = [
-        ", ".join(key(column[i]) for column in columns) or "all points"
+        ", ".join(map(value or key, (column[i] for column in groups.columns)))
+        or "all points"
         for i in np.asarray(shown).tolist()
     ]
     if counts is not None:
         names = [
-            f"{n!r} ({c} row{'s' if c != 1 else ''})"
+            f"{n if value else repr(n)} ({c} row{'s' if c != 1 else ''})"
             for n, c in zip(names, counts[shown], strict=True)
         ]
     return first_n(names, limit=10, sep="; ")
@@ -312,15 +267,13 @@ def group(frame, by, options: Options) -> Groups:
     for name in names:
         if isinstance(name, str | int | tuple) and not isinstance(name, bool):
             if name not in frame.columns and name not in levels:
+                geometry = frame._geometry_column_name
+                choices = [c for c in frame.columns if c != geometry] + levels
+                also = f" and the index levels {', '.join(map(str, levels))}"
                 raise InvalidInputError(
                     f"hull(by={by!r}): no column {name!r}"
-                    f"{did_you_mean(name, _key_choices(frame, levels))}; the columns "
-                    f"are {', '.join(map(str, frame.columns))}"
-                    + (
-                        f" and the index levels {', '.join(map(str, levels))}"
-                        if levels
-                        else ""
-                    )
+                    f"{did_you_mean(name, choices)}; the columns "
+                    f"are {', '.join(map(str, frame.columns))}{also if levels else ''}"
                 )
     try:
         groups = _factorize_column(frame, by, options)
@@ -331,9 +284,7 @@ def group(frame, by, options: Options) -> Groups:
             groups = Groups.from_frame(codes, keys)
     except (ValueError, KeyError, TypeError) as err:
         raise InvalidInputError(f"hull(by=...) cannot group the rows: {err}") from err
-    if len(groups.names) == 1 and (
-        groups.names[0] is None or isinstance(groups.names[0], int)
-    ):
+    if len(groups.names) == 1 and isinstance(groups.names[0], int | None):
         groups.names = ("group",)
     clash = [c for c in groups.names if c in (*RESULT_COLUMNS, "geometry")]
     if clash:
@@ -344,21 +295,8 @@ def group(frame, by, options: Options) -> Groups:
     return groups
 
 
-def _key_choices(frame, levels: list) -> list:
-    """Return the columns and index levels a ``by`` may name (for "did you mean")."""
-    geometry = frame._geometry_column_name
-    return [c for c in frame.columns if c != geometry] + levels
-
-
 def _factorize_column(frame, by, options: Options) -> Groups | None:
-    """Group codes and keys of one plain column, as ``groupby`` makes them.
-
-    For a single column that is not categorical, ``groupby`` numbers the
-    groups with :func:`pandas.factorize` (``sort``, ``dropna`` as the
-    sentinel -1); calling it directly skips building a GroupBy (several
-    times the cost on small frames). Returns None for every other ``by``,
-    which goes through ``groupby``.
-    """
+    """Group one plain column as ``groupby`` does, without its cost; else None."""
     name = by[0] if isinstance(by, list) and len(by) == 1 else by
     if not isinstance(name, str) or name in frame.index.names:
         return None
@@ -385,18 +323,16 @@ class _RowLabels:
         return np.asarray(self._index[self._rows[where]], dtype=object)
 
 
-#: Index labels a :class:`RowReport` keeps of each kind of bad row: the
-#: messages show 10 (:func:`geoalpha.errors.first_n`), and "..." for an 11th.
+#: Index labels a :class:`RowReport` keeps of each kind of bad row (10 shown,
+#: and "..." for an 11th: :func:`geoalpha.errors.first_n`).
 _SHOWN = 11
 
 
 class RowReport(NamedTuple):
     """What :func:`scan_rows` found in some rows: how many bad rows, of what kind.
 
-    The one input of the errors and the warning about bad rows
-    (:func:`report_rows`); :func:`merge_reports` adds up those of the
-    partitions of a dask-geopandas frame, so that their messages are those of
-    the eager call on the whole frame.
+    The input of :func:`report_rows`; :func:`merge_reports` adds up those of a
+    dask frame's partitions, so that the messages are the eager call's.
     """
 
     n_rows: int  #: rows scanned
@@ -415,11 +351,10 @@ def scan_rows(frame, codes: np.ndarray, vertices: bool, n_jobs: int | None = 1):
     """Sort the rows of ``frame`` into usable and bad ones.
 
     A row is dropped when its geometry is missing or empty, has a NaN
-    coordinate (what ``POINT (NaN NaN)`` is in WKB and in a GeoPackage: an
-    empty point; what ``points_from_xy`` makes of a missing longitude or
-    latitude) or its group key is missing (``codes`` -1). Non-point
-    geometries (unless ``vertices``) and infinite coordinates are errors.
-    Large frames are read on ``n_jobs`` threads (GEOS releases the GIL).
+    coordinate (an empty point in WKB; a missing longitude or latitude in
+    ``points_from_xy``) or its group key is missing (``codes`` -1).
+    Non-point geometries (unless ``vertices``) and infinite coordinates are
+    errors. Large frames are read on ``n_jobs`` threads.
 
     Returns
     -------
@@ -427,11 +362,9 @@ def scan_rows(frame, codes: np.ndarray, vertices: bool, n_jobs: int | None = 1):
         The report, the (n, 2) coordinates of the rows kept, and the row
         position of each coordinate.
     """
-    array = frame[frame._geometry_column_name].array
-    geoms = np.asarray(array, dtype=object)
-    index = frame.index
+    geoms = np.asarray(frame[frame._geometry_column_name].array, dtype=object)
     kind, missing = _threaded(_kinds, geoms, n_jobs)  # kind -1: missing
-    point = (kind == _POINT_TYPES[0]) | (kind == _POINT_TYPES[1])
+    point = np.isin(kind, _POINT_TYPES)
     non_point = ~missing & ~point
     usable = np.flatnonzero(~missing & (point | vertices))
     if (kind[usable] == _POINT_TYPES[0]).all():  # one coordinate pair per row
@@ -445,31 +378,27 @@ def scan_rows(frame, codes: np.ndarray, vertices: bool, n_jobs: int | None = 1):
         missing = missing.copy()
         missing[which[nan]] = True
     no_key = (codes < 0) & ~missing
-    dropped = missing | no_key
-    keep = ~dropped[which]
+    keep = ~(missing | no_key)[which]
     if not keep.all():
         coords, which = coords[keep], which[keep]
     infinite = np.zeros(len(geoms), dtype=bool)
     infinite[which[~np.isfinite(coords).all(axis=1)]] = True
     masks = {
-        "non_point": non_point if not vertices else np.zeros_like(non_point),
+        "non_point": non_point & (not vertices),
         "missing": missing,
         "no_key": no_key,
         "infinite": infinite,
     }
-    types: dict[str, int] = {}
-    if masks["non_point"].any():
-        names = np.asarray(frame.geom_type)[masks["non_point"]]
-        for name in names.tolist():
-            types[name] = types.get(name, 0) + 1
+    bad = masks["non_point"]  # (geom_type names every row: only when needed)
+    types = Counter(np.asarray(frame.geom_type)[bad].tolist()) if bad.any() else {}
     report = RowReport(
         n_rows=len(geoms),
         counts={k: int(m.sum()) for k, m in masks.items()},
         labels={
-            k: index[np.flatnonzero(m)[:_SHOWN]].tolist() if m.any() else []
+            k: frame.index[np.flatnonzero(m)[:_SHOWN]].tolist() if m.any() else []
             for k, m in masks.items()
         },
-        types=types,
+        types=dict(types),
     )
     return report, coords, which
 
@@ -500,10 +429,7 @@ def _threaded(func, geoms: np.ndarray, n_jobs: int | None) -> tuple:
 def merge_reports(reports) -> RowReport:
     """Add up the :class:`RowReport` of consecutive parts of a frame (in order)."""
     reports = list(reports)
-    types: dict[str, int] = {}
-    for report in reports:
-        for name, n in report.types.items():
-            types[name] = types.get(name, 0) + n
+    types = sum((Counter(r.types) for r in reports), Counter())
     return RowReport(
         n_rows=sum(r.n_rows for r in reports),
         counts={k: sum(r.counts[k] for r in reports) for k in _ROW_KINDS},
@@ -511,7 +437,7 @@ def merge_reports(reports) -> RowReport:
             k: [label for r in reports for label in r.labels[k]][:_SHOWN]
             for k in _ROW_KINDS
         },
-        types=types,
+        types=dict(types),
     )
 
 
@@ -581,11 +507,8 @@ def read_points(
 ) -> Points:
     """Read the coordinates of the points that take part, with their group codes.
 
-    Rows with a missing or empty geometry, a NaN coordinate, or a missing key,
-    are dropped and counted in a :class:`DroppedRowsWarning` (``warn=False``:
-    not warned, when the caller has warned for the whole dataset); non-point
-    geometries are an error unless ``vertices=True``; infinite coordinates
-    are an error (:func:`scan_rows`, :func:`report_rows`).
+    Bad rows are dropped with a warning (``warn=False``: none) or refused:
+    :func:`scan_rows`, :func:`report_rows`.
     """
     codes = groups.codes
     report, coords, which = scan_rows(frame, codes, options.vertices, options.n_jobs)
@@ -607,22 +530,10 @@ def project(points: Points, source, options: Options) -> gcrs.Projection:
     ``crs="sphere"``: :class:`~.sphere.SphereProjection` (longitudes and
     latitudes for the kernel, metres made only if another stage needs them).
     """
+    args = (points.coords, points.codes, len(points.n_points), source)
     if is_sphere(options.crs):
-        return SphereProjection(
-            points.coords,
-            points.codes,
-            len(points.n_points),
-            source,
-            labels=points.labels,
-        )
-    return gcrs.Projection(
-        points.coords,
-        points.codes,
-        len(points.n_points),
-        source,
-        options.crs,
-        labels=points.labels,
-    )
+        return SphereProjection(*args, labels=points.labels)
+    return gcrs.Projection(*args, options.crs, labels=points.labels)
 
 
 def compute(
@@ -634,15 +545,13 @@ def compute(
 ) -> Hulls:
     """Compute the shape of every group, by ``method``, in the output coordinates.
 
-    ``"alpha"`` and ``"convex"``: one batched :func:`geoalpha.alpha_shapes`
-    call in metres whose polygons are built from the input coordinates;
-    ``"concave"`` and ``"knn"``: :func:`geoalpha.arrays.comparison.comparison_hulls`.
-    The run's progress bar (:func:`geoalpha.frame.progress.current`, in its
-    ``compute`` phase), when it is shown, counts the groups done, batch by
-    batch. ``names`` names groups (given their codes) in warnings.
+    ``"alpha"`` and ``"convex"``: one kernel call in metres, polygons built
+    from the input coordinates; ``"concave"`` and ``"knn"``:
+    :func:`geoalpha.arrays.comparison.comparison_hulls`. A shown progress bar
+    counts the groups done. ``names`` names groups (by code) in warnings.
     """
     method = options.method
-    bar = current()
+    bar = progress.current()
     if bar is not None and not bar.shown:
         bar = None  # nobody to tell: one batch, not one per PROGRESS_GROUPS groups
     try:
@@ -660,8 +569,7 @@ def compute(
             search=options.search,
             max_iterations=options.max_iterations,
             outliers=options.outliers,
-            # None: the computation coordinates are the output ones
-            # (projected input used as it is)
+            # None: the output coordinates are the computation's (projected input)
             out=proj.out if sphere or proj.out is not proj.xy else None,
             progress=bar,
             n_jobs=options.n_jobs,
@@ -695,17 +603,9 @@ def compute(
 
 def _comparison(points, proj, n_groups: int, options: Options, names, bar) -> Hulls:
     """:func:`compute` for ``"concave"`` and ``"knn"``: no alpha, no kernel sweep."""
-    method = options.method
+    kw = {"holes": options.holes, "ratio": options.ratio, "k": options.k, "bar": bar}
     made = comparison_hulls(
-        method,
-        proj.xy,
-        proj.out,
-        points.codes,
-        n_groups,
-        holes=options.holes,
-        ratio=options.ratio,
-        k=options.k,
-        bar=bar,
+        options.method, proj.xy, proj.out, points.codes, n_groups, **kw
     )
     if made.without_holes.any():
         which = np.flatnonzero(made.without_holes)
@@ -755,17 +655,13 @@ def degenerate_policy(
         codes = points.codes
         sel = np.flatnonzero(np.isin(codes, which))
         sel = sel[np.argsort(codes[sel], kind="stable")]
-        present = np.unique(codes[sel])  # groups with points left
-        buffered = np.full(len(which), EMPTY_POLYGON, dtype=object)
         if getattr(proj, "sphere", False):  # metres for these groups only
             xy, to_output = proj.metric_of(sel, which)
         else:
             xy, to_output = proj.xy[sel], partial(proj.to_output, groups=which)
-        if len(present):
-            mp = shapely.multipoints(xy, indices=np.searchsorted(present, codes[sel]))
-            buffered[np.searchsorted(which, present)] = shapely.buffer(
-                shapely.convex_hull(mp), options.buffer
-            )
+        hull = convex_hulls(xy, np.searchsorted(which, codes[sel]), len(which))
+        buffered = shapely.buffer(hull, options.buffer)
+        buffered[shapely.is_empty(hull)] = EMPTY_POLYGON  # no point left
         area[which] = shapely.area(buffered)
         geometry[which] = to_output(buffered)
         done = (
@@ -803,13 +699,7 @@ def degenerate_policy(
 
 
 def _why_degenerate(reason, which, groups: Groups, n_points, wide) -> str:
-    """Word why the groups ``which`` have no shape, from their reason codes.
-
-    The one place a degenerate group's reason becomes words in :func:`hull`'s
-    warning: fewer than 3 distinct points or a line (the kernel's codes 1 to
-    3, and groups left without points), wider than 180 degrees of longitude
-    (``wide``), or no valid polygon in the output CRS (the others).
-    """
+    """Word why the groups ``which`` have no shape, from their reason codes."""
     thin = np.isin(reason[which], (1, 2, 3)) | (n_points[which] == 0)
     reasons = []
     if thin.any():
@@ -838,12 +728,7 @@ def _why_degenerate(reason, which, groups: Groups, n_points, wide) -> str:
 
 
 def _reasons(degenerate, points: Points, proj: gcrs.Projection) -> np.ndarray:
-    """Return the kernel's reason codes of the groups a comparison method left bare.
-
-    Fewer than 3 distinct points (1), or all on a line by the kernel's
-    tolerances (:data:`geoalpha.kernel.NEAR_RTOL`), in metres (2) or in the
-    output coordinates (3); 5 for the others.
-    """
+    """Reason codes (the kernel's 1-3, else 5) of groups a comparison left bare."""
     which = np.flatnonzero(degenerate)
     reason = np.zeros(len(degenerate), dtype=np.int64)
     if not len(which):
@@ -866,13 +751,7 @@ def _reasons(degenerate, points: Points, proj: gcrs.Projection) -> np.ndarray:
 def _buffer_in_output(geometry, sel, codes, proj: gcrs.Projection) -> np.ndarray:
     """Replace degenerate buffers that fail in the output CRS by ones made there.
 
-    A buffer made in metres and moved to longitude/latitude around a pole
-    holds the pole, which no lon/lat polygon can; such groups (and any whose
-    buffer is not valid or misses a point there) get the buffer of their
-    points' convex hull in the output coordinates instead,
-    :data:`geoalpha.kernel.OUTPUT_BUFFER_RTOL` of their extent wide (valid,
-    and holding every point), clipped to latitudes -90..90. Changes
-    ``geometry`` in place and returns the groups redone.
+    Changes ``geometry`` in place and returns the groups redone.
     """
     mine = codes[sel]
     groups = np.unique(mine)
@@ -886,9 +765,9 @@ def _buffer_in_output(geometry, sel, codes, proj: gcrs.Projection) -> np.ndarray
     if not len(redo):
         return redo
     take = sel[bad[mine]]
-    hull = convex_hulls(proj.out[take], codes[take], len(geometry))[redo]
-    lo = np.minimum.reduceat(proj.out[take], np.searchsorted(codes[take], redo))
-    hi = np.maximum.reduceat(proj.out[take], np.searchsorted(codes[take], redo))
+    out, starts = proj.out[take], np.searchsorted(codes[take], redo)
+    hull = convex_hulls(out, codes[take], len(geometry))[redo]
+    lo, hi = np.minimum.reduceat(out, starts), np.maximum.reduceat(out, starts)
     extent = (hi - lo).max(axis=1)
     scale = np.abs(np.r_[lo, hi]).reshape(2, -1, 2).max(axis=(0, 2))
     rtol = kernel.OUTPUT_BUFFER_RTOL
@@ -903,9 +782,8 @@ def _buffer_in_output(geometry, sel, codes, proj: gcrs.Projection) -> np.ndarray
 def split_at_antimeridian(hulls: Hulls, points: Points, proj: gcrs.Projection) -> Hulls:
     """Split the hulls of groups across +-180 degrees there (RFC 7946).
 
-    Their polygons were built with unwrapped longitudes (beyond 180); the
-    parts get their input points' exact longitudes back (the round trip
-    through unwrapped longitudes rounds). :func:`guarantee` checks them.
+    Built with unwrapped longitudes (beyond 180), the parts get their input
+    points' exact longitudes back. :func:`guarantee` checks them.
     """
     which = np.flatnonzero(proj.crossing & ~hulls.degenerate)
     if not len(which):
@@ -918,21 +796,18 @@ def split_at_antimeridian(hulls: Hulls, points: Points, proj: gcrs.Projection) -
 def _split(geoms: np.ndarray, which: np.ndarray, points: Points) -> np.ndarray:
     """Split ``geoms`` (groups ``which``) at +-180 degrees, input longitudes back.
 
-    GEOS cuts only valid polygons: invalid ones are repaired first (and the
-    parts again, should restoring the longitudes break one).
+    GEOS cuts only valid polygons: invalid ones (before or after) are repaired.
     """
-    parts = _valid(geoms)
-    parts = gcrs.split_antimeridian(parts)
+    parts = gcrs.split_antimeridian(_valid(geoms))
     lon, lat = points.coords[:, 0], points.coords[:, 1]
     return _valid(gcrs.restore_longitudes(parts, which, lon, lat, points.codes))
 
 
 def _valid(geoms: np.ndarray) -> np.ndarray:
     invalid = ~shapely.is_valid(geoms)
-    if not invalid.any():
-        return geoms
-    geoms = geoms.copy()
-    geoms[invalid] = repair_invalid(geoms[invalid])
+    if invalid.any():
+        geoms = geoms.copy()
+        geoms[invalid] = repair_invalid(geoms[invalid])
     return geoms
 
 
@@ -945,21 +820,17 @@ def guarantee(
 ) -> Hulls:
     """Check every group's polygon once, in the output CRS: repaired, or degenerate.
 
-    The guarantee of :func:`geoalpha.hull`, after the last stage that makes a
-    polygon: a valid (Multi)Polygon covering every input point of its group
-    (``shapely.covers``, distance 0) in the CRS it is returned in, repaired
-    where needed (:func:`geoalpha.arrays.guarantee.enforce`), or the group is
-    declared degenerate (a :class:`DegenerateGroupWarning`) for the
-    ``degenerate=`` policy. Only the points that are not vertices of the
-    polygon :func:`compute` made (``Hulls.made``) are tested, where a group
-    still has it. Not checked: the rows left out on purpose (``outliers=``),
-    coverage at a given ``alpha``, groups wider than 180 degrees of longitude
-    (warned about), and a point at -180 degrees that a split hull holds at
-    +180 (or the reverse), named in the :class:`AntimeridianWarning`.
+    A valid (Multi)Polygon covering every point of its group (distance 0),
+    repaired where needed (:func:`geoalpha.arrays.guarantee.enforce`), or the
+    group is degenerate (:class:`DegenerateGroupWarning`). Points that are
+    vertices of the polygon :func:`compute` made are not tested where a group
+    still has it. Not checked: rows left out (``outliers=``), coverage at a
+    given ``alpha``, groups wider than 180 degrees of longitude, and a point
+    at -180 degrees held at +180 (or the reverse; :func:`warn_output_crs`).
     """
     xy, codes, geometry = points.coords, points.codes, hulls.geometry
     check = ~hulls.degenerate
-    beyond = _beyond_the_line(geometry, xy, codes, proj.crossing & check)
+    beyond = _beyond_the_line(geometry, points, proj.crossing & check)
     exempt = hulls.outlier | beyond
     fixed = options.method == "alpha" and options.alpha is not None
     limit, unfaithful = None, np.zeros_like(check)
@@ -1016,17 +887,15 @@ def _still_certain(hulls: Hulls, codes: np.ndarray) -> np.ndarray:
     return hulls.certain & same[codes]
 
 
-def _beyond_the_line(geometry, xy, codes, crossing) -> np.ndarray:
+def _beyond_the_line(geometry, points: Points, crossing) -> np.ndarray:
     """Points at exactly +-180 degrees that their group's hull holds only at -+180.
 
-    -180 and +180 are one meridian but not one coordinate: a split hull that
-    reaches the line from the east, at +180, misses a point given at -180.
+    (-180 and +180 are one meridian but not one coordinate.)
     """
+    xy, codes = points.coords, points.codes
     beyond = np.zeros(len(codes), dtype=bool)
-    if not crossing.any():
-        return beyond
-    at = np.flatnonzero(crossing[codes] & (np.abs(xy[:, 0]) == 180.0))
-    if len(at):
+    if crossing.any():
+        at = np.flatnonzero(crossing[codes] & (np.abs(xy[:, 0]) == 180.0))
         mirror = xy[at] * np.array([-1.0, 1.0])
         beyond[at] = ~covered(geometry, xy[at], codes[at]) & covered(
             geometry, mirror, codes[at]
@@ -1041,12 +910,8 @@ def warn_output_crs(hulls: Hulls, groups: Groups, points: Points, proj) -> None:
     the reverse) are named (:func:`_beyond_the_line`).
     """
     if proj.crossing.any():
-        beyond = _beyond_the_line(
-            hulls.geometry,
-            points.coords,
-            points.codes,
-            proj.crossing & ~hulls.degenerate,
-        )
+        split = proj.crossing & ~hulls.degenerate
+        beyond = _beyond_the_line(hulls.geometry, points, split)
         crossing = np.flatnonzero(proj.crossing)
         message = (
             f"{len(crossing)} group(s) cross the antimeridian (+-180 degrees): "
@@ -1055,15 +920,12 @@ def warn_output_crs(hulls: Hulls, groups: Groups, points: Points, proj) -> None:
         )
         if beyond.any():
             missed = points.codes[beyond]
+            counts = np.bincount(missed, minlength=len(proj.crossing))
             message += (
                 f"; {beyond.sum()} of their point(s) lie outside the split hull, on "
                 "the other side of the +-180 line from it (a longitude of -180 for a "
                 "hull that reaches the line at +180, or the reverse): "
-                + _names(
-                    groups,
-                    np.unique(missed),
-                    np.bincount(missed, minlength=len(proj.crossing)),
-                )
+                + _names(groups, np.unique(missed), counts)
             )
         warnings.warn(message, AntimeridianWarning, stacklevel=user_stacklevel())
     wide = proj.wide & ~hulls.degenerate
@@ -1132,10 +994,10 @@ def table(
         "crs_used": proj.names,
         "method": hulls.labels,
     }
+    columns = groups.columns
     if not keep.all():
         values = {name: np.asarray(v)[keep] for name, v in values.items()}
-        geometry = geometry[keep]
-    columns = groups.take(keep) if not keep.all() else groups.columns
+        geometry, columns = geometry[keep], groups.take(keep)
     keys = dict(zip(groups.names, columns, strict=True))
     return result_frame(keys, values, geometry, crs, geometry_name)
 
@@ -1145,8 +1007,8 @@ def grow(
 ) -> Hulls:
     """Buffer the hulls (not the degenerate buffers) by ``grow`` metres.
 
-    Built in the metric CRS from the metric coordinates of the hull vertices
-    (which are input points), then moved back to the output CRS.
+    Built in the metric CRS from the hull vertices' (input points') metric
+    coordinates, then moved back to the output CRS.
     """
     distance = options.grow
     if not distance:
@@ -1192,17 +1054,7 @@ def report_outliers(
             points.codes[hulls.outlier], minlength=len(points.n_points)
         )
         which = np.flatnonzero(n_outliers)
-        shown = which[:11]  # first_n shows 10, and "..." when there is an 11th
-        rows = list(zip(*groups.take(shown), strict=True)) or [()] * len(shown)
-        each = first_n(
-            (
-                f"{', '.join(map(repr, key)) or 'all points'} "
-                f"({n} row{'s' if n != 1 else ''})"
-                for key, n in zip(rows, n_outliers[shown], strict=True)
-            ),
-            limit=10,
-            sep="; ",
-        )
+        each = _names(groups, which, n_outliers, value=repr)
         warnings.warn(
             f"{spelled('hull()')} left {n_outliers.sum()} row(s) of {len(which)} "
             f"group(s) outside their hulls ({setting('outliers', options.outliers)}): "

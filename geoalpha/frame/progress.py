@@ -1,10 +1,8 @@
 """One progress bar over every phase of a run: read, group, ..., check, write.
 
 :func:`geoalpha.hull` goes through :data:`HULL_PHASES`; the ``geoalpha``
-command adds ``read`` before them and ``write`` after, on the same bar
-(:func:`phases`, :func:`current`). Each phase gets a share of the bar
-estimated from the numbers of rows and groups (:func:`hull_costs`), so the
-bar never goes backwards and ends exactly full.
+command adds ``read`` and ``write`` on the same bar (:func:`phases`). Each
+phase gets a share estimated from the rows and groups (:func:`hull_costs`).
 """
 
 from __future__ import annotations
@@ -42,16 +40,15 @@ _CURRENT: contextvars.ContextVar[Phases | None] = contextvars.ContextVar(
 def hull_costs(n_rows: int, n_groups: int, *, per_group_crs: bool) -> dict:
     """Estimate the time of each phase of :func:`geoalpha.hull`, in microseconds.
 
-    Measured: about 4 us a point to compute, and with a metric CRS per group
-    about 150 us a group both to project and to check. Only the ratios matter.
+    Measured: about 4 us a point to compute; with a metric CRS per group,
+    about 150 us a group to project and to check. Only the ratios matter.
 
     Parameters
     ----------
     n_rows, n_groups : int
         Points and groups of the run.
     per_group_crs : bool
-        Whether groups are likely to get a metric CRS each
-        (longitude/latitude input wider than a UTM zone, ``crs="auto"``).
+        Whether groups likely get a metric CRS each (wide lon/lat input).
 
     Returns
     -------
@@ -83,19 +80,17 @@ class Phases:
     Parameters
     ----------
     names : sequence of str
-        The phases, in the order they run (:data:`HULL_PHASES` for
-        :func:`geoalpha.hull`).
+        The phases, in the order they run.
     show : bool or None
         True: show the bar from the start (needs tqdm); False: never;
-        None: decide with :meth:`sized` once the number of groups is known.
+        None: decide in :meth:`sized`, once the number of groups is known.
     desc : str, optional
         Start of the bar's description; the current phase follows it.
     file : file-like, optional
         Where the bar is drawn (default: ``sys.stderr``).
     costs : callable, optional
-        ``costs(n_rows, n_groups)`` -> estimated costs of the phases that are
-        not :func:`geoalpha.hull`'s (the command's ``write``), for
-        :meth:`sized`.
+        ``costs(n_rows, n_groups)`` -> estimated costs of phases other than
+        :func:`geoalpha.hull`'s (the command's ``write``), for :meth:`sized`.
 
     Raises
     ------
@@ -136,20 +131,14 @@ class Phases:
         self._costs = dict.fromkeys(self.names, 1.0)
         self._show = show
         self._desc = desc
-        self._file = file
+        self._file = sys.stderr if file is None else file
         self._phase = -1
-        self._start = 0
-        self._budget = 0
-        self._units = 0
-        self._units_done = 0
+        self._start = self._budget = self._units = self._units_done = 0
         self._groups: int | None = None
         self._extra_costs = costs
-        self._bar = None
-        self._showwarning = None
+        self._bar = self._showwarning = None
         if show:  # the bar appears at the first phase; tqdm is needed now
             self._tqdm()
-
-    # -- the bar ------------------------------------------------------------------
 
     @staticmethod
     def _tqdm():
@@ -163,7 +152,7 @@ class Phases:
 
     def _open(self) -> None:
         tqdm = self._tqdm()
-        file = self._out()
+        file = self._file
         self._bar = tqdm(
             total=TICKS,
             initial=self.done,
@@ -181,9 +170,6 @@ class Phases:
 
         self._showwarning = (shown, above_the_bar)
         warnings.showwarning = above_the_bar
-
-    def _out(self):
-        return self._file if self._file is not None else sys.stderr
 
     def _description(self) -> str:
         if 0 <= self._phase < len(self.names):
@@ -205,8 +191,6 @@ class Phases:
     def shown(self) -> bool:
         """Whether a bar is on the screen."""
         return self._bar is not None
-
-    # -- the run ------------------------------------------------------------------
 
     def estimate(self, costs: dict) -> None:
         """Set the estimated costs of phases (any unit); started ones keep theirs."""
@@ -230,7 +214,7 @@ class Phases:
             return
         if self._show is not None or n_groups < PROGRESS_MIN_GROUPS:
             return
-        if not getattr(self._out(), "isatty", lambda: False)():
+        if not getattr(self._file, "isatty", lambda: False)():
             return
         with contextlib.suppress(ImportError):
             self._open()
@@ -242,13 +226,11 @@ class Phases:
             raise ValueError(f"phase {name!r} has already started")
         self._advance(self._start + self._budget)
         rest = [self._costs[n] for n in self.names[index:]]
-        left = TICKS - self.done
-        total = sum(rest)
-        last = index == len(self.names) - 1
-        share = 1.0 if total <= 0 else rest[0] / total
+        left, total = TICKS - self.done, sum(rest)
+        share = 1.0 if total <= 0 or len(rest) == 1 else rest[0] / total  # last: all
         self._phase = index
         self._start = self.done
-        self._budget = left if last else min(left, round(left * share))
+        self._budget = min(left, round(left * share))
         self._units = max(int(units), 0)
         self._units_done = 0
         if self._bar is not None:

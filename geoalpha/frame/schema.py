@@ -27,8 +27,8 @@ __all__ = [
     "with_area_unit",
 ]
 
-#: Columns of the result next to the group keys (then ``geometry``), and their
-#: dtypes ("text": pandas' default string dtype, ``str`` with pandas 3).
+#: Result columns after the group keys (then ``geometry``), and their dtypes
+#: ("text": pandas' default string dtype, ``str`` with pandas 3).
 DTYPES: dict[str, str] = {
     "alpha": "float64",
     "radius": "float64",
@@ -61,15 +61,15 @@ def planar_unit(input_crs, crs) -> str | None:
     Parameters
     ----------
     input_crs : CRS or None
-        The CRS of the input points (None: none).
+        The CRS of the input points.
     crs : "auto", CRS or None
         The ``crs`` option of :func:`geoalpha.hull`.
 
     Returns
     -------
     str or None
-        ``"coordinate unit"`` without CRS, else the unit of the first axis,
-        or None when ``area_m2`` is in square metres.
+        ``"coordinate unit"`` without CRS, else the first axis' unit; None
+        when ``area_m2`` is in square metres.
 
     Examples
     --------
@@ -146,17 +146,16 @@ def result_frame(
     Parameters
     ----------
     keys : pandas.DataFrame or mapping
-        One row per group: the group key column(s) (no columns for one group
-        of all points), as a DataFrame or as arrays by column name.
+        One row per group: the key column(s) (none for one group of all
+        points), as a DataFrame or arrays by column name.
     values : dict
-        One array per name of :data:`RESULT_COLUMNS`, of ``len(keys)``; cast
-        to :data:`DTYPES`.
+        One array per name of :data:`RESULT_COLUMNS`; cast to :data:`DTYPES`.
     geometry : array_like of shapely geometries
         One per group.
     crs : CRS or None
         The CRS of ``geometry``.
     geometry_name : str, default "geometry"
-        Name of the geometry column (see :func:`result_geometry_name`).
+        Name of the geometry column (:func:`result_geometry_name`).
 
     Returns
     -------
@@ -178,8 +177,7 @@ def result_frame(
     import numpy as np
     import pandas as pd
 
-    # One DataFrame from whole columns (assigning them one by one, or going
-    # through a GeoSeries of a list, costs several times more).
+    # One DataFrame from whole columns (one by one costs several times more).
     if isinstance(keys, pd.DataFrame):
         keys = {name: keys.iloc[:, i].array for i, name in enumerate(keys.columns)}
     columns = dict(keys)
@@ -196,11 +194,7 @@ def result_frame(
 
 
 def _geodataframe(columns: dict[Any, Any], geometry_name: str):
-    """``GeoDataFrame(columns, geometry=geometry_name)`` without a second check.
-
-    The public constructor copies the GeometryArray again (a third of the
-    cost of a small result); pandas >= 2.1 lets us build it as geopandas does.
-    """
+    """``GeoDataFrame(columns, geometry=geometry_name)`` without a second copy."""
     import geopandas as gpd
     import pandas as pd
 

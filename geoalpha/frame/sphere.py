@@ -1,14 +1,11 @@
-"""``crs="sphere"`` in the frame: the CRS round trip.
+"""``crs="sphere"`` in the frame: the CRS round trip (:class:`SphereProjection`).
 
-:class:`SphereProjection` gives the kernel longitudes and latitudes in
-EPSG:4326 and keeps the input coordinates to build the polygons from
-(``area_m2`` is on the WGS84 ellipsoid for every ``crs=``:
-:func:`geoalpha.frame.crs.geodesic_areas`). The geometry is the kernel's
-(``src/sphere.rs``) and :mod:`geoalpha.arrays.sphere`'s.
+The geometry is the kernel's (``src/sphere.rs``) and :mod:`geoalpha.arrays.sphere`'s.
 """
 
 from __future__ import annotations
 
+import functools
 from typing import Any
 
 import numpy as np
@@ -26,13 +23,11 @@ _WGS84 = parse_crs("EPSG:4326")
 class SphereProjection(gcrs.Projection):
     """The CRS round trip of ``crs="sphere"``.
 
-    :attr:`lonlat` holds the longitudes and latitudes (EPSG:4326, degrees)
-    the kernel computes in; :attr:`out` the input coordinates the polygons
-    are built from (longitudes of antimeridian-crossing groups unwrapped, as
-    with ``crs="auto"``). The stages that need metres for other things than
-    the alpha shape (buffers of degenerate groups, ``grow=``, the comparison
-    methods) get them from :attr:`xy`, the ``crs="auto"`` projection, made on
-    first use.
+    :attr:`lonlat` holds the longitudes and latitudes (EPSG:4326) the kernel
+    computes in; :attr:`out` the input coordinates the polygons are built
+    from (unwrapped across the antimeridian, as with ``crs="auto"``). Stages
+    that need metres (degenerate buffers, ``grow=``, the comparison methods)
+    get them from :attr:`xy`, the ``crs="auto"`` projection, made on first use.
 
     Parameters
     ----------
@@ -71,23 +66,20 @@ class SphereProjection(gcrs.Projection):
             )
         self.source = src
         self._args = (coords, codes, n_groups, source, labels)
-        self._auto: gcrs.Projection | None = None
         self.unit = "m"
         self.names = np.full(n_groups, "sphere", dtype=object)
         self.out = coords
         self.crossing = np.zeros(n_groups, dtype=bool)
         self.wide = np.zeros(n_groups, dtype=bool)
         self.polar = np.zeros(n_groups, dtype=bool)
+        lon, lat = coords[:, 0], coords[:, 1]
         if src.is_geographic:
-            lon, lat = coords[:, 0], coords[:, 1]
             gcrs.check_lonlat(lon, lat, labels)
             self.out, self.crossing, self.wide = gcrs.output_lonlat(
                 coords, codes, n_groups
             )
-            # Groups around a pole: polygons closed along it (close_around_poles),
-            # from the input longitudes as they are.
+            # Groups around a pole: polygons closed along it, input longitudes.
             maybe = np.flatnonzero(self.crossing | self.wide)
-            self.polar = np.zeros(n_groups, dtype=bool)
             if len(maybe):
                 self.polar[maybe] = polar_groups(coords, codes, maybe)
             if self.polar.any():
@@ -97,49 +89,35 @@ class SphereProjection(gcrs.Projection):
                     self.out[mine] = coords[mine]
                 self.crossing &= ~self.polar
                 self.wide &= ~self.polar
-            if src != _WGS84:
-                lon, lat = gcrs.to_wgs84(src, lon, lat, labels)
-        else:
-            lon, lat = gcrs.to_wgs84(src, coords[:, 0], coords[:, 1], labels)
+        if src != _WGS84:
+            lon, lat = gcrs.to_wgs84(src, lon, lat, labels)
         self.lonlat = np.ascontiguousarray(np.column_stack([lon, lat]), dtype=float)
 
+    @functools.cached_property
     def _metric(self) -> gcrs.Projection:
-        if self._auto is None:
-            coords, codes, n_groups, source, labels = self._args
-            self._auto = gcrs.Projection(
-                coords, codes, n_groups, source, "auto", labels
-            )
-        return self._auto
+        return gcrs.Projection(*self._args[:4], "auto", self._args[4])
 
     def metric_of(self, sel: np.ndarray, which: np.ndarray):
-        """Metres for the points ``sel`` of the groups ``which`` only.
+        """Metres for the points ``sel`` of the groups ``which`` only (``crs="auto"``).
 
-        Returns their coordinates in ``crs="auto"``'s CRS for those groups
-        alone, and the function that moves geometries of ``which`` (in that
-        order) back to the input CRS: the degenerate groups' buffers need no
-        projection of the whole input.
+        And the function that moves geometries of ``which`` back to the input CRS.
         """
         coords, codes, _, source, labels = self._args
-        local = gcrs.Projection(
-            coords[sel],
-            np.searchsorted(which, codes[sel]),
-            len(which),
-            source,
-            "auto",
-            None if labels is None else labels[sel],
-        )
+        mine = np.searchsorted(which, codes[sel])
+        labels = None if labels is None else labels[sel]
+        local = gcrs.Projection(coords[sel], mine, len(which), source, "auto", labels)
         groups = np.arange(len(which))
         return local.xy, lambda geoms: local.to_output(geoms, groups)
 
     @property
     def xy(self) -> np.ndarray:  # type: ignore[override]
         """Metres (``crs="auto"``'s projection), for stages other than the shape."""
-        return self._metric().xy
+        return self._metric.xy
 
     @property
     def _crs_list(self):  # the way back of :attr:`xy`
-        return self._metric()._crs_list
+        return self._metric._crs_list
 
     @property
     def _crs_index(self):
-        return self._metric()._crs_index
+        return self._metric._crs_index
