@@ -458,8 +458,8 @@ _ARRAY_ROWS = 2_000_000  # more rows come as rows (a bytea holds 1 GB at most)
 def _read_points(conn, query: str, description, column: str, typmod: int):
     """Read a query of 2D points as arrays: (frame, points, SRID), else None.
 
-    One aggregate row: the coordinates as one ``bytea`` of doubles, every
-    other column as one array. None (nothing read) for anything but
+    One aggregate row: the x and the y coordinates as one ``bytea`` of
+    doubles each, every other column as one array. None (nothing read) for anything but
     non-empty 2D points of one SRID with non-NULL numbers, up to
     :data:`_ARRAY_ROWS` rows; the rows path then reads (or fails) as usual.
     """
@@ -477,7 +477,8 @@ def _read_points(conn, query: str, description, column: str, typmod: int):
     g = f"_ga_q.{_quote(column)}"
     srid = _point_typmod_srid(typmod)
     checked = ""
-    aggregates = ["count(*)", "count(_ga_xy)", "string_agg(_ga_xy, ''::bytea)"]
+    aggregates = ["count(*)", "count(_ga_x)"]
+    aggregates += [f"string_agg(float8send(_ga_{a}), ''::bytea)" for a in "xy"]
     if srid is None:
         checked = f", ST_Zmflag({g}) AS _ga_zm, ST_SRID({g}) AS _ga_srid"
         aggregates += ["max(_ga_zm)", "min(_ga_srid)", "max(_ga_srid)"]
@@ -490,7 +491,7 @@ def _read_points(conn, query: str, description, column: str, typmod: int):
             aggregates.append(f"array_agg({name})")
     sql = (
         f"SELECT {', '.join(aggregates)} FROM (SELECT _ga_q.*, "
-        f"float8send(ST_X({g})) || float8send(ST_Y({g})) AS _ga_xy{checked} "
+        f"ST_X({g}) AS _ga_x, ST_Y({g}) AS _ga_y{checked} "
         f"FROM ({query}) AS _ga_q LIMIT {_ARRAY_ROWS + 1}) AS _ga_r"
     )
     try:
@@ -498,16 +499,16 @@ def _read_points(conn, query: str, description, column: str, typmod: int):
             values = list(conn.cursor().execute(sql, binary=True).fetchone())
     except psycopg.Error:
         return None
-    n, n_points, xy = values[:3]
+    n, n_points, x, y = values[:4]
     if srid is None:
-        zm, srid, srid_max = values[3:6]
-        del values[3:6]
+        zm, srid, srid_max = values[4:7]
+        del values[4:7]
         if zm != 0 or srid != srid_max:
             return None
     if not 0 < n == n_points <= _ARRAY_ROWS:
         return None
     columns = {}
-    rest = iter(values[3:])
+    rest = iter(values[4:])
     for c in others:
         if c.type_code in _SENT_TYPES:
             _, raw, dtype = _SENT_TYPES[c.type_code]
@@ -518,7 +519,8 @@ def _read_points(conn, query: str, description, column: str, typmod: int):
             columns[c.name] = pd.DataFrame.from_records(
                 [(v,) for v in next(rest)], coerce_float=True
             )[0]
-    xy = np.frombuffer(xy, dtype=">f8").astype(np.float64).reshape(-1, 2)
+    xy = np.empty((n, 2))  # native doubles, from the big-endian ones sent
+    xy[:, 0], xy[:, 1] = np.frombuffer(x, dtype=">f8"), np.frombuffer(y, dtype=">f8")
     frame = pd.DataFrame(columns, index=pd.RangeIndex(n))
     # One geometry a row: the cyclic collector, were it to run on the way,
     # would walk every object of the process (3-5 ms on 9,000 points in a
