@@ -431,12 +431,12 @@ def _read_frame(conn, query: str, description, column: str, typmod: int, source)
             "select one, or ST_Transform them to one"
         )
     crs = _crs_of(conn, srids[0]) if srids else None
-    series = gpd.GeoSeries(geometry, index=frame.index, crs=crs)
+    geometry = gpd.array.from_shapely(geometry, crs=crs)
     if column in frame:
-        frame[column] = series
+        frame[column] = geometry
     else:
-        frame.insert(names.index(column), column, series)
-    return gpd.GeoDataFrame(frame, geometry=column, crs=crs)
+        frame.insert(names.index(column), column, geometry)
+    return gpd.GeoDataFrame(frame, geometry=column, copy=False)
 
 
 # column types read as one array each: as raw values in a bytea (the type's
