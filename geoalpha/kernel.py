@@ -277,17 +277,14 @@ def _geometries(coords, res, n_groups: int) -> np.ndarray:
         np.take(coords, res["ring_vertex"], axis=0),
         (res["ring_offsets"], res["polygon_offsets"]),
     )
-    first = res["group_offsets"][:-1]
     one = n_parts == 1
-    out[one] = parts[first[one]]
-    many = np.flatnonzero(n_parts > 1)
-    if len(many):
-        counts = n_parts[many].astype(np.intp)
-        owner = np.repeat(np.arange(len(many)), counts)
-        # each part's index: its group's first part + its rank in the group
-        rank = np.arange(len(owner)) - np.repeat(np.cumsum(counts) - counts, counts)
-        index = np.repeat(first[many], counts) + rank
-        out[many] = shapely.multipolygons(parts[index], indices=owner)
+    out[one] = parts[res["group_offsets"][:-1][one]]
+    many = n_parts > 1
+    if many.any():  # a group's parts are consecutive, groups in order
+        owner = np.repeat(np.arange(many.sum()), n_parts[many])
+        out[many] = shapely.multipolygons(
+            parts[np.repeat(many, n_parts)], indices=owner
+        )
     return out
 
 
