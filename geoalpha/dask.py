@@ -11,6 +11,7 @@ frames.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 
 import numpy as np
@@ -220,7 +221,9 @@ def _hull_partition(
         )
     part = gpd.GeoDataFrame(part, geometry=geometry, crs=source_crs)
     # With ``by``, the dataset's bad rows were reported once (``checked``).
-    out, _ = run(part, by, options.replace(crs=crs), checks=False, rows=by is None)
+    out, _ = run(
+        part, by, dataclasses.replace(options, crs=crs), checks=False, rows=by is None
+    )
     return out.astype(dict(meta.dtypes.drop(meta.geometry.name)))
 
 
@@ -315,7 +318,7 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
             "progress=True does not apply to dask-geopandas input; use "
             "dask.diagnostics.ProgressBar or distributed.progress"
         )
-    opts = opts.replace(progress=False, n_jobs=1)
+    opts = dataclasses.replace(opts, progress=False, n_jobs=1)
     names = _key_names(ddf, by)
     keys = group(ddf._meta, by, opts).keys  # the eager result's columns and dtypes
     meta = empty_result(keys, ddf._meta.crs, result_geometry_name(ddf._meta, keys))

@@ -115,12 +115,11 @@ def hull(gdf, by=None, **options):
     >>> hulls.geom_type.unique().tolist(), hulls.crs.to_epsg()
     (['Polygon'], 4326)
     """
-    opts = Options.from_kwargs(options)
     if _is_dask(gdf):
         from geoalpha.dask import hull as dask_hull
 
-        return dask_hull(gdf, by, **opts.as_dict())
-    return run(as_frame(gdf), by, opts)[0]
+        return dask_hull(gdf, by, **options)  # which checks the options
+    return run(as_frame(gdf), by, Options.from_kwargs(options))[0]
 
 
 hull.__signature__ = _options.signature(hull)
