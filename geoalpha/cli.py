@@ -221,21 +221,32 @@ def _input_size(path) -> int | None:
 
 
 @contextlib.contextmanager
-def _progress_bar(
+def _session(
+    verbose: int,
+    quiet: int,
     progress: bool | None,
-    verbosity: int,
     size: int | None,
+    output: str,
     *,
+    layer: str | None,
+    overwrite: bool,
+    engine: str | None,
+    preview: str | None,
     points_layer: bool = False,
-    preview: bool = False,
-):
-    """One progress bar over ``read``, the phases of hull(), ``write``, ``preview``.
+) -> Iterator:
+    """Run a command: yield :func:`_run` with its settings, after checking OUTPUT.
 
-    Their shares are estimated from the input's bytes until it is read, then
-    from its rows and groups. ``-q`` means no bar unless ``--progress``.
+    Messages as :func:`_reporting` shows them; one progress bar over ``read``,
+    the phases of hull(), ``write`` and ``preview``, their shares estimated
+    from the input's bytes until it is read, then from its rows and groups.
+    ``-q`` means no bar unless ``--progress``.
     """
-    from geoalpha.frame.progress import HULL_PHASES, hull_costs, phases
+    import functools
 
+    from geoalpha.frame.progress import HULL_PHASES, hull_costs, phases
+    from geoalpha.io.files import check_output
+
+    verbosity = _verbosity(verbose, quiet)
     show = False if progress is None and verbosity < 0 else progress
 
     # Importing geopandas (read) and matplotlib (preview) takes about a second.
@@ -248,14 +259,26 @@ def _progress_bar(
             "preview": load["matplotlib"] + 100_000 + 5 * n_rows + 400 * n_groups,
         }
 
-    names = ("read", *HULL_PHASES, "write", *(("preview",) if preview else ()))
-    with phases(names, show, costs=after_hull) as bar:
+    names = ("read", *HULL_PHASES, "write")
+    names += ("preview",) if preview is not None else ()
+    with _reporting(verbosity), phases(names, show, costs=after_hull) as bar:
         rows = size / 50 if size else 100_000  # a guess until INPUT is read
         costs = hull_costs(rows, rows / 100, per_group_crs=False)
         costs["read"] = load["geopandas"] + (0.04 * size if size else 2 * rows)
         bar.estimate(costs | after_hull(rows, rows / 100))
         bar.start("read")
-        yield bar
+        check_output(output, layer=layer, overwrite=overwrite)
+        _check_preview(preview)
+        yield functools.partial(
+            _run,
+            output=output,
+            layer=layer,
+            overwrite=overwrite,
+            engine=engine,
+            verbosity=verbosity,
+            preview=preview,
+            bar=bar,
+        )
 
 
 def _plural(n: int, noun: str) -> str:
@@ -341,8 +364,8 @@ def _summary(points, hulls, source: str, by: list[str], options: dict, unit) -> 
 
 def _run(
     points,
-    output: str,
     *,
+    output: str,
     source: str,
     by: list[str],
     layer: str | None,
@@ -630,18 +653,19 @@ def hull(
         geoalpha hull postgresql://ga@localhost/gis postgresql://ga@localhost/gis
             --layer public.trees --by species --output-layer public.tree_hulls
     """  # noqa: D301
-    from geoalpha.io.files import check_output, read_input_points
+    from geoalpha.io.files import read_input_points
 
-    verbosity = _verbosity(verbose, quiet)
-    size = _input_size(input_path)  # None for a database
-    with (
-        _reporting(verbosity),
-        _progress_bar(
-            options["progress"], verbosity, size, preview=preview is not None
-        ) as bar,
-    ):
-        check_output(output, layer=output_layer, overwrite=overwrite)
-        _check_preview(preview)
+    with _session(
+        verbose,
+        quiet,
+        options["progress"],
+        _input_size(input_path),  # None for a database
+        output,
+        layer=output_layer,
+        overwrite=overwrite,
+        engine=engine,
+        preview=preview,
+    ) as run:
         work_crs = options["crs"]  # checked at the flag: none is None
         reading = {
             k: options.pop(k) for k in ("x", "y", "layer", "sql", "geometry_column")
@@ -656,18 +680,8 @@ def hull(
         if points.crs is None:
             work_crs = None  # planar input: compute in its own units
         columns = _group_columns(by, list(points.columns), redact(input_path))
-        _run(
-            points,
-            output,
-            source=redact(input_path),
-            by=columns,
-            layer=output_layer,
-            overwrite=overwrite,
-            engine=engine,
-            verbosity=verbosity,
-            preview=preview,
-            bar=bar,
-            **{**options, "crs": work_crs},
+        run(
+            points, source=redact(input_path), by=columns, **options | {"crs": work_crs}
         )
 
 
@@ -731,35 +745,26 @@ def demo(
         geoalpha demo accidents.shp --dataset uk_clusters
     """  # noqa: D301
     from geoalpha import datasets
-    from geoalpha.io.files import check_output
 
-    verbosity = _verbosity(verbose, quiet)
     gpkg = output.lower().endswith(".gpkg")
-    with (
-        _reporting(verbosity),
-        _progress_bar(
-            progress,
-            verbosity,
-            _input_size(datasets.path(dataset)),
-            points_layer=gpkg,
-            preview=preview is not None,
-        ) as bar,
-    ):
-        check_output(output, overwrite=overwrite)
-        _check_preview(preview)
+    with _session(
+        verbose,
+        quiet,
+        progress,
+        _input_size(datasets.path(dataset)),
+        output,
+        layer=None,
+        overwrite=overwrite,
+        engine=engine,
+        preview=preview,
+        points_layer=gpkg,
+    ) as run:
         points = datasets.load(dataset)
-        _run(
+        run(
             points,
-            output,
             source=f"dataset {dataset}",
             by=[DATASETS[dataset][3]],
-            layer=None,
-            overwrite=overwrite,
-            engine=engine,
-            verbosity=verbosity,
-            preview=preview,
             extra_layers={"points": points} if gpkg else None,
-            bar=bar,
             progress=progress,
             grow=grow,
         )
