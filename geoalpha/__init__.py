@@ -1,9 +1,8 @@
 """geoalpha: exact optimal alpha shapes for GeoPandas.
 
-Importing geoalpha registers the ``.alpha`` accessor on GeoPandas frames: at
-once when geopandas is already imported, else as soon as it is. The public
-functions are loaded on first use, so that ``import geoalpha`` (and the
-``geoalpha`` command's ``--help`` and ``--version``) stay fast.
+Importing geoalpha registers the ``.alpha`` accessor on GeoPandas frames (as
+soon as geopandas is imported). The public functions are loaded on first use,
+so that ``import geoalpha`` and ``geoalpha --help`` stay fast.
 """
 
 from __future__ import annotations
@@ -93,9 +92,8 @@ def __dir__() -> list[str]:
 class _RegisterOnImport:
     """Import hook: register the accessor once geopandas has been imported.
 
-    It only wraps the loader of geopandas (found by the other finders) and
-    leaves ``sys.meta_path`` when geopandas has been executed; a mere
-    ``importlib.util.find_spec("geopandas")`` (no import) leaves it in place.
+    It wraps the loader of geopandas (found by the other finders), and leaves
+    ``sys.meta_path`` once geopandas has been executed (not on a mere find_spec).
     """
 
     _finding = False

@@ -221,25 +221,14 @@ def _input_size(path) -> int | None:
 
 
 @contextlib.contextmanager
-def _session(
-    verbose: int,
-    quiet: int,
-    progress: bool | None,
-    size: int | None,
-    output: str,
-    *,
-    layer: str | None,
-    overwrite: bool,
-    engine: str | None,
-    preview: str | None,
-    points_layer: bool = False,
-) -> Iterator:
-    """Run a command: yield :func:`_run` with its settings, after checking OUTPUT.
+def _session(verbose, quiet, progress, size, points_layer=False, **target) -> Iterator:
+    """Run a command: check OUTPUT, yield :func:`_run` bound to ``target``.
 
-    Messages as :func:`_reporting` shows them; one progress bar over ``read``,
-    the phases of hull(), ``write`` and ``preview``, their shares estimated
-    from the input's bytes until it is read, then from its rows and groups.
-    ``-q`` means no bar unless ``--progress``.
+    ``target``: _run's ``output``, ``layer``, ``overwrite``, ``engine``,
+    ``preview``. Messages as :func:`_reporting` shows them; one progress bar
+    over ``read``, the phases of hull(), ``write`` and ``preview``, their
+    shares estimated from the input's bytes until it is read, then from its
+    rows and groups. ``-q`` means no bar unless ``--progress``.
     """
     import functools
 
@@ -260,25 +249,18 @@ def _session(
         }
 
     names = ("read", *HULL_PHASES, "write")
-    names += ("preview",) if preview is not None else ()
+    names += ("preview",) if target["preview"] is not None else ()
     with _reporting(verbosity), phases(names, show, costs=after_hull) as bar:
         rows = size / 50 if size else 100_000  # a guess until INPUT is read
         costs = hull_costs(rows, rows / 100, per_group_crs=False)
         costs["read"] = load["geopandas"] + (0.04 * size if size else 2 * rows)
         bar.estimate(costs | after_hull(rows, rows / 100))
         bar.start("read")
-        check_output(output, layer=layer, overwrite=overwrite)
-        _check_preview(preview)
-        yield functools.partial(
-            _run,
-            output=output,
-            layer=layer,
-            overwrite=overwrite,
-            engine=engine,
-            verbosity=verbosity,
-            preview=preview,
-            bar=bar,
+        check_output(
+            target["output"], layer=target["layer"], overwrite=target["overwrite"]
         )
+        _check_preview(target["preview"])
+        yield functools.partial(_run, verbosity=verbosity, bar=bar, **target)
 
 
 def _plural(n: int, noun: str) -> str:
@@ -660,7 +642,7 @@ def hull(
         quiet,
         options["progress"],
         _input_size(input_path),  # None for a database
-        output,
+        output=output,
         layer=output_layer,
         overwrite=overwrite,
         engine=engine,
@@ -752,12 +734,12 @@ def demo(
         quiet,
         progress,
         _input_size(datasets.path(dataset)),
-        output,
+        gpkg,
+        output=output,
         layer=None,
         overwrite=overwrite,
         engine=engine,
         preview=preview,
-        points_layer=gpkg,
     ) as run:
         points = datasets.load(dataset)
         run(

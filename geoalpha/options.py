@@ -529,7 +529,6 @@ def defaults(*names: str) -> dict[str, Any]:
     Parameters
     ----------
     *names : str
-        Option names.
 
     Returns
     -------
