@@ -52,15 +52,12 @@ def hull(gdf, by=None, **options):
         ``alpha`` (1/metre in the computation CRS; nan for the methods
         without one and for degenerate groups; 0 for the convex hull),
         ``radius`` (1/alpha, metres), ``n_points`` (input rows of the group),
-        ``n_parts`` (polygons in the geometry), ``area_m2`` (area of the
-        geometry on the WGS84 ellipsoid, whatever ``crs``; with ``crs=None``,
-        the planar area in the input's units), ``crs_used`` (the computation
-        CRS), ``method``
-        and ``geometry`` (Polygon; MultiPolygon when ``components > 1``, when a
-        group is split at the antimeridian, or, for ``"concave"``/``"knn"``,
-        when a hull built in metres touches itself in the input CRS and is
-        repaired). Polygon vertices are input coordinates (except for
-        degenerate buffers and antimeridian cuts).
+        ``n_parts``, ``area_m2`` (on the WGS84 ellipsoid; with ``crs=None``,
+        planar, in the input's units), ``crs_used`` (the computation CRS),
+        ``method`` and ``geometry`` (a Polygon; a MultiPolygon with
+        ``components > 1``, at the antimeridian, or for a ``"concave"`` or
+        ``"knn"`` hull repaired in the input CRS). Polygon vertices are input
+        coordinates (except for degenerate buffers and antimeridian cuts).
 
     Raises
     ------

@@ -252,20 +252,14 @@ class Options:
     crs: Any = option(
         "auto",
         kind="crs",
-        doc='"auto", CRS or None, default "auto"\n'
-        '    Metric CRS of the computation. ``"auto"``: lon/lat input (and\n'
-        "    Mercator input such as EPSG:3857, whose scale is off by\n"
-        "    1/cos(latitude)) goes to one UTM zone when all points fit it,\n"
-        "    else to a UTM zone or a local Lambert azimuthal equal-area CRS\n"
-        "    per group; other projected input is used as it is. A projected\n"
-        "    CRS forces that CRS for every group. A CRS in feet is scaled to\n"
-        "    metres in every case, so alpha is always in 1/metre and\n"
-        "    ``area_m2`` in square metres. None uses the coordinates as\n"
-        "    planar numbers (alpha in 1/degree for lon/lat, as in the seed\n"
-        '    paper). ``"sphere"``: no projection; every group is computed on\n'
-        "    the sphere of WGS84's authalic radius (6,371,007.2 m), its radius\n"
-        "    in metres along the sphere (for groups that span a continent;\n"
-        "    see the sphere page of the user guide).",
+        doc='"auto", "sphere", CRS or None, default "auto"\n'
+        '    Metric CRS of the computation. ``"auto"``: lon/lat (and Mercator)\n'
+        "    input goes to one UTM zone when all points fit it, else to a UTM\n"
+        "    zone or a local equal-area CRS per group; projected input is kept.\n"
+        "    A projected CRS forces that CRS (feet are scaled to metres). None:\n"
+        "    the coordinates as planar numbers (alpha in 1/degree for lon/lat).\n"
+        '    ``"sphere"``: no projection, on the sphere of WGS84\'s authalic\n'
+        "    radius (continent-wide groups; see the sphere page of the guide).",
         flags=("--crs",),
         metavar="auto|sphere|CRS|none",
         help="Metric CRS the shapes are computed in; 'auto' picks a UTM zone "
@@ -386,9 +380,7 @@ class Options:
         None,
         kind="bool",
         optional=True,
-        doc="bool, optional\n    Show one progress bar through every phase (group, "
-        "project, compute,\n    check; see :mod:`geoalpha.frame.progress`; needs "
-        "``tqdm``: "
+        doc="bool, optional\n    Show one progress bar through every phase (needs "
         '``pip install\n    "geoalpha[progress]"``). Default: only for long runs on a '
         "terminal.",
         flags=("--progress/--no-progress",),
@@ -398,10 +390,8 @@ class Options:
         None,
         kind="int",
         doc="int, optional\n    Threads of the compiled kernel, which spreads the "
-        "groups over them\n    (and the radii and sorts of one large group). Default "
-        "(None, or -1):\n    every core; 1: one thread. Inside a dask-geopandas "
-        "partition the\n    kernel runs on one thread (dask spreads the "
-        "partitions). The result\n    is the same for every value.",
+        "groups over them.\n    None or -1: every core. The result is the same "
+        "for every value.",
         flags=("-j", "--jobs"),
         metavar="N",
         validate=_check_n_jobs,
@@ -413,14 +403,11 @@ class Options:
         kind="number",
         validate=check_outliers,
         doc="float or int, default 0\n"
-        '    Rows each group may leave out (``method="alpha"``, exact search,\n'
-        "    no fixed ``alpha``): a float in ``[0, 1)`` is a fraction of the\n"
-        "    group's rows (``k = floor(outliers * rows)``), an int a count\n"
-        "    ``k``; a location holding several rows weighs as many. The optimum\n"
-        "    is then the largest alpha at which at most ``components`` pieces\n"
-        "    cover at least ``rows - k`` rows; only those pieces are kept, and\n"
-        "    ``n_outliers <= k``. :func:`outlier_rows` tells which input rows\n"
-        "    were left out.",
+        '    Rows each group may leave out (``method="alpha"``, exact search):\n'
+        "    a fraction in ``[0, 1)`` of its rows (``k = floor(outliers * rows)``)\n"
+        "    or a count ``k``. The optimum is then the largest alpha at which at\n"
+        "    most ``components`` pieces cover ``rows - k`` rows or more; only\n"
+        "    they are kept. :func:`outlier_rows` tells which rows were left out.",
         flags=("--outliers",),
         metavar="FRACTION|COUNT",
         help="Rows each group may leave out: a fraction of its rows (0.02) or a "
@@ -434,10 +421,8 @@ class Options:
         what="a distance >= 0 (metres)",
         doc="float, default 0.0\n"
         "    Grow every hull (not the degenerate buffers) by this distance in\n"
-        "    metres (coordinate units with ``crs=None``), with rounded\n"
-        "    corners, so that every point is strictly inside. ``alpha`` and\n"
-        "    ``radius`` stay those of the optimal shape; ``area_m2`` is the\n"
-        "    area of the grown polygon. 0 keeps the exact shape.",
+        "    metres (coordinate units with ``crs=None``), so that every point\n"
+        "    is strictly inside; ``area_m2`` is the grown polygon's area.",
         flags=("--grow",),
         metavar="M",
         help="Grow every hull by M metres (in coordinate units with --crs none) so "
