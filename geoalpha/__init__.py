@@ -58,31 +58,24 @@ _LAZY = {
     "hull": "geoalpha.hulls",
     "outlier_rows": "geoalpha.hulls",
 }
-#: Modules reachable as ``from geoalpha import datasets`` (their home since 0.3).
-_MODULES = {"datasets": "geoalpha.io.datasets"}
-
-
-def _version() -> str:
-    """Return the installed version (on first use: it costs more than the import)."""
-    from importlib.metadata import PackageNotFoundError, version
-
-    try:
-        return version("geoalpha")
-    except PackageNotFoundError:  # pragma: no cover - running from a source tree
-        return "0+unknown"
 
 
 def __getattr__(name: str):
-    if name == "__version__":
-        globals()[name] = value = _version()
-        return value
-    if name in _LAZY:
+    if name == "__version__":  # on first use: it costs more than the import
+        from importlib.metadata import PackageNotFoundError, version
+
+        try:
+            value = version("geoalpha")
+        except PackageNotFoundError:  # pragma: no cover - running from a source tree
+            value = "0+unknown"
+    elif name in _LAZY:
         value = getattr(importlib.import_module(_LAZY[name]), name)
-        globals()[name] = value
-        return value
-    if name in _MODULES:
-        return importlib.import_module(_MODULES[name])
-    raise AttributeError(f"module 'geoalpha' has no attribute {name!r}")
+    elif name == "datasets":  # ``from geoalpha import datasets``: in io since 0.3
+        return importlib.import_module("geoalpha.io.datasets")
+    else:
+        raise AttributeError(f"module 'geoalpha' has no attribute {name!r}")
+    globals()[name] = value
+    return value
 
 
 def __dir__() -> list[str]:

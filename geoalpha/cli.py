@@ -1,12 +1,9 @@
 """The ``geoalpha`` command: one tight polygon per group of points, file to file.
 
-Modelled on rasterio's ``rio``: a click group with ``--version`` and
-``-v/-q``, one function per subcommand, heavy imports (geopandas, the
-computation) inside the commands so that ``geoalpha --help`` stays fast.
-
-Errors on bad input end the command with exit status 1 and one line on
-stderr, ``Error: ...``; ``geoalpha -v`` adds the traceback. Warnings are
-shown as one ``Warning: ...`` line each unless ``-q``.
+A click group as rasterio's ``rio``; heavy imports inside the commands, so that
+``geoalpha --help`` stays fast. Bad input ends the command with exit status 1
+and one ``Error: ...`` line (``-v``: and the traceback); warnings are one
+``Warning: ...`` line each unless ``-q``.
 """
 
 from __future__ import annotations
@@ -66,7 +63,7 @@ def _secrets() -> list[str]:
 
 
 def _flags(command: click.Command) -> dict[str, str]:
-    """Return the command's flag of every option of hull() and its own (``FLAGS``)."""
+    """Return the command's flag of each option of hull() and its own (``FLAGS``)."""
     own = {
         p.name: "/".join(p.opts[-1:] + p.secondary_opts[-1:])
         for p in command.params
