@@ -1,9 +1,8 @@
 """geoalpha: exact optimal alpha shapes for GeoPandas.
 
-Importing geoalpha registers the ``.alpha`` accessor on GeoPandas frames: at
-once when geopandas is already imported, else as soon as it is. The public
-functions are loaded on first use, so that ``import geoalpha`` (and the
-``geoalpha`` command's ``--help`` and ``--version``) stay fast.
+Importing geoalpha registers the ``.alpha`` accessor on GeoPandas frames (as
+soon as geopandas is imported). The public functions are loaded on first use,
+so that ``import geoalpha`` and ``geoalpha --help`` stay fast.
 """
 
 from __future__ import annotations
@@ -59,31 +58,24 @@ _LAZY = {
     "hull": "geoalpha.hulls",
     "outlier_rows": "geoalpha.hulls",
 }
-#: Modules reachable as ``from geoalpha import datasets`` (their home since 0.3).
-_MODULES = {"datasets": "geoalpha.io.datasets"}
-
-
-def _version() -> str:
-    """Return the installed version (on first use: it costs more than the import)."""
-    from importlib.metadata import PackageNotFoundError, version
-
-    try:
-        return version("geoalpha")
-    except PackageNotFoundError:  # pragma: no cover - running from a source tree
-        return "0+unknown"
 
 
 def __getattr__(name: str):
-    if name == "__version__":
-        globals()[name] = value = _version()
-        return value
-    if name in _LAZY:
+    if name == "__version__":  # on first use: it costs more than the import
+        from importlib.metadata import PackageNotFoundError, version
+
+        try:
+            value = version("geoalpha")
+        except PackageNotFoundError:  # pragma: no cover - running from a source tree
+            value = "0+unknown"
+    elif name in _LAZY:
         value = getattr(importlib.import_module(_LAZY[name]), name)
-        globals()[name] = value
-        return value
-    if name in _MODULES:
-        return importlib.import_module(_MODULES[name])
-    raise AttributeError(f"module 'geoalpha' has no attribute {name!r}")
+    elif name == "datasets":  # ``from geoalpha import datasets``: in io since 0.3
+        return importlib.import_module("geoalpha.io.datasets")
+    else:
+        raise AttributeError(f"module 'geoalpha' has no attribute {name!r}")
+    globals()[name] = value
+    return value
 
 
 def __dir__() -> list[str]:
@@ -93,9 +85,8 @@ def __dir__() -> list[str]:
 class _RegisterOnImport:
     """Import hook: register the accessor once geopandas has been imported.
 
-    It only wraps the loader of geopandas (found by the other finders) and
-    leaves ``sys.meta_path`` when geopandas has been executed; a mere
-    ``importlib.util.find_spec("geopandas")`` (no import) leaves it in place.
+    It wraps the loader of geopandas (found by the other finders), and leaves
+    ``sys.meta_path`` once geopandas has been executed (not on a mere find_spec).
     """
 
     _finding = False

@@ -1,7 +1,6 @@
-"""The ``.alpha`` accessor on GeoDataFrame and GeoSeries.
+"""The ``.alpha`` accessor on GeoDataFrame and GeoSeries (``import geoalpha``).
 
-Importing :mod:`geoalpha` registers it. It only delegates: ``gdf.alpha.hull``
-is :func:`geoalpha.hull` with ``gdf`` as its first argument. On
+``gdf.alpha.hull(...)`` is :func:`geoalpha.hull` with ``gdf`` first; on
 dask-geopandas frames ``.alpha`` is :class:`geoalpha.dask.DaskAlphaAccessor`.
 """
 
@@ -39,12 +38,9 @@ class AlphaAccessor:
 def register(name: str = "alpha") -> None:
     """Register :class:`AlphaAccessor` as ``name`` on GeoDataFrame and GeoSeries.
 
-    Called on ``import geoalpha``. A column of the same name is still
-    reachable with ``gdf[name]``; ``gdf.<name>`` is the accessor. The
-    dask-geopandas GeoDataFrame and GeoSeries get theirs
-    (:func:`geoalpha.dask.register`) too when ``dask_geopandas`` is already
-    imported (importing :mod:`geoalpha.dask` registers it there in any case),
-    so that ``import geoalpha`` does not import dask.
+    Called on ``import geoalpha``; a column ``name`` stays ``gdf[name]``.
+    Registers on dask-geopandas frames too (:func:`geoalpha.dask.register`)
+    if ``dask_geopandas`` is imported: ``import geoalpha`` never imports dask.
 
     Examples
     --------

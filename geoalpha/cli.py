@@ -1,12 +1,9 @@
 """The ``geoalpha`` command: one tight polygon per group of points, file to file.
 
-Modelled on rasterio's ``rio``: a click group with ``--version`` and
-``-v/-q``, one function per subcommand, heavy imports (geopandas, the
-computation) inside the commands so that ``geoalpha --help`` stays fast.
-
-Errors on bad input end the command with exit status 1 and one line on
-stderr, ``Error: ...``; ``geoalpha -v`` adds the traceback. Warnings are
-shown as one ``Warning: ...`` line each unless ``-q``.
+A click group as rasterio's ``rio``; heavy imports inside the commands, so that
+``geoalpha --help`` stays fast. Bad input ends the command with exit status 1
+and one ``Error: ...`` line (``-v``: and the traceback); warnings are one
+``Warning: ...`` line each unless ``-q``.
 """
 
 from __future__ import annotations
@@ -66,7 +63,7 @@ def _secrets() -> list[str]:
 
 
 def _flags(command: click.Command) -> dict[str, str]:
-    """Return the command's flag of every option of hull() and its own (``FLAGS``)."""
+    """Return the command's flag of each option of hull() and its own (``FLAGS``)."""
     own = {
         p.name: "/".join(p.opts[-1:] + p.secondary_opts[-1:])
         for p in command.params
@@ -221,21 +218,21 @@ def _input_size(path) -> int | None:
 
 
 @contextlib.contextmanager
-def _progress_bar(
-    progress: bool | None,
-    verbosity: int,
-    size: int | None,
-    *,
-    points_layer: bool = False,
-    preview: bool = False,
-):
-    """One progress bar over ``read``, the phases of hull(), ``write``, ``preview``.
+def _session(verbose, quiet, progress, size, points_layer=False, **target) -> Iterator:
+    """Run a command: check OUTPUT, yield :func:`_run` bound to ``target``.
 
-    Their shares are estimated from the input's bytes until it is read, then
-    from its rows and groups. ``-q`` means no bar unless ``--progress``.
+    ``target``: _run's ``output``, ``layer``, ``overwrite``, ``engine``,
+    ``preview``. Messages as :func:`_reporting` shows them; one progress bar
+    over ``read``, the phases of hull(), ``write`` and ``preview``, their
+    shares estimated from the input's bytes until it is read, then from its
+    rows and groups. ``-q`` means no bar unless ``--progress``.
     """
-    from geoalpha.frame.progress import HULL_PHASES, hull_costs, phases
+    import functools
 
+    from geoalpha.frame.progress import HULL_PHASES, hull_costs, phases
+    from geoalpha.io.files import check_output
+
+    verbosity = _verbosity(verbose, quiet)
     show = False if progress is None and verbosity < 0 else progress
 
     # Importing geopandas (read) and matplotlib (preview) takes about a second.
@@ -248,14 +245,19 @@ def _progress_bar(
             "preview": load["matplotlib"] + 100_000 + 5 * n_rows + 400 * n_groups,
         }
 
-    names = ("read", *HULL_PHASES, "write", *(("preview",) if preview else ()))
-    with phases(names, show, costs=after_hull) as bar:
+    names = ("read", *HULL_PHASES, "write")
+    names += ("preview",) if target["preview"] is not None else ()
+    with _reporting(verbosity), phases(names, show, costs=after_hull) as bar:
         rows = size / 50 if size else 100_000  # a guess until INPUT is read
         costs = hull_costs(rows, rows / 100, per_group_crs=False)
         costs["read"] = load["geopandas"] + (0.04 * size if size else 2 * rows)
         bar.estimate(costs | after_hull(rows, rows / 100))
         bar.start("read")
-        yield bar
+        check_output(
+            target["output"], layer=target["layer"], overwrite=target["overwrite"]
+        )
+        _check_preview(target["preview"])
+        yield functools.partial(_run, verbosity=verbosity, bar=bar, **target)
 
 
 def _plural(n: int, noun: str) -> str:
@@ -341,8 +343,8 @@ def _summary(points, hulls, source: str, by: list[str], options: dict, unit) -> 
 
 def _run(
     points,
-    output: str,
     *,
+    output: str,
     source: str,
     by: list[str],
     layer: str | None,
@@ -630,18 +632,19 @@ def hull(
         geoalpha hull postgresql://ga@localhost/gis postgresql://ga@localhost/gis
             --layer public.trees --by species --output-layer public.tree_hulls
     """  # noqa: D301
-    from geoalpha.io.files import check_output, read_input_points
+    from geoalpha.io.files import read_input_points
 
-    verbosity = _verbosity(verbose, quiet)
-    size = _input_size(input_path)  # None for a database
-    with (
-        _reporting(verbosity),
-        _progress_bar(
-            options["progress"], verbosity, size, preview=preview is not None
-        ) as bar,
-    ):
-        check_output(output, layer=output_layer, overwrite=overwrite)
-        _check_preview(preview)
+    with _session(
+        verbose,
+        quiet,
+        options["progress"],
+        _input_size(input_path),  # None for a database
+        output=output,
+        layer=output_layer,
+        overwrite=overwrite,
+        engine=engine,
+        preview=preview,
+    ) as run:
         work_crs = options["crs"]  # checked at the flag: none is None
         reading = {
             k: options.pop(k) for k in ("x", "y", "layer", "sql", "geometry_column")
@@ -656,18 +659,8 @@ def hull(
         if points.crs is None:
             work_crs = None  # planar input: compute in its own units
         columns = _group_columns(by, list(points.columns), redact(input_path))
-        _run(
-            points,
-            output,
-            source=redact(input_path),
-            by=columns,
-            layer=output_layer,
-            overwrite=overwrite,
-            engine=engine,
-            verbosity=verbosity,
-            preview=preview,
-            bar=bar,
-            **{**options, "crs": work_crs},
+        run(
+            points, source=redact(input_path), by=columns, **options | {"crs": work_crs}
         )
 
 
@@ -731,35 +724,26 @@ def demo(
         geoalpha demo accidents.shp --dataset uk_clusters
     """  # noqa: D301
     from geoalpha import datasets
-    from geoalpha.io.files import check_output
 
-    verbosity = _verbosity(verbose, quiet)
     gpkg = output.lower().endswith(".gpkg")
-    with (
-        _reporting(verbosity),
-        _progress_bar(
-            progress,
-            verbosity,
-            _input_size(datasets.path(dataset)),
-            points_layer=gpkg,
-            preview=preview is not None,
-        ) as bar,
-    ):
-        check_output(output, overwrite=overwrite)
-        _check_preview(preview)
+    with _session(
+        verbose,
+        quiet,
+        progress,
+        _input_size(datasets.path(dataset)),
+        gpkg,
+        output=output,
+        layer=None,
+        overwrite=overwrite,
+        engine=engine,
+        preview=preview,
+    ) as run:
         points = datasets.load(dataset)
-        _run(
+        run(
             points,
-            output,
             source=f"dataset {dataset}",
             by=[DATASETS[dataset][3]],
-            layer=None,
-            overwrite=overwrite,
-            engine=engine,
-            verbosity=verbosity,
-            preview=preview,
             extra_layers={"points": points} if gpkg else None,
-            bar=bar,
             progress=progress,
             grow=grow,
         )

@@ -1,16 +1,14 @@
 """Optimal alpha hulls of dask-geopandas frames: data larger than memory.
 
-``geoalpha.hull(ddf, by=...)`` and ``ddf.alpha.hull(by=...)`` on a
-:class:`dask_geopandas.GeoDataFrame` land in :func:`hull` here: the rows are
-shuffled by key, one CRS decision and the set-up checks are made for the
-whole dataset, then :func:`geoalpha.frame.pipeline.run` runs on every
+:func:`hull` shuffles the rows by key, makes one CRS decision and the checks
+for the whole dataset, then runs :func:`geoalpha.frame.pipeline.run` on every
 partition. Importing this module imports dask-geopandas
-(``pip install geoalpha[dask]``) and registers the ``.alpha`` accessor on its
-frames.
+(``pip install geoalpha[dask]``) and registers ``.alpha`` on its frames.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 
 import numpy as np
@@ -220,7 +218,9 @@ def _hull_partition(
         )
     part = gpd.GeoDataFrame(part, geometry=geometry, crs=source_crs)
     # With ``by``, the dataset's bad rows were reported once (``checked``).
-    out, _ = run(part, by, options.replace(crs=crs), checks=False, rows=by is None)
+    out, _ = run(
+        part, by, dataclasses.replace(options, crs=crs), checks=False, rows=by is None
+    )
     return out.astype(dict(meta.dtypes.drop(meta.geometry.name)))
 
 
@@ -234,30 +234,26 @@ def _finish(part, keys: list, checked=None):
 def hull(ddf, by=None, *, npartitions: int | None = None, **options):
     """Optimal alpha hulls of the groups of a dask-geopandas frame (lazy).
 
-    The same table as :func:`geoalpha.hull` gives on the computed frame, built
-    partition by partition: the rows are first shuffled by ``by`` so that
-    every group is whole in one partition, then :func:`geoalpha.hull` runs on
-    each partition. Also available as ``ddf.alpha.hull(by=...)``.
+    The rows are shuffled by ``by`` so that every group is whole in one
+    partition, then :func:`geoalpha.hull` runs on each partition (see
+    :doc:`/dask`). Also available as ``ddf.alpha.hull(by=...)``.
 
     Parameters
     ----------
     ddf : dask_geopandas.GeoDataFrame or dask_geopandas.GeoSeries
         Point geometries.
     by : str or list of str, optional
-        Column name(s) to group by (values, unlike in the eager call, are not
-        accepted: assign them as a column). None: one hull of all the points,
-        computed in one partition.
+        Column name(s) to group by (not values: assign them as a column).
+        None: one hull of all the points, in one partition.
     npartitions : int, optional
         Partitions of the shuffle (default: as many as ``ddf`` has).
     **options
         The options of :func:`geoalpha.hull`, with these differences:
 
-        - ``crs="auto"``: whether all points fit one UTM zone is decided once,
-          for the whole dataset;
-        - ``sort=True`` gathers the result into one partition, as the eager
-          call returns it; ``sort=False`` leaves it in the shuffle's partitions;
-        - ``progress`` must not be True (use dask's progress reporting) and
-          ``n_jobs`` must be None or 1 (dask spreads the partitions).
+        - ``crs="auto"``: one UTM zone or not is decided for the whole dataset;
+        - ``sort=True`` gathers the result into one partition (``sort=False``
+          leaves it in the shuffle's partitions);
+        - ``progress`` must not be True, ``n_jobs`` must be None or 1.
 
     Returns
     -------
@@ -268,17 +264,15 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
     Raises
     ------
     InvalidInputError
-        For ``by`` values that are not column names, a column that does not
-        exist, ``n_jobs`` other than None or 1, ``progress=True`` or unknown
-        options. Errors on the data themselves (non-point geometries,
-        coordinates out of range) are raised by ``.compute()``.
+        For ``by`` that is not a column, ``n_jobs`` other than None or 1,
+        ``progress=True`` or bad options. Errors on the data themselves are
+        raised by ``.compute()``.
 
     Notes
     -----
     Warnings about degenerate groups come where the partitions are computed
     (with ``distributed``: in the worker logs); those about the set-up and
-    bad rows once, for the whole dataset, as the eager call words them.
-    On a cluster (a ``distributed.Client``), each worker needs geoalpha.
+    bad rows once, for the whole dataset. Each worker needs geoalpha.
 
     .. versionadded:: 0.1.0
 
@@ -315,7 +309,7 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
             "progress=True does not apply to dask-geopandas input; use "
             "dask.diagnostics.ProgressBar or distributed.progress"
         )
-    opts = opts.replace(progress=False, n_jobs=1)
+    opts = dataclasses.replace(opts, progress=False, n_jobs=1)
     names = _key_names(ddf, by)
     keys = group(ddf._meta, by, opts).keys  # the eager result's columns and dtypes
     meta = empty_result(keys, ddf._meta.crs, result_geometry_name(ddf._meta, keys))

@@ -1,10 +1,8 @@
-"""Exception and warning classes raised by geoalpha.
+"""Exception and warning classes raised by geoalpha, and their wording.
 
-Every error geoalpha raises on bad input derives from :class:`GeoAlphaError`
-(and from :class:`ValueError`, so ``except ValueError`` keeps working); every
-warning derives from :class:`GeoAlphaWarning`. Messages name options with
-:func:`setting`, as the user spells them: ``crs='auto'`` in Python, ``--crs
-auto`` in the ``geoalpha`` command.
+Errors on bad input derive from :class:`GeoAlphaError` (a :class:`ValueError`),
+warnings from :class:`GeoAlphaWarning`. Messages name options with
+:func:`setting`: ``crs='auto'`` in Python, ``--crs auto`` in the command.
 """
 
 from __future__ import annotations
@@ -35,9 +33,8 @@ __all__ = [
     "spelled",
 ]
 
-#: The ``geoalpha`` command's flag of each keyword (``{"n_jobs": "--jobs",
-#: "dropna": "--dropna/--no-dropna", "hull()": "geoalpha", ...}``, from its
-#: option definitions) while it runs; None in Python.
+#: The ``geoalpha`` command's flag of each keyword while it runs
+#: (``{"n_jobs": "--jobs", "hull()": "geoalpha", ...}``); None in Python.
 FLAGS: contextvars.ContextVar[Mapping[str, str] | None] = contextvars.ContextVar(
     "geoalpha_flags", default=None
 )
@@ -102,12 +99,8 @@ def first_n(items: Iterable, limit: int = 10, sep: str = ", ") -> str:
 
     Examples
     --------
-    >>> first_n([4, 9, 12])
-    '4, 9, 12'
-    >>> first_n(range(100), limit=3)
-    '0, 1, 2, ...'
-    >>> first_n(["'DC' (1 row)", "'GU' (1 row)"], sep="; ")
-    "'DC' (1 row); 'GU' (1 row)"
+    >>> first_n(range(100), limit=3), first_n(["'DC'", "'GU'"], sep="; ")
+    ('0, 1, 2, ...', "'DC'; 'GU'")
     """
     shown = [str(item) for item in itertools.islice(items, limit + 1)]
     more = ", ..." if len(shown) > limit else ""
@@ -121,12 +114,10 @@ def did_you_mean(name: object, choices: Iterable) -> str:
 
     Examples
     --------
-    >>> did_you_mean("stat", ["state", "code", "geometry"])
-    " (did you mean 'state'?)"
+    >>> did_you_mean("stat", ["state", "code"]), did_you_mean("zzz", ["state"])
+    (" (did you mean 'state'?)", '')
     >>> did_you_mean("LATITUDE", ["lon", "latitude"])
     " (did you mean 'latitude'?)"
-    >>> did_you_mean("zzz", ["state"])
-    ''
     """
     names = [str(c) for c in choices]
     close = difflib.get_close_matches(str(name), names, n=1, cutoff=0.6)
@@ -151,10 +142,6 @@ def spelled(term: str) -> str:
 def setting(name: str, *value: Any) -> str:
     """Spell option ``name`` (set to ``value``) as the user gives it.
 
-    ``name=value`` in Python; the flag of :data:`FLAGS` in the ``geoalpha``
-    command (None is ``none``, a list is comma-separated, False the ``--no-``
-    flag).
-
     Parameters
     ----------
     name : str
@@ -165,7 +152,9 @@ def setting(name: str, *value: Any) -> str:
     Returns
     -------
     str
-        ``"crs='auto'"`` or ``"--crs auto"``; ``"crs="`` or ``"--crs"``.
+        ``name=value`` in Python, ``"crs='auto'"``; the flag of :data:`FLAGS`
+        in the command, ``"--crs auto"`` (None is ``none``, a list is
+        comma-separated, False the ``--no-`` flag).
 
     Examples
     --------

@@ -1,9 +1,8 @@
 """``hull()``: one tight polygon per group of points in a GeoDataFrame.
 
-The front door of the GeoDataFrame layer: :func:`hull` checks the options
-(:class:`geoalpha.options.Options`, where every option is defined once) and
-hands the frame to the pipeline of named stages in :mod:`geoalpha.frame.pipeline`,
-or a dask-geopandas frame to :func:`geoalpha.dask.hull`.
+:func:`hull` checks the options (:class:`geoalpha.options.Options`) and hands
+the frame to :mod:`geoalpha.frame.pipeline`, a dask-geopandas frame to
+:func:`geoalpha.dask.hull`.
 """
 
 from __future__ import annotations
@@ -32,9 +31,8 @@ def hull(gdf, by=None, **options):
     """Tightest single polygon around each group of points.
 
     For every group, finds the optimal alpha exactly (the largest alpha whose
-    alpha shape is one polygon containing every point of the group) and
-    returns the polygons in a GeoDataFrame in the input CRS, one row per
-    group, ready for ``to_file``. Also available as ``gdf.alpha.hull(...)``.
+    alpha shape is one polygon containing every point of the group); one row
+    per group, in the input CRS. Also available as ``gdf.alpha.hull(...)``.
 
     Parameters
     ----------
@@ -54,49 +52,36 @@ def hull(gdf, by=None, **options):
         ``alpha`` (1/metre in the computation CRS; nan for the methods
         without one and for degenerate groups; 0 for the convex hull),
         ``radius`` (1/alpha, metres), ``n_points`` (input rows of the group),
-        ``n_parts`` (polygons in the geometry), ``area_m2`` (area of the
-        geometry on the WGS84 ellipsoid, whatever ``crs``; with ``crs=None``,
-        the planar area in the input's units), ``crs_used`` (the computation
-        CRS), ``method``
-        and ``geometry`` (Polygon; MultiPolygon when ``components > 1``, when a
-        group is split at the antimeridian, or, for ``"concave"``/``"knn"``,
-        when a hull built in metres touches itself in the input CRS and is
-        repaired). Polygon vertices are input coordinates (except for
-        degenerate buffers and antimeridian cuts).
+        ``n_parts``, ``area_m2`` (on the WGS84 ellipsoid; with ``crs=None``,
+        planar, in the input's units), ``crs_used`` (the computation CRS),
+        ``method`` and ``geometry`` (a Polygon; a MultiPolygon with
+        ``components > 1``, at the antimeridian, or for a ``"concave"`` or
+        ``"knn"`` hull repaired in the input CRS). Polygon vertices are input
+        coordinates (except for degenerate buffers and antimeridian cuts).
 
     Raises
     ------
     InvalidInputError
-        For non-point geometries (unless ``vertices=True``), a ``by`` column
-        that does not exist, input without CRS (unless ``crs=None``),
-        longitude/latitude out of range, NaN coordinates, bad or unknown
-        options (see :class:`geoalpha.options.Options`). The message names
-        the rows, columns or option.
+        For non-point geometries (unless ``vertices=True``), a missing ``by``
+        column, input without CRS (unless ``crs=None``), coordinates out of
+        range, bad or unknown options; the message names the rows, columns or
+        option.
 
     Warns
     -----
-    OutlierWarning
-        Groups that left points out (``outliers``), with their counts.
-    DroppedRowsWarning
-        Rows with a missing, empty or NaN geometry or a missing group key.
-    DegenerateGroupWarning
-        Groups with fewer than 3 distinct points or all collinear.
-    AntimeridianWarning
-        Groups across +-180 degrees, returned as split MultiPolygons.
+    OutlierWarning, DroppedRowsWarning, DegenerateGroupWarning, AntimeridianWarning
+        Points left out (``outliers``), rows dropped, groups without alpha
+        shape, groups split at +-180 degrees.
     GroupingWarning
-        ``by`` makes more groups than half the rows (from 50 rows on): a
-        wrong column? (:func:`geoalpha.frame.checks.check_grouping`)
+        ``by`` makes more groups than half the rows: a wrong column?
+        (:func:`geoalpha.frame.checks.check_grouping`)
     CRSWarning
-        The computation CRS (a forced ``crs``, or projected input kept by
-        ``crs="auto"``) stretches areas by more than 2 % where the points
-        are, so ``radius`` and ``alpha`` are not in true metres (``area_m2``
-        is: it is measured on the ellipsoid)
-        (:func:`geoalpha.frame.checks.check_distortion`).
+        The computation CRS stretches areas by more than 2 % where the
+        points are (:func:`geoalpha.frame.checks.check_distortion`).
 
     Notes
     -----
-    The accessor is named ``alpha``, so on a result ``hulls["alpha"]`` is
-    the column and ``hulls.alpha`` the accessor.
+    On a result, ``hulls["alpha"]`` is the column, ``hulls.alpha`` the accessor.
 
     .. versionadded:: 0.1.0
 
@@ -115,12 +100,11 @@ def hull(gdf, by=None, **options):
     >>> hulls.geom_type.unique().tolist(), hulls.crs.to_epsg()
     (['Polygon'], 4326)
     """
-    opts = Options.from_kwargs(options)
     if _is_dask(gdf):
         from geoalpha.dask import hull as dask_hull
 
-        return dask_hull(gdf, by, **opts.as_dict())
-    return run(as_frame(gdf), by, opts)[0]
+        return dask_hull(gdf, by, **options)  # which checks the options
+    return run(as_frame(gdf), by, Options.from_kwargs(options))[0]
 
 
 hull.__signature__ = _options.signature(hull)
@@ -132,12 +116,8 @@ def outlier_rows(gdf, by=None, **options):
 
     Parameters
     ----------
-    gdf : GeoDataFrame or GeoSeries
-        The points, as for :func:`hull`.
-    by : str, list of str, or array_like, optional
-        The groups, as for :func:`hull`.
-    **options
-        The options of :func:`hull`, ``outliers`` included.
+    gdf, by, **options
+        As for :func:`hull` (``outliers`` included).
 
     Returns
     -------

@@ -1,15 +1,10 @@
 """The options of :func:`geoalpha.hull`, defined once.
 
-:class:`Options` declares every option of ``hull()`` (and so of
-``gdf.alpha.hull``, :func:`geoalpha.dask.hull` and the ``geoalpha hull``
-command): its default, allowed values, check, documentation and flag. From it
-come the signature and option docstring of :func:`geoalpha.hull`
-(:func:`signature`, :func:`docstring`), the check of the values (also run by
-the array API with :func:`check`; ``tests/test_options.py`` compares the
-defaults its signatures spell out) and the command's options
-(:mod:`geoalpha.cli`: one click option per field, checked at the flag).
-
-Imports only the standard library, so that ``geoalpha --help`` stays fast.
+:class:`Options` declares each option's default, check, documentation and
+flag; from it come hull()'s signature and docstring (:func:`signature`,
+:func:`docstring`), the array API's checks (:func:`check`) and the command's
+click options (:mod:`geoalpha.cli`). Imports only the standard library, so that
+``geoalpha --help`` stays fast.
 """
 
 from __future__ import annotations
@@ -54,25 +49,18 @@ class OptionMeta:
     ----------
     kind : str
         ``"bool"``, ``"int"``, ``"float"``, ``"number"`` (an int stays an
-        int, anything else real becomes a float), ``"choice"`` or ``"crs"``.
+        int, another real a float), ``"choice"`` or ``"crs"``.
     doc : str
         numpydoc text of the parameter (type line, then the description).
-    choices : tuple, optional
-        Allowed values (``kind="choice"``).
-    low, high : float, optional
-        Bounds of a number; ``low_open`` excludes ``low``.
-    optional : bool
-        None is allowed (and means "not set").
-    flags : tuple of str
-        Command-line spelling, e.g. ``("--holes/--no-holes",)`` or
-        ``("-j", "--jobs")``.
-    metavar, help : str
-        Command-line metavar and help text.
+    choices, low, high, low_open, optional
+        Allowed values, bounds (``low_open`` excludes ``low``), None allowed.
+    what : str, optional
+        The allowed values in words, when the fields above do not say it.
+    flags, metavar, help
+        Command-line spelling (``("--holes/--no-holes",)``), metavar, help.
     validate : callable, optional
-        A check of its own for a rule the fields above cannot say: takes the
-        value, returns it (normalised) or raises
-        :class:`~geoalpha.errors.InvalidInputError`; used instead of the
-        generic check.
+        A check of its own (returns the value or raises
+        :class:`~geoalpha.errors.InvalidInputError`) instead of the generic one.
     """
 
     kind: str
@@ -82,6 +70,7 @@ class OptionMeta:
     high: float | None = None
     low_open: bool = False
     optional: bool = False
+    what: str | None = None
     flags: tuple[str, ...] = ()
     metavar: str | None = None
     help: str = ""
@@ -89,6 +78,8 @@ class OptionMeta:
 
     def describe(self) -> str:
         """Say in words what values are allowed (for error messages)."""
+        if self.what is not None:
+            return self.what
         if self.kind == "choice":
             text = "one of " + ", ".join(map(repr, self.choices))
         elif self.kind == "bool":
@@ -157,21 +148,8 @@ def _check_crs(value):
     return value
 
 
-def _check_grow(value):
-    if (
-        _is_bool(value)
-        or not isinstance(value, numbers.Real)
-        or not math.isfinite(value)
-        or value < 0
-    ):
-        raise InvalidInputError(
-            f"{spelled('grow')} must be a distance >= 0 (metres); got {value!r}"
-        )
-    return float(value)
-
-
-def check_outliers(outliers) -> None:
-    """Raise :class:`InvalidInputError` unless ``outliers`` is a valid budget.
+def check_outliers(outliers):
+    """Return ``outliers``, or raise :class:`InvalidInputError` unless a valid budget.
 
     Parameters
     ----------
@@ -182,7 +160,7 @@ def check_outliers(outliers) -> None:
     Examples
     --------
     >>> check_outliers(0.02), check_outliers(3)
-    (None, None)
+    (0.02, 3)
     >>> check_outliers(1.5)
     Traceback (most recent call last):
     ...
@@ -198,11 +176,7 @@ def check_outliers(outliers) -> None:
             f"{spelled('outliers')} must be a fraction in [0, 1) or a count >= 0 "
             f"(an int); got {outliers!r}"
         )
-
-
-def _check_outliers(value):
-    check_outliers(value)
-    return value
+    return outliers
 
 
 def option(default: Any, **meta) -> Any:
@@ -232,9 +206,8 @@ class Options:
 
     ``Options(**kwargs)`` checks each value (an
     :class:`~geoalpha.errors.InvalidInputError` names the option and what it
-    accepts) and fills in the defaults. The fields are in the order of the
-    signature of :func:`geoalpha.hull`; ``dataclasses.fields(Options)`` (or
-    :data:`FIELDS`) lists them with their :class:`OptionMeta`.
+    accepts) and fills in the defaults. :data:`FIELDS` lists the fields, in
+    hull()'s signature order, with their :class:`OptionMeta`.
 
     Examples
     --------
@@ -279,20 +252,14 @@ class Options:
     crs: Any = option(
         "auto",
         kind="crs",
-        doc='"auto", CRS or None, default "auto"\n'
-        '    Metric CRS of the computation. ``"auto"``: lon/lat input (and\n'
-        "    Mercator input such as EPSG:3857, whose scale is off by\n"
-        "    1/cos(latitude)) goes to one UTM zone when all points fit it,\n"
-        "    else to a UTM zone or a local Lambert azimuthal equal-area CRS\n"
-        "    per group; other projected input is used as it is. A projected\n"
-        "    CRS forces that CRS for every group. A CRS in feet is scaled to\n"
-        "    metres in every case, so alpha is always in 1/metre and\n"
-        "    ``area_m2`` in square metres. None uses the coordinates as\n"
-        "    planar numbers (alpha in 1/degree for lon/lat, as in the seed\n"
-        '    paper). ``"sphere"``: no projection; every group is computed on\n'
-        "    the sphere of WGS84's authalic radius (6,371,007.2 m), its radius\n"
-        "    in metres along the sphere (for groups that span a continent;\n"
-        "    see the sphere page of the user guide).",
+        doc='"auto", "sphere", CRS or None, default "auto"\n'
+        '    Metric CRS of the computation. ``"auto"``: lon/lat (and Mercator)\n'
+        "    input goes to one UTM zone when all points fit it, else to a UTM\n"
+        "    zone or a local equal-area CRS per group; projected input is kept.\n"
+        "    A projected CRS forces that CRS (feet are scaled to metres). None:\n"
+        "    the coordinates as planar numbers (alpha in 1/degree for lon/lat).\n"
+        '    ``"sphere"``: no projection, on the sphere of WGS84\'s authalic\n'
+        "    radius (continent-wide groups; see the sphere page of the guide).",
         flags=("--crs",),
         metavar="auto|sphere|CRS|none",
         help="Metric CRS the shapes are computed in; 'auto' picks a UTM zone "
@@ -413,9 +380,7 @@ class Options:
         None,
         kind="bool",
         optional=True,
-        doc="bool, optional\n    Show one progress bar through every phase (group, "
-        "project, compute,\n    check; see :mod:`geoalpha.frame.progress`; needs "
-        "``tqdm``: "
+        doc="bool, optional\n    Show one progress bar through every phase (needs "
         '``pip install\n    "geoalpha[progress]"``). Default: only for long runs on a '
         "terminal.",
         flags=("--progress/--no-progress",),
@@ -425,10 +390,8 @@ class Options:
         None,
         kind="int",
         doc="int, optional\n    Threads of the compiled kernel, which spreads the "
-        "groups over them\n    (and the radii and sorts of one large group). Default "
-        "(None, or -1):\n    every core; 1: one thread. Inside a dask-geopandas "
-        "partition the\n    kernel runs on one thread (dask spreads the "
-        "partitions). The result\n    is the same for every value.",
+        "groups over them.\n    None or -1: every core. The result is the same "
+        "for every value.",
         flags=("-j", "--jobs"),
         metavar="N",
         validate=_check_n_jobs,
@@ -438,16 +401,13 @@ class Options:
     outliers: int | float = option(
         0,
         kind="number",
-        validate=_check_outliers,
+        validate=check_outliers,
         doc="float or int, default 0\n"
-        '    Rows each group may leave out (``method="alpha"``, exact search,\n'
-        "    no fixed ``alpha``): a float in ``[0, 1)`` is a fraction of the\n"
-        "    group's rows (``k = floor(outliers * rows)``), an int a count\n"
-        "    ``k``; a location holding several rows weighs as many. The optimum\n"
-        "    is then the largest alpha at which at most ``components`` pieces\n"
-        "    cover at least ``rows - k`` rows; only those pieces are kept, and\n"
-        "    ``n_outliers <= k``. :func:`outlier_rows` tells which input rows\n"
-        "    were left out.",
+        '    Rows each group may leave out (``method="alpha"``, exact search):\n'
+        "    a fraction in ``[0, 1)`` of its rows (``k = floor(outliers * rows)``)\n"
+        "    or a count ``k``. The optimum is then the largest alpha at which at\n"
+        "    most ``components`` pieces cover ``rows - k`` rows or more; only\n"
+        "    they are kept. :func:`outlier_rows` tells which rows were left out.",
         flags=("--outliers",),
         metavar="FRACTION|COUNT",
         help="Rows each group may leave out: a fraction of its rows (0.02) or a "
@@ -458,13 +418,11 @@ class Options:
         0.0,
         kind="float",
         low=0.0,
-        validate=_check_grow,
+        what="a distance >= 0 (metres)",
         doc="float, default 0.0\n"
         "    Grow every hull (not the degenerate buffers) by this distance in\n"
-        "    metres (coordinate units with ``crs=None``), with rounded\n"
-        "    corners, so that every point is strictly inside. ``alpha`` and\n"
-        "    ``radius`` stay those of the optimal shape; ``area_m2`` is the\n"
-        "    area of the grown polygon. 0 keeps the exact shape.",
+        "    metres (coordinate units with ``crs=None``), so that every point\n"
+        "    is strictly inside; ``area_m2`` is the grown polygon's area.",
         flags=("--grow",),
         metavar="M",
         help="Grow every hull by M metres (in coordinate units with --crs none) so "
@@ -504,14 +462,6 @@ class Options:
             )
         return cls(**kwargs)
 
-    def replace(self, **changes) -> Options:
-        """Return a copy with ``changes`` (checked)."""
-        return dataclasses.replace(self, **changes)
-
-    def as_dict(self) -> dict[str, Any]:
-        """Return the options as keyword arguments of :func:`geoalpha.hull`."""
-        return {name: getattr(self, name) for name in NAMES}
-
 
 #: The fields of :class:`Options`, in signature order.
 FIELDS: tuple[dataclasses.Field, ...] = dataclasses.fields(Options)
@@ -522,11 +472,10 @@ META: dict[str, OptionMeta] = {f.name: f.metadata["meta"] for f in FIELDS}
 
 
 def check(**values: Any) -> dict[str, Any]:
-    """Check some options on their own, as :class:`Options` checks them.
+    """Check some options on their own, with hull()'s rules and messages.
 
-    For calls that take a few of the options (the array API:
-    :func:`geoalpha.alpha_shapes`, :func:`geoalpha.optimal_alpha`, ...): the
-    same rule and the same message as ``hull()`` gives.
+    For the array API (:func:`geoalpha.alpha_shapes`, ...), which takes a few
+    of the options.
 
     Parameters
     ----------
@@ -565,7 +514,6 @@ def defaults(*names: str) -> dict[str, Any]:
     Parameters
     ----------
     *names : str
-        Option names.
 
     Returns
     -------

@@ -1,7 +1,7 @@
 """Attach an accessor class to frame classes, as pandas registers its accessors.
 
-Used by :mod:`geoalpha.accessor` (GeoPandas frames) and :mod:`geoalpha.dask`
-(dask-geopandas frames), so that neither imports the other's front end.
+Shared by :mod:`geoalpha.accessor` and :mod:`geoalpha.dask`, so that neither
+imports the other.
 """
 
 from __future__ import annotations
@@ -12,11 +12,7 @@ __all__ = ["CachedAccessor", "attach"]
 
 
 class CachedAccessor:
-    """Descriptor that builds the accessor on attribute access (as pandas does).
-
-    On the class it is the accessor class itself, on an instance an accessor
-    bound to that instance.
-    """
+    """Descriptor: the accessor class on the class, one bound to an instance on it."""
 
     def __init__(self, name: str, accessor: type):
         self._name = name
@@ -31,8 +27,7 @@ class CachedAccessor:
 def attach(classes, name: str, accessor: type) -> None:
     """Set ``cls.<name>`` to ``accessor`` on every class of ``classes``.
 
-    Warns (``UserWarning``) when that overrides an attribute that is not an
-    accessor attached here before.
+    Warns (``UserWarning``) when that overrides an attribute not attached here.
 
     Examples
     --------
