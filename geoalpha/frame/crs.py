@@ -1,9 +1,6 @@
-"""Metric CRS choice, longitude/latitude checks and antimeridian handling.
+"""The CRS round trip of :func:`geoalpha.hull` (:class:`Projection`) and its parts.
 
-:func:`check_lonlat`, :func:`metric_crs` (a UTM zone or a local equal-area CRS
-per group), :class:`Projection` (the whole round trip) and
-:func:`geodesic_areas` (``area_m2`` on the WGS84 ellipsoid), on numpy arrays;
-groups are integer codes ``0 .. n_groups - 1`` per point.
+On numpy arrays; groups are integer codes ``0 .. n_groups - 1`` per point.
 """
 
 from __future__ import annotations
@@ -83,9 +80,8 @@ def check_lonlat(lon: Any, lat: Any, labels: Any = None) -> None:
     Raises
     ------
     InvalidInputError
-        On NaN or infinite coordinates, latitudes outside [-90, 90] or
-        longitudes outside [-180, 180], naming the rows (and saying when
-        latitude and longitude look swapped).
+        On NaN, infinite or out-of-range coordinates, naming the rows (and
+        saying when latitude and longitude look swapped).
 
     Examples
     --------
@@ -131,7 +127,7 @@ _OWN_LAEA = re.compile(
 
 @functools.lru_cache(maxsize=1024)
 def _transformer(source: str, target: str) -> pyproj.Transformer:
-    """Return one cached (thread-safe) transformer per pair of CRS definitions.
+    """Return one cached transformer per pair of CRS definitions.
 
     A PROJ pipeline between WGS 84 and our LAEA CRSs (100 times faster to build).
     """
@@ -216,12 +212,11 @@ def metric_crs(
     n_groups : int
         Number of groups.
     crs : "auto", "auto-group" or CRS, default "auto"
-        ``"auto"``: one WGS 84 UTM zone for all groups when every point lies
-        within ``UTM_HALF_WIDTH`` degrees of its central meridian and 84 of
-        the equator; else, per group, its centre's UTM zone if it fits so,
-        or a Lambert azimuthal equal-area CRS centred on it. ``"auto-group"``:
-        the per-group choice only. Another CRS (checked by
-        :func:`target_crs`) is used for every group.
+        ``"auto"``: one UTM zone for all groups when every point lies within
+        ``UTM_HALF_WIDTH`` degrees of its central meridian and 84 of the
+        equator; else, per group, its centre's UTM zone if it fits so, or a
+        local Lambert azimuthal equal-area CRS. ``"auto-group"``: the
+        per-group choice only. Another CRS is used for every group.
     source_crs : CRS, optional
         The geographic CRS of ``lon``/``lat``; default EPSG:4326 (WGS 84).
     labels : array_like, optional
@@ -239,9 +234,8 @@ def metric_crs(
     Raises
     ------
     InvalidInputError
-        On bad coordinates or codes, a ``crs`` that is not a projected metric
-        CRS, a ``source_crs`` that is not geographic, or points the CRS
-        cannot project (named).
+        On bad input (coordinates, codes, CRSs) or points the CRS cannot
+        project (named).
 
     Examples
     --------
@@ -352,12 +346,8 @@ def geodesic_areas(
 ) -> np.ndarray:
     """Return the areas (m²) on the WGS84 ellipsoid of polygons in ``source``.
 
-    The vertices are moved to longitude/latitude (EPSG:4326) in one
-    vectorised transform unless ``source`` is EPSG:4326 already (on another
-    datum, the transform shifts them to WGS84's); the edges are geodesics
-    between them (:func:`geoalpha.arrays.area.geodesic_areas`, in the
-    compiled kernel). Polygons split at the antimeridian get the sum of
-    their parts; a ring around a pole, the cap it encloses.
+    The vertices moved to EPSG:4326 in one transform, then
+    :func:`geoalpha.arrays.area.geodesic_areas` (edges are geodesics).
 
     Parameters
     ----------
@@ -386,10 +376,9 @@ def geodesic_areas(
 class Projection:
     """The whole CRS round trip of :func:`geoalpha.hull`: input -> metres -> input.
 
-    ``crs=None`` computes in the coordinates as they are; ``crs="auto"``
-    sends lon/lat and Mercator input through :func:`metric_crs` and keeps
-    other projected input; a projected ``crs=`` is used for every group.
-    Feet are scaled to metres.
+    ``crs=None``: the coordinates as they are; ``crs="auto"``: lon/lat and
+    Mercator input through :func:`metric_crs`, other projected input kept;
+    a projected ``crs=`` for every group. Feet are scaled to metres.
 
     Parameters
     ----------
@@ -419,8 +408,7 @@ class Projection:
     Raises
     ------
     InvalidInputError
-        Input without CRS (unless ``crs=None``), a bad ``crs=``, lon/lat out
-        of range or points the CRS cannot project (named by ``labels``).
+        Input without CRS (unless ``crs=None``), or as :func:`metric_crs`.
 
     Examples
     --------
