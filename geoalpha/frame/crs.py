@@ -82,16 +82,6 @@ def check_lonlat(lon: Any, lat: Any, labels: Any = None) -> None:
     InvalidInputError
         On NaN, infinite or out-of-range coordinates, naming the rows (and
         saying when latitude and longitude look swapped).
-
-    Examples
-    --------
-    >>> from geoalpha.frame.crs import check_lonlat
-    >>> check_lonlat([-0.1, 2.35], [51.5, 48.86])
-    >>> check_lonlat([51.5, 48.86], [-0.1, 102.0])  # doctest: +ELLIPSIS
-    Traceback (most recent call last):
-    ...
-    geoalpha.errors.InvalidInputError: ...latitude outside [-90, 90] in 1 row \
-(position 1); latitude and longitude look swapped (x holds latitudes?)
     """
     lon, lat = _as_coords(lon, lat)
     bad = ~(np.isfinite(lon) & np.isfinite(lat))
@@ -239,14 +229,11 @@ def metric_crs(
 
     Examples
     --------
-    >>> from geoalpha.frame.crs import metric_crs, crs_name
     >>> lon = [-0.13, -0.10, -0.12, -2.24, -2.20, -2.25]  # London, Manchester
     >>> lat = [51.50, 51.52, 51.49, 53.48, 53.47, 53.50]
     >>> xy, crs_list, crs_index = metric_crs(lon, lat, [0, 0, 0, 1, 1, 1], 2)
-    >>> [crs_name(c) for c in crs_list], crs_index.tolist()
-    (['EPSG:32630'], [0, 0])
-    >>> xy.shape
-    (6, 2)
+    >>> [c.to_epsg() for c in crs_list], crs_index.tolist()
+    ([32630], [0, 0])
     """
     lon, lat = _as_coords(lon, lat)
     codes = check_codes(codes, n_groups, lon.size)
@@ -361,9 +348,6 @@ def geodesic_areas(
     Examples
     --------
     >>> import shapely
-    >>> cell = shapely.box(0, 0, 1, 1)  # one degree at the equator
-    >>> float(geodesic_areas(np.array([cell]), "EPSG:4326")[0].round(-3))
-    12308778000.0
     >>> one_km = shapely.box(500000, 0, 501000, 1000)  # UTM 30N: scale 0.9996
     >>> float(geodesic_areas(np.array([one_km]), "EPSG:32630")[0].round(-2))
     1000800.0
@@ -412,8 +396,6 @@ class Projection:
 
     Examples
     --------
-    >>> import numpy as np
-    >>> from geoalpha.frame.crs import Projection
     >>> lonlat = np.array([[-0.13, 51.50], [-0.10, 51.52], [-0.12, 51.49]])
     >>> proj = Projection(lonlat, np.zeros(3, dtype=int), 1, "EPSG:4326", "auto")
     >>> proj.names.tolist(), proj.unit, bool((proj.out == lonlat).all())

@@ -353,12 +353,8 @@ def scan_rows(frame, codes: np.ndarray, vertices: bool, n_jobs: int | None = 1):
         coords, which = coords[keep], which[keep]
     infinite = np.zeros(len(geoms), dtype=bool)
     infinite[which[~np.isfinite(coords).all(axis=1)]] = True
-    masks = {
-        "non_point": non_point & (not vertices),
-        "missing": missing,
-        "no_key": no_key,
-        "infinite": infinite,
-    }
+    kinds = (non_point & (not vertices), missing, no_key, infinite)
+    masks = dict(zip(_ROW_KINDS, kinds, strict=True))
     bad = masks["non_point"]  # (geom_type names every row: only when needed)
     types = Counter(np.asarray(frame.geom_type)[bad].tolist()) if bad.any() else {}
     report = RowReport(
