@@ -123,7 +123,6 @@ class Hulls(NamedTuple):
     alpha: np.ndarray
     labels: np.ndarray  #: the ``method`` column
     degenerate: np.ndarray  #: no shape (fewer than 3 distinct points, a line)
-    keep: np.ndarray  #: groups that get a row
     outlier: np.ndarray  #: per point: left out of its group's hull (outliers=)
     #: why a group has no shape: 0, a code of :data:`geoalpha.kernel.REASONS`,
     #: or 5 (no valid polygon holding its points in the output coordinates)
@@ -132,6 +131,7 @@ class Hulls(NamedTuple):
     #: vertex of its group's (not tested by :func:`guarantee` while it is that)
     made: np.ndarray
     certain: np.ndarray
+    keep: np.ndarray | None = None  #: groups that get a row (None: all)
 
 
 def run(frame, by, options: Options, *, checks: bool = True, rows: bool = True):
@@ -232,9 +232,8 @@ def as_frame(data):
 def group(frame, by, options: Options) -> Groups:
     """Group code per row (-1: dropped missing key) and the key table.
 
-    ``by`` is what :meth:`GeoDataFrame.dissolve` takes: column names, index
-    level names, or one value per row; None is one group of all rows (none
-    for an empty frame).
+    ``by`` is what :meth:`GeoDataFrame.dissolve` takes; None is one group of
+    all rows (none for an empty frame).
     """
     if by is None:
         return Groups(np.zeros(len(frame), dtype=np.int64), (), (), min(len(frame), 1))
@@ -549,7 +548,6 @@ def compute(
             alpha=res.alpha,
             labels=np.full(n_groups, method if exact else options.search, dtype=object),
             degenerate=res.degenerate,
-            keep=np.ones(n_groups, dtype=bool),
             outlier=res.outlier,
             reason=res.reason,
             made=res.geometry,
@@ -582,7 +580,6 @@ def _comparison(points, proj, n_groups: int, options: Options, names, bar) -> Hu
         alpha=np.full(n_groups, np.nan),
         labels=made.labels,
         degenerate=made.degenerate,
-        keep=np.ones(n_groups, dtype=bool),
         outlier=np.zeros(len(points.codes), dtype=bool),
         reason=_reasons(made.degenerate, points, proj),
         made=made.geometry,
@@ -597,10 +594,7 @@ def degenerate_policy(
     proj: gcrs.Projection,
     options: Options,
 ) -> Hulls:
-    """Apply ``degenerate=`` to the groups without a shape, and name them in a warning.
-
-    A group whose rows were all dropped (no point left) is degenerate too.
-    """
+    """Apply ``degenerate=`` to groups without a shape (or point); warn about them."""
     n_points = points.n_points
     degenerate = hulls.degenerate | (n_points == 0)
     which = np.flatnonzero(degenerate)
@@ -608,7 +602,7 @@ def degenerate_policy(
         return hulls
     geometry = hulls.geometry.copy()
     area = np.array(hulls.area, dtype=np.float64)
-    keep = hulls.keep.copy()
+    keep = hulls.keep
     policy = options.degenerate
     if policy == "buffer":
         codes = points.codes
@@ -644,7 +638,7 @@ def degenerate_policy(
         area[which] = 0.0
         done = "their rows hold an empty polygon"
     else:
-        keep[which] = False
+        keep = ~degenerate
         done = f"they were dropped ({n_points[which].sum()} rows)"
     warnings.warn(
         _why_degenerate(hulls.reason, which, groups, n_points, proj.wide)
@@ -773,12 +767,10 @@ def guarantee(
 ) -> Hulls:
     """Check every group's polygon once, in the output CRS: repaired, or degenerate.
 
-    A valid (Multi)Polygon covering every point of its group (distance 0),
-    repaired where needed (:func:`geoalpha.arrays.guarantee.enforce`), or the
-    group is degenerate (:class:`DegenerateGroupWarning`). Points that are
-    vertices of the polygon :func:`compute` made are not tested where a group
-    still has it. Not checked: rows left out (``outliers=``), coverage at a
-    given ``alpha``, groups wider than 180 degrees of longitude, and a point
+    A valid (Multi)Polygon covering every point of its group
+    (:func:`geoalpha.arrays.guarantee.enforce`), or the group is degenerate
+    (:class:`DegenerateGroupWarning`). Not checked: rows left out, coverage at
+    a given ``alpha``, groups wider than 180 degrees of longitude, and a point
     at -180 degrees held at +180 (or the reverse; :func:`warn_output_crs`).
     """
     xy, codes, geometry = points.coords, points.codes, hulls.geometry
@@ -925,7 +917,6 @@ def table(
     geometry = hulls.geometry
     with np.errstate(divide="ignore"):
         radius = 1.0 / hulls.alpha
-    keep = hulls.keep
     values = {
         "alpha": hulls.alpha,
         "radius": radius,
@@ -941,7 +932,8 @@ def table(
         "method": hulls.labels,
     }
     columns = groups.columns
-    if not keep.all():
+    keep = hulls.keep
+    if keep is not None:
         values = {name: np.asarray(v)[keep] for name, v in values.items()}
         geometry, columns = geometry[keep], [c[keep] for c in columns]
     keys = dict(zip(groups.names, columns, strict=True))
