@@ -77,9 +77,8 @@ class SphereProjection(gcrs.Projection):
             if len(maybe):
                 self.polar[maybe] = polar_groups(coords, codes, maybe)
             if self.polar.any():
-                mine = self.polar[codes]
-                if self.out is not coords:
-                    self.out = self.out.copy()
+                if self.out is not coords:  # (a copy output_lonlat made)
+                    mine = self.polar[codes]
                     self.out[mine] = coords[mine]
                 self.crossing &= ~self.polar
                 self.wide &= ~self.polar
