@@ -1,17 +1,10 @@
 """``hull()`` on one in-memory GeoDataFrame, as a pipeline of named stages.
 
-:func:`run` is the data path of :func:`geoalpha.hull`, one function per stage::
-
-    frame ─ group ─ check_grouping ─ read_points ─ check_distortion ─ project
-          ─ compute ─ grow ─ split_at_antimeridian ─ guarantee
-          ─ degenerate_policy ─ warn_output_crs ─ area_m2 ─ table
-
-Each stage hands its result to the next by return value; values are checked
-once, where they enter (:func:`group`, :func:`read_points`), and
-:func:`guarantee` is the one check of every polygon, in the output CRS. One
-progress bar (:mod:`geoalpha.frame.progress`) follows the phases ``group``,
-``project``, ``compute`` and ``check``. :func:`geoalpha.hull` checks the
-options and calls :func:`run` (:func:`geoalpha.dask.hull`: on every partition).
+:func:`run` calls one function per stage, each handing its result to the next
+by return value: ``group``, ``check_grouping``, ``read_points``,
+``check_distortion``, ``project``, ``compute``, ``grow``,
+``split_at_antimeridian``, ``guarantee``, ``degenerate_policy``,
+``warn_output_crs``, ``area_m2``, ``table`` (see docs/architecture.md).
 """
 
 from __future__ import annotations
@@ -55,13 +48,11 @@ from geoalpha.errors import (
 from geoalpha.frame import crs as gcrs
 from geoalpha.frame import progress
 from geoalpha.frame.checks import check_distortion, check_grouping
-from geoalpha.frame.progress import PROGRESS_MIN_GROUPS
 from geoalpha.frame.schema import RESULT_COLUMNS, result_frame, result_geometry_name
 from geoalpha.frame.sphere import SphereProjection
 from geoalpha.options import Options
 
 __all__ = [
-    "PROGRESS_MIN_GROUPS",
     "Groups",
     "Hulls",
     "Points",
@@ -86,11 +77,10 @@ _POINT_TYPES = (0, 4)  # shapely type ids of Point and MultiPoint
 
 
 class Groups:
-    """Output of :func:`group`: a code per row and the key of every group.
+    """Output of :func:`group`: a code per row and the key columns, as arrays.
 
-    The key columns are kept as arrays; the DataFrame :attr:`keys` is built
-    only when asked for (a message, dask's ``meta``): on small inputs
-    building DataFrames is a large share of the run.
+    The DataFrame :attr:`keys` is built only when asked for (dask's ``meta``):
+    on small inputs building DataFrames is a large share of the run.
     """
 
     __slots__ = ("_keys", "codes", "columns", "n_groups", "names")
@@ -102,12 +92,6 @@ class Groups:
         self.n_groups = n_groups  #: number of groups
         self._keys = None
 
-    @classmethod
-    def from_frame(cls, codes: np.ndarray, keys: pd.DataFrame) -> Groups:
-        """Make the groups whose keys are the rows of ``keys``."""
-        columns = [keys.iloc[:, j].array for j in range(keys.shape[1])]
-        return cls(codes, keys.columns, columns, len(keys))
-
     @property
     def keys(self) -> pd.DataFrame:
         """One row per group: the key column(s) (none for one group of all rows)."""
@@ -117,10 +101,6 @@ class Groups:
             )
             self._keys.columns = list(self.names)
         return self._keys
-
-    def take(self, which: np.ndarray) -> tuple[np.ndarray, ...]:
-        """Return the key columns of the groups ``which`` (positions or a mask)."""
-        return tuple(column[which] for column in self.columns)
 
 
 class Points(NamedTuple):
@@ -143,7 +123,6 @@ class Hulls(NamedTuple):
     alpha: np.ndarray
     labels: np.ndarray  #: the ``method`` column
     degenerate: np.ndarray  #: no shape (fewer than 3 distinct points, a line)
-    keep: np.ndarray  #: groups that get a row
     outlier: np.ndarray  #: per point: left out of its group's hull (outliers=)
     #: why a group has no shape: 0, a code of :data:`geoalpha.kernel.REASONS`,
     #: or 5 (no valid polygon holding its points in the output coordinates)
@@ -152,16 +131,16 @@ class Hulls(NamedTuple):
     #: vertex of its group's (not tested by :func:`guarantee` while it is that)
     made: np.ndarray
     certain: np.ndarray
+    keep: np.ndarray | None = None  #: groups that get a row (None: all)
 
 
 def run(frame, by, options: Options, *, checks: bool = True, rows: bool = True):
     """``hull(frame, by, **options)`` on an in-memory GeoDataFrame: every stage.
 
-    Returns the result table and, per row of ``frame``, whether it was left
-    out of its group's hull (``outliers=``; :func:`geoalpha.outlier_rows`).
+    Returns the result table and the row mask of :func:`geoalpha.outlier_rows`.
     The progress bar is the enclosing :func:`~geoalpha.frame.progress.phases`'s
-    (the command's) or its own. ``checks=False`` leaves out the set-up
-    warnings (:mod:`geoalpha.frame.checks`), ``rows=False`` the dropped rows'
+    or its own. ``checks=False`` leaves out the set-up warnings
+    (:mod:`~geoalpha.frame.checks`), ``rows=False`` the dropped rows'
     (:func:`report_rows`): :func:`geoalpha.dask.hull` makes them once.
     """
     outer = progress.current()
@@ -212,10 +191,7 @@ def _stages(frame, by, options, bar: progress.Phases, checks: bool, rows: bool):
 
 
 def _names(groups: Groups, which: np.ndarray, counts=None, value=None) -> str:
-    """Name groups by key for messages (with their row counts when given).
-
-    The key quoted whole, or ``value=repr``: each value; a missing one is ``nan``.
-    """
+    """Name groups by key (quoted whole, or each value by ``value``) for messages."""
     shown = which[:11]  # first_n shows 10, and "..." when there is an 11th
 
     def key(value) -> str:
@@ -256,9 +232,8 @@ def as_frame(data):
 def group(frame, by, options: Options) -> Groups:
     """Group code per row (-1: dropped missing key) and the key table.
 
-    ``by`` is what :meth:`GeoDataFrame.dissolve` takes: column names, index
-    level names, or one value per row; None is one group of all rows (none
-    for an empty frame).
+    ``by`` is what :meth:`GeoDataFrame.dissolve` takes; None is one group of
+    all rows (none for an empty frame).
     """
     if by is None:
         return Groups(np.zeros(len(frame), dtype=np.int64), (), (), min(len(frame), 1))
@@ -281,7 +256,8 @@ def group(frame, by, options: Options) -> Groups:
             grouped = frame.groupby(by, dropna=options.dropna, sort=options.sort)
             codes = grouped.ngroup().fillna(-1).to_numpy(dtype=np.int64)
             keys = grouped.size().index.to_frame(index=False)
-            groups = Groups.from_frame(codes, keys)
+            columns = [keys.iloc[:, j].array for j in range(keys.shape[1])]
+            groups = Groups(codes, keys.columns, columns, len(keys))
     except (ValueError, KeyError, TypeError) as err:
         raise InvalidInputError(f"hull(by=...) cannot group the rows: {err}") from err
     if len(groups.names) == 1 and isinstance(groups.names[0], int | None):
@@ -323,17 +299,12 @@ class _RowLabels:
         return np.asarray(self._index[self._rows[where]], dtype=object)
 
 
-#: Index labels a :class:`RowReport` keeps of each kind of bad row (10 shown,
-#: and "..." for an 11th: :func:`geoalpha.errors.first_n`).
+#: Index labels kept of each kind of bad row (first_n shows 10, "..." for an 11th).
 _SHOWN = 11
 
 
 class RowReport(NamedTuple):
-    """What :func:`scan_rows` found in some rows: how many bad rows, of what kind.
-
-    The input of :func:`report_rows`; :func:`merge_reports` adds up those of a
-    dask frame's partitions, so that the messages are the eager call's.
-    """
+    """What :func:`scan_rows` found: bad rows by kind; :func:`merge_reports` sums."""
 
     n_rows: int  #: rows scanned
     #: per kind ("non_point", "missing", "no_key", "infinite"): number of rows
@@ -348,13 +319,11 @@ _ROW_KINDS = ("non_point", "missing", "no_key", "infinite")
 
 
 def scan_rows(frame, codes: np.ndarray, vertices: bool, n_jobs: int | None = 1):
-    """Sort the rows of ``frame`` into usable and bad ones.
+    """Sort the rows of ``frame`` into usable and bad ones (on ``n_jobs`` threads).
 
-    A row is dropped when its geometry is missing or empty, has a NaN
-    coordinate (an empty point in WKB; a missing longitude or latitude in
-    ``points_from_xy``) or its group key is missing (``codes`` -1).
-    Non-point geometries (unless ``vertices``) and infinite coordinates are
-    errors. Large frames are read on ``n_jobs`` threads.
+    Dropped: a missing or empty geometry, a NaN coordinate (an empty WKB
+    point), a missing key (``codes`` -1). Errors: non-point geometries (unless
+    ``vertices``) and infinite coordinates.
 
     Returns
     -------
@@ -383,12 +352,8 @@ def scan_rows(frame, codes: np.ndarray, vertices: bool, n_jobs: int | None = 1):
         coords, which = coords[keep], which[keep]
     infinite = np.zeros(len(geoms), dtype=bool)
     infinite[which[~np.isfinite(coords).all(axis=1)]] = True
-    masks = {
-        "non_point": non_point & (not vertices),
-        "missing": missing,
-        "no_key": no_key,
-        "infinite": infinite,
-    }
+    kinds = (non_point & (not vertices), missing, no_key, infinite)
+    masks = dict(zip(_ROW_KINDS, kinds, strict=True))
     bad = masks["non_point"]  # (geom_type names every row: only when needed)
     types = Counter(np.asarray(frame.geom_type)[bad].tolist()) if bad.any() else {}
     report = RowReport(
@@ -453,18 +418,14 @@ def report_rows(report: RowReport, *, warn: bool = True) -> None:
     report : RowReport
         From :func:`scan_rows` (or :func:`merge_reports`).
     warn : bool, default True
-        Make the :class:`DroppedRowsWarning` (False: the errors only).
+        Warn (:class:`DroppedRowsWarning`) about the rows dropped for a missing
+        geometry, coordinate or key (False: the errors only).
 
     Raises
     ------
     InvalidInputError
         Non-point geometries (without ``vertices=True``), then infinite
         coordinates, naming the rows by index label.
-
-    Warns
-    -----
-    DroppedRowsWarning
-        Rows dropped for a missing, empty or NaN geometry or a missing key.
     """
     counts, labels = report.counts, report.labels
     if counts["non_point"]:
@@ -505,10 +466,9 @@ def report_rows(report: RowReport, *, warn: bool = True) -> None:
 def read_points(
     frame, groups: Groups, options: Options, *, warn: bool = True
 ) -> Points:
-    """Read the coordinates of the points that take part, with their group codes.
+    """Read the points that take part and their group codes (:func:`scan_rows`).
 
-    Bad rows are dropped with a warning (``warn=False``: none) or refused:
-    :func:`scan_rows`, :func:`report_rows`.
+    Bad rows are dropped with a warning (``warn=False``: none) or refused.
     """
     codes = groups.codes
     report, coords, which = scan_rows(frame, codes, options.vertices, options.n_jobs)
@@ -527,8 +487,7 @@ def read_points(
 def project(points: Points, source, options: Options) -> gcrs.Projection:
     """Project the points to metres, with the way back (:class:`~.crs.Projection`).
 
-    ``crs="sphere"``: :class:`~.sphere.SphereProjection` (longitudes and
-    latitudes for the kernel, metres made only if another stage needs them).
+    ``crs="sphere"``: :class:`~.sphere.SphereProjection`.
     """
     args = (points.coords, points.codes, len(points.n_points), source)
     if is_sphere(options.crs):
@@ -545,8 +504,7 @@ def compute(
 ) -> Hulls:
     """Compute the shape of every group, by ``method``, in the output coordinates.
 
-    ``"alpha"`` and ``"convex"``: one kernel call in metres, polygons built
-    from the input coordinates; ``"concave"`` and ``"knn"``:
+    ``"alpha"`` and ``"convex"``: one kernel call; ``"concave"`` and ``"knn"``:
     :func:`geoalpha.arrays.comparison.comparison_hulls`. A shown progress bar
     counts the groups done. ``names`` names groups (by code) in warnings.
     """
@@ -577,7 +535,7 @@ def compute(
             polar=getattr(proj, "polar", None),
             name_groups=names,
         )
-        res, certain = raw.shapes, raw.certain
+        res = raw.shapes
         geometry = res.geometry
         if method == "convex" and not sphere:  # (the sphere's is the kernel's)
             convex = convex_hulls(proj.out, points.codes, n_groups)
@@ -590,11 +548,10 @@ def compute(
             alpha=res.alpha,
             labels=np.full(n_groups, method if exact else options.search, dtype=object),
             degenerate=res.degenerate,
-            keep=np.ones(n_groups, dtype=bool),
             outlier=res.outlier,
             reason=res.reason,
             made=res.geometry,
-            certain=certain,
+            certain=raw.certain,
         )
     finally:
         if bar is not None:  # groups of 1-2 points are done too: the phase ends full
@@ -623,7 +580,6 @@ def _comparison(points, proj, n_groups: int, options: Options, names, bar) -> Hu
         alpha=np.full(n_groups, np.nan),
         labels=made.labels,
         degenerate=made.degenerate,
-        keep=np.ones(n_groups, dtype=bool),
         outlier=np.zeros(len(points.codes), dtype=bool),
         reason=_reasons(made.degenerate, points, proj),
         made=made.geometry,
@@ -638,10 +594,7 @@ def degenerate_policy(
     proj: gcrs.Projection,
     options: Options,
 ) -> Hulls:
-    """Apply ``degenerate=`` to the groups without a shape, and name them in a warning.
-
-    A group whose rows were all dropped (no point left) is degenerate too.
-    """
+    """Apply ``degenerate=`` to groups without a shape (or point); warn about them."""
     n_points = points.n_points
     degenerate = hulls.degenerate | (n_points == 0)
     which = np.flatnonzero(degenerate)
@@ -649,7 +602,7 @@ def degenerate_policy(
         return hulls
     geometry = hulls.geometry.copy()
     area = np.array(hulls.area, dtype=np.float64)
-    keep = hulls.keep.copy()
+    keep = hulls.keep
     policy = options.degenerate
     if policy == "buffer":
         codes = points.codes
@@ -685,7 +638,7 @@ def degenerate_policy(
         area[which] = 0.0
         done = "their rows hold an empty polygon"
     else:
-        keep[which] = False
+        keep = ~degenerate
         done = f"they were dropped ({n_points[which].sum()} rows)"
     warnings.warn(
         _why_degenerate(hulls.reason, which, groups, n_points, proj.wide)
@@ -749,10 +702,7 @@ def _reasons(degenerate, points: Points, proj: gcrs.Projection) -> np.ndarray:
 
 
 def _buffer_in_output(geometry, sel, codes, proj: gcrs.Projection) -> np.ndarray:
-    """Replace degenerate buffers that fail in the output CRS by ones made there.
-
-    Changes ``geometry`` in place and returns the groups redone.
-    """
+    """Redo in place the degenerate buffers that fail in the output CRS; return them."""
     mine = codes[sel]
     groups = np.unique(mine)
     own = geometry[groups]
@@ -782,8 +732,7 @@ def _buffer_in_output(geometry, sel, codes, proj: gcrs.Projection) -> np.ndarray
 def split_at_antimeridian(hulls: Hulls, points: Points, proj: gcrs.Projection) -> Hulls:
     """Split the hulls of groups across +-180 degrees there (RFC 7946).
 
-    Built with unwrapped longitudes (beyond 180), the parts get their input
-    points' exact longitudes back. :func:`guarantee` checks them.
+    The parts get their input points' exact longitudes back.
     """
     which = np.flatnonzero(proj.crossing & ~hulls.degenerate)
     if not len(which):
@@ -794,16 +743,14 @@ def split_at_antimeridian(hulls: Hulls, points: Points, proj: gcrs.Projection) -
 
 
 def _split(geoms: np.ndarray, which: np.ndarray, points: Points) -> np.ndarray:
-    """Split ``geoms`` (groups ``which``) at +-180 degrees, input longitudes back.
-
-    GEOS cuts only valid polygons: invalid ones (before or after) are repaired.
-    """
+    """Split ``geoms`` (groups ``which``) at +-180 degrees, input longitudes back."""
     parts = gcrs.split_antimeridian(_valid(geoms))
     lon, lat = points.coords[:, 0], points.coords[:, 1]
     return _valid(gcrs.restore_longitudes(parts, which, lon, lat, points.codes))
 
 
 def _valid(geoms: np.ndarray) -> np.ndarray:
+    """Repair invalid polygons (GEOS cuts only valid ones)."""
     invalid = ~shapely.is_valid(geoms)
     if invalid.any():
         geoms = geoms.copy()
@@ -820,12 +767,10 @@ def guarantee(
 ) -> Hulls:
     """Check every group's polygon once, in the output CRS: repaired, or degenerate.
 
-    A valid (Multi)Polygon covering every point of its group (distance 0),
-    repaired where needed (:func:`geoalpha.arrays.guarantee.enforce`), or the
-    group is degenerate (:class:`DegenerateGroupWarning`). Points that are
-    vertices of the polygon :func:`compute` made are not tested where a group
-    still has it. Not checked: rows left out (``outliers=``), coverage at a
-    given ``alpha``, groups wider than 180 degrees of longitude, and a point
+    A valid (Multi)Polygon covering every point of its group
+    (:func:`geoalpha.arrays.guarantee.enforce`), or the group is degenerate
+    (:class:`DegenerateGroupWarning`). Not checked: rows left out, coverage at
+    a given ``alpha``, groups wider than 180 degrees of longitude, and a point
     at -180 degrees held at +180 (or the reverse; :func:`warn_output_crs`).
     """
     xy, codes, geometry = points.coords, points.codes, hulls.geometry
@@ -904,11 +849,7 @@ def _beyond_the_line(geometry, points: Points, crossing) -> np.ndarray:
 
 
 def warn_output_crs(hulls: Hulls, groups: Groups, points: Points, proj) -> None:
-    """Warn about the groups split at +-180 degrees and those wider than 180.
-
-    Points at exactly -180 degrees that a split hull holds only at +180 (or
-    the reverse) are named (:func:`_beyond_the_line`).
-    """
+    """Warn about the groups split at +-180 degrees and those wider than 180."""
     if proj.crossing.any():
         split = proj.crossing & ~hulls.degenerate
         beyond = _beyond_the_line(hulls.geometry, points, split)
@@ -948,13 +889,10 @@ def area_m2(
 ) -> np.ndarray:
     """Return ``area_m2``: geodesic, on the WGS84 ellipsoid, whatever ``crs=``.
 
-    The area of each returned geometry (in the input CRS, moved to
-    longitude/latitude: :func:`geoalpha.frame.crs.geodesic_areas`), so
-    antimeridian groups get the sum of their parts and polar ones their cap;
-    groups wider than 180 degrees of longitude, whose output polygon cannot
-    be faithful, that of their hull before the split (``before_split``: the
-    same vertices, joined by geodesics). With ``crs=None`` the computation is
-    planar and so is the area, in the input's units (no CRS: no ellipsoid).
+    That of each returned geometry (:func:`geoalpha.frame.crs.geodesic_areas`);
+    for groups wider than 180 degrees of longitude, whose output polygon
+    cannot be faithful, that of their hull before the split (``before_split``).
+    With ``crs=None``, planar, in the input's units.
     """
     if options.crs is None:
         return hulls.area
@@ -979,7 +917,6 @@ def table(
     geometry = hulls.geometry
     with np.errstate(divide="ignore"):
         radius = 1.0 / hulls.alpha
-    keep = hulls.keep
     values = {
         "alpha": hulls.alpha,
         "radius": radius,
@@ -995,9 +932,10 @@ def table(
         "method": hulls.labels,
     }
     columns = groups.columns
-    if not keep.all():
+    keep = hulls.keep
+    if keep is not None:
         values = {name: np.asarray(v)[keep] for name, v in values.items()}
-        geometry, columns = geometry[keep], groups.take(keep)
+        geometry, columns = geometry[keep], [c[keep] for c in columns]
     keys = dict(zip(groups.names, columns, strict=True))
     return result_frame(keys, values, geometry, crs, geometry_name)
 
@@ -1007,8 +945,7 @@ def grow(
 ) -> Hulls:
     """Buffer the hulls (not the degenerate buffers) by ``grow`` metres.
 
-    Built in the metric CRS from the hull vertices' (input points') metric
-    coordinates, then moved back to the output CRS.
+    Built from the hull vertices' metric coordinates, moved back to the output CRS.
     """
     distance = options.grow
     if not distance:

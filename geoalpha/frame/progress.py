@@ -1,8 +1,7 @@
 """One progress bar over every phase of a run: read, group, ..., check, write.
 
 :func:`geoalpha.hull` goes through :data:`HULL_PHASES`; the ``geoalpha``
-command adds ``read`` and ``write`` on the same bar (:func:`phases`). Each
-phase gets a share estimated from the rows and groups (:func:`hull_costs`).
+command adds ``read`` and ``write`` on the same bar (:func:`phases`).
 """
 
 from __future__ import annotations
@@ -57,13 +56,9 @@ def hull_costs(n_rows: int, n_groups: int, *, per_group_crs: bool) -> dict:
 
     Examples
     --------
-    >>> from geoalpha.frame.progress import hull_costs
-    >>> costs = hull_costs(400_000, 1_000, per_group_crs=False)
-    >>> max(costs, key=costs.get)
-    'compute'
     >>> costs = hull_costs(43_645, 28_694, per_group_crs=True)
-    >>> costs["check"] > costs["compute"]
-    True
+    >>> max(costs, key=costs.get)
+    'check'
     """
     per_group = 150.0 if per_group_crs else 0.0
     return {
@@ -100,21 +95,16 @@ class Phases:
     Examples
     --------
     >>> import io
-    >>> from geoalpha.frame.progress import Phases
     >>> bar = Phases(["read", "compute"], show=True, file=io.StringIO())
     >>> bar.estimate({"read": 1.0, "compute": 3.0})
     >>> bar.start("read")
-    >>> bar.done
-    0
     >>> bar.start("compute", units=10)
-    >>> bar.done  # read took its share: a quarter
+    >>> bar.done  # read took its share (a quarter) of the TICKS
     250
     >>> bar.update(5)  # half of the groups
     >>> bar.done
     625
     >>> bar.close()
-    >>> bar.done
-    1000
     """
 
     def __init__(
@@ -201,8 +191,7 @@ class Phases:
     def sized(self, n_rows: int, n_groups: int, *, per_group_crs: bool) -> None:
         """Estimate the phases to come from the run's size; show the bar if due.
 
-        With ``show=None`` the bar appears from :data:`PROGRESS_MIN_GROUPS`
-        groups on, on a terminal with tqdm installed.
+        ``show=None``: from :data:`PROGRESS_MIN_GROUPS` groups on a terminal.
         """
         costs = hull_costs(n_rows, n_groups, per_group_crs=per_group_crs)
         if self._extra_costs is not None:
@@ -271,7 +260,6 @@ def phases(names: Sequence[str], show: bool | None, **kwargs: Any) -> Iterator[P
     Examples
     --------
     >>> import io
-    >>> from geoalpha.frame.progress import current, phases
     >>> out = io.StringIO()
     >>> with phases(["read", "write"], show=True, file=out) as bar:
     ...     bar.start("read")

@@ -1,8 +1,7 @@
 """The table :func:`geoalpha.hull` returns, defined once.
 
-One row per group: the key column(s), :data:`RESULT_COLUMNS`, ``geometry``.
-:func:`result_frame` builds it and :func:`empty_result` dask's ``meta`` from
-the same code.
+One row per group: the key column(s), :data:`RESULT_COLUMNS`, ``geometry``;
+:func:`empty_result` (dask's ``meta``) is made by the same code.
 """
 
 from __future__ import annotations
@@ -56,8 +55,6 @@ def _dtype(name: str):
 def planar_unit(input_crs, crs) -> str | None:
     """Return the unit of a planar computation (``crs=None``) unless it is metres.
 
-    The written table then says it (:func:`with_area_unit`).
-
     Parameters
     ----------
     input_crs : CRS or None
@@ -69,7 +66,7 @@ def planar_unit(input_crs, crs) -> str | None:
     -------
     str or None
         ``"coordinate unit"`` without CRS, else the first axis' unit; None
-        when ``area_m2`` is in square metres.
+        when ``area_m2`` is in square metres (else :func:`with_area_unit`).
 
     Examples
     --------
@@ -114,8 +111,8 @@ def with_area_unit(table, unit: str | None):
 def result_geometry_name(frame, keys) -> str:
     """Name the result's geometry column after the input's (``geom`` stays ``geom``).
 
-    A name taken by a group key (``keys``: the key table, or its column
-    names) or by a result column gives ``geometry``.
+    ``geometry`` if a group key (``keys``: a table or names) or result column
+    has that name.
 
     Examples
     --------
@@ -151,9 +148,8 @@ def result_frame(
     values : dict
         One array per name of :data:`RESULT_COLUMNS`; cast to :data:`DTYPES`.
     geometry : array_like of shapely geometries
-        One per group.
+        One per group, in ``crs``.
     crs : CRS or None
-        The CRS of ``geometry``.
     geometry_name : str, default "geometry"
         Name of the geometry column (:func:`result_geometry_name`).
 
@@ -161,17 +157,6 @@ def result_frame(
     -------
     geopandas.GeoDataFrame
         With a fresh RangeIndex.
-
-    Examples
-    --------
-    >>> import pandas as pd, shapely
-    >>> keys = pd.DataFrame({"g": ["a"]})
-    >>> values = dict(alpha=[0], radius=[float("inf")], n_points=[3], n_outliers=[0],
-    ...               n_parts=[1], area_m2=[2], crs_used=["EPSG:32630"],
-    ...               method=["convex"])
-    >>> out = result_frame(keys, values, [shapely.box(0, 0, 1, 2)], "EPSG:32630")
-    >>> out.dtypes["area_m2"], out.columns.tolist()[-2:]
-    (dtype('float64'), ['method', 'geometry'])
     """
     import geopandas as gpd
     import numpy as np

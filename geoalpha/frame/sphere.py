@@ -1,7 +1,4 @@
-"""``crs="sphere"`` in the frame: the CRS round trip (:class:`SphereProjection`).
-
-The geometry is the kernel's (``src/sphere.rs``) and :mod:`geoalpha.arrays.sphere`'s.
-"""
+"""``crs="sphere"`` in the frame: the CRS round trip (:class:`SphereProjection`)."""
 
 from __future__ import annotations
 
@@ -23,11 +20,9 @@ _WGS84 = parse_crs("EPSG:4326")
 class SphereProjection(gcrs.Projection):
     """The CRS round trip of ``crs="sphere"``.
 
-    :attr:`lonlat` holds the longitudes and latitudes (EPSG:4326) the kernel
-    computes in; :attr:`out` the input coordinates the polygons are built
-    from (unwrapped across the antimeridian, as with ``crs="auto"``). Stages
-    that need metres (degenerate buffers, ``grow=``, the comparison methods)
-    get them from :attr:`xy`, the ``crs="auto"`` projection, made on first use.
+    :attr:`lonlat`: the EPSG:4326 coordinates the kernel computes in;
+    :attr:`out`: as with ``crs="auto"``; :attr:`xy`: metres for the other
+    stages (``crs="auto"``'s projection, made on first use).
 
     Parameters
     ----------
@@ -37,8 +32,7 @@ class SphereProjection(gcrs.Projection):
     Raises
     ------
     InvalidInputError
-        Input without a CRS, coordinates out of range, or points that cannot
-        be moved to longitude/latitude.
+        Input without a CRS, or bad coordinates (named).
 
     Examples
     --------
@@ -83,9 +77,8 @@ class SphereProjection(gcrs.Projection):
             if len(maybe):
                 self.polar[maybe] = polar_groups(coords, codes, maybe)
             if self.polar.any():
-                mine = self.polar[codes]
-                if self.out is not coords:
-                    self.out = self.out.copy()
+                if self.out is not coords:  # (a copy output_lonlat made)
+                    mine = self.polar[codes]
                     self.out[mine] = coords[mine]
                 self.crossing &= ~self.polar
                 self.wide &= ~self.polar
@@ -98,10 +91,7 @@ class SphereProjection(gcrs.Projection):
         return gcrs.Projection(*self._args[:4], "auto", self._args[4])
 
     def metric_of(self, sel: np.ndarray, which: np.ndarray):
-        """Metres for the points ``sel`` of the groups ``which`` only (``crs="auto"``).
-
-        And the function that moves geometries of ``which`` back to the input CRS.
-        """
+        """Metres for the points ``sel`` of the groups ``which`` only; the way back."""
         coords, codes, _, source, labels = self._args
         mine = np.searchsorted(which, codes[sel])
         labels = None if labels is None else labels[sel]
