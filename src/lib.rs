@@ -63,27 +63,20 @@ fn detached<T: Send, E: std::fmt::Display + Send>(
     }
 }
 
+/// A dict of the named fields of `$o`, each as a numpy array.
+macro_rules! dict_of {
+    ($py:expr, $o:expr; $($field:ident),*) => {{
+        let d = PyDict::new($py);
+        $(d.set_item(stringify!($field), $o.$field.into_pyarray($py))?;)*
+        d
+    }};
+}
+
 fn to_dict<'py>(py: Python<'py>, o: Output) -> PyResult<Bound<'py, PyDict>> {
-    let d = PyDict::new(py);
-    d.set_item("reason", o.reason.into_pyarray(py))?;
-    d.set_item("alpha", o.alpha.into_pyarray(py))?;
-    d.set_item("radius", o.radius.into_pyarray(py))?;
-    d.set_item("n_distinct", o.n_distinct.into_pyarray(py))?;
-    d.set_item("n_parts", o.n_parts.into_pyarray(py))?;
-    d.set_item("area", o.area.into_pyarray(py))?;
-    d.set_item("n_outliers", o.n_outliers.into_pyarray(py))?;
-    d.set_item("whole", o.whole.into_pyarray(py))?;
-    d.set_item("capped", o.capped.into_pyarray(py))?;
-    d.set_item("rep", o.rep.into_pyarray(py))?;
-    d.set_item("left_out", o.left_out.into_pyarray(py))?;
-    d.set_item("ring_vertex", o.ring_vertex.into_pyarray(py))?;
-    d.set_item("ring_offsets", o.ring_offsets.into_pyarray(py))?;
-    d.set_item("polygon_offsets", o.polygon_offsets.into_pyarray(py))?;
-    d.set_item("group_offsets", o.group_offsets.into_pyarray(py))?;
-    d.set_item("curve_value", o.curve_value.into_pyarray(py))?;
-    d.set_item("curve_valid", o.curve_valid.into_pyarray(py))?;
-    d.set_item("curve_offsets", o.curve_offsets.into_pyarray(py))?;
-    Ok(d)
+    Ok(dict_of!(py, o;
+        reason, alpha, radius, n_distinct, n_parts, area, n_outliers, whole, capped,
+        rep, left_out, ring_vertex, ring_offsets, polygon_offsets, group_offsets,
+        curve_value, curve_valid, curve_offsets))
 }
 
 /// Optimal (or given-alpha) alpha shapes of every group, in one call.
@@ -127,10 +120,8 @@ fn py_alpha_shapes<'py>(
     to_dict(py, detached(py, threads, || batch::run(&input))?)
 }
 
-/// Areas (m²) on the WGS84 ellipsoid of (multi)polygons in longitude/latitude.
-///
-/// See `geoalpha/_kernel.pyi` for the arguments; [`geodesic::polygon_areas`]
-/// does the work, on `threads` threads with the GIL released.
+/// Areas (m²) on the WGS84 ellipsoid of (multi)polygons in longitude/latitude
+/// ([`geodesic::polygon_areas`]; arguments in `geoalpha/_kernel.pyi`).
 #[pyfunction(name = "geodesic_areas")]
 #[pyo3(signature = (lon, lat, ring_offsets, polygon_offsets, geometry_offsets, *, threads=0))]
 fn py_geodesic_areas<'py>(
@@ -152,13 +143,11 @@ fn py_geodesic_areas<'py>(
     Ok(areas.into_pyarray(py))
 }
 
-/// The thread pool of `threads` threads (0: one per core), built once per
-/// process and count: building one costs more than a small call's work.
-///
-/// A child made by `fork` has none of its parent's threads, so it forgets
-/// the parent's pools (never dropped there, never used) and builds its own;
-/// the lock is only taken with the GIL held, so no other thread holds it
-/// when Python forks.
+/// The pool of `threads` threads (0: one per core), built once per process
+/// and count (building one costs more than a small call). A child made by
+/// `fork` has none of its parent's threads, so it forgets (never drops) the
+/// parent's pools; the lock is only taken with the GIL held, so no thread
+/// holds it when Python forks.
 fn pool(threads: usize) -> PyResult<Arc<rayon::ThreadPool>> {
     static POOLS: Mutex<Vec<(u32, usize, Arc<rayon::ThreadPool>)>> = Mutex::new(Vec::new());
     let pid = std::process::id();
