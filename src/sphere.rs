@@ -90,9 +90,8 @@ pub fn unit_vector(p: Xy) -> V3 {
     [cp * cl, cp * sl, sp]
 }
 
-/// The orientation of `a, b, c, d` with an exact sign; with `d` the centre
-/// ([`O`]), `det[a, b, c]` (positive: `a, b, c` counter-clockwise seen from
-/// outside the sphere).
+/// The orientation of `a, b, c, d`, exact sign; with `d` = [`O`], `det[a, b,
+/// c]` (positive: counter-clockwise seen from outside the sphere).
 pub fn orient3(a: V3, b: V3, c: V3, d: V3) -> f64 {
     let k = |p: V3| Coord3D {
         x: p[0],
@@ -117,8 +116,7 @@ pub struct Local {
     pub theta_max: f64,
 }
 
-/// The group's unit vectors in the frame of their centre, or `None` when a
-/// point is farther than [`MAX_ANGLE_DEGREES`] from it (or there is no centre).
+/// The group in the frame of its centre; `None` beyond [`MAX_ANGLE_DEGREES`].
 pub fn local(points: &[Xy]) -> Option<Local> {
     let world: Vec<V3> = points.iter().map(|&p| unit_vector(p)).collect();
     let mean = world
@@ -190,11 +188,9 @@ pub fn triangle_area(a: V3, b: V3, c: V3) -> f64 {
     2.0 * d.atan2(1.0 + dot(a, b) + dot(b, c) + dot(c, a))
 }
 
-/// Add to `mesh` the spherical Delaunay triangles of `unit` it misses: those
-/// across its boundary edges (gift-wrapping with exact orientations of the
-/// unit vectors, the candidates being the boundary's vertices). Returns the
-/// number of triangles added, or `None` if the wrapping did not close (never
-/// expected).
+/// Add to `mesh` the spherical Delaunay triangles of `unit` it misses, across
+/// its boundary edges (gift-wrapping over the boundary's vertices, exact
+/// orientations): how many, or `None` if the wrapping did not close.
 pub fn complete(mesh: &mut Mesh, unit: &[V3]) -> Option<usize> {
     let mut open: HashMap<(u32, u32), (u32, usize)> = HashMap::new();
     let mut stack = Vec::new();
@@ -245,9 +241,8 @@ pub fn complete(mesh: &mut Mesh, unit: &[V3]) -> Option<usize> {
     Some(mesh.tri.len() - start)
 }
 
-/// Solve one group of longitudes and latitudes (degrees) on the sphere; the
-/// counterpart of [`crate::group::solve`], whose `res` (NaN alpha and radius)
-/// it fills.
+/// [`crate::group::solve`] on the sphere (longitudes and latitudes in
+/// degrees), filling its `res`.
 pub fn solve(
     points: &[Xy],
     out: Option<&[Xy]>,
@@ -282,15 +277,9 @@ pub fn solve(
         let [a, b, c] = t.map(|v| unit[v as usize]);
         EARTH_RADIUS * EARTH_RADIUS * triangle_area(a, b, c)
     };
+    let copy = res.clone();
     let planar = finish(
-        res.clone(),
-        &mesh,
-        &radius,
-        &scaled,
-        &area_of,
-        alpha,
-        budget,
-        options,
+        copy, &mesh, &radius, &scaled, &area_of, alpha, budget, options,
     );
     // Below the bound the planar mesh gives the spherical answer (module doc).
     let bound = EARTH_RADIUS * (std::f64::consts::PI - local.theta_max) / 2.0 * (1.0 - 1e-9);
@@ -319,9 +308,8 @@ pub fn solve(
     )
 }
 
-/// Angular radius of the small circle through three unit vectors: the angle
-/// between the normal of their plane and one of them (the cap smaller than a
-/// hemisphere).
+/// Angular radius of the small circle through three unit vectors (the cap
+/// smaller than a hemisphere): the angle from their plane's normal to one.
 pub fn cap_of_units(a: V3, b: V3, c: V3) -> f64 {
     let sub = |p: V3, q: V3| [p[0] - q[0], p[1] - q[1], p[2] - q[2]];
     let nrm = cross(sub(b, a), sub(c, a));
