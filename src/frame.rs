@@ -50,22 +50,12 @@ fn power_of_two_scale(extent: f64) -> f64 {
         0 => -1010 - bits.leading_zeros() as i32,
         biased => biased as i32 - 1022,
     };
-    // 2^-e may not be representable as one float for |e| > 1022: build it in
-    // two steps (the product is exact; callers multiply by it once).
-    pow2(-e)
-}
-
-/// `2^k` for any `k` a float's exponent can take (saturating at the ends).
-pub fn pow2(k: i32) -> f64 {
-    if k > 1023 {
-        f64::INFINITY
-    } else if k >= -1022 {
-        f64::from_bits(((k + 1023) as u64) << 52)
-    } else if k >= -1074 {
-        f64::from_bits(1u64 << (k + 1074))
-    } else {
-        0.0
+    // Checked coordinates keep the extent below 2^1022, so 2^-e is a normal
+    // float, or beyond the largest for an extent below 2^-1023.
+    if e < -1023 {
+        return f64::INFINITY;
     }
+    f64::from_bits(((1023 - e) as u64) << 52)
 }
 
 impl Frame {
@@ -93,10 +83,8 @@ impl Frame {
 }
 
 /// Whether the points all lie within `tol` of their principal axis (the
-/// least-squares line through their centroid); fewer than 3 points are.
-///
-/// Computed relative to the first point and scaled by `frame.scale` (exact),
-/// so that large offsets and extreme scales lose no precision.
+/// least-squares line through their centroid); fewer than 3 points do.
+/// Relative to the first point and scaled: offsets and scales lose nothing.
 pub fn collinear(points: &[Xy], frame: &Frame) -> bool {
     if points.len() < 3 {
         return true;
@@ -142,15 +130,11 @@ pub fn orient(a: Xy, b: Xy, c: Xy) -> f64 {
 /// Circumradius of the triangle `a, b, c` (scaled coordinates), in scaled
 /// units: `|ab| |bc| |ca| / (2 |cross|)`, `inf` for a flat triangle.
 ///
-/// The cross product is taken at the vertex of the largest angle (opposite
-/// the longest edge), where the two edge vectors are furthest from parallel:
-/// the adaptive orientation's estimate is then within about `2 eps / sin C`
-/// of its value, a few ulps unless the triangle is nearly flat, so needles
-/// (two vertices close together) keep an accurate radius; at the other
-/// vertices it can cancel to 1e-8 of its terms. Lengths are plain square
-/// roots (not `hypot`, several times slower): in the scaled frame the edges
-/// are between the tolerance (about 1e-9, near-duplicates being merged) and
-/// 2 long, so their squares neither overflow nor underflow.
+/// The cross product is taken at the vertex of the largest angle, where the
+/// edge vectors are furthest from parallel: accurate to a few ulps unless the
+/// triangle is nearly flat, so needles keep an accurate radius (at the other
+/// vertices it can cancel to 1e-8 of its terms). Plain square roots, not
+/// `hypot`: scaled edges are between the tolerance and 2 long.
 pub fn circumradius(a: Xy, b: Xy, c: Xy) -> f64 {
     let sq = |p: Xy, q: Xy| {
         let (dx, dy) = (q[0] - p[0], q[1] - p[1]);
