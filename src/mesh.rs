@@ -277,9 +277,6 @@ fn close_pairs(points: &[Xy], mesh: &Mesh, close: f64, s: f64) -> Vec<(u32, u32)
         .collect()
 }
 
-/// Triangles and their neighbours, as flat arrays.
-type Triangles = (Vec<[u32; 3]>, Vec<[u32; 3]>);
-
 /// The triangle and neighbour arrays, the triangles numbered along the curve
 /// (the sweeps find neighbours close in memory): each listed by its vertex of
 /// smallest rank, one walk around each vertex in rank order, on every thread.
@@ -291,7 +288,7 @@ fn fill_arrays(t: &DelaunayTriangulation<Vertex>) -> Mesh {
     let face = |f: FaceHandle<PossiblyOuterTag, Vertex, (), (), ()>| {
         f.as_inner().map_or(NONE, |f| f.fix().index() as u32)
     };
-    let (faces, (tri, mut nb)): (Vec<u32>, Triangles) = by_rank
+    let (faces, (tri, mut nb)): (Vec<u32>, (Vec<_>, Vec<_>)) = by_rank
         .par_iter()
         .with_min_len(PARALLEL_POINTS / 8)
         .flat_map_iter(|&v| {

@@ -1,19 +1,14 @@
-//! Alpha shapes on the sphere (`crs="sphere"`): one group's longitudes and
-//! latitudes become unit vectors, and its Delaunay triangulation is the
-//! spherical one (empty circumscribed caps); a triangle's radius is the
-//! geodesic radius of its circumscribed small circle, in metres on a sphere
-//! of radius [`EARTH_RADIUS`].
-//!
-//! # How
+//! Alpha shapes on the sphere (`crs="sphere"`): a group's longitudes and
+//! latitudes as unit vectors, triangulated by empty circumscribed caps; a
+//! triangle's radius is the geodesic radius of its circumscribed small
+//! circle, in metres on a sphere of radius [`EARTH_RADIUS`].
 //!
 //! The group's centre `c` is the normalised mean of its unit vectors. The
 //! points are projected stereographically from `-c` onto the plane tangent at
-//! `c` (`X = 2x / (1 + z)`, `Y = 2y / (1 + z)` in a basis `e1, e2, c`), and
-//! spade triangulates them exactly ([`crate::mesh::triangulate`]: duplicates
-//! and near-duplicates as in the plane). The stereographic projection maps
-//! circles on the sphere to circles in the plane, so a planar triangle with an
-//! empty circumcircle is a spherical triangle with an empty circumscribed cap,
-//! the cap whose image is the disk (it does not hold `-c`).
+//! `c` (`X = 2x / (1 + z)`, `Y = 2y / (1 + z)` in a basis `e1, e2, c`), which
+//! maps circles to circles, and triangulated exactly in the plane
+//! ([`crate::mesh::triangulate`]): an empty circumcircle there is an empty
+//! cap (the one that does not hold `-c`).
 //!
 //! # What the plane misses, and why it is exact
 //!
@@ -82,14 +77,6 @@ fn scale(a: V3, k: f64) -> V3 {
     [a[0] * k, a[1] * k, a[2] * k]
 }
 
-/// The unit vector of a longitude and latitude in degrees.
-pub fn unit_vector(p: Xy) -> V3 {
-    let (lon, lat) = (p[0].to_radians(), p[1].to_radians());
-    let (sl, cl) = lon.sin_cos();
-    let (sp, cp) = lat.sin_cos();
-    [cp * cl, cp * sl, sp]
-}
-
 /// The orientation of `a, b, c, d`, exact sign; with `d` = [`O`], `det[a, b,
 /// c]` (positive: counter-clockwise seen from outside the sphere).
 pub fn orient3(a: V3, b: V3, c: V3, d: V3) -> f64 {
@@ -118,7 +105,13 @@ pub struct Local {
 
 /// The group in the frame of its centre; `None` beyond [`MAX_ANGLE_DEGREES`].
 pub fn local(points: &[Xy]) -> Option<Local> {
-    let world: Vec<V3> = points.iter().map(|&p| unit_vector(p)).collect();
+    // The unit vectors of the longitudes and latitudes.
+    let unit_vector = |p: &Xy| {
+        let (sl, cl) = p[0].to_radians().sin_cos();
+        let (sp, cp) = p[1].to_radians().sin_cos();
+        [cp * cl, cp * sl, sp]
+    };
+    let world: Vec<V3> = points.iter().map(unit_vector).collect();
     let mean = world
         .iter()
         .fold([0.0; 3], |m, u| [m[0] + u[0], m[1] + u[1], m[2] + u[2]]);
