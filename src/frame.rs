@@ -1,9 +1,8 @@
 //! A group's working frame: its extent, the exact power-of-two scale the
 //! kernel computes in, and the one near-degeneracy tolerance.
 
-/// Points closer than this times the group's extent are one point, and a group
-/// whose points all lie within it of a line is degenerate (`NEAR_RTOL` of the
-/// guarantee page).
+/// Points closer than this times the group's extent are one point; a group
+/// within it of a line is degenerate.
 pub const NEAR_RTOL: f64 = 1e-9;
 
 /// Floor of the tolerance, in units in the last place of the group's largest
@@ -19,8 +18,7 @@ pub struct Frame {
     /// The larger side of the group's bounding box.
     pub extent: f64,
     /// A power of two that brings the extent into `[0.5, 1)` (1 for a zero
-    /// extent): multiplying by it is exact, so scaled coordinates are the
-    /// input coordinates in other units, bit for bit.
+    /// extent): multiplying by it is exact.
     pub scale: f64,
     /// The near-degeneracy tolerance, in the input units.
     pub tol: f64,
@@ -29,12 +27,10 @@ pub struct Frame {
 }
 
 /// The distance from `x` to the next float of larger magnitude (numpy's
-/// `spacing` for `x >= 0`).
+/// `spacing` for `x >= 0`; NaN for a NaN or an infinity, whose next bit
+/// pattern is a NaN).
 pub fn ulp(x: f64) -> f64 {
     let x = x.abs();
-    if !x.is_finite() {
-        return f64::NAN;
-    }
     f64::from_bits(x.to_bits() + 1) - x
 }
 
@@ -173,6 +169,7 @@ mod tests {
     fn ulp_matches_numpy_spacing() {
         assert_eq!(ulp(1.0), f64::EPSILON);
         assert_eq!(ulp(0.0), f64::from_bits(1));
+        assert!(ulp(f64::INFINITY).is_nan() && ulp(f64::NAN).is_nan());
     }
 
     #[test]

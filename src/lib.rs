@@ -1,11 +1,7 @@
 //! geoalpha's compiled kernel: exact optimal alpha shapes of many groups of
-//! points in one call.
-//!
-//! Each group is triangulated by spade (exact `orient2d`/`incircle`), its
-//! circumradius spectrum is swept with union-find, and its shape comes back as
-//! rings of input point indices. Groups run on rayon's threads with the GIL
-//! released. The Python package (`geoalpha.kernel`) checks the input, calls
-//! [`alpha_shapes`](py_alpha_shapes) once and builds the polygons with shapely.
+//! points in one call, each group triangulated by spade, its radius spectrum
+//! swept with union-find, its shape returned as rings of point indices; the
+//! groups on rayon's threads with the GIL released (`docs/architecture.md`).
 
 pub mod batch;
 pub mod frame;
@@ -28,9 +24,7 @@ use crate::batch::{Input, Output};
 use crate::frame::Xy;
 use crate::group::Options;
 
-/// mimalloc for the kernel's own allocations: groups allocate and free
-/// their arrays on every thread, where glibc's malloc spent a tenth of the
-/// time in the system (returning memory and faulting it back in).
+/// mimalloc for the kernel's own allocations (why: `Cargo.toml`).
 #[global_allocator]
 static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
 

@@ -35,10 +35,6 @@
 //!    optimum, with the same shape. Otherwise (and for the validity curve)
 //!    the mesh is completed by gift-wrapping across its boundary edges
 //!    ([`complete`]) and the group is solved again.
-//!
-//! A group with a point farther than [`MAX_ANGLE_DEGREES`] from its centre
-//! (one that does not fit in a hemisphere, or nearly) is refused:
-//! [`Reason::Hemisphere`].
 
 use robust::{incircle, orient2d, orient3d, Coord, Coord3D};
 use std::collections::HashMap;
@@ -51,8 +47,8 @@ use crate::mesh::{triangulate, Mesh, NONE};
 /// with the ellipsoid's area).
 pub const EARTH_RADIUS: f64 = 6_371_007.2;
 
-/// The largest angle from a group's centre to one of its points (degrees)
-/// the sphere handles; groups beyond are refused ([`Reason::Hemisphere`]).
+/// The largest angle (degrees) from a group's centre to one of its points;
+/// groups beyond are refused ([`Reason::Hemisphere`]).
 pub const MAX_ANGLE_DEGREES: f64 = 80.0;
 
 type V3 = [f64; 3];
@@ -105,7 +101,6 @@ pub struct Local {
 
 /// The group in the frame of its centre; `None` beyond [`MAX_ANGLE_DEGREES`].
 pub fn local(points: &[Xy]) -> Option<Local> {
-    // The unit vectors of the longitudes and latitudes.
     let unit_vector = |p: &Xy| {
         let (sl, cl) = p[0].to_radians().sin_cos();
         let (sp, cp) = p[1].to_radians().sin_cos();
