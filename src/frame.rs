@@ -12,11 +12,9 @@ pub const PRECISION_ULPS: f64 = 64.0;
 /// A point as the kernel reads it: `(x, y)` in the computation CRS.
 pub type Xy = [f64; 2];
 
-/// Extent, scale and tolerance of one group.
+/// Scale, tolerance and bounding box of one group.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Frame {
-    /// The larger side of the group's bounding box.
-    pub extent: f64,
     /// A power of two that brings the extent into `[0.5, 1)` (1 for a zero
     /// extent): multiplying by it is exact.
     pub scale: f64,
@@ -70,7 +68,6 @@ impl Frame {
             .iter()
             .fold(0.0f64, |m, v| m.max(v.abs()));
         Frame {
-            extent,
             scale: power_of_two_scale(extent),
             tol: (NEAR_RTOL * extent).max(PRECISION_ULPS * ulp(big)),
             bounds: [lo, hi],
@@ -89,14 +86,11 @@ pub fn collinear(points: &[Xy], frame: &Frame) -> bool {
     let o = points[0];
     let n = points.len() as f64;
     let local = |p: &Xy| [(p[0] - o[0]) * s, (p[1] - o[1]) * s];
-    let (mut cx, mut cy) = (0.0, 0.0);
-    for p in points {
-        let [x, y] = local(p);
-        cx += x;
-        cy += y;
-    }
-    cx /= n;
-    cy /= n;
+    let sum = points
+        .iter()
+        .map(local)
+        .fold([0.0; 2], |s, [x, y]| [s[0] + x, s[1] + y]);
+    let (cx, cy) = (sum[0] / n, sum[1] / n);
     let (mut sxx, mut syy, mut sxy) = (0.0, 0.0, 0.0);
     for p in points {
         let [x, y] = local(p);

@@ -20,7 +20,7 @@ use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use crate::batch::{Input, Output};
+use crate::batch::Input;
 use crate::frame::Xy;
 use crate::group::Options;
 
@@ -66,16 +66,8 @@ macro_rules! dict_of {
     }};
 }
 
-fn to_dict<'py>(py: Python<'py>, o: Output) -> PyResult<Bound<'py, PyDict>> {
-    Ok(dict_of!(py, o;
-        reason, alpha, radius, n_distinct, n_parts, area, n_outliers, whole, capped,
-        rep, left_out, ring_vertex, ring_offsets, polygon_offsets, group_offsets,
-        curve_value, curve_valid, curve_offsets))
-}
-
-/// Optimal (or given-alpha) alpha shapes of every group, in one call.
-///
-/// See `geoalpha/_kernel.pyi` for the arguments and the arrays returned.
+/// Optimal (or given-alpha) alpha shapes of every group, in one call (the
+/// arguments and the arrays returned: `geoalpha/_kernel.pyi`).
 #[pyfunction(name = "alpha_shapes")]
 #[pyo3(signature = (
     xy, offsets, *, out_xy=None, holes=false, components=1, alpha=None,
@@ -111,7 +103,11 @@ fn py_alpha_shapes<'py>(
             sphere,
         },
     };
-    to_dict(py, detached(py, threads, || batch::run(&input))?)
+    let o = detached(py, threads, || batch::run(&input))?;
+    Ok(dict_of!(py, o;
+        reason, alpha, radius, n_distinct, n_parts, area, n_outliers, whole, capped,
+        rep, left_out, ring_vertex, ring_offsets, polygon_offsets, group_offsets,
+        curve_value, curve_valid, curve_offsets))
 }
 
 /// Areas (m²) on the WGS84 ellipsoid of (multi)polygons in longitude/latitude

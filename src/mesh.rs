@@ -13,9 +13,8 @@ pub const NONE: u32 = u32::MAX;
 /// The triangulation of one group.
 #[derive(Clone, Debug, Default)]
 pub struct Mesh {
-    /// For every point of the group (by its index in the group), the point
-    /// that represents it: itself, or the first point (in input order) of its
-    /// set of exact or near-duplicates.
+    /// For every point of the group, the one that represents it: itself, or
+    /// the first (in input order) of its exact or near-duplicates.
     pub rep: Vec<u32>,
     /// Number of distinct points (representatives).
     pub n_distinct: usize,

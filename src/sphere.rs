@@ -275,13 +275,12 @@ pub fn solve(
         return planar;
     }
     let before = mesh.tri.len();
-    match complete(&mut mesh, unit) {
-        Some(0) => return planar,
-        Some(_) => {}
-        None => {
-            res.reason = Reason::Rings as u8;
-            return res;
-        }
+    let Some(added) = complete(&mut mesh, unit) else {
+        res.reason = Reason::Rings as u8;
+        return res;
+    };
+    if added == 0 {
+        return planar;
     }
     // The added triangles' caps hold -c: the cap on the far side of their plane.
     for t in &mesh.tri[before..] {
