@@ -100,15 +100,14 @@ fn check(input: &Input) -> Result<usize, String> {
             row % n.max(1)
         ));
     }
-    if input.options.sphere {
-        // Finite by now: a NaN latitude was refused above.
-        if let Some(row) = input.xy.iter().position(|p| p[1].abs() > 90.0) {
-            return Err(format!(
-                "with sphere=True, xy holds longitudes and latitudes in degrees; \
-                 row {row} has latitude {}",
-                input.xy[row][1]
-            ));
-        }
+    // Finite by now: a NaN latitude was refused above.
+    let beyond = |p: &Xy| input.options.sphere && p[1].abs() > 90.0;
+    if let Some(row) = input.xy.iter().position(beyond) {
+        return Err(format!(
+            "with sphere=True, xy holds longitudes and latitudes in degrees; \
+             row {row} has latitude {}",
+            input.xy[row][1]
+        ));
     }
     Ok(groups)
 }

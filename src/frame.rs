@@ -1,9 +1,8 @@
 //! A group's working frame: its extent, the exact power-of-two scale the
 //! kernel computes in, and the one near-degeneracy tolerance.
 
-/// Points closer than this times the group's extent are one point, and a group
-/// whose points all lie within it of a line is degenerate (`NEAR_RTOL` of the
-/// guarantee page).
+/// Points closer than this times the group's extent are one point; a group
+/// within it of a line is degenerate.
 pub const NEAR_RTOL: f64 = 1e-9;
 
 /// Floor of the tolerance, in units in the last place of the group's largest
@@ -13,14 +12,11 @@ pub const PRECISION_ULPS: f64 = 64.0;
 /// A point as the kernel reads it: `(x, y)` in the computation CRS.
 pub type Xy = [f64; 2];
 
-/// Extent, scale and tolerance of one group.
+/// Scale, tolerance and bounding box of one group.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Frame {
-    /// The larger side of the group's bounding box.
-    pub extent: f64,
     /// A power of two that brings the extent into `[0.5, 1)` (1 for a zero
-    /// extent): multiplying by it is exact, so scaled coordinates are the
-    /// input coordinates in other units, bit for bit.
+    /// extent): multiplying by it is exact.
     pub scale: f64,
     /// The near-degeneracy tolerance, in the input units.
     pub tol: f64,
@@ -29,12 +25,10 @@ pub struct Frame {
 }
 
 /// The distance from `x` to the next float of larger magnitude (numpy's
-/// `spacing` for `x >= 0`).
+/// `spacing` for `x >= 0`; NaN for a NaN or an infinity, whose next bit
+/// pattern is a NaN).
 pub fn ulp(x: f64) -> f64 {
     let x = x.abs();
-    if !x.is_finite() {
-        return f64::NAN;
-    }
     f64::from_bits(x.to_bits() + 1) - x
 }
 
@@ -50,22 +44,12 @@ fn power_of_two_scale(extent: f64) -> f64 {
         0 => -1010 - bits.leading_zeros() as i32,
         biased => biased as i32 - 1022,
     };
-    // 2^-e may not be representable as one float for |e| > 1022: build it in
-    // two steps (the product is exact; callers multiply by it once).
-    pow2(-e)
-}
-
-/// `2^k` for any `k` a float's exponent can take (saturating at the ends).
-pub fn pow2(k: i32) -> f64 {
-    if k > 1023 {
-        f64::INFINITY
-    } else if k >= -1022 {
-        f64::from_bits(((k + 1023) as u64) << 52)
-    } else if k >= -1074 {
-        f64::from_bits(1u64 << (k + 1074))
-    } else {
-        0.0
+    // Checked coordinates keep the extent below 2^1022, so 2^-e is a normal
+    // float, or beyond the largest for an extent below 2^-1023.
+    if e < -1023 {
+        return f64::INFINITY;
     }
+    f64::from_bits(((1023 - e) as u64) << 52)
 }
 
 impl Frame {
@@ -84,7 +68,6 @@ impl Frame {
             .iter()
             .fold(0.0f64, |m, v| m.max(v.abs()));
         Frame {
-            extent,
             scale: power_of_two_scale(extent),
             tol: (NEAR_RTOL * extent).max(PRECISION_ULPS * ulp(big)),
             bounds: [lo, hi],
@@ -93,10 +76,8 @@ impl Frame {
 }
 
 /// Whether the points all lie within `tol` of their principal axis (the
-/// least-squares line through their centroid); fewer than 3 points are.
-///
-/// Computed relative to the first point and scaled by `frame.scale` (exact),
-/// so that large offsets and extreme scales lose no precision.
+/// least-squares line through their centroid); fewer than 3 points do.
+/// Relative to the first point and scaled: offsets and scales lose nothing.
 pub fn collinear(points: &[Xy], frame: &Frame) -> bool {
     if points.len() < 3 {
         return true;
@@ -105,14 +86,11 @@ pub fn collinear(points: &[Xy], frame: &Frame) -> bool {
     let o = points[0];
     let n = points.len() as f64;
     let local = |p: &Xy| [(p[0] - o[0]) * s, (p[1] - o[1]) * s];
-    let (mut cx, mut cy) = (0.0, 0.0);
-    for p in points {
-        let [x, y] = local(p);
-        cx += x;
-        cy += y;
-    }
-    cx /= n;
-    cy /= n;
+    let sum = points
+        .iter()
+        .map(local)
+        .fold([0.0; 2], |s, [x, y]| [s[0] + x, s[1] + y]);
+    let (cx, cy) = (sum[0] / n, sum[1] / n);
     let (mut sxx, mut syy, mut sxy) = (0.0, 0.0, 0.0);
     for p in points {
         let [x, y] = local(p);
@@ -142,15 +120,11 @@ pub fn orient(a: Xy, b: Xy, c: Xy) -> f64 {
 /// Circumradius of the triangle `a, b, c` (scaled coordinates), in scaled
 /// units: `|ab| |bc| |ca| / (2 |cross|)`, `inf` for a flat triangle.
 ///
-/// The cross product is taken at the vertex of the largest angle (opposite
-/// the longest edge), where the two edge vectors are furthest from parallel:
-/// the adaptive orientation's estimate is then within about `2 eps / sin C`
-/// of its value, a few ulps unless the triangle is nearly flat, so needles
-/// (two vertices close together) keep an accurate radius; at the other
-/// vertices it can cancel to 1e-8 of its terms. Lengths are plain square
-/// roots (not `hypot`, several times slower): in the scaled frame the edges
-/// are between the tolerance (about 1e-9, near-duplicates being merged) and
-/// 2 long, so their squares neither overflow nor underflow.
+/// The cross product is taken at the vertex of the largest angle, where the
+/// edge vectors are furthest from parallel: accurate to a few ulps unless the
+/// triangle is nearly flat, so needles keep an accurate radius (at the other
+/// vertices it can cancel to 1e-8 of its terms). Plain square roots, not
+/// `hypot`: scaled edges are between the tolerance and 2 long.
 pub fn circumradius(a: Xy, b: Xy, c: Xy) -> f64 {
     let sq = |p: Xy, q: Xy| {
         let (dx, dy) = (q[0] - p[0], q[1] - p[1]);
@@ -189,6 +163,7 @@ mod tests {
     fn ulp_matches_numpy_spacing() {
         assert_eq!(ulp(1.0), f64::EPSILON);
         assert_eq!(ulp(0.0), f64::from_bits(1));
+        assert!(ulp(f64::INFINITY).is_nan() && ulp(f64::NAN).is_nan());
     }
 
     #[test]

@@ -1,17 +1,9 @@
-//! Areas of polygons on the WGS84 ellipsoid, many geometries in one call.
+//! Areas of polygons on the WGS84 ellipsoid, many geometries in one call, in
+//! shapely's `to_ragged_array` layout (described in `geoalpha/_kernel.pyi`).
 //!
-//! Every ring is a closed sequence of longitude/latitude vertices (degrees,
-//! EPSG:4326) joined by geodesics; its area is Karney's (GeographicLib's
-//! `PolygonArea`, from the `geographiclib-rs` crate), which counts the
-//! crossings of the antimeridian and so gives the area of a cap around a
-//! pole, not of its complement. A polygon's area is its exterior's minus its
-//! holes'; a multipolygon's, the sum of its polygons'. Geometries run on
-//! rayon's threads.
-//!
-//! The layout is shapely's `to_ragged_array` for (multi)polygons: flat vertex
-//! arrays, `ring_offsets` into them (ring `r` is `ring_offsets[r]..ring_offsets
-//! [r + 1]`), `polygon_offsets` into the rings (a polygon's first ring is its
-//! exterior) and `geometry_offsets` into the polygons.
+//! A ring's edges are geodesics; its area is Karney's (GeographicLib's
+//! `PolygonArea`, crate `geographiclib-rs`), which counts the crossings of the
+//! antimeridian, so a ring around a pole gives the cap, not its complement.
 
 use geographiclib_rs::{Geodesic, PolygonArea, Winding};
 use rayon::prelude::*;
@@ -62,8 +54,7 @@ pub fn ring_area(geod: &Geodesic, lon: &[f64], lat: &[f64]) -> f64 {
 ///
 /// # Errors
 /// Arrays of different lengths, offsets that do not index what follows
-/// them, or a vertex that is no longitude/latitude (not finite, or a
-/// latitude beyond ±90).
+/// them, or a vertex that is no longitude/latitude.
 pub fn polygon_areas(
     lon: &[f64],
     lat: &[f64],

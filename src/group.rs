@@ -9,8 +9,8 @@ use crate::spectrum::{
     fill_rank, merge_ties, outlier_optimum, pieces, sweep, Curve, ALPHA_RTOL, PARALLEL_TRIANGLES,
 };
 
-/// Why a group has no alpha shape (0: it has one). The Python side words
-/// these once (`geoalpha.errors.DEGENERATE_REASONS`).
+/// Why a group has no alpha shape (0: it has one); worded in
+/// `geoalpha.kernel.REASONS`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[repr(u8)]
 pub enum Reason {
@@ -24,8 +24,8 @@ pub enum Reason {
     CollinearOut = 3,
     /// The rings of the shape could not be traced (never expected).
     Rings = 4,
-    /// On the sphere: the group does not fit in the cap the kernel handles
-    /// (`crate::sphere::MAX_ANGLE_DEGREES` around its centre).
+    /// On the sphere: a point beyond `crate::sphere::MAX_ANGLE_DEGREES` of
+    /// the group's centre.
     Hemisphere = 6,
 }
 
@@ -76,11 +76,9 @@ pub struct Solved {
     pub curve_values: Vec<f64>,
 }
 
-/// Solve one group.
-///
-/// `out` (same length as `points`): the same points in the coordinates the
-/// result is returned in, where collinearity is decided too. `alpha`: a
-/// given alpha instead of the optimum. `budget`: rows that may be left out.
+/// Solve one group. `out`: the same points in the output coordinates (where
+/// collinearity is decided too); `alpha`: a given alpha instead of the
+/// optimum; `budget`: rows that may be left out.
 pub fn solve(
     points: &[Xy],
     out: Option<&[Xy]>,
@@ -120,11 +118,10 @@ pub fn solve(
 }
 
 /// Triangulate a group in `plane` (`frame` is theirs, `line` whether they lie
-/// on one line there) and decide its reason code. When it has a shape: the
-/// mesh, each triangle's radius (`radius_of` its corners in the points scaled
-/// by `frame.scale`) and those scaled points, every triangle counter-clockwise
-/// in them; `None` (with `res.reason` set) when it is degenerate. Collinearity
-/// is decided in the output coordinates `out` too.
+/// on one line there, or in `out`) and set its reason code. With a shape: the
+/// mesh, each triangle's radius (`radius_of` its corners scaled by
+/// `frame.scale`) and the scaled points, every triangle counter-clockwise in
+/// them; `None` when the group is degenerate.
 pub fn triangulated(
     plane: &[Xy],
     frame: &Frame,
@@ -151,19 +148,15 @@ pub fn triangulated(
     }
     let s = frame.scale;
     let scaled: Vec<Xy> = plane.iter().map(|p| [p[0] * s, p[1] * s]).collect();
-    let radius = |t: &[u32; 3]| radius_of(t.map(|v| scaled[v as usize]));
-    let radius = if mesh.tri.len() > PARALLEL_TRIANGLES {
-        mesh.tri.par_iter().map(radius).collect()
-    } else {
-        mesh.tri.iter().map(radius).collect()
-    };
+    let radius = mesh.tri.par_iter().with_min_len(PARALLEL_TRIANGLES);
+    let radius = radius
+        .map(|t| radius_of(t.map(|v| scaled[v as usize])))
+        .collect();
     Some((mesh, radius, scaled))
 }
 
-/// The optimum (or given alpha), the shape, its area and rings, of a
-/// triangulated group (`radius` and `area_of` of each triangle, `ring_points`
-/// the points every triangle is counter-clockwise in); `res` holds what the
-/// triangulation already set.
+/// The optimum (or given alpha), shape, area and rings of a triangulated group
+/// (`ring_points`: the points every triangle is counter-clockwise in).
 #[allow(clippy::too_many_arguments)]
 pub fn finish(
     mut res: Solved,
@@ -186,7 +179,6 @@ pub fn finish(
     let value = |rank: u32| values[rank as usize];
     let sweep = |curve| sweep(&w, k, mesh, options.components, curve);
     let (label, n_pieces) = if let Some(a) = alpha {
-        res.alpha = a;
         res.radius = if a > 0.0 { 1.0 / a } else { f64::INFINITY };
         let r = res.radius * (1.0 + ALPHA_RTOL);
         // Solid: a merged radius <= r, i.e. a rank below the first value > r.
@@ -221,13 +213,8 @@ pub fn finish(
         res.radius = value(r);
         pieces(|t| w[t] <= r, &mesh.nb)
     };
-    if alpha.is_none() {
-        res.alpha = if res.radius.is_finite() {
-            1.0 / res.radius
-        } else {
-            0.0
-        };
-    }
+    // 1 / inf is 0: the convex hull.
+    res.alpha = alpha.unwrap_or(1.0 / res.radius);
     if options.curve && (alpha.is_some() || budget > 0) {
         res.curve = sweep(true).1;
     }

@@ -1,11 +1,7 @@
 //! geoalpha's compiled kernel: exact optimal alpha shapes of many groups of
-//! points in one call.
-//!
-//! Each group is triangulated by spade (exact `orient2d`/`incircle`), its
-//! circumradius spectrum is swept with union-find, and its shape comes back as
-//! rings of input point indices. Groups run on rayon's threads with the GIL
-//! released. The Python package (`geoalpha.kernel`) checks the input, calls
-//! [`alpha_shapes`](py_alpha_shapes) once and builds the polygons with shapely.
+//! points in one call, each group triangulated by spade, its radius spectrum
+//! swept with union-find, its shape returned as rings of point indices; the
+//! groups on rayon's threads with the GIL released (`docs/architecture.md`).
 
 pub mod batch;
 pub mod frame;
@@ -24,13 +20,11 @@ use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use crate::batch::{Input, Output};
+use crate::batch::Input;
 use crate::frame::Xy;
 use crate::group::Options;
 
-/// mimalloc for the kernel's own allocations: groups allocate and free
-/// their arrays on every thread, where glibc's malloc spent a tenth of the
-/// time in the system (returning memory and faulting it back in).
+/// mimalloc for the kernel's own allocations (why: `Cargo.toml`).
 #[global_allocator]
 static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
@@ -63,32 +57,17 @@ fn detached<T: Send, E: std::fmt::Display + Send>(
     }
 }
 
-fn to_dict<'py>(py: Python<'py>, o: Output) -> PyResult<Bound<'py, PyDict>> {
-    let d = PyDict::new(py);
-    d.set_item("reason", o.reason.into_pyarray(py))?;
-    d.set_item("alpha", o.alpha.into_pyarray(py))?;
-    d.set_item("radius", o.radius.into_pyarray(py))?;
-    d.set_item("n_distinct", o.n_distinct.into_pyarray(py))?;
-    d.set_item("n_parts", o.n_parts.into_pyarray(py))?;
-    d.set_item("area", o.area.into_pyarray(py))?;
-    d.set_item("n_outliers", o.n_outliers.into_pyarray(py))?;
-    d.set_item("whole", o.whole.into_pyarray(py))?;
-    d.set_item("capped", o.capped.into_pyarray(py))?;
-    d.set_item("rep", o.rep.into_pyarray(py))?;
-    d.set_item("left_out", o.left_out.into_pyarray(py))?;
-    d.set_item("ring_vertex", o.ring_vertex.into_pyarray(py))?;
-    d.set_item("ring_offsets", o.ring_offsets.into_pyarray(py))?;
-    d.set_item("polygon_offsets", o.polygon_offsets.into_pyarray(py))?;
-    d.set_item("group_offsets", o.group_offsets.into_pyarray(py))?;
-    d.set_item("curve_value", o.curve_value.into_pyarray(py))?;
-    d.set_item("curve_valid", o.curve_valid.into_pyarray(py))?;
-    d.set_item("curve_offsets", o.curve_offsets.into_pyarray(py))?;
-    Ok(d)
+/// A dict of the named fields of `$o`, each as a numpy array.
+macro_rules! dict_of {
+    ($py:expr, $o:expr; $($field:ident),*) => {{
+        let d = PyDict::new($py);
+        $(d.set_item(stringify!($field), $o.$field.into_pyarray($py))?;)*
+        d
+    }};
 }
 
-/// Optimal (or given-alpha) alpha shapes of every group, in one call.
-///
-/// See `geoalpha/_kernel.pyi` for the arguments and the arrays returned.
+/// Optimal (or given-alpha) alpha shapes of every group, in one call (the
+/// arguments and the arrays returned: `geoalpha/_kernel.pyi`).
 #[pyfunction(name = "alpha_shapes")]
 #[pyo3(signature = (
     xy, offsets, *, out_xy=None, holes=false, components=1, alpha=None,
@@ -124,13 +103,15 @@ fn py_alpha_shapes<'py>(
             sphere,
         },
     };
-    to_dict(py, detached(py, threads, || batch::run(&input))?)
+    let o = detached(py, threads, || batch::run(&input))?;
+    Ok(dict_of!(py, o;
+        reason, alpha, radius, n_distinct, n_parts, area, n_outliers, whole, capped,
+        rep, left_out, ring_vertex, ring_offsets, polygon_offsets, group_offsets,
+        curve_value, curve_valid, curve_offsets))
 }
 
-/// Areas (m²) on the WGS84 ellipsoid of (multi)polygons in longitude/latitude.
-///
-/// See `geoalpha/_kernel.pyi` for the arguments; [`geodesic::polygon_areas`]
-/// does the work, on `threads` threads with the GIL released.
+/// Areas (m²) on the WGS84 ellipsoid of (multi)polygons in longitude/latitude
+/// ([`geodesic::polygon_areas`]; arguments in `geoalpha/_kernel.pyi`).
 #[pyfunction(name = "geodesic_areas")]
 #[pyo3(signature = (lon, lat, ring_offsets, polygon_offsets, geometry_offsets, *, threads=0))]
 fn py_geodesic_areas<'py>(
@@ -152,13 +133,11 @@ fn py_geodesic_areas<'py>(
     Ok(areas.into_pyarray(py))
 }
 
-/// The thread pool of `threads` threads (0: one per core), built once per
-/// process and count: building one costs more than a small call's work.
-///
-/// A child made by `fork` has none of its parent's threads, so it forgets
-/// the parent's pools (never dropped there, never used) and builds its own;
-/// the lock is only taken with the GIL held, so no other thread holds it
-/// when Python forks.
+/// The pool of `threads` threads (0: one per core), built once per process
+/// and count (building one costs more than a small call). A child made by
+/// `fork` has none of its parent's threads, so it forgets (never drops) the
+/// parent's pools; the lock is only taken with the GIL held, so no thread
+/// holds it when Python forks.
 fn pool(threads: usize) -> PyResult<Arc<rayon::ThreadPool>> {
     static POOLS: Mutex<Vec<(u32, usize, Arc<rayon::ThreadPool>)>> = Mutex::new(Vec::new());
     let pid = std::process::id();

@@ -13,9 +13,8 @@ pub const NONE: u32 = u32::MAX;
 /// The triangulation of one group.
 #[derive(Clone, Debug, Default)]
 pub struct Mesh {
-    /// For every point of the group (by its index in the group), the point
-    /// that represents it: itself, or the first point (in input order) of its
-    /// set of exact or near-duplicates.
+    /// For every point of the group, the one that represents it: itself, or
+    /// the first (in input order) of its exact or near-duplicates.
     pub rep: Vec<u32>,
     /// Number of distinct points (representatives).
     pub n_distinct: usize,
@@ -82,13 +81,6 @@ impl Union {
     }
 }
 
-/// Scaled position for spade: exact (a power of two), with coordinates below
-/// spade's smallest allowed magnitude (2^-142 of an extent near 1, far below
-/// the tolerance) set to zero.
-fn scaled(p: Xy, s: f64) -> Point2<f64> {
-    spade::mitigate_underflow(Point2::new(p[0] * s + 0.0, p[1] * s + 0.0))
-}
-
 /// Position of `(x, y)` along the Z-order (Morton) curve over a 2^32 x 2^32
 /// grid: the bits of `x` and `y` interleaved.
 fn morton(x: u32, y: u32) -> u64 {
@@ -103,12 +95,10 @@ fn morton(x: u32, y: u32) -> u64 {
     spread(x) | (spread(y) << 1)
 }
 
-/// The group's points along a Z-order curve through their bounding box
-/// (`frame` is theirs), as sorted `(place on the curve, coordinate bits,
-/// index)`: exact duplicates end up next to each other, and ties on the curve
-/// (points closer than a cell) go by coordinates, so that the order, and with
-/// it spade's triangulation, depends on the points alone, not on the order of
-/// the rows.
+/// The points along a Z-order curve through their bounding box, sorted
+/// `(place on the curve, coordinate bits, index)`: exact duplicates end up
+/// next to each other, and the order (with it spade's triangulation) depends
+/// on the points alone, not on the order of the rows.
 fn along_curve(points: &[Xy], frame: &Frame) -> Vec<(u64, [u64; 2], u32)> {
     let [lo, hi] = frame.bounds;
     // Grid cells of the bounding box; the cast saturates, so rounding at the
@@ -138,18 +128,16 @@ fn along_curve(points: &[Xy], frame: &Frame) -> Vec<(u64, [u64; 2], u32)> {
     along
 }
 
-/// The order in which the points with `rep[i] == i` are inserted, as
-/// `(index, rank)` pairs, `rank` being the point's place among them along the
-/// curve ([`along_curve`]): biased randomized insertion order (BRIO) with
-/// each round in the curve's order.
+/// The insertion order of the points with `rep[i] == i`, as `(index, rank)`
+/// pairs (`rank`: the place among them along the curve): biased randomized
+/// insertion order (BRIO), each round in the curve's order.
 ///
-/// A point's round comes from a hash of its coordinates (deterministic): half
-/// of the points go in the last round, a quarter in the one before, and so
-/// on. The random rounds keep every insertion's expected work constant
-/// whatever the shape of the group (spade's circle sweep, `bulk_load`, slows
-/// to quadratic time on nearly collinear chains, whose points share one
-/// angle from the centre); the curve keeps each insertion next to the one
-/// before, where the walk that locates it starts.
+/// A point's round comes from a hash of its coordinates: half of the points
+/// in the last round, a quarter in the one before, and so on. The random
+/// rounds keep each insertion's expected work constant whatever the shape
+/// (spade's `bulk_load` slows to quadratic time on nearly collinear chains);
+/// the curve keeps each insertion next to the one before, where its walk
+/// starts.
 fn insertion_order(along: &[(u64, [u64; 2], u32)], rep: &[u32]) -> Vec<(u32, u32)> {
     let round = |bits: [u64; 2]| 64 - mix(bits[0] ^ mix(bits[1])).trailing_zeros() as usize;
     let kept = along.iter().filter(|e| rep[e.2 as usize] == e.2);
@@ -192,8 +180,7 @@ fn mix(mut z: u64) -> u64 {
 /// Above this many points, the insertion order is sorted on every thread.
 const PARALLEL_POINTS: usize = 1 << 16;
 
-/// The Delaunay triangulation of the points that represent their set
-/// (`rep[i] == i`), without `rep`: no triangle for fewer than 3 of them.
+/// The Delaunay triangulation of the points with `rep[i] == i` (no `rep`).
 fn delaunay(points: &[Xy], along: &[(u64, [u64; 2], u32)], rep: &[u32], s: f64) -> Mesh {
     let order = insertion_order(along, rep);
     let n = order.len();
@@ -203,8 +190,11 @@ fn delaunay(points: &[Xy], along: &[(u64, [u64; 2], u32)], rep: &[u32], s: f64) 
     let mut dt = DelaunayTriangulation::<Vertex>::with_capacity(n, 3 * n, 2 * n);
     let mut hint = None;
     for (id, rank) in order {
+        let [x, y] = points[id as usize];
         let vertex = Vertex {
-            pos: scaled(points[id as usize], s),
+            // Scaled exactly; coordinates below spade's smallest magnitude
+            // (2^-142, far below the tolerance) set to zero.
+            pos: spade::mitigate_underflow(Point2::new(x * s + 0.0, y * s + 0.0)),
             id,
             rank,
         };
@@ -267,8 +257,7 @@ pub fn triangulate(points: &[Xy], frame: &Frame, build: bool) -> Mesh {
     }
 }
 
-/// The mesh's edges shorter than `close` (in coordinates scaled by `s`), as
-/// point pairs, each edge looked at once.
+/// The mesh's edges shorter than `close` (scaled by `s`), each once.
 fn close_pairs(points: &[Xy], mesh: &Mesh, close: f64, s: f64) -> Vec<(u32, u32)> {
     let close = close * close;
     (0..mesh.tri.len())
@@ -287,17 +276,9 @@ fn close_pairs(points: &[Xy], mesh: &Mesh, close: f64, s: f64) -> Vec<(u32, u32)
         .collect()
 }
 
-/// Triangles and their neighbours, as flat arrays.
-type Triangles = (Vec<[u32; 3]>, Vec<[u32; 3]>);
-
-/// The triangle and neighbour arrays, the triangles numbered along the
-/// Z-order curve, so that the sweeps, which visit a triangle and its
-/// neighbours, find them close in memory (spade's own numbering follows the
-/// order of creation).
-///
-/// Each triangle is listed by its vertex of smallest rank on the curve, the
-/// vertices taken in rank order, on every thread: one walk around each
-/// vertex. Then spade's face numbers become places in that list.
+/// The triangle and neighbour arrays, the triangles numbered along the curve
+/// (the sweeps find neighbours close in memory): each listed by its vertex of
+/// smallest rank, one walk around each vertex in rank order, on every thread.
 fn fill_arrays(t: &DelaunayTriangulation<Vertex>) -> Mesh {
     let mut by_rank = vec![0u32; t.num_vertices()];
     for v in t.vertices() {
@@ -306,7 +287,7 @@ fn fill_arrays(t: &DelaunayTriangulation<Vertex>) -> Mesh {
     let face = |f: FaceHandle<PossiblyOuterTag, Vertex, (), (), ()>| {
         f.as_inner().map_or(NONE, |f| f.fix().index() as u32)
     };
-    let (faces, (tri, mut nb)): (Vec<u32>, Triangles) = by_rank
+    let (faces, (tri, mut nb)): (Vec<u32>, (Vec<_>, Vec<_>)) = by_rank
         .par_iter()
         .with_min_len(PARALLEL_POINTS / 8)
         .flat_map_iter(|&v| {

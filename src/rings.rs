@@ -23,13 +23,8 @@ fn corner(t: &[u32; 3], v: u32) -> usize {
 /// `v = tri[t][j + 1]`): turn counter-clockwise around `v` from the edge,
 /// through triangles outside the piece and across the outside of the convex
 /// hull, to the first triangle of the piece; its edge leaving `v` is next.
-fn next_edge(
-    tri: &[[u32; 3]],
-    nb: &[[u32; 3]],
-    label: &[u32],
-    t: usize,
-    j: usize,
-) -> Option<(usize, usize)> {
+fn next_edge(mesh: &Mesh, label: &[u32], t: usize, j: usize) -> Option<(usize, usize)> {
+    let (tri, nb) = (&mesh.tri, &mesh.nb);
     let piece = label[t];
     let v = tri[t][(j + 1) % 3];
     let inside = |s: usize| label[s] == piece;
@@ -70,10 +65,9 @@ fn next_edge(
 }
 
 /// Trace the rings of the pieces (`label[t]` in `0..n_pieces`, or [`NONE`]
-/// for triangles outside the shape). `points` orient the rings (exactly).
-/// `None` when a walk does not end or a piece does not get exactly one
-/// counter-clockwise ring (never expected on an exact triangulation;
-/// reported rather than trusted).
+/// outside the shape), oriented exactly in `points`. `None` when a walk does
+/// not end or a piece has not exactly one counter-clockwise ring (never
+/// expected; reported rather than trusted).
 pub fn trace(points: &[Xy], mesh: &Mesh, label: &[u32], n_pieces: usize) -> Option<Polygons> {
     let (tri, nb) = (&mesh.tri, &mesh.nb);
     let m = tri.len();
@@ -100,7 +94,7 @@ pub fn trace(points: &[Xy], mesh: &Mesh, label: &[u32], n_pieces: usize) -> Opti
                 }
                 used[3 * t + j] = true;
                 ring.push(tri[t][j]);
-                (t, j) = next_edge(tri, nb, label, t, j)?;
+                (t, j) = next_edge(mesh, label, t, j)?;
                 if (t, j) == (t0, j0) {
                     break;
                 }

@@ -24,16 +24,14 @@ pub const ALPHA_RTOL: f64 = 8.0 * f64::EPSILON;
 /// Above this many triangles, sorts and per-triangle passes use every thread.
 pub const PARALLEL_TRIANGLES: usize = 1 << 16;
 
-/// A triangulation's radius spectrum: the distinct radii, ascending, radii
-/// that agree to [`TIE_RTOL`] given the largest of their values; and the rank
-/// of each triangle's radius among them. Everything after the radii runs on
-/// ranks: integers that compare as the radii do, so the sweeps sort by
-/// counting and queue by bucket.
+/// A triangulation's radius spectrum: the distinct radii, ascending, and the
+/// rank of each triangle's radius among them (integers that compare as the
+/// radii do, so the sweeps sort by counting and queue by bucket).
 ///
-/// Greedy runs, one value each: a run starts at the smallest radius not yet
-/// taken and holds every radius up to `start * (1 + TIE_RTOL)`; runs do not
-/// chain, so a merged value spans at most the tolerance. Radii are positive
-/// (or infinite), so their bit patterns sort as they do.
+/// Radii that agree to [`TIE_RTOL`] are one value, the largest: a run starts
+/// at the smallest radius not yet taken and holds every radius up to `start *
+/// (1 + TIE_RTOL)` (runs do not chain). Radii are positive (or infinite), so
+/// their bit patterns sort as they do.
 pub fn merge_ties(radius: &[f64]) -> (Vec<f64>, Vec<u32>) {
     let mut keyed: Vec<(u64, u32)> = radius
         .iter()
@@ -67,12 +65,10 @@ pub fn merge_ties(radius: &[f64]) -> (Vec<f64>, Vec<u32>) {
 /// triangle to the outside of the convex hull, of the smallest rank on the
 /// path (the triangle's own included).
 ///
-/// With holes filled, `t` is in the shape at rank `R` exactly when every such
-/// path meets a solid triangle, i.e. when its fill rank is `<= R`. A
-/// widest-path search from the outside on a bucket queue: the keys it takes
-/// out never increase, so the first key a triangle is queued with (the min
-/// of the current key and its rank) is its fill rank, and each triangle is
-/// queued once; one downward scan of `k` buckets serves, `O(m + k)`.
+/// With holes filled, `t` is in the shape at rank `R` exactly when its fill
+/// rank is `<= R`. A widest-path search from the outside on a bucket queue:
+/// the keys taken out never increase, so a triangle's first key (the min of
+/// the current key and its rank) is its fill rank; `O(m + k)`.
 pub fn fill_rank(rank: &[u32], k: usize, nb: &[[u32; 3]]) -> Vec<u32> {
     let m = rank.len();
     let mut fill = vec![NONE; m];
@@ -132,8 +128,7 @@ pub fn pieces(inside: impl Fn(usize) -> bool, nb: &[[u32; 3]]) -> (Vec<u32>, usi
 }
 
 /// The validity curve: every distinct weight (a rank), ascending, and whether
-/// the shape at that threshold is valid (covers every distinct point in at
-/// most `components` edge-connected pieces).
+/// the shape at that threshold is valid.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Curve {
     /// Distinct weights, ascending.
@@ -171,27 +166,12 @@ impl Growing<'_> {
     }
 }
 
-/// The largest, over the points, of the smallest weight of a triangle at the
-/// point: no threshold below covers every point.
-fn coverage_bound(w: &[u32], mesh: &Mesh) -> u32 {
-    let mut lowest = vec![NONE; mesh.rep.len()];
-    for (t, v) in mesh.tri.iter().enumerate() {
-        for &p in v {
-            lowest[p as usize] = lowest[p as usize].min(w[t]);
-        }
-    }
-    lowest.into_iter().filter(|&x| x != NONE).max().unwrap_or(0)
-}
-
 /// One union-find sweep over the triangles in increasing weight `w` (ranks
-/// below `k`): the first valid threshold (the optimum; `None` if no threshold
-/// is valid, which a Delaunay triangulation never gives) and, if asked, the
-/// whole curve.
+/// below `k`): the first valid threshold (the optimum; `None` if none is,
+/// never on a Delaunay triangulation) and, if asked, the whole curve.
 ///
-/// Without the curve, the sweep starts at the coverage bound (no lower
-/// threshold covers every point), adding the triangles below it in index
-/// order, whose neighbours are close in memory, and only the rest in order of
-/// weight.
+/// Without the curve, the sweep starts at the coverage bound, adding the
+/// triangles up to it in index order (neighbours close in memory).
 pub fn sweep(
     w: &[u32],
     k: usize,
@@ -212,7 +192,15 @@ pub fn sweep(
         |shape: &Growing| shape.n_covered == mesh.n_distinct && shape.n_pieces <= components;
     let mut from = 0;
     if !want_curve && !w.is_empty() {
-        let bound = coverage_bound(w, mesh);
+        // The largest, over the points, of the smallest weight of a triangle
+        // at the point: no lower threshold covers every point.
+        let mut lowest = vec![NONE; mesh.rep.len()];
+        for (t, v) in mesh.tri.iter().enumerate() {
+            for &p in v {
+                lowest[p as usize] = lowest[p as usize].min(w[t]);
+            }
+        }
+        let bound = lowest.into_iter().filter(|&x| x != NONE).max().unwrap_or(0);
         for t in (0..w.len()).filter(|&t| w[t] <= bound) {
             shape.add(t);
         }
@@ -311,12 +299,10 @@ impl BestUnion<'_> {
     }
 }
 
-/// The `components` pieces at threshold `R` that cover the most rows.
-///
-/// `weight[v]` is the number of rows at point `v` (0 for a point that is not
-/// a vertex). Pieces share points only where they touch at a vertex, so the
-/// union is counted exactly, by branch and bound over the pieces in
-/// decreasing weight, visiting at most `max_nodes` nodes.
+/// The `components` pieces at threshold `r` that cover the most rows
+/// (`weight[v]`: rows at point `v`). Pieces may share a vertex, so the union
+/// is counted exactly, by branch and bound over the pieces in decreasing
+/// weight, visiting at most `max_nodes` nodes.
 pub fn best_cover(
     w: &[u32],
     r: u32,
@@ -355,11 +341,9 @@ pub fn best_cover(
     }
 }
 
-/// The outlier optimum: the smallest distinct weight at which `components`
-/// pieces cover at least `need` rows, and those pieces.
-///
-/// The best coverage only grows with the threshold (pieces grow and merge),
-/// so a binary search over the distinct weights finds the first one.
+/// The outlier optimum: the smallest weight at which `components` pieces cover
+/// at least `need` rows, and those pieces. The best coverage only grows with
+/// the threshold (pieces grow and merge): a binary search finds it.
 pub fn outlier_optimum(
     w: &[u32],
     mesh: &Mesh,

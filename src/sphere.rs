@@ -1,19 +1,14 @@
-//! Alpha shapes on the sphere (`crs="sphere"`): one group's longitudes and
-//! latitudes become unit vectors, and its Delaunay triangulation is the
-//! spherical one (empty circumscribed caps); a triangle's radius is the
-//! geodesic radius of its circumscribed small circle, in metres on a sphere
-//! of radius [`EARTH_RADIUS`].
-//!
-//! # How
+//! Alpha shapes on the sphere (`crs="sphere"`): a group's longitudes and
+//! latitudes as unit vectors, triangulated by empty circumscribed caps; a
+//! triangle's radius is the geodesic radius of its circumscribed small
+//! circle, in metres on a sphere of radius [`EARTH_RADIUS`].
 //!
 //! The group's centre `c` is the normalised mean of its unit vectors. The
 //! points are projected stereographically from `-c` onto the plane tangent at
-//! `c` (`X = 2x / (1 + z)`, `Y = 2y / (1 + z)` in a basis `e1, e2, c`), and
-//! spade triangulates them exactly ([`crate::mesh::triangulate`]: duplicates
-//! and near-duplicates as in the plane). The stereographic projection maps
-//! circles on the sphere to circles in the plane, so a planar triangle with an
-//! empty circumcircle is a spherical triangle with an empty circumscribed cap,
-//! the cap whose image is the disk (it does not hold `-c`).
+//! `c` (`X = 2x / (1 + z)`, `Y = 2y / (1 + z)` in a basis `e1, e2, c`), which
+//! maps circles to circles, and triangulated exactly in the plane
+//! ([`crate::mesh::triangulate`]): an empty circumcircle there is an empty
+//! cap (the one that does not hold `-c`).
 //!
 //! # What the plane misses, and why it is exact
 //!
@@ -40,10 +35,6 @@
 //!    optimum, with the same shape. Otherwise (and for the validity curve)
 //!    the mesh is completed by gift-wrapping across its boundary edges
 //!    ([`complete`]) and the group is solved again.
-//!
-//! A group with a point farther than [`MAX_ANGLE_DEGREES`] from its centre
-//! (one that does not fit in a hemisphere, or nearly) is refused:
-//! [`Reason::Hemisphere`].
 
 use robust::{incircle, orient2d, orient3d, Coord, Coord3D};
 use std::collections::HashMap;
@@ -56,8 +47,8 @@ use crate::mesh::{triangulate, Mesh, NONE};
 /// with the ellipsoid's area).
 pub const EARTH_RADIUS: f64 = 6_371_007.2;
 
-/// The largest angle from a group's centre to one of its points (degrees)
-/// the sphere handles; groups beyond are refused ([`Reason::Hemisphere`]).
+/// The largest angle (degrees) from a group's centre to one of its points;
+/// groups beyond are refused ([`Reason::Hemisphere`]).
 pub const MAX_ANGLE_DEGREES: f64 = 80.0;
 
 type V3 = [f64; 3];
@@ -82,17 +73,8 @@ fn scale(a: V3, k: f64) -> V3 {
     [a[0] * k, a[1] * k, a[2] * k]
 }
 
-/// The unit vector of a longitude and latitude in degrees.
-pub fn unit_vector(p: Xy) -> V3 {
-    let (lon, lat) = (p[0].to_radians(), p[1].to_radians());
-    let (sl, cl) = lon.sin_cos();
-    let (sp, cp) = lat.sin_cos();
-    [cp * cl, cp * sl, sp]
-}
-
-/// The orientation of `a, b, c, d` with an exact sign; with `d` the centre
-/// ([`O`]), `det[a, b, c]` (positive: `a, b, c` counter-clockwise seen from
-/// outside the sphere).
+/// The orientation of `a, b, c, d`, exact sign; with `d` = [`O`], `det[a, b,
+/// c]` (positive: counter-clockwise seen from outside the sphere).
 pub fn orient3(a: V3, b: V3, c: V3, d: V3) -> f64 {
     let k = |p: V3| Coord3D {
         x: p[0],
@@ -117,10 +99,14 @@ pub struct Local {
     pub theta_max: f64,
 }
 
-/// The group's unit vectors in the frame of their centre, or `None` when a
-/// point is farther than [`MAX_ANGLE_DEGREES`] from it (or there is no centre).
+/// The group in the frame of its centre; `None` beyond [`MAX_ANGLE_DEGREES`].
 pub fn local(points: &[Xy]) -> Option<Local> {
-    let world: Vec<V3> = points.iter().map(|&p| unit_vector(p)).collect();
+    let unit_vector = |p: &Xy| {
+        let (sl, cl) = p[0].to_radians().sin_cos();
+        let (sp, cp) = p[1].to_radians().sin_cos();
+        [cp * cl, cp * sl, sp]
+    };
+    let world: Vec<V3> = points.iter().map(unit_vector).collect();
     let mean = world
         .iter()
         .fold([0.0; 3], |m, u| [m[0] + u[0], m[1] + u[1], m[2] + u[2]]);
@@ -190,11 +176,9 @@ pub fn triangle_area(a: V3, b: V3, c: V3) -> f64 {
     2.0 * d.atan2(1.0 + dot(a, b) + dot(b, c) + dot(c, a))
 }
 
-/// Add to `mesh` the spherical Delaunay triangles of `unit` it misses: those
-/// across its boundary edges (gift-wrapping with exact orientations of the
-/// unit vectors, the candidates being the boundary's vertices). Returns the
-/// number of triangles added, or `None` if the wrapping did not close (never
-/// expected).
+/// Add to `mesh` the spherical Delaunay triangles of `unit` it misses, across
+/// its boundary edges (gift-wrapping over the boundary's vertices, exact
+/// orientations): how many, or `None` if the wrapping did not close.
 pub fn complete(mesh: &mut Mesh, unit: &[V3]) -> Option<usize> {
     let mut open: HashMap<(u32, u32), (u32, usize)> = HashMap::new();
     let mut stack = Vec::new();
@@ -245,9 +229,8 @@ pub fn complete(mesh: &mut Mesh, unit: &[V3]) -> Option<usize> {
     Some(mesh.tri.len() - start)
 }
 
-/// Solve one group of longitudes and latitudes (degrees) on the sphere; the
-/// counterpart of [`crate::group::solve`], whose `res` (NaN alpha and radius)
-/// it fills.
+/// [`crate::group::solve`] on the sphere (longitudes and latitudes in
+/// degrees), filling its `res`.
 pub fn solve(
     points: &[Xy],
     out: Option<&[Xy]>,
@@ -282,15 +265,9 @@ pub fn solve(
         let [a, b, c] = t.map(|v| unit[v as usize]);
         EARTH_RADIUS * EARTH_RADIUS * triangle_area(a, b, c)
     };
+    let copy = res.clone();
     let planar = finish(
-        res.clone(),
-        &mesh,
-        &radius,
-        &scaled,
-        &area_of,
-        alpha,
-        budget,
-        options,
+        copy, &mesh, &radius, &scaled, &area_of, alpha, budget, options,
     );
     // Below the bound the planar mesh gives the spherical answer (module doc).
     let bound = EARTH_RADIUS * (std::f64::consts::PI - local.theta_max) / 2.0 * (1.0 - 1e-9);
@@ -298,13 +275,12 @@ pub fn solve(
         return planar;
     }
     let before = mesh.tri.len();
-    match complete(&mut mesh, unit) {
-        Some(0) => return planar,
-        Some(_) => {}
-        None => {
-            res.reason = Reason::Rings as u8;
-            return res;
-        }
+    let Some(added) = complete(&mut mesh, unit) else {
+        res.reason = Reason::Rings as u8;
+        return res;
+    };
+    if added == 0 {
+        return planar;
     }
     // The added triangles' caps hold -c: the cap on the far side of their plane.
     for t in &mesh.tri[before..] {
@@ -319,9 +295,8 @@ pub fn solve(
     )
 }
 
-/// Angular radius of the small circle through three unit vectors: the angle
-/// between the normal of their plane and one of them (the cap smaller than a
-/// hemisphere).
+/// Angular radius of the small circle through three unit vectors (the cap
+/// smaller than a hemisphere): the angle from their plane's normal to one.
 pub fn cap_of_units(a: V3, b: V3, c: V3) -> f64 {
     let sub = |p: V3, q: V3| [p[0] - q[0], p[1] - q[1], p[2] - q[2]];
     let nrm = cross(sub(b, a), sub(c, a));
