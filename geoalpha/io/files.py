@@ -95,45 +95,41 @@ def read_points(
     Parameters
     ----------
     path : str or os.PathLike
-        A vector file GDAL reads (GeoPackage, Shapefile, GeoJSON, FlatGeobuf,
-        ...), a GeoParquet file, or a CSV table (``.csv``, ``.tsv``,
-        ``.txt``; the delimiter is detected) whose rows are points given by two
-        coordinate columns. A ``.parquet`` file without geometry metadata is
-        read as a table too. A ``postgresql://`` URL reads the PostGIS table
-        ``layer`` (``schema.table``) with :func:`geoalpha.io.postgis.read_postgis`.
+        A vector file GDAL reads (GeoPackage, Shapefile, GeoJSON, ...), a
+        GeoParquet file, or a table of points given by two coordinate columns:
+        CSV (``.csv``, ``.tsv``, ``.txt``; the delimiter is detected) or a
+        ``.parquet`` file without geometry metadata. A ``postgresql://`` URL
+        reads the table ``layer`` with :func:`geoalpha.io.postgis.read_postgis`.
     x, y : str, optional
-        Names of the coordinate columns of a table. When omitted, the first
-        pair found among ``longitude/latitude``, ``lon/lat``, ``lng/lat``,
-        ``long/lat``, ``x/y`` and ``easting/northing`` (any letter case) is
-        used. Not allowed for files that store geometries.
+        The coordinate columns of a table (tables only); by default the first
+        pair of :data:`COORDINATE_NAMES` found, in any letter case.
     crs : "auto", str, int, pyproj.CRS or None, default "auto"
-        CRS of the coordinates of a table, or of a vector file that stores
-        none. ``"auto"`` never guesses: columns named as longitude/latitude
-        are EPSG:4326, a file uses its own CRS, anything else is an error.
-        None: planar numbers without CRS. A file's own CRS always wins.
+        CRS of a table's coordinates, or of a vector file that stores none.
+        ``"auto"`` never guesses: longitude/latitude column names mean
+        EPSG:4326, a file has its own, anything else is an error. None: planar
+        numbers without CRS. A file's own CRS always wins.
     layer : str or int, optional
-        Layer to read from a multi-layer file such as a GeoPackage; the first
-        layer by default.
+        Layer of a multi-layer file such as a GeoPackage; the first by default.
 
     Returns
     -------
     geopandas.GeoDataFrame
-        Every row of the file; for a table, all its columns plus point
-        geometries (missing where a coordinate is missing).
+        Every row; for a table, its columns plus point geometries (missing
+        where a coordinate is missing).
 
     Raises
     ------
     FileNotFoundError
         If ``path`` does not exist.
     geoalpha.errors.InvalidInputError
-        If the file cannot be read or has no CRS (with ``crs="auto"``), or
-        the coordinates cannot be used. Messages never show a password.
+        If the file cannot be read, has no CRS (with ``crs="auto"``) or unusable
+        coordinates. Messages never show a password.
 
     Warns
     -----
     geoalpha.errors.CRSWarning
-        When ``crs`` is projected but the coordinates look like lon/lat, or
-        it differs from the file's own CRS.
+        When a projected ``crs`` meets coordinates that look like lon/lat, or
+        ``crs`` differs from the file's own CRS.
 
     Examples
     --------
@@ -151,8 +147,7 @@ def read_input_points(
 ):
     """:func:`read_points`; ``planar_if_missing``: no CRS means planar, no error.
 
-    ``sql`` and ``geometry_column`` apply to a ``postgresql://`` source (see
-    :func:`geoalpha.io.postgis.read_postgis`).
+    ``sql`` and ``geometry_column``: as in :func:`~geoalpha.io.postgis.read_postgis`.
     """
     from geoalpha.crs_parsing import crs_name, parse_crs
 
@@ -465,34 +460,28 @@ def write_hulls(
     gdf : geopandas.GeoDataFrame
         What to write, usually the result of :func:`geoalpha.hull`.
     path : str or os.PathLike
-        Output file. Its extension chooses the format: ``.gpkg``
-        (GeoPackage), ``.shp`` (Shapefile), ``.geojson`` or ``.json``
-        (GeoJSON), ``.fgb`` (FlatGeobuf), ``.parquet`` (GeoParquet). A
-        ``postgresql://`` URL writes a PostGIS table instead, with
-        :func:`geoalpha.io.postgis.write_postgis`.
+        Output file, in the format of its extension (:data:`WRITE_FORMATS`), or
+        a ``postgresql://`` URL (:func:`geoalpha.io.postgis.write_postgis`).
     layer : str, optional
-        GeoPackage layer name; default the file name without extension
-        (``"hulls"`` if that is empty). Only for ``.gpkg``, and required
-        (``schema.table``) for a ``postgresql://`` URL.
+        GeoPackage layer name (``.gpkg`` only); default the file name without
+        extension, or ``"hulls"``. Required for a URL: ``schema.table``.
     overwrite : bool, default False
-        Replace ``path`` if it exists (for a GeoPackage: the whole file,
-        other layers included; for a Shapefile: all its sidecar files).
+        Replace ``path`` if it exists (a GeoPackage as a whole, other layers
+        included; a Shapefile with all its sidecar files).
     engine : {None, "pyogrio", "fiona"}
-        Library geopandas writes vector files with; None lets geopandas
-        choose. Not used for GeoParquet. GeoPackages are written as version
-        1.2 with either engine (QGIS 3.22 LTR warns on GDAL's default, 1.4).
+        Library geopandas writes vector files with (None: geopandas chooses);
+        not used for GeoParquet. GeoPackages are written as version
+        :data:`GPKG_VERSION` with either.
     extra_layers : dict of str to GeoDataFrame, optional
-        More layers for a GeoPackage ``path``, by name (e.g. the points next
-        to their hulls); written into the same file before it is moved into
-        place.
+        More layers of a GeoPackage, by name (e.g. the points next to their
+        hulls), written into the same file before it is moved into place.
 
     Returns
     -------
     dict of str to str
-        Columns renamed to fit the Shapefile limit of 10 bytes per field name
-        (truncated, with a numbered suffix where they would collide ignoring
-        case: ``Local_Au_1``), ``{old: new}``; empty for the other formats or
-        when nothing was renamed.
+        ``{old: new}`` for the columns renamed to fit the Shapefile limit of 10
+        bytes per field name (truncated, numbered where they would collide
+        ignoring case: ``Local_Au_1``); empty for the other formats.
 
     Raises
     ------
@@ -503,16 +492,8 @@ def write_hulls(
 
     Examples
     --------
-    >>> import geopandas as gpd
-    >>> from shapely import box
-    >>> from geoalpha.io.files import write_hulls
-    >>> hulls = gpd.GeoDataFrame(
-    ...     {"Local_Authority_(Highway)": ["E09000020"], "alpha": [0.01]},
-    ...     geometry=[box(-0.2, 51.5, -0.1, 51.6)], crs="EPSG:4326")
     >>> write_hulls(hulls, "hulls.shp")  # doctest: +SKIP
     {'Local_Authority_(Highway)': 'Local_Auth'}
-    >>> write_hulls(hulls, "hulls.gpkg", overwrite=True)  # doctest: +SKIP
-    {}
     """
     import geopandas as gpd
 
@@ -601,33 +582,30 @@ def check_output(
     Parameters
     ----------
     path : str or os.PathLike
-        Output file; see :func:`write_hulls` for the extensions understood.
+        Output file or URL, as for :func:`write_hulls`.
     layer : str, optional
-        GeoPackage layer name, as for :func:`write_hulls`.
+        GeoPackage layer name or PostGIS table, as for :func:`write_hulls`.
     overwrite : bool, default False
         Whether an existing file may be replaced.
 
     Raises
     ------
     FileExistsError, FileNotFoundError, IsADirectoryError
-        If ``path`` exists (without ``overwrite``), its directory does not,
-        or it is a directory.
+        If ``path`` exists (without ``overwrite``), its directory does not, or
+        it is a directory.
     geoalpha.errors.InvalidInputError
         For an unknown extension (or an upper-case ``.SHP``), or ``layer``
         with a format without layers.
     PermissionError
-        If the output folder is not writable (checked by creating and
-        removing a hidden staging folder there).
+        If the output folder is not writable (a staging folder is created
+        there and removed).
 
     Examples
     --------
     >>> from geoalpha.io.files import check_output
-    >>> check_output("hulls.gpkg")  # doctest: +SKIP
-    >>> try:
-    ...     check_output("hulls.csv")
-    ... except ValueError as err:
-    ...     print(err)  # doctest: +ELLIPSIS
-    cannot tell the output format of hulls.csv: its extension must be one of .gpkg, ...
+    >>> check_output("hulls.csv")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    geoalpha.errors.InvalidInputError: cannot tell the output format of hulls.csv: ...
     """
     if _database(path, None):
         check_postgis_output(os.fspath(path), layer, overwrite=overwrite)
@@ -731,13 +709,6 @@ def remove_stale_staging(folder: PathLike) -> list[Path]:
     -------
     list of pathlib.Path
         The folders removed.
-
-    Examples
-    --------
-    >>> import tempfile
-    >>> from geoalpha.io.files import remove_stale_staging
-    >>> remove_stale_staging(tempfile.gettempdir())  # doctest: +SKIP
-    []
     """
     removed = []
     host = _host_tag()

@@ -1,12 +1,9 @@
-"""Read points from PostGIS and write hulls back, safely.
+"""Read points from PostGIS and write hulls back, safely (see ``docs/postgis.md``).
 
-:func:`read_postgis` reads a table or a ``SELECT`` into a GeoDataFrame;
-:func:`write_postgis` writes one to a table in one transaction (a new table,
-indexed, then renamed), so an interrupted run never damages the table it was
-meant to replace. A database is named by a URL,
-``postgresql://user@host:port/dbname``; its password (from the URL,
-``PGPASSWORD`` or ``~/.pgpass``) never appears in a message. Needs
-``pip install "geoalpha[postgis]"``.
+:func:`read_postgis` reads a table or a ``SELECT``; :func:`write_postgis` writes
+a new table in one transaction, then renames it, so an interrupted run never
+damages the table it replaces. A database is named by a URL,
+``postgresql://user@host:port/dbname``; its password never appears in a message.
 """
 
 from __future__ import annotations
@@ -354,18 +351,8 @@ def read_postgis(
     -----
     2D points with number, boolean, text or date columns are read as arrays
     in one aggregate row (twice as fast); anything else row by row with its
-    WKB, as ``geopandas.read_postgis`` does. The result is the same.
-
-    Examples
-    --------
-    >>> from geoalpha.io.postgis import read_postgis
-    >>> points = read_postgis(
-    ...     "postgresql://ga@127.0.0.1:5432/gadb", table="public.uk_clusters"
-    ... )  # doctest: +SKIP
-    >>> points = read_postgis(
-    ...     "postgresql://ga@127.0.0.1:5432/gadb",
-    ...     sql="SELECT cluster, geom FROM uk_clusters WHERE cluster < 100",
-    ... )  # doctest: +SKIP
+    WKB, as ``geopandas.read_postgis`` does. The result is the same. Examples:
+    ``docs/postgis.md``.
     """
     if (table is None) == (sql is None):
         raise InvalidInputError(
@@ -597,13 +584,6 @@ def check_postgis_output(
     ------
     geoalpha.errors.DatabaseError, geoalpha.errors.InvalidInputError
         As :func:`write_postgis`.
-
-    Examples
-    --------
-    >>> from geoalpha.io.postgis import check_postgis_output
-    >>> check_postgis_output(
-    ...     "postgresql://ga@127.0.0.1:5432/gadb", "public.hulls"
-    ... )  # doctest: +SKIP
     """
     schema, name = _output_table(table)
     with _connection(url, write=False) as conn:
@@ -670,16 +650,6 @@ def write_postgis(
         or the table exists (without ``overwrite``); one line, no password.
     geoalpha.errors.InvalidInputError
         For a malformed URL or table name, or a CRS without an EPSG code.
-
-    Examples
-    --------
-    >>> import geoalpha
-    >>> from geoalpha.io.postgis import read_postgis, write_postgis
-    >>> url = "postgresql://ga@127.0.0.1:5432/gadb"
-    >>> points = read_postgis(url, table="uk_clusters")  # doctest: +SKIP
-    >>> hulls = points.alpha.hull(by="cluster")  # doctest: +SKIP
-    >>> write_postgis(hulls, url, "public.cluster_hulls")  # doctest: +SKIP
-    'public.cluster_hulls'
     """
     import geopandas as gpd
 
