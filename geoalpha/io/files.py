@@ -22,8 +22,6 @@ from typing import TYPE_CHECKING, Any
 from geoalpha.errors import FLAGS, CRSWarning, InvalidInputError, did_you_mean
 from geoalpha.io.postgis import (
     check_postgis_output,
-    gdal_connection_error,
-    is_gdal_connection,
     is_postgres_url,
     read_postgis,
     write_postgis,
@@ -616,8 +614,13 @@ def check_output(
 
 def _database(path, engine) -> bool:
     """Tell whether ``path`` is a ``postgresql://`` URL; refuse ``PG:`` strings."""
-    if is_gdal_connection(path):
-        raise gdal_connection_error(path)
+    if isinstance(path, str) and path.strip()[:3].upper() == "PG:":
+        raise InvalidInputError(
+            "PG:... connection strings are not supported (the GDAL in the Python "
+            "wheels has no PostgreSQL driver); give a URL instead, "
+            "postgresql://user@host:port/dbname, with the password in PGPASSWORD "
+            "or ~/.pgpass"
+        )
     if not is_postgres_url(path):
         return False
     if engine is not None:

@@ -26,8 +26,6 @@ if TYPE_CHECKING:  # pragma: no cover
 
 __all__ = [
     "check_postgis_output",
-    "gdal_connection_error",
-    "is_gdal_connection",
     "is_postgres_url",
     "parse_table",
     "read_postgis",
@@ -56,21 +54,6 @@ def is_postgres_url(text: object) -> bool:
     False
     """
     return isinstance(text, str) and text.strip().lower().startswith(_SCHEMES)
-
-
-def is_gdal_connection(text: object) -> bool:
-    """Tell whether ``text`` is a GDAL ``PG:...`` connection string."""
-    return isinstance(text, str) and text.strip()[:3].upper() == "PG:"
-
-
-def gdal_connection_error(text: str) -> InvalidInputError:
-    """Return the error for a GDAL ``PG:`` string: it says which URL to give."""
-    return InvalidInputError(
-        "PG:... connection strings are not supported (the GDAL in the Python "
-        "wheels has no PostgreSQL driver); give a URL instead, "
-        "postgresql://user@host:port/dbname, with the password in PGPASSWORD "
-        "or ~/.pgpass"
-    )
 
 
 def redact(text: object) -> str:
