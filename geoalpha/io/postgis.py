@@ -280,16 +280,6 @@ def _check_postgis(oid, where: str) -> int:
     return int(oid)
 
 
-def _geometry_tables(conn, limit: int = 20) -> str:
-    rows = _execute(
-        conn,
-        "SELECT f_table_schema, f_table_name FROM geometry_columns "
-        "ORDER BY 1, 2 LIMIT %s",
-        (limit + 1,),
-    ).fetchall()
-    return first_n((f"{s}.{t}" for s, t in rows), limit) or "none"
-
-
 def read_postgis(
     url: str | psycopg.Connection,
     *,
@@ -344,24 +334,28 @@ def read_postgis(
         )
     where = _display(url)
     with _connection(url, write=False) as conn:
-        if table is not None:
-            schema, name = parse_table(table)
-            qualified = _quote(schema, name)
-            oid, found = _execute(
-                conn, _GEOMETRY_OID + ", to_regclass(%s)", (qualified,)
-            ).fetchone()  # one round trip
-            oid = _check_postgis(oid, where)
-            if found is None:
-                raise DatabaseError(
-                    f"table {table} not found in {where}; tables with a geometry "
-                    f"column: {_geometry_tables(conn)}"
-                )
-            query = f"SELECT * FROM {qualified}"
-            source = f"table {table}"
-        else:
-            oid = _check_postgis(_scalar(conn, _GEOMETRY_OID), where)
+        qualified = None if table is None else _quote(*parse_table(table))
+        oid, found = _execute(  # one round trip
+            conn, _GEOMETRY_OID + ", to_regclass(%s)", (qualified,)
+        ).fetchone()
+        oid = _check_postgis(oid, where)
+        if table is None:
             query = sql.strip().rstrip(";")
             source = "the query"
+        elif found is None:
+            rows = _execute(
+                conn,
+                "SELECT f_table_schema, f_table_name FROM geometry_columns "
+                "ORDER BY 1, 2 LIMIT 21",
+            ).fetchall()
+            tables = first_n((f"{s}.{t}" for s, t in rows), 20) or "none"
+            raise DatabaseError(
+                f"table {table} not found in {where}; tables with a geometry "
+                f"column: {tables}"
+            )
+        else:
+            query = f"SELECT * FROM {qualified}"
+            source = f"table {table}"
         # as written (no placeholders); binary: geometries as EWKB, not hex
         cursor = conn.cursor().execute(
             f"SELECT * FROM ({query}) AS _geoalpha_q LIMIT 0", binary=True
