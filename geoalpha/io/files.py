@@ -152,17 +152,14 @@ def read_input_points(
     source = os.fspath(path)
     shown = redact(source)
     auto = isinstance(crs, str) and crs.strip().lower() == "auto"
+    crs = None if auto else crs  # "auto" decides below, per kind of source
     if _database(source, None):  # layer: schema.table, or sql=
         if x is not None or y is not None:
             raise InvalidInputError(
                 f"{_term('x= and y=', '--x and --y')} apply to tables (CSV) only"
             )
         gdf = read_postgis(
-            source,
-            table=layer,
-            sql=sql,
-            geometry_column=geometry_column,
-            crs=None if auto else crs,
+            source, table=layer, sql=sql, geometry_column=geometry_column, crs=crs
         )
         if gdf.crs is None and auto and not planar_if_missing:
             raise _missing_crs(f"the geometries of {shown} (SRID 0)")
@@ -177,8 +174,7 @@ def read_input_points(
         raise FileNotFoundError(f"input file {shown} does not exist")
     if local and Path(source).is_file() and not os.access(source, os.R_OK):
         raise PermissionError(f"cannot read input file {shown}: permission denied")
-    if crs is not None and not auto:
-        crs = parse_crs(crs)
+    crs = parse_crs(crs)
 
     suffix = Path(source).suffix.lower()
     is_table = suffix in _TABLE_SUFFIXES
@@ -192,18 +188,15 @@ def read_input_points(
             )
         frame = _read_table(source, suffix)
         x, y = _find_coordinate_columns(list(frame.columns), x, y, shown)
-        if auto:
-            if _looks_lonlat(x, y):
-                crs = parse_crs(4326)
-            elif _looks_lonlat(y, x):
-                raise InvalidInputError(
-                    f"{_term('x=', '--x ')}{x!r} and {_term('y=', '--y ')}{y!r} "
-                    f"of {shown}: " + _swap_hint(x, y)
-                )
-            elif planar_if_missing:
-                crs = None
-            else:
-                raise _missing_crs(f"the coordinate columns {x!r}, {y!r} of {shown}")
+        if auto and _looks_lonlat(x, y):
+            crs = parse_crs(4326)
+        elif auto and _looks_lonlat(y, x):
+            raise InvalidInputError(
+                f"{_term('x=', '--x ')}{x!r} and {_term('y=', '--y ')}{y!r} "
+                f"of {shown}: " + _swap_hint(x, y)
+            )
+        elif auto and not planar_if_missing:
+            raise _missing_crs(f"the coordinate columns {x!r}, {y!r} of {shown}")
         return _points_from_table(frame, shown, x, y, crs)
 
     if x is not None or y is not None:
@@ -212,20 +205,16 @@ def read_input_points(
             "apply to tables (CSV) only"
         )
     gdf = _read_vector(source, shown, suffix, layer)
-    if gdf.crs is not None:
-        if crs is not None and not auto and not gdf.crs.equals(crs):
-            warnings.warn(
-                f"{shown} has its own CRS {crs_name(gdf.crs)}, which is used; "
-                f"{_term('crs=', '--crs-in')} {crs_name(crs)} is ignored",
-                CRSWarning,
-                stacklevel=2,
-            )
-        return gdf
-    if auto:
-        if planar_if_missing:
-            return gdf
+    if gdf.crs is None and auto and not planar_if_missing:
         raise _missing_crs(f"the points of {shown}")
-    if crs is not None:
+    if gdf.crs is not None and crs is not None and not gdf.crs.equals(crs):
+        warnings.warn(
+            f"{shown} has its own CRS {crs_name(gdf.crs)}, which is used; "
+            f"{_term('crs=', '--crs-in')} {crs_name(crs)} is ignored",
+            CRSWarning,
+            stacklevel=2,
+        )
+    elif gdf.crs is None and crs is not None:
         import shapely
 
         xy = shapely.get_coordinates(gdf.geometry.array)
