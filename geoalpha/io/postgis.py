@@ -641,7 +641,6 @@ def write_postgis(
             "EPSG code: to_crs() to one that has"
         )
     frame = _promote_to_multi(gdf)
-    geometry = frame.geometry.name
     where = _display(url)
     import uuid  # (here: its import costs the command's --help 5 ms)
 
@@ -652,18 +651,9 @@ def write_postgis(
             # Without a CRS the table gets SRID 0, as documented: geopandas'
             # "Could not parse CRS from the GeoDataFrame" would only repeat it.
             warnings.filterwarnings("ignore", "Could not parse CRS", UserWarning)
+            # GeoAlchemy2's Geometry column (spatial_index=True by default)
+            # comes with its GiST index
             frame.to_postgis(temporary, conn, schema=schema, index=False)
-        if not _scalar(
-            conn,
-            "SELECT count(*) FROM pg_index i JOIN pg_class c ON c.oid = i.indexrelid "
-            "JOIN pg_am a ON a.oid = c.relam WHERE i.indrelid = to_regclass(%s) "
-            "AND a.amname = 'gist'",
-            _quote(schema, temporary),
-        ):
-            conn.exec_driver_sql(
-                f"CREATE INDEX ON {_quote(schema, temporary)} USING GIST "
-                f"({_quote(geometry)})"
-            )
         if exists:
             conn.exec_driver_sql(f"DROP TABLE {_quote(schema, name)}")
         conn.exec_driver_sql(
@@ -679,15 +669,12 @@ def _promote_to_multi(gdf: gpd.GeoDataFrame) -> gpd.GeoDataFrame:
     import numpy as np
     import shapely
 
-    geoms = np.asarray(gdf.geometry.array, dtype=object)
+    geoms = np.array(gdf.geometry.array, dtype=object)  # a copy
     kinds = shapely.get_type_id(geoms)
     polygons = kinds == shapely.GeometryType.POLYGON
     if not (polygons.any() and (kinds == shapely.GeometryType.MULTIPOLYGON).any()):
         return gdf
-    geoms = geoms.copy()
-    geoms[polygons] = shapely.multipolygons(
-        geoms[polygons], indices=np.arange(polygons.sum())
-    )
+    geoms[polygons] = shapely.multipolygons(geoms[polygons, np.newaxis])
     return gdf.set_geometry(
         gdf.geometry.__class__(geoms, index=gdf.index, crs=gdf.crs),
         crs=gdf.crs,
