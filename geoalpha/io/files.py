@@ -276,12 +276,9 @@ def _read_table(source: str, suffix: str):
     """Read a CSV table (its delimiter detected) or a Parquet table."""
     import pandas as pd
 
-    if suffix in _PARQUET_SUFFIXES:
-        try:
-            return pd.read_parquet(source)
-        except Exception as err:  # pragma: no cover - its schema was just read
-            raise _cannot_read(source, err) from err
     try:
+        if suffix in _PARQUET_SUFFIXES:  # (its schema was just read)
+            return pd.read_parquet(source)
         with open(source, encoding="utf-8-sig", newline="") as handle:
             sample = handle.read(65536)
         try:
