@@ -434,10 +434,9 @@ def write_hulls(
 ) -> dict[str, str]:
     """Write hulls to a file, in the format its extension names, atomically.
 
-    The file is written to a hidden staging folder beside ``path``, then moved
-    into place: a failed write leaves no half-written file and an existing
-    file untouched, and without ``overwrite`` a file that appeared meanwhile
-    is never replaced.
+    Written to a hidden staging folder beside ``path``, then moved into place
+    (as ``docs/cli.md`` tells): never half-written, never replacing a file
+    without ``overwrite``.
 
     Parameters
     ----------

@@ -190,9 +190,8 @@ def _message(err: BaseException) -> str:
 def _connection(url: str, *, write: bool) -> Iterator[Any]:
     """Open a connection in one transaction (read only unless ``write``).
 
-    Writing runs on SQLAlchemy (``to_postgis`` needs it), reading on a bare
-    psycopg connection (faster). Database errors come out as one-line
-    :class:`DatabaseError` without the password.
+    Writing runs on SQLAlchemy (``to_postgis`` needs it), reading on bare
+    psycopg (faster); database errors come out as one-line :class:`DatabaseError`.
     """
     sqlalchemy = _import_drivers()
     import psycopg
@@ -308,8 +307,7 @@ def read_postgis(
     Returns
     -------
     geopandas.GeoDataFrame
-        Every row, the geometry column under its own name, in the CRS of its
-        SRID.
+        Every row; the geometry column keeps its name, in the CRS of its SRID.
 
     Raises
     ------
@@ -322,10 +320,9 @@ def read_postgis(
 
     Notes
     -----
-    2D points with number, boolean, text or date columns are read as arrays
-    in one aggregate row (twice as fast); anything else row by row with its
-    WKB, as ``geopandas.read_postgis`` does. The result is the same. Examples:
-    ``docs/postgis.md``.
+    2D points with number, boolean, text or date columns are read as arrays in
+    one aggregate row (twice as fast), anything else row by row, as
+    ``geopandas.read_postgis`` does; the result is the same. See ``docs/postgis.md``.
     """
     if (table is None) == (sql is None):
         raise InvalidInputError(
@@ -422,10 +419,9 @@ _ARRAY_ROWS = 2_000_000  # more rows come as rows (a bytea holds 1 GB at most)
 def _read_points(conn, query: str, description, column: str, typmod: int):
     """Read a query of 2D points as arrays: (frame, points, SRID), else None.
 
-    One aggregate row: the x and the y coordinates as one ``bytea`` of
-    doubles each, every other column as one array. None (nothing read) for anything but
-    non-empty 2D points of one SRID with non-NULL numbers, up to
-    :data:`_ARRAY_ROWS` rows; the rows path then reads (or fails) as usual.
+    One aggregate row: x and y as one ``bytea`` of doubles each, every other
+    column as one array. None (nothing read) for anything but non-empty 2D points
+    of one SRID with non-NULL numbers, up to :data:`_ARRAY_ROWS` rows.
     """
     import numpy as np
     import pandas as pd
