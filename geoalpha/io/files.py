@@ -254,15 +254,13 @@ def _cannot_read(source: str, err: BaseException) -> InvalidInputError:
 def _read_vector(source: str, shown: str, suffix: str, layer: str | int | None):
     import geopandas as gpd
 
+    if suffix in _PARQUET_SUFFIXES and layer is not None:
+        raise InvalidInputError(f"{shown} is a GeoParquet file; it has no layers")
     try:
         if suffix in _PARQUET_SUFFIXES:
-            if layer is not None:
-                raise InvalidInputError(
-                    f"{shown} is a GeoParquet file; it has no layers"
-                )
             return gpd.read_parquet(source)
         return gpd.read_file(source, layer=layer)
-    except (ImportError, InvalidInputError):
+    except ImportError:
         raise
     except Exception as err:  # GDAL/pyogrio/fiona/pyarrow errors vary
         error = _cannot_read(source, err)
