@@ -1,11 +1,7 @@
-"""The I/O wing, which serves the faces: files, PostGIS, bundled data.
+"""The I/O wing, which serves the faces: files, PostGIS, redaction, bundled data.
 
-:mod:`~geoalpha.io.files` reads points from and writes hulls to files,
-:mod:`~geoalpha.io.postgis` does the same with a database,
-:mod:`~geoalpha.io.redact` keeps credentials out of messages and
-:mod:`~geoalpha.io.datasets` loads the bundled datasets. ``read_points`` and
-``write_hulls`` are importable from here (loaded on first use, so that
-importing a light module of the wing does not import pandas).
+``read_points`` and ``write_hulls`` of :mod:`~geoalpha.io.files` are importable
+from here, loaded on first use (so a light module of the wing does not import pandas).
 """
 
 from __future__ import annotations

@@ -43,12 +43,11 @@ def path(name: str) -> Path:
     Parameters
     ----------
     name : str
-        One of ``"stats19"``, ``"uk_clusters"``, ``"us_airports"``.
+        A key of :data:`DATASETS`: ``"stats19"``, ``"uk_clusters"``, ``"us_airports"``.
 
     Returns
     -------
     pathlib.Path
-        Location of the CSV file inside the installed package.
 
     Examples
     --------
@@ -71,14 +70,13 @@ def load(name: str):
     Parameters
     ----------
     name : str
-        One of ``"stats19"``, ``"uk_clusters"``, ``"us_airports"``.
+        A key of :data:`DATASETS`, as for :func:`path`.
 
     Returns
     -------
     geopandas.GeoDataFrame
-        Every row of the CSV file, with point geometries built from its
-        longitude/latitude columns (WGS84). ``DATASETS[name][3]`` names the
-        column to group by.
+        Every row of the CSV file, with points from its longitude/latitude
+        columns. ``DATASETS[name][3]`` names the column to group by.
 
     Examples
     --------

@@ -22,8 +22,6 @@ from typing import TYPE_CHECKING, Any
 from geoalpha.errors import FLAGS, CRSWarning, InvalidInputError, did_you_mean
 from geoalpha.io.postgis import (
     check_postgis_output,
-    gdal_connection_error,
-    is_gdal_connection,
     is_postgres_url,
     read_postgis,
     write_postgis,
@@ -95,45 +93,41 @@ def read_points(
     Parameters
     ----------
     path : str or os.PathLike
-        A vector file GDAL reads (GeoPackage, Shapefile, GeoJSON, FlatGeobuf,
-        ...), a GeoParquet file, or a CSV table (``.csv``, ``.tsv``,
-        ``.txt``; the delimiter is detected) whose rows are points given by two
-        coordinate columns. A ``.parquet`` file without geometry metadata is
-        read as a table too. A ``postgresql://`` URL reads the PostGIS table
-        ``layer`` (``schema.table``) with :func:`geoalpha.io.postgis.read_postgis`.
+        A vector file GDAL reads (GeoPackage, Shapefile, GeoJSON, ...), a
+        GeoParquet file, or a table of points given by two coordinate columns:
+        CSV (``.csv``, ``.tsv``, ``.txt``; the delimiter is detected) or a
+        ``.parquet`` file without geometry metadata. A ``postgresql://`` URL
+        reads the table ``layer`` with :func:`geoalpha.io.postgis.read_postgis`.
     x, y : str, optional
-        Names of the coordinate columns of a table. When omitted, the first
-        pair found among ``longitude/latitude``, ``lon/lat``, ``lng/lat``,
-        ``long/lat``, ``x/y`` and ``easting/northing`` (any letter case) is
-        used. Not allowed for files that store geometries.
+        The coordinate columns of a table (tables only); by default the first
+        pair of :data:`COORDINATE_NAMES` found, in any letter case.
     crs : "auto", str, int, pyproj.CRS or None, default "auto"
-        CRS of the coordinates of a table, or of a vector file that stores
-        none. ``"auto"`` never guesses: columns named as longitude/latitude
-        are EPSG:4326, a file uses its own CRS, anything else is an error.
-        None: planar numbers without CRS. A file's own CRS always wins.
+        CRS of a table's coordinates, or of a vector file that stores none.
+        ``"auto"`` never guesses: longitude/latitude column names mean
+        EPSG:4326, a file has its own, anything else is an error. None: planar
+        numbers without CRS. A file's own CRS always wins.
     layer : str or int, optional
-        Layer to read from a multi-layer file such as a GeoPackage; the first
-        layer by default.
+        Layer of a multi-layer file such as a GeoPackage; the first by default.
 
     Returns
     -------
     geopandas.GeoDataFrame
-        Every row of the file; for a table, all its columns plus point
-        geometries (missing where a coordinate is missing).
+        Every row; for a table, its columns plus point geometries (missing
+        where a coordinate is missing).
 
     Raises
     ------
     FileNotFoundError
         If ``path`` does not exist.
     geoalpha.errors.InvalidInputError
-        If the file cannot be read or has no CRS (with ``crs="auto"``), or
-        the coordinates cannot be used. Messages never show a password.
+        If the file cannot be read, has no CRS (with ``crs="auto"``) or unusable
+        coordinates. Messages never show a password.
 
     Warns
     -----
     geoalpha.errors.CRSWarning
-        When ``crs`` is projected but the coordinates look like lon/lat, or
-        it differs from the file's own CRS.
+        When a projected ``crs`` meets coordinates that look like lon/lat, or
+        ``crs`` differs from the file's own CRS.
 
     Examples
     --------
@@ -151,25 +145,21 @@ def read_input_points(
 ):
     """:func:`read_points`; ``planar_if_missing``: no CRS means planar, no error.
 
-    ``sql`` and ``geometry_column`` apply to a ``postgresql://`` source (see
-    :func:`geoalpha.io.postgis.read_postgis`).
+    ``sql`` and ``geometry_column``: as in :func:`~geoalpha.io.postgis.read_postgis`.
     """
     from geoalpha.crs_parsing import crs_name, parse_crs
 
     source = os.fspath(path)
     shown = redact(source)
     auto = isinstance(crs, str) and crs.strip().lower() == "auto"
+    crs = None if auto else crs  # "auto" decides below, per kind of source
     if _database(source, None):  # layer: schema.table, or sql=
         if x is not None or y is not None:
             raise InvalidInputError(
                 f"{_term('x= and y=', '--x and --y')} apply to tables (CSV) only"
             )
         gdf = read_postgis(
-            source,
-            table=layer,
-            sql=sql,
-            geometry_column=geometry_column,
-            crs=None if auto else crs,
+            source, table=layer, sql=sql, geometry_column=geometry_column, crs=crs
         )
         if gdf.crs is None and auto and not planar_if_missing:
             raise _missing_crs(f"the geometries of {shown} (SRID 0)")
@@ -184,8 +174,7 @@ def read_input_points(
         raise FileNotFoundError(f"input file {shown} does not exist")
     if local and Path(source).is_file() and not os.access(source, os.R_OK):
         raise PermissionError(f"cannot read input file {shown}: permission denied")
-    if crs is not None and not auto:
-        crs = parse_crs(crs)
+    crs = parse_crs(crs)
 
     suffix = Path(source).suffix.lower()
     is_table = suffix in _TABLE_SUFFIXES
@@ -199,18 +188,15 @@ def read_input_points(
             )
         frame = _read_table(source, suffix)
         x, y = _find_coordinate_columns(list(frame.columns), x, y, shown)
-        if auto:
-            if _looks_lonlat(x, y):
-                crs = parse_crs(4326)
-            elif _looks_lonlat(y, x):
-                raise InvalidInputError(
-                    f"{_term('x=', '--x ')}{x!r} and {_term('y=', '--y ')}{y!r} "
-                    f"of {shown}: " + _swap_hint(x, y)
-                )
-            elif planar_if_missing:
-                crs = None
-            else:
-                raise _missing_crs(f"the coordinate columns {x!r}, {y!r} of {shown}")
+        if auto and _looks_lonlat(x, y):
+            crs = parse_crs(4326)
+        elif auto and _looks_lonlat(y, x):
+            raise InvalidInputError(
+                f"{_term('x=', '--x ')}{x!r} and {_term('y=', '--y ')}{y!r} "
+                f"of {shown}: " + _swap_hint(x, y)
+            )
+        elif auto and not planar_if_missing:
+            raise _missing_crs(f"the coordinate columns {x!r}, {y!r} of {shown}")
         return _points_from_table(frame, shown, x, y, crs)
 
     if x is not None or y is not None:
@@ -219,20 +205,16 @@ def read_input_points(
             "apply to tables (CSV) only"
         )
     gdf = _read_vector(source, shown, suffix, layer)
-    if gdf.crs is not None:
-        if crs is not None and not auto and not gdf.crs.equals(crs):
-            warnings.warn(
-                f"{shown} has its own CRS {crs_name(gdf.crs)}, which is used; "
-                f"{_term('crs=', '--crs-in')} {crs_name(crs)} is ignored",
-                CRSWarning,
-                stacklevel=2,
-            )
-        return gdf
-    if auto:
-        if planar_if_missing:
-            return gdf
+    if gdf.crs is None and auto and not planar_if_missing:
         raise _missing_crs(f"the points of {shown}")
-    if crs is not None:
+    if gdf.crs is not None and crs is not None and not gdf.crs.equals(crs):
+        warnings.warn(
+            f"{shown} has its own CRS {crs_name(gdf.crs)}, which is used; "
+            f"{_term('crs=', '--crs-in')} {crs_name(crs)} is ignored",
+            CRSWarning,
+            stacklevel=2,
+        )
+    elif gdf.crs is None and crs is not None:
         import shapely
 
         xy = shapely.get_coordinates(gdf.geometry.array)
@@ -272,15 +254,13 @@ def _cannot_read(source: str, err: BaseException) -> InvalidInputError:
 def _read_vector(source: str, shown: str, suffix: str, layer: str | int | None):
     import geopandas as gpd
 
+    if suffix in _PARQUET_SUFFIXES and layer is not None:
+        raise InvalidInputError(f"{shown} is a GeoParquet file; it has no layers")
     try:
         if suffix in _PARQUET_SUFFIXES:
-            if layer is not None:
-                raise InvalidInputError(
-                    f"{shown} is a GeoParquet file; it has no layers"
-                )
             return gpd.read_parquet(source)
         return gpd.read_file(source, layer=layer)
-    except (ImportError, InvalidInputError):
+    except ImportError:
         raise
     except Exception as err:  # GDAL/pyogrio/fiona/pyarrow errors vary
         error = _cannot_read(source, err)
@@ -294,12 +274,9 @@ def _read_table(source: str, suffix: str):
     """Read a CSV table (its delimiter detected) or a Parquet table."""
     import pandas as pd
 
-    if suffix in _PARQUET_SUFFIXES:
-        try:
-            return pd.read_parquet(source)
-        except Exception as err:  # pragma: no cover - its schema was just read
-            raise _cannot_read(source, err) from err
     try:
+        if suffix in _PARQUET_SUFFIXES:  # (its schema was just read)
+            return pd.read_parquet(source)
         with open(source, encoding="utf-8-sig", newline="") as handle:
             sample = handle.read(65536)
         try:
@@ -455,44 +432,37 @@ def write_hulls(
 ) -> dict[str, str]:
     """Write hulls to a file, in the format its extension names, atomically.
 
-    The file is written to a hidden staging folder beside ``path``, then moved
-    into place: a failed write leaves no half-written file and an existing
-    file untouched, and without ``overwrite`` a file that appeared meanwhile
-    is never replaced.
+    Written to a hidden staging folder beside ``path``, then moved into place
+    (as ``docs/cli.md`` tells): never half-written, never replacing a file
+    without ``overwrite``.
 
     Parameters
     ----------
     gdf : geopandas.GeoDataFrame
         What to write, usually the result of :func:`geoalpha.hull`.
     path : str or os.PathLike
-        Output file. Its extension chooses the format: ``.gpkg``
-        (GeoPackage), ``.shp`` (Shapefile), ``.geojson`` or ``.json``
-        (GeoJSON), ``.fgb`` (FlatGeobuf), ``.parquet`` (GeoParquet). A
-        ``postgresql://`` URL writes a PostGIS table instead, with
-        :func:`geoalpha.io.postgis.write_postgis`.
+        Output file, in the format of its extension (:data:`WRITE_FORMATS`), or
+        a ``postgresql://`` URL (:func:`geoalpha.io.postgis.write_postgis`).
     layer : str, optional
-        GeoPackage layer name; default the file name without extension
-        (``"hulls"`` if that is empty). Only for ``.gpkg``, and required
-        (``schema.table``) for a ``postgresql://`` URL.
+        GeoPackage layer name (``.gpkg`` only); default the file name without
+        extension, or ``"hulls"``. Required for a URL: ``schema.table``.
     overwrite : bool, default False
-        Replace ``path`` if it exists (for a GeoPackage: the whole file,
-        other layers included; for a Shapefile: all its sidecar files).
+        Replace ``path`` if it exists (a GeoPackage as a whole, other layers
+        included; a Shapefile with all its sidecar files).
     engine : {None, "pyogrio", "fiona"}
-        Library geopandas writes vector files with; None lets geopandas
-        choose. Not used for GeoParquet. GeoPackages are written as version
-        1.2 with either engine (QGIS 3.22 LTR warns on GDAL's default, 1.4).
+        Library geopandas writes vector files with (None: geopandas chooses);
+        not used for GeoParquet. GeoPackages are written as version
+        :data:`GPKG_VERSION` with either.
     extra_layers : dict of str to GeoDataFrame, optional
-        More layers for a GeoPackage ``path``, by name (e.g. the points next
-        to their hulls); written into the same file before it is moved into
-        place.
+        More layers of a GeoPackage, by name (e.g. the points next to their
+        hulls), written into the same file before it is moved into place.
 
     Returns
     -------
     dict of str to str
-        Columns renamed to fit the Shapefile limit of 10 bytes per field name
-        (truncated, with a numbered suffix where they would collide ignoring
-        case: ``Local_Au_1``), ``{old: new}``; empty for the other formats or
-        when nothing was renamed.
+        ``{old: new}`` for the columns renamed to fit the Shapefile limit of 10
+        bytes per field name (truncated, numbered where they would collide
+        ignoring case: ``Local_Au_1``); empty for the other formats.
 
     Raises
     ------
@@ -503,16 +473,8 @@ def write_hulls(
 
     Examples
     --------
-    >>> import geopandas as gpd
-    >>> from shapely import box
-    >>> from geoalpha.io.files import write_hulls
-    >>> hulls = gpd.GeoDataFrame(
-    ...     {"Local_Authority_(Highway)": ["E09000020"], "alpha": [0.01]},
-    ...     geometry=[box(-0.2, 51.5, -0.1, 51.6)], crs="EPSG:4326")
     >>> write_hulls(hulls, "hulls.shp")  # doctest: +SKIP
     {'Local_Authority_(Highway)': 'Local_Auth'}
-    >>> write_hulls(hulls, "hulls.gpkg", overwrite=True)  # doctest: +SKIP
-    {}
     """
     import geopandas as gpd
 
@@ -601,33 +563,30 @@ def check_output(
     Parameters
     ----------
     path : str or os.PathLike
-        Output file; see :func:`write_hulls` for the extensions understood.
+        Output file or URL, as for :func:`write_hulls`.
     layer : str, optional
-        GeoPackage layer name, as for :func:`write_hulls`.
+        GeoPackage layer name or PostGIS table, as for :func:`write_hulls`.
     overwrite : bool, default False
         Whether an existing file may be replaced.
 
     Raises
     ------
     FileExistsError, FileNotFoundError, IsADirectoryError
-        If ``path`` exists (without ``overwrite``), its directory does not,
-        or it is a directory.
+        If ``path`` exists (without ``overwrite``), its directory does not, or
+        it is a directory.
     geoalpha.errors.InvalidInputError
         For an unknown extension (or an upper-case ``.SHP``), or ``layer``
         with a format without layers.
     PermissionError
-        If the output folder is not writable (checked by creating and
-        removing a hidden staging folder there).
+        If the output folder is not writable (a staging folder is created
+        there and removed).
 
     Examples
     --------
     >>> from geoalpha.io.files import check_output
-    >>> check_output("hulls.gpkg")  # doctest: +SKIP
-    >>> try:
-    ...     check_output("hulls.csv")
-    ... except ValueError as err:
-    ...     print(err)  # doctest: +ELLIPSIS
-    cannot tell the output format of hulls.csv: its extension must be one of .gpkg, ...
+    >>> check_output("hulls.csv")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    geoalpha.errors.InvalidInputError: cannot tell the output format of hulls.csv: ...
     """
     if _database(path, None):
         check_postgis_output(os.fspath(path), layer, overwrite=overwrite)
@@ -638,8 +597,13 @@ def check_output(
 
 def _database(path, engine) -> bool:
     """Tell whether ``path`` is a ``postgresql://`` URL; refuse ``PG:`` strings."""
-    if is_gdal_connection(path):
-        raise gdal_connection_error(path)
+    if isinstance(path, str) and path.strip()[:3].upper() == "PG:":
+        raise InvalidInputError(
+            "PG:... connection strings are not supported (the GDAL in the Python "
+            "wheels has no PostgreSQL driver); give a URL instead, "
+            "postgresql://user@host:port/dbname, with the password in PGPASSWORD "
+            "or ~/.pgpass"
+        )
     if not is_postgres_url(path):
         return False
     if engine is not None:
@@ -731,13 +695,6 @@ def remove_stale_staging(folder: PathLike) -> list[Path]:
     -------
     list of pathlib.Path
         The folders removed.
-
-    Examples
-    --------
-    >>> import tempfile
-    >>> from geoalpha.io.files import remove_stale_staging
-    >>> remove_stale_staging(tempfile.gettempdir())  # doctest: +SKIP
-    []
     """
     removed = []
     host = _host_tag()

@@ -1,12 +1,9 @@
-"""Read points from PostGIS and write hulls back, safely.
+"""Read points from PostGIS and write hulls back, safely (see ``docs/postgis.md``).
 
-:func:`read_postgis` reads a table or a ``SELECT`` into a GeoDataFrame;
-:func:`write_postgis` writes one to a table in one transaction (a new table,
-indexed, then renamed), so an interrupted run never damages the table it was
-meant to replace. A database is named by a URL,
-``postgresql://user@host:port/dbname``; its password (from the URL,
-``PGPASSWORD`` or ``~/.pgpass``) never appears in a message. Needs
-``pip install "geoalpha[postgis]"``.
+:func:`read_postgis` reads a table or a ``SELECT``; :func:`write_postgis` writes
+a new table in one transaction, then renames it, so an interrupted run never
+damages the table it replaces. A database is named by a URL,
+``postgresql://user@host:port/dbname``; its password never appears in a message.
 """
 
 from __future__ import annotations
@@ -29,8 +26,6 @@ if TYPE_CHECKING:  # pragma: no cover
 
 __all__ = [
     "check_postgis_output",
-    "gdal_connection_error",
-    "is_gdal_connection",
     "is_postgres_url",
     "parse_table",
     "read_postgis",
@@ -61,21 +56,6 @@ def is_postgres_url(text: object) -> bool:
     return isinstance(text, str) and text.strip().lower().startswith(_SCHEMES)
 
 
-def is_gdal_connection(text: object) -> bool:
-    """Tell whether ``text`` is a GDAL ``PG:...`` connection string."""
-    return isinstance(text, str) and text.strip()[:3].upper() == "PG:"
-
-
-def gdal_connection_error(text: str) -> InvalidInputError:
-    """Return the error for a GDAL ``PG:`` string: it says which URL to give."""
-    return InvalidInputError(
-        "PG:... connection strings are not supported (the GDAL in the Python "
-        "wheels has no PostgreSQL driver); give a URL instead, "
-        "postgresql://user@host:port/dbname, with the password in PGPASSWORD "
-        "or ~/.pgpass"
-    )
-
-
 def redact(text: object) -> str:
     """Return ``text`` with every database password replaced by ``***``.
 
@@ -87,8 +67,6 @@ def redact(text: object) -> str:
     >>> from geoalpha.io.postgis import redact
     >>> redact("cannot connect to postgresql://ga:p%40ss@db:5432/gadb")
     'cannot connect to postgresql://ga:***@db:5432/gadb'
-    >>> redact("no password here")
-    'no password here'
     """
     return redact_text(text, {*_secrets, os.environ.get("PGPASSWORD", "")})
 
@@ -210,9 +188,8 @@ def _message(err: BaseException) -> str:
 def _connection(url: str, *, write: bool) -> Iterator[Any]:
     """Open a connection in one transaction (read only unless ``write``).
 
-    Writing runs on SQLAlchemy (``to_postgis`` needs it), reading on a bare
-    psycopg connection (faster). Database errors come out as one-line
-    :class:`DatabaseError` without the password.
+    Writing runs on SQLAlchemy (``to_postgis`` needs it), reading on bare
+    psycopg (faster); database errors come out as one-line :class:`DatabaseError`.
     """
     sqlalchemy = _import_drivers()
     import psycopg
@@ -300,16 +277,6 @@ def _check_postgis(oid, where: str) -> int:
     return int(oid)
 
 
-def _geometry_tables(conn, limit: int = 20) -> str:
-    rows = _execute(
-        conn,
-        "SELECT f_table_schema, f_table_name FROM geometry_columns "
-        "ORDER BY 1, 2 LIMIT %s",
-        (limit + 1,),
-    ).fetchall()
-    return first_n((f"{s}.{t}" for s, t in rows), limit) or "none"
-
-
 def read_postgis(
     url: str | psycopg.Connection,
     *,
@@ -338,8 +305,7 @@ def read_postgis(
     Returns
     -------
     geopandas.GeoDataFrame
-        Every row, the geometry column under its own name, in the CRS of its
-        SRID.
+        Every row; the geometry column keeps its name, in the CRS of its SRID.
 
     Raises
     ------
@@ -352,20 +318,9 @@ def read_postgis(
 
     Notes
     -----
-    2D points with number, boolean, text or date columns are read as arrays
-    in one aggregate row (twice as fast); anything else row by row with its
-    WKB, as ``geopandas.read_postgis`` does. The result is the same.
-
-    Examples
-    --------
-    >>> from geoalpha.io.postgis import read_postgis
-    >>> points = read_postgis(
-    ...     "postgresql://ga@127.0.0.1:5432/gadb", table="public.uk_clusters"
-    ... )  # doctest: +SKIP
-    >>> points = read_postgis(
-    ...     "postgresql://ga@127.0.0.1:5432/gadb",
-    ...     sql="SELECT cluster, geom FROM uk_clusters WHERE cluster < 100",
-    ... )  # doctest: +SKIP
+    2D points with number, boolean, text or date columns are read as arrays in
+    one aggregate row (twice as fast), anything else row by row, as
+    ``geopandas.read_postgis`` does; the result is the same. See ``docs/postgis.md``.
     """
     if (table is None) == (sql is None):
         raise InvalidInputError(
@@ -374,24 +329,28 @@ def read_postgis(
         )
     where = _display(url)
     with _connection(url, write=False) as conn:
-        if table is not None:
-            schema, name = parse_table(table)
-            qualified = _quote(schema, name)
-            oid, found = _execute(
-                conn, _GEOMETRY_OID + ", to_regclass(%s)", (qualified,)
-            ).fetchone()  # one round trip
-            oid = _check_postgis(oid, where)
-            if found is None:
-                raise DatabaseError(
-                    f"table {table} not found in {where}; tables with a geometry "
-                    f"column: {_geometry_tables(conn)}"
-                )
-            query = f"SELECT * FROM {qualified}"
-            source = f"table {table}"
-        else:
-            oid = _check_postgis(_scalar(conn, _GEOMETRY_OID), where)
+        qualified = None if table is None else _quote(*parse_table(table))
+        oid, found = _execute(  # one round trip
+            conn, _GEOMETRY_OID + ", to_regclass(%s)", (qualified,)
+        ).fetchone()
+        oid = _check_postgis(oid, where)
+        if table is None:
             query = sql.strip().rstrip(";")
             source = "the query"
+        elif found is None:
+            rows = _execute(
+                conn,
+                "SELECT f_table_schema, f_table_name FROM geometry_columns "
+                "ORDER BY 1, 2 LIMIT 21",
+            ).fetchall()
+            tables = first_n((f"{s}.{t}" for s, t in rows), 20) or "none"
+            raise DatabaseError(
+                f"table {table} not found in {where}; tables with a geometry "
+                f"column: {tables}"
+            )
+        else:
+            query = f"SELECT * FROM {qualified}"
+            source = f"table {table}"
         # as written (no placeholders); binary: geometries as EWKB, not hex
         cursor = conn.cursor().execute(
             f"SELECT * FROM ({query}) AS _geoalpha_q LIMIT 0", binary=True
@@ -458,10 +417,9 @@ _ARRAY_ROWS = 2_000_000  # more rows come as rows (a bytea holds 1 GB at most)
 def _read_points(conn, query: str, description, column: str, typmod: int):
     """Read a query of 2D points as arrays: (frame, points, SRID), else None.
 
-    One aggregate row: the x and the y coordinates as one ``bytea`` of
-    doubles each, every other column as one array. None (nothing read) for anything but
-    non-empty 2D points of one SRID with non-NULL numbers, up to
-    :data:`_ARRAY_ROWS` rows; the rows path then reads (or fails) as usual.
+    One aggregate row: x and y as one ``bytea`` of doubles each, every other
+    column as one array. None (nothing read) for anything but non-empty 2D points
+    of one SRID with non-NULL numbers, up to :data:`_ARRAY_ROWS` rows.
     """
     import numpy as np
     import pandas as pd
@@ -597,13 +555,6 @@ def check_postgis_output(
     ------
     geoalpha.errors.DatabaseError, geoalpha.errors.InvalidInputError
         As :func:`write_postgis`.
-
-    Examples
-    --------
-    >>> from geoalpha.io.postgis import check_postgis_output
-    >>> check_postgis_output(
-    ...     "postgresql://ga@127.0.0.1:5432/gadb", "public.hulls"
-    ... )  # doctest: +SKIP
     """
     schema, name = _output_table(table)
     with _connection(url, write=False) as conn:
@@ -670,16 +621,6 @@ def write_postgis(
         or the table exists (without ``overwrite``); one line, no password.
     geoalpha.errors.InvalidInputError
         For a malformed URL or table name, or a CRS without an EPSG code.
-
-    Examples
-    --------
-    >>> import geoalpha
-    >>> from geoalpha.io.postgis import read_postgis, write_postgis
-    >>> url = "postgresql://ga@127.0.0.1:5432/gadb"
-    >>> points = read_postgis(url, table="uk_clusters")  # doctest: +SKIP
-    >>> hulls = points.alpha.hull(by="cluster")  # doctest: +SKIP
-    >>> write_postgis(hulls, url, "public.cluster_hulls")  # doctest: +SKIP
-    'public.cluster_hulls'
     """
     import geopandas as gpd
 
@@ -694,7 +635,6 @@ def write_postgis(
             "EPSG code: to_crs() to one that has"
         )
     frame = _promote_to_multi(gdf)
-    geometry = frame.geometry.name
     where = _display(url)
     import uuid  # (here: its import costs the command's --help 5 ms)
 
@@ -705,18 +645,9 @@ def write_postgis(
             # Without a CRS the table gets SRID 0, as documented: geopandas'
             # "Could not parse CRS from the GeoDataFrame" would only repeat it.
             warnings.filterwarnings("ignore", "Could not parse CRS", UserWarning)
+            # GeoAlchemy2's Geometry column (spatial_index=True by default)
+            # comes with its GiST index
             frame.to_postgis(temporary, conn, schema=schema, index=False)
-        if not _scalar(
-            conn,
-            "SELECT count(*) FROM pg_index i JOIN pg_class c ON c.oid = i.indexrelid "
-            "JOIN pg_am a ON a.oid = c.relam WHERE i.indrelid = to_regclass(%s) "
-            "AND a.amname = 'gist'",
-            _quote(schema, temporary),
-        ):
-            conn.exec_driver_sql(
-                f"CREATE INDEX ON {_quote(schema, temporary)} USING GIST "
-                f"({_quote(geometry)})"
-            )
         if exists:
             conn.exec_driver_sql(f"DROP TABLE {_quote(schema, name)}")
         conn.exec_driver_sql(
@@ -732,15 +663,12 @@ def _promote_to_multi(gdf: gpd.GeoDataFrame) -> gpd.GeoDataFrame:
     import numpy as np
     import shapely
 
-    geoms = np.asarray(gdf.geometry.array, dtype=object)
+    geoms = np.array(gdf.geometry.array, dtype=object)  # a copy
     kinds = shapely.get_type_id(geoms)
     polygons = kinds == shapely.GeometryType.POLYGON
     if not (polygons.any() and (kinds == shapely.GeometryType.MULTIPOLYGON).any()):
         return gdf
-    geoms = geoms.copy()
-    geoms[polygons] = shapely.multipolygons(
-        geoms[polygons], indices=np.arange(polygons.sum())
-    )
+    geoms[polygons] = shapely.multipolygons(geoms[polygons, np.newaxis])
     return gdf.set_geometry(
         gdf.geometry.__class__(geoms, index=gdf.index, crs=gdf.crs),
         crs=gdf.crs,
