@@ -473,7 +473,10 @@ def write_hulls(
 
     Examples
     --------
-    >>> write_hulls(hulls, "hulls.shp")  # doctest: +SKIP
+    >>> import os, tempfile, geopandas as gpd, shapely
+    >>> hulls = gpd.GeoDataFrame({"Local_Authority_(Highway)": ["E09000020"]},
+    ...                          geometry=[shapely.box(0, 51, 1, 52)], crs=4326)
+    >>> write_hulls(hulls, os.path.join(tempfile.mkdtemp(), "hulls.shp"))
     {'Local_Authority_(Highway)': 'Local_Auth'}
     """
     import geopandas as gpd
