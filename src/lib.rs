@@ -35,9 +35,10 @@ fn points<'a>(name: &str, array: &'a PyReadonlyArray2<'_, f64>) -> PyResult<&'a 
             "{name} must have shape (n, 2); got {shape:?}"
         )));
     }
-    let flat = array
-        .as_slice()
-        .map_err(|_| PyValueError::new_err(format!("{name} must be C-contiguous")))?;
+    // as_slice also takes a Fortran-ordered array, whose flat order is not xy's.
+    let flat = (array.as_slice().ok())
+        .filter(|_| array.is_c_contiguous())
+        .ok_or_else(|| PyValueError::new_err(format!("{name} must be C-contiguous")))?;
     Ok(flat.as_chunks::<2>().0)
 }
 

@@ -665,3 +665,19 @@ def test_enforce_takes_in_points_a_repair_left_out_even_when_not_asked_to_test()
     assert not failed[0]
     assert fixed[0].is_valid
     assert shapely.covers(fixed[0], shapely.points(pts)).all()
+
+
+def test_the_kernel_refuses_coordinates_not_in_row_order():
+    # A Fortran-ordered (n, 2) array is contiguous too, but its flat order is
+    # x0 x1 ... y0 y1 ...: read as pairs it would be other points.
+    xy = np.array([[0.0, 0.0], [4.0, 0.0], [4.0, 3.0], [0.0, 3.0]])
+    offsets = np.array([0, 4], dtype=np.int64)
+    kwargs = dict(holes=False, components=1, threads=1, max_union_nodes=1000)
+    done = geoalpha._kernel.alpha_shapes(xy, offsets, **kwargs)
+    assert done["area"].tolist() == [12.0]
+    with pytest.raises(ValueError, match=r"^xy must be C-contiguous$"):
+        geoalpha._kernel.alpha_shapes(np.asfortranarray(xy), offsets, **kwargs)
+    with pytest.raises(ValueError, match=r"^out_xy must be C-contiguous$"):
+        geoalpha._kernel.alpha_shapes(
+            xy, offsets, out_xy=np.asfortranarray(xy), **kwargs
+        )
