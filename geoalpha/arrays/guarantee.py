@@ -39,8 +39,7 @@ THREAD_POINTS = 100_000
 def each_or_none(func, geoms: np.ndarray, **kwargs) -> np.ndarray:
     """Apply a vectorised shapely ``func``; None where GEOS raises.
 
-    A batch that raises is split in halves until the failing geometries are
-    alone (``O(f log k)`` calls for ``f`` failures among ``k``).
+    A batch that raises is split in halves until the failing geometries are alone.
 
     Examples
     --------
@@ -87,9 +86,7 @@ def convex_hulls(out_xy: np.ndarray, codes: np.ndarray, n_groups: int) -> np.nda
 
 
 def left_outside(flag, geoms, xy, codes) -> np.ndarray:
-    """Of the points ``flag`` marks, those their group's geometry does not cover.
-
-    For points left out on purpose (``outliers=``), which a repair may take in.
+    """Of the points ``flag`` marks (left out, ``outliers=``), those still outside.
 
     Examples
     --------
@@ -122,18 +119,15 @@ def enforce(
     Every group in ``check`` must get a valid, non-empty Polygon or
     MultiPolygon (of at most ``components`` parts) that covers every one of
     its points (``shapely.covers``, distance 0, in these coordinates).
-    Invalid geometries are repaired (:func:`repair_invalid`) and uncovered
-    points taken in as vertices (:func:`cover_points`); a group that still
-    fails is reported, for the caller to declare degenerate.
+    Invalid geometries are repaired (:func:`repair_invalid`), uncovered
+    points taken in as vertices (:func:`cover_points`).
 
     Parameters
     ----------
     geoms : ndarray of shape (G,)
         Geometry of each group.
-    out_xy : ndarray of shape (k, 2)
-        Points, in the geometries' coordinates.
-    codes : ndarray of shape (k,)
-        Group of each point.
+    out_xy, codes : ndarray of shape (k, 2) and (k,)
+        Points, in the geometries' coordinates, and the group of each.
     check : ndarray of bool, shape (G,)
         Groups to verify (the others are returned as they are).
     cover : bool or ndarray of bool, shape (G,), default True
@@ -142,13 +136,11 @@ def enforce(
     components : int or ndarray of float, shape (G,), optional
         Largest number of parts allowed.
     test : ndarray of bool, shape (k,), optional
-        The points whose coverage must be tested (default: all); a caller may
-        leave out those certain for the geometry given, e.g. vertices of a
-        valid triangulation in the very coordinates of the geometry. Every
-        point of a geometry that had to be repaired is tested.
+        The points whose coverage must be tested (default: all, and always
+        all of a repaired geometry); a caller may leave out the certain ones.
     exempt : ndarray of bool, shape (k,), optional
-        Points that need not be covered (left out on purpose, ``outliers=``):
-        never tested, and never taken in when a group is repaired.
+        Points left out on purpose (``outliers=``): never tested, never
+        taken in.
     n_jobs : int or None, default 1
         Threads that test the points (:func:`covered`).
 
@@ -157,7 +149,8 @@ def enforce(
     geoms : ndarray of shape (G,)
         The geometries, repaired where needed.
     failed : ndarray of bool, shape (G,)
-        Groups of ``check`` that could not be made to hold the guarantee.
+        Groups of ``check`` that could not be made to hold the guarantee, for
+        the caller to declare degenerate.
 
     Examples
     --------
@@ -219,31 +212,25 @@ def enforce(
 
 
 def cover_points(geoms, out_xy, codes) -> np.ndarray:
-    """Make sure every point is covered by its group's geometry.
+    """Grow each group's geometry to cover its points, taken in as vertices.
+
+    A point just outside (next to a long edge of a hull built in metres and
+    given lon/lat vertices, or merged by the kernel as a near-duplicate)
+    becomes a vertex of its nearest edge (a-b becomes a-p-b), which changes
+    areas by well under 1 %. A polygon GEOS cannot grow is returned unchanged:
+    callers check coverage afterwards.
 
     Parameters
     ----------
     geoms : ndarray of shape (G,)
         Polygonal geometry of each group.
-    out_xy : ndarray of shape (k, 2)
-        Points that must be covered, in the geometries' coordinates.
-    codes : ndarray of shape (k,)
-        Group of each point.
+    out_xy, codes : ndarray of shape (k, 2) and (k,)
+        Points that must be covered, in the geometries' coordinates, and the
+        group of each.
 
     Returns
     -------
     ndarray of shape (G,)
-        The geometries, where needed grown to cover their points. A polygon
-        GEOS cannot grow (invalid or folded, e.g. around a pole in lon/lat) is
-        returned unchanged: callers check coverage afterwards.
-
-    Notes
-    -----
-    A hull built in metres and given the input (e.g. lon/lat) coordinates of
-    its vertices can leave a point next to a long edge just outside, as can a
-    point the kernel merged with a vertex as a near-duplicate. Such a point
-    becomes a vertex of its nearest edge (a-b becomes a-p-b, all input
-    points), which changes areas by well under 1 %.
 
     Examples
     --------
@@ -279,14 +266,11 @@ def covered(
     ----------
     geoms : ndarray of shape (G,)
         Geometry of each group (prepared here, in place).
-    xy : ndarray of shape (k, 2)
-        Points, in the geometries' coordinates.
-    codes : ndarray of shape (k,)
-        Group of each point.
+    xy, codes : ndarray of shape (k, 2) and (k,)
+        Points, in the geometries' coordinates, and the group of each.
     n_jobs : int or None, default 1
-        Threads (None or -1: every core): from :data:`THREAD_POINTS` points
-        on, each thread tests the points of its own share of the groups (GEOS
-        releases the GIL; no geometry is shared between threads).
+        Threads (None or -1: every core) from :data:`THREAD_POINTS` points on,
+        each testing its own share of the groups (GEOS releases the GIL).
 
     Returns
     -------
@@ -362,10 +346,9 @@ def _take_in(poly, p):
 def repair_invalid(geoms: np.ndarray) -> np.ndarray:
     """Make invalid geometries valid and keep their polygonal parts.
 
-    ``make_valid(method="structure")`` (the union of the exterior rings minus
-    the holes) where shapely has it (2.1+); on shapely 2.0, its only method
-    ("linework"), whose parts may differ where a ring overlaps itself. Either
-    way the callers check the result again (validity, parts, coverage).
+    ``make_valid(method="structure")`` on shapely 2.1+, "linework" (its only
+    method) on 2.0, whose parts may differ where a ring overlaps itself; the
+    callers check the result again.
 
     Examples
     --------
@@ -379,10 +362,7 @@ def repair_invalid(geoms: np.ndarray) -> np.ndarray:
 
 
 def polygonal(geoms: np.ndarray) -> np.ndarray:
-    """Keep the polygonal parts (area > 0) of repaired geometries.
-
-    ``make_valid`` may return collapsed lines (e.g. where lon/lat vertices
-    made a ring touch itself), which are dropped here.
+    """Keep the polygonal parts (area > 0) of repaired geometries, not collapsed lines.
 
     Examples
     --------
