@@ -189,17 +189,16 @@ def radius_of_alpha(alpha) -> np.ndarray:
 
 
 class Solved(NamedTuple):
-    """What the kernel returns, in the order of the points sorted by group.
+    """What the kernel returns.
 
     Per group: ``reason`` (0, or a key of :data:`REASONS`), ``alpha``,
     ``radius``, ``n_distinct``, ``n_parts``, ``area``, ``n_outliers`` (rows),
     ``whole`` (every triangle is in the shape), ``capped`` (the outlier
     search hit its node budget) and ``geometry``. Per point, sorted by group
     (``order[i]`` is the input row of sorted point ``i``): ``codes``, ``rep``
-    (the sorted index of its representative), ``left_out`` and ``on_ring``
-    (its representative is a ring vertex), ``coords`` (the output
-    coordinates the polygons are built from). ``curve`` holds the validity
-    curves when asked: ``(values, valid, offsets)``.
+    (the sorted index of its representative), ``left_out``, ``on_ring`` (its
+    representative is a ring vertex), ``coords`` (the output coordinates).
+    ``curve``: the validity curves when asked, ``(values, valid, offsets)``.
     """
 
     order: np.ndarray
@@ -307,31 +306,20 @@ def solve(
 
     Parameters
     ----------
-    xy : ndarray of shape (n, 2)
-        Checked coordinates (:func:`check_points`) in the computation CRS.
-    codes : ndarray of int, shape (n,)
-        Checked group codes ``0 .. n_groups - 1`` (:func:`group_codes`).
-    n_groups : int
-        Number of groups.
+    xy, codes, n_groups
+        Checked points (:func:`check_points`) in the computation CRS, their
+        group codes ``0 .. n_groups - 1`` (:func:`group_codes`), and how many.
     out : ndarray of shape (n, 2), optional
-        The same points in the output coordinates, which the polygons are built
-        from and collinearity is decided in too; default ``xy``.
-    holes, components : bool, int
-        The definition of the shape and of a valid one.
-    alpha : ndarray of shape (n_groups,), optional
-        A given alpha per group (>= 0) instead of the optimum.
-    budget : ndarray of int, shape (n_groups,), optional
-        Rows each group may leave out (``outliers=``).
+        The same points in the output coordinates, which the polygons are
+        built from and collinearity is decided in too; default ``xy``.
+    holes, components, n_jobs, progress, sphere
+        As for :func:`geoalpha.alpha_shapes` (``progress`` advances in about
+        20 steps; ``sphere``: reason 6 for a group the sphere refuses).
+    alpha, budget : ndarray of shape (n_groups,), optional
+        A given alpha per group (>= 0) instead of the optimum; rows each group
+        may leave out (``outliers=``).
     curve : bool
         Also return the validity curves.
-    n_jobs : int, optional
-        Threads (None or -1: every core; see :func:`threads`).
-    progress : object with ``update(n)``, optional
-        Told how many groups are done, in about 20 steps.
-    sphere : bool
-        ``xy`` are longitudes and latitudes (degrees) computed on the sphere
-        (``crs="sphere"``): radii in metres, areas in square metres, reason 6
-        for a group the sphere refuses (:mod:`geoalpha.arrays.sphere`).
 
     Returns
     -------

@@ -151,23 +151,20 @@ def crosses_antimeridian(lon: Any, codes: Any, n_groups: int) -> np.ndarray:
     """Tell which groups span the +-180 degree meridian.
 
     A group crosses when the smallest longitude interval covering it contains
-    +-180 degrees (ties: not crossing).
+    +-180 degrees (ties, and groups without points: not crossing).
 
     Parameters
     ----------
     lon : array_like of float, shape (n,)
         Longitudes in degrees, in [-180, 180].
     codes : array_like of int, shape (n,)
-        Group code of every point, ``0 .. n_groups - 1`` (as from
-        :func:`pandas.factorize`).
+        Group code of every point, ``0 .. n_groups - 1``.
     n_groups : int
         Number of groups.
 
     Returns
     -------
     numpy.ndarray of bool, shape (n_groups,)
-        True for the groups that cross; False for the others and for groups
-        without points.
 
     Examples
     --------
@@ -189,13 +186,13 @@ def unwrap_lon(lon: Any, codes: Any, crossing: Any) -> np.ndarray:
     lon, codes
         As for :func:`crosses_antimeridian`.
     crossing : array_like of bool, shape (n_groups,)
-        Which groups cross the antimeridian, from :func:`crosses_antimeridian`.
+        Which groups cross (:func:`crosses_antimeridian`).
 
     Returns
     -------
     numpy.ndarray of float64, shape (n,)
-        A copy of ``lon`` in which the negative longitudes of crossing groups
-        have 360 added (back with :func:`split_antimeridian`).
+        ``lon`` with 360 added to the negative longitudes of crossing groups
+        (back with :func:`split_antimeridian`).
 
     Examples
     --------
@@ -232,8 +229,8 @@ def split_antimeridian(geom: Any) -> Any:
     Returns
     -------
     shapely geometry or numpy.ndarray of geometries
-        Same shape as the input; a geometry with some x > 180 becomes a valid
-        MultiPolygon of the same area, the others are unchanged.
+        A geometry with some x > 180 becomes a valid MultiPolygon of the same
+        area, the others are unchanged.
 
     Examples
     --------
@@ -278,21 +275,19 @@ def restore_longitudes(
     """Give split polygons the input points' own longitudes back.
 
     The round trip ``lon + 360 - 360`` can move a vertex by one unit in the
-    last place, leaving its point outside the polygon.
+    last place, leaving its point outside the polygon. Vertices that match no
+    input point stay as they are.
 
     Parameters
     ----------
-    geoms : ndarray of shapely geometries, shape (k,)
-        Polygons from :func:`split_antimeridian`.
-    geom_group : array_like of int, shape (k,)
-        Group code of each geometry.
+    geoms, geom_group : ndarray of shape (k,)
+        Polygons from :func:`split_antimeridian` and the group of each.
     lon, lat, codes : array_like, shape (n,)
         The input points' longitudes, latitudes and group codes.
 
     Returns
     -------
     ndarray of shapely geometries, shape (k,)
-        New geometries; vertices that match no input point stay as they are.
 
     Examples
     --------
