@@ -8,33 +8,31 @@
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 import pandas as pd
 import shapely
 
 from geoalpha.arrays.guarantee import EMPTY_POLYGON, each_or_none
-from geoalpha.arrays.guarantee import (
-    convex_hulls as convex_hulls,  # (its home until 0.1)
-)
 from geoalpha.arrays.knn import knn_hull
 from geoalpha.errors import InvalidInputError
 
 __all__ = ["ComparisonHulls", "comparison_hulls"]
 
 
-class ComparisonHulls:
+class ComparisonHulls(NamedTuple):
     """Per group: ``geometry`` (output CRS), ``area``, ``labels``, ``degenerate``.
 
     ``without_holes``: groups whose concave hull with holes GEOS could not
     build, which got the one without holes.
     """
 
-    def __init__(self, geometry, area, labels, degenerate, without_holes):
-        self.geometry = geometry
-        self.area = area
-        self.labels = labels
-        self.degenerate = degenerate
-        self.without_holes = without_holes
+    geometry: np.ndarray
+    area: np.ndarray
+    labels: np.ndarray
+    degenerate: np.ndarray
+    without_holes: np.ndarray
 
 
 def _to_input_vertices(geoms, groups, xy, out, codes) -> np.ndarray:

@@ -29,18 +29,18 @@ def knn_hull(
     From the lowest point, walk counter-clockwise, each step to the one of
     the ``k`` nearest unused points with the largest right-hand turn whose
     new edge touches no earlier edge; raise ``k`` until the closed ring is a
-    valid polygon covering every point.
+    valid polygon covering every point (the paper checks only the points left
+    off the hull, and not validity).
 
     Parameters
     ----------
     points : array_like of shape (n, 2)
         x, y coordinates in a metric (projected) CRS. Duplicates are ignored.
     k : int, default 3
-        Number of nearest neighbours to start with. Raised to 3 if smaller
-        (as in the paper) and capped at ``n - 1`` for ``n`` distinct points.
+        Number of nearest neighbours to start with: at least 3 (as in the
+        paper), at most ``n - 1`` for ``n`` distinct points.
     max_k : int, optional
-        Largest ``k`` to try; default ``n - 1``. Must be at least
-        ``max(k, 3)``.
+        Largest ``k`` to try, at least ``max(k, 3)``; default ``n - 1``.
 
     Returns
     -------
@@ -48,25 +48,14 @@ def knn_hull(
         A valid polygon, counter-clockwise, whose vertices are input points
         and which covers every input point.
     k : int
-        The ``k`` that gave the polygon. If every ``k`` up to ``max_k``
-        failed, the polygon is the convex hull of the points and ``k`` is
-        ``n``, the number of distinct points.
+        The ``k`` that gave the polygon; ``n`` if every ``k`` up to ``max_k``
+        failed and the polygon is the convex hull.
 
     Raises
     ------
     InvalidInputError
-        If ``points`` is not a finite (n, 2) array, ``k`` or ``max_k`` is not
-        a positive integer or ``max_k < max(k, 3)``, or there are fewer than 3
-        distinct points or they are all collinear.
-
-    See Also
-    --------
-    geoalpha.alpha_shape : Alpha shape with the optimal alpha.
-
-    Notes
-    -----
-    Unlike the paper, the final check covers all points (not only those left
-    off the hull) and also requires :func:`shapely.is_valid`.
+        If ``points`` is not a finite (n, 2) array, ``k`` or ``max_k`` is
+        wrong, or there are fewer than 3 distinct points or all collinear.
 
     References
     ----------
@@ -141,9 +130,8 @@ def _as_points(points: ArrayLike) -> np.ndarray:
 
 def _first_k(k: int, max_k: int | None) -> int:
     """Check ``k`` and ``max_k``; return the first k to try, max(k, 3)."""
-    for name, value in (("k", k), ("max_k", max_k)):
-        if value is None and name == "max_k":
-            continue
+    named = {"k": k} if max_k is None else {"k": k, "max_k": max_k}
+    for name, value in named.items():
         if not isinstance(value, Integral) or isinstance(value, bool) or value < 1:
             raise InvalidInputError(
                 f"knn_hull() needs {name} to be a positive integer; got {value!r}"

@@ -35,7 +35,6 @@ def ladder_alpha(
     valid : callable
         ``valid(groups, alphas)`` -> bool array, vectorised over groups.
     n_groups : int
-        Number of groups.
     rungs : tuple of int
         Descending alphas ending with 0 (the convex hull, always valid).
 
@@ -91,10 +90,8 @@ def bisect_alpha(
 
     Parameters
     ----------
-    valid : callable
-        ``valid(groups, alphas)`` -> bool array, vectorised over groups.
-    n_groups : int
-        Number of groups.
+    valid, n_groups
+        As for :func:`ladder_alpha`.
     max_iterations : int
         Bisection steps before giving up.
     lower, upper : float
@@ -106,7 +103,6 @@ def bisect_alpha(
     gave_up : ndarray of bool, shape (n_groups,)
         Groups for which the bisection did not converge (alpha set to 0).
     tests : int
-        Largest number of validity tests one group needed.
 
     Examples
     --------

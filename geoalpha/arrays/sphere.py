@@ -1,11 +1,7 @@
 """Alpha shapes on the sphere: the array side of ``crs="sphere"``.
 
-The compiled kernel does the geometry (``src/sphere.rs``, on the sphere of
-radius :data:`EARTH_RADIUS`). This module words the groups it refuses (a point
-farther than :data:`MAX_SPHERE_DEGREES` from the group's centre) and turns its
-rings into valid longitude/latitude polygons: around a pole
-(:func:`close_around_poles`) and along great-circle arcs where a shape would
-fold (:func:`follow_arcs`). The frame's side is :mod:`geoalpha.frame.sphere`.
+The kernel does the geometry (``src/sphere.rs``); this module words the groups
+it refuses and turns its rings into valid longitude/latitude polygons.
 """
 
 from __future__ import annotations
@@ -93,14 +89,11 @@ def polar_groups(
 def close_around_poles(geometry: np.ndarray) -> np.ndarray:
     """Longitude/latitude polygons of the shapes of groups around a pole.
 
-    Every ring is densified along its great-circle arcs (near a pole a
-    straight edge in longitude/latitude is far from the arc on the sphere)
-    and unwrapped (consecutive longitudes less than 180 degrees apart); a
-    shell that goes once around in longitude, which no longitude/latitude
-    polygon can hold, is closed along the pole's latitude (+-90); each piece
-    is cut at +-180 degrees and put back in [-180, 180]. The result is valid
-    (repaired with ``make_valid`` otherwise); the points it misses are for
-    the guarantee's check (:func:`geoalpha.arrays.guarantee.enforce`) to take in.
+    Every ring is densified along its great-circle arcs and unwrapped; a
+    shell that goes once around in longitude is closed along the pole's
+    latitude (+-90); each piece is cut at +-180 degrees and put back in
+    [-180, 180], made valid. The points it misses are for the guarantee
+    (:func:`geoalpha.arrays.guarantee.enforce`) to take in.
 
     Examples
     --------
@@ -115,11 +108,9 @@ def close_around_poles(geometry: np.ndarray) -> np.ndarray:
 def follow_arcs(geometry: np.ndarray) -> np.ndarray:
     """Polygons whose edges follow the sphere's great-circle arcs.
 
-    For shapes whose longitude/latitude polygon (straight edges between the
-    input points) is invalid: an edge thousands of kilometres long is far
-    from its arc, and a shape concave on the sphere can fold over itself.
-    Each edge gets points along its arc; longitudes stay as they are
-    (unwrapped across +-180 degrees where they were).
+    For shapes whose longitude/latitude polygon folds over itself (long edges
+    far from their arcs). Each edge gets points along its arc; longitudes stay
+    as they are (unwrapped across +-180 degrees where they were).
 
     Examples
     --------
