@@ -1,8 +1,4 @@
-"""Longitudes and latitudes of grouped points: groups across the antimeridian.
-
-Which groups cross +-180 degrees, their longitudes unwrapped into one
-continuous range, and polygons split back at the antimeridian.
-"""
+"""Longitude/latitude groups across the antimeridian: found, unwrapped, split back."""
 
 from __future__ import annotations
 
@@ -30,12 +26,6 @@ __all__ = [
 def row_positions(mask: np.ndarray, labels: Any = None) -> str:
     """Describe the rows where ``mask`` is true: "3 rows (positions 4, 9, 12)".
 
-    With ``labels`` (one per row) they are named by label: "(index 4, 9, 12)".
-
-    Examples
-    --------
-    >>> row_positions(np.array([False, True, True]))
-    '2 rows (positions 1, 2)'
     >>> row_positions(np.array([True, False]), labels=np.array(["a", "b"]))
     '1 row (index a)'
     """
@@ -49,13 +39,7 @@ def row_positions(mask: np.ndarray, labels: Any = None) -> str:
 
 
 def check_codes(codes: Any, n_groups: int, n_points: int) -> np.ndarray:
-    """Return ``codes`` as integers, checked: one per point, ``0 .. n_groups - 1``.
-
-    Examples
-    --------
-    >>> check_codes([0, 1, 1], 2, 3).tolist()
-    [0, 1, 1]
-    """
+    """Return ``codes`` as integers, checked: one per point, ``0 .. n_groups - 1``."""
     codes = np.asarray(codes).ravel()
     if codes.size != n_points:
         raise InvalidInputError(
@@ -79,14 +63,7 @@ def check_codes(codes: Any, n_groups: int, n_points: int) -> np.ndarray:
 def group_min_max(
     values: np.ndarray, codes: np.ndarray, n_groups: int
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Per-group minimum and maximum (NaN for groups without points).
-
-    Examples
-    --------
-    >>> low, high = group_min_max(np.array([3.0, 1.0, 5.0]), np.array([0, 0, 1]), 2)
-    >>> low.tolist(), high.tolist()
-    ([1.0, 5.0], [3.0, 5.0])
-    """
+    """Per-group minimum and maximum (NaN for groups without points)."""
     low = np.full(n_groups, np.inf)
     high = np.full(n_groups, -np.inf)
     np.minimum.at(low, codes, values)
@@ -104,13 +81,6 @@ def group_arcs(
     Returns arrays of shape (n_groups,): ``crossing``, ``west``/``east``
     (``east`` may exceed 180) and with ``lat`` ``south``/``north``; NaN ends
     for empty groups.
-
-    Examples
-    --------
-    >>> arcs = group_arcs(np.array([179.0, -179.0, 10.0, 20.0]), None,
-    ...                   np.array([0, 0, 1, 1]), 2)
-    >>> arcs["crossing"].tolist(), arcs["west"].tolist(), arcs["east"].tolist()
-    ([True, False], [179.0, 10.0], [181.0, 20.0])
     """
     west, east = group_min_max(lon, codes, n_groups)
     out = {"crossing": np.zeros(n_groups, dtype=bool), "west": west, "east": east}
