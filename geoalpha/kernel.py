@@ -57,7 +57,7 @@ MAX_COORDINATE: float = _kernel.MAX_COORDINATE
 
 #: Width of a repair in the output coordinates, relative to the polygon's
 #: extent (at least that times 1): the outline of an ear that takes in a
-#: point no other repair could (:func:`geoalpha.arrays.guarantee.cover_points`).
+#: point no other repair could (:func:`geoalpha.arrays.guarantee.enforce`).
 REPAIR_RTOL = 1e-9
 #: Width of the ``degenerate="buffer"`` polygon made in the output coordinates
 #: (where the metric buffer is no valid polygon there), relative to the

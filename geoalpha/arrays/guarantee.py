@@ -17,12 +17,10 @@ from geoalpha import kernel
 __all__ = [
     "EMPTY_POLYGON",
     "convex_hulls",
-    "cover_points",
     "covered",
     "each_or_none",
     "enforce",
     "left_outside",
-    "polygonal",
     "repair_invalid",
 ]
 
@@ -120,7 +118,7 @@ def enforce(
     MultiPolygon (of at most ``components`` parts) that covers every one of
     its points (``shapely.covers``, distance 0, in these coordinates).
     Invalid geometries are repaired (:func:`repair_invalid`), uncovered
-    points taken in as vertices (:func:`cover_points`).
+    points taken in as vertices of their nearest edges.
 
     Parameters
     ----------
@@ -175,22 +173,21 @@ def enforce(
             failed |= repaired
     needed = np.ones(len(codes), dtype=bool) if exempt is None else ~exempt
     covering = np.broadcast_to(np.asarray(cover, dtype=bool), (len(geoms),))
-    needed &= covering[codes]
-    if covering.any():
-        mine = check[codes] & ~failed[codes] & needed
-        if test is not None:
-            mine &= test | repaired[codes]
-        outside = ~covered(
-            geoms, np.compress(mine, out_xy, axis=0), codes[mine], n_jobs=n_jobs
-        )
-        repair = np.unique(codes[mine][outside])
-        if len(repair):
-            take = np.isin(codes, repair) & needed
-            try:
-                geoms = cover_points(geoms, out_xy[take], codes[take])
-            except shapely.errors.GEOSException:
-                failed[repair] = True
-            repaired[repair] = True
+    needed &= covering[codes]  # (none where only validity is checked)
+    mine = check[codes] & ~failed[codes] & needed
+    if test is not None:
+        mine &= test | repaired[codes]
+    outside = ~covered(
+        geoms, np.compress(mine, out_xy, axis=0), codes[mine], n_jobs=n_jobs
+    )
+    repair = np.unique(codes[mine][outside])
+    if len(repair):
+        take = np.isin(codes, repair) & needed
+        try:
+            geoms = _cover_points(geoms, out_xy[take], codes[take])
+        except shapely.errors.GEOSException:
+            failed[repair] = True
+        repaired[repair] = True
     # Whatever was repaired is verified again, from scratch.
     again = repaired & ~failed
     if again.any():
@@ -201,43 +198,22 @@ def enforce(
             limit = components if np.ndim(components) == 0 else components[again]
             bad |= shapely.get_num_geometries(g) > limit
         failed[np.flatnonzero(again)[bad]] = True
-        if covering.any():
-            take = again[codes] & ~failed[codes] & needed
-            miss = ~covered(geoms, np.compress(take, out_xy, axis=0), codes[take])
-            failed[codes[take][miss]] = True
+        take = again[codes] & ~failed[codes] & needed
+        miss = ~covered(geoms, np.compress(take, out_xy, axis=0), codes[take])
+        failed[codes[take][miss]] = True
     # An empty optimum covers nothing.
     failed[sel[covering[sel] & shapely.is_empty(geoms[sel])]] = True
     geoms[failed] = EMPTY_POLYGON
     return geoms, failed
 
 
-def cover_points(geoms, out_xy, codes) -> np.ndarray:
+def _cover_points(geoms, out_xy, codes) -> np.ndarray:
     """Grow each group's geometry to cover its points, taken in as vertices.
 
     A point just outside (next to a long edge of a hull built in metres and
     given lon/lat vertices, or merged by the kernel as a near-duplicate)
     becomes a vertex of its nearest edge (a-b becomes a-p-b), which changes
-    areas by well under 1 %. A polygon GEOS cannot grow is returned unchanged:
-    callers check coverage afterwards.
-
-    Parameters
-    ----------
-    geoms : ndarray of shape (G,)
-        Polygonal geometry of each group.
-    out_xy, codes : ndarray of shape (k, 2) and (k,)
-        Points that must be covered, in the geometries' coordinates, and the
-        group of each.
-
-    Returns
-    -------
-    ndarray of shape (G,)
-
-    Examples
-    --------
-    >>> square = shapely.box(0, 0, 1, 1)
-    >>> grown = cover_points(np.array([square]), np.array([[1.5, 0.5]]), np.array([0]))
-    >>> grown[0].covers(shapely.Point(1.5, 0.5)), grown[0].area
-    (True, 1.25)
+    areas by well under 1 %. A polygon GEOS cannot grow is left unchanged.
     """
     geoms = geoms.copy()
     outside = ~covered(geoms, out_xy, codes) & ~shapely.is_empty(geoms[codes])
@@ -336,7 +312,7 @@ def _take_in(poly, p):
         extent = max(np.ptp(rings[0], axis=0).max(), abs(p.x), abs(p.y), 1.0)
         width = kernel.REPAIR_RTOL * extent
         grown = shapely.union(part, shapely.buffer(ear, width))
-        grown = polygonal(np.array([grown], dtype=object))[0]
+        grown = _polygonal(np.array([grown], dtype=object))[0]
     parts[i] = grown
     if len(parts) == 1:
         return parts[0]
@@ -358,20 +334,11 @@ def repair_invalid(geoms: np.ndarray) -> np.ndarray:
     (True, 'MultiPolygon', 2.0)
     """
     method = {"method": "structure"} if _MAKE_VALID_METHOD else {}
-    return polygonal(shapely.make_valid(geoms, **method))
+    return _polygonal(shapely.make_valid(geoms, **method))
 
 
-def polygonal(geoms: np.ndarray) -> np.ndarray:
-    """Keep the polygonal parts (area > 0) of repaired geometries, not collapsed lines.
-
-    Examples
-    --------
-    >>> mixed = shapely.GeometryCollection(
-    ...     [shapely.box(0, 0, 1, 1), shapely.LineString([(1, 1), (2, 2)])]
-    ... )
-    >>> polygonal(np.array([mixed]))[0].geom_type
-    'Polygon'
-    """
+def _polygonal(geoms: np.ndarray) -> np.ndarray:
+    """Keep the polygonal parts (area > 0) of geometries, not collapsed lines."""
     parts, which = shapely.get_parts(geoms, return_index=True)
     keep = (shapely.get_type_id(parts) == 3) & (shapely.area(parts) > 0)
     out = geoms.copy()
