@@ -1,11 +1,8 @@
 """The compiled kernel (:mod:`geoalpha._kernel`) and the polygons it returns.
 
-One call of :func:`solve` hands every group (points sorted by group, offsets,
-options) to the Rust kernel, which runs them on its threads without the GIL and
-returns each shape's rings as indices of input points; every polygon is built
-from them in one ``shapely.from_ragged_array`` call, so every vertex is an input
-point, bit for bit. The kernel's tolerances (``src/frame.rs``,
-``src/spectrum.rs``) are exported here, for the docs and the messages.
+:func:`solve` hands every group to the Rust kernel in one call; it returns each
+shape's rings as indices of input points, so every vertex is an input point,
+bit for bit. The kernel's tolerances are exported here.
 """
 
 from __future__ import annotations

@@ -1,10 +1,4 @@
-"""The comparison methods of :func:`geoalpha.hull`: concave and KNN hulls.
-
-``method="concave"`` (GEOS ``concave_hull``) and ``"knn"``
-(:func:`geoalpha.arrays.knn.knn_hull`) are built in metres by
-:func:`comparison_hulls`, then given the input coordinates as vertices
-(``"convex"``: :func:`geoalpha.arrays.guarantee.convex_hulls`, built there).
-"""
+"""The comparison methods of :func:`geoalpha.hull`: concave and KNN hulls."""
 
 from __future__ import annotations
 

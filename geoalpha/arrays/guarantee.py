@@ -1,7 +1,6 @@
-"""The guarantee in the output coordinates, and the polygons GEOS builds.
+"""The guarantee in the output coordinates: valid polygons covering their points.
 
-Polygons are checked where they are returned: valid and covering every point of
-their group (``shapely.covers``, distance 0), repaired, or reported.
+Checked with ``shapely.covers`` (distance 0), repaired, or reported.
 """
 
 from __future__ import annotations

@@ -1,7 +1,4 @@
-"""The k-nearest-neighbours concave hull of Moreira & Santos (2007).
-
-The method the seed paper compares against (:func:`knn_hull`).
-"""
+"""The k-nearest-neighbours concave hull of Moreira & Santos (2007), for comparison."""
 
 from __future__ import annotations
 

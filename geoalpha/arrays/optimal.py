@@ -1,8 +1,6 @@
 """Optimal alpha shapes of point arrays: the array-level public API.
 
-:func:`alpha_shapes` is the batched entry point (many groups in one call, as
-the GeoPandas layer uses it); :func:`optimal_alpha` and :func:`alpha_shape`
-are the one-group conveniences.
+:func:`alpha_shapes` for many groups in one call, the others for one group.
 """
 
 from __future__ import annotations
@@ -294,9 +292,8 @@ def _given_alpha(alpha, n_groups: int) -> np.ndarray:
 def _searched_alpha(curve, n_groups: int, search: str, max_iterations: int):
     """Return the alpha ``search="ladder"``/``"bisect"`` finds on the validity curves.
 
-    A curve holds every distinct weight of a group (ascending) and whether the
-    shape at it is valid; the shape at a threshold is that of the largest
-    weight below it (none below the first).
+    A curve: a group's distinct weights, ascending, and whether the shape at
+    each is valid (at a threshold: that of the largest weight below it).
     """
     values, valid_at, offsets = curve
 

@@ -1,8 +1,7 @@
 """The seed paper's integer ladder and ``alphashape``'s float bisection.
 
-Kept for comparison with the exact optimum, on the same validity test (the
-kernel's validity curve), vectorised over groups. Their answers depend on the
-units: an integer alpha in 1/metre is nearly always 0 (the convex hull).
+For comparison with the exact optimum, on the same validity test, vectorised
+over groups; an integer alpha in 1/metre is nearly always 0 (the convex hull).
 """
 
 from __future__ import annotations
