@@ -70,9 +70,8 @@ class AlphaShapes(NamedTuple):
         0, the convex hull (named in a :class:`SearchWarning`).
     capped : ndarray of bool
         ``outliers=`` with several ``components``: the search for the pieces
-        holding the most rows stopped at its node budget
-        (:data:`geoalpha.kernel.MAX_UNION_NODES`) and kept the best union found
-        (named in an :class:`OutlierWarning`).
+        holding the most rows hit :data:`geoalpha.kernel.MAX_UNION_NODES` and
+        kept the best union found (named in an :class:`OutlierWarning`).
     reason : ndarray of int
         0 (not degenerate), a key of :data:`geoalpha.kernel.REASONS` (1: fewer
         than 3 distinct points, 2: collinear within
@@ -120,8 +119,8 @@ def alpha_shapes(
     points : array_like of shape (n, 2)
         Coordinates in a metric (projected) CRS; alpha is in 1/unit of them.
     groups : array_like of int, shape (n,), optional
-        Group code ``0 .. G-1`` of each point (e.g. from
-        :func:`pandas.factorize`); all points form one group if None.
+        Group code ``0 .. G-1`` of each point (:func:`pandas.factorize`);
+        default: one group.
     alpha : float or array_like of shape (G,), optional
         Use this alpha instead of the optimum (0 is the convex hull).
     holes : bool, default False
@@ -154,8 +153,8 @@ def alpha_shapes(
         pieces cover at least ``rows - k`` rows; only those pieces are kept,
         the rows they miss are reported (``n_outliers``, ``outlier``).
     name_groups : callable, optional
-        Turns an array of group codes into the text naming those groups in a
-        warning (:func:`geoalpha.hull` names them by key); default: the codes.
+        Names the groups of an array of codes in warnings, as text (by key in
+        :func:`geoalpha.hull`); default: by code.
     sphere : bool, default False
         ``points`` are longitudes and latitudes in degrees, computed on the
         sphere (:mod:`geoalpha.arrays.sphere`): alpha in 1/metre, areas in
@@ -349,16 +348,6 @@ def solve_checked(
     Trusts its inputs (checked as :func:`alpha_shapes` does); the caller
     enforces the guarantee (:func:`geoalpha.arrays.guarantee.enforce`). Raises
     for the groups the sphere refuses; warns about the searches that gave up.
-
-    Examples
-    --------
-    >>> xy = np.array([[0, 0], [4, 0], [4, 4], [0, 4], [2, 3.5]])
-    >>> raw = solve_checked(
-    ...     xy, np.zeros(5, dtype=np.int64), 1, alpha=None, holes=False,
-    ...     components=1, search="exact", max_iterations=100, outliers=0,
-    ... )
-    >>> float(raw.shapes.geometry[0].area), raw.certain.tolist()
-    (15.0, [True, True, True, True, True])
     """
     rows = np.bincount(codes, minlength=n_groups)
     if sphere and out is None:
@@ -505,9 +494,8 @@ def _as_xy(points):
     if isinstance(points, shapely.Geometry):
         points = [points]
     values = getattr(points, "values", points)  # a GeoSeries / Series
-    if not isinstance(values, np.ndarray | list | tuple):
+    if not isinstance(values, list | tuple):
         values = np.asarray(values)  # e.g. a GeometryArray: its geometries
-    if isinstance(values, np.ndarray):
         if values.dtype != object:
             return points
     elif not (values and isinstance(values[0], shapely.Geometry)):
