@@ -307,8 +307,7 @@ def solve(
         Checked points (:func:`check_points`) in the computation CRS, their
         group codes ``0 .. n_groups - 1`` (:func:`group_codes`), and how many.
     out : ndarray of shape (n, 2), optional
-        The same points in the output coordinates, which the polygons are
-        built from and collinearity is decided in too; default ``xy``.
+        The points in the output coordinates (polygons, collinearity).
     holes, components, n_jobs, progress, sphere
         As for :func:`geoalpha.alpha_shapes` (``progress`` advances in about
         20 steps; ``sphere``: reason 6 for a group the sphere refuses).

@@ -27,11 +27,9 @@ def geodesic_areas(
 ) -> np.ndarray:
     """Return the area (m²) of each geometry on the WGS84 ellipsoid.
 
-    Every ring's edges are geodesics between its vertices; a ring's area is
-    that of the side smaller than half the ellipsoid, whichever way it turns
-    (a ring around a pole gives the cap). Holes count negative, the polygons
-    of multipolygons and geometry collections add up; points, lines, empty
-    and missing geometries get 0.
+    Edges are geodesics; a ring's area is that of its side smaller than half
+    the ellipsoid, whichever way it turns. Holes count negative, the parts of
+    multipolygons and the polygons of collections add up; other geometries 0.
 
     Parameters
     ----------
@@ -51,8 +49,7 @@ def geodesic_areas(
     Raises
     ------
     ValueError
-        A vertex that is not a longitude/latitude (not finite, or a latitude
-        beyond +-90).
+        A vertex that is not finite, or a latitude beyond +-90.
 
     Examples
     --------

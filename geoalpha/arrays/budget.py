@@ -14,7 +14,6 @@ def outlier_budget(outliers, rows):
         Checked. A float ``q`` in ``[0, 1)``: ``k = floor(q * rows)`` (rounded
         to 9 decimals first: ``0.29 * 100`` gives 29, not 28); an int: ``k``.
     rows : array_like of int, shape (G,)
-        Rows of each group.
 
     Returns
     -------

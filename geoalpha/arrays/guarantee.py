@@ -121,12 +121,10 @@ def enforce(
 
     Parameters
     ----------
-    geoms : ndarray of shape (G,)
-        Geometry of each group.
+    geoms, check : ndarray of shape (G,)
+        Geometry of each group, and the groups to verify (bool).
     out_xy, codes : ndarray of shape (k, 2) and (k,)
         Points, in the geometries' coordinates, and the group of each.
-    check : ndarray of bool, shape (G,)
-        Groups to verify (the others are returned as they are).
     cover : bool or ndarray of bool, shape (G,), default True
         Whether every point must be covered, for all groups or per group
         (False: validity only, e.g. for a shape at a given alpha > 0).
@@ -136,18 +134,16 @@ def enforce(
         The points whose coverage must be tested (default: all, and always
         all of a repaired geometry); a caller may leave out the certain ones.
     exempt : ndarray of bool, shape (k,), optional
-        Points left out on purpose (``outliers=``): never tested, never
-        taken in.
+        Points left out on purpose (``outliers=``): never tested or taken in.
     n_jobs : int or None, default 1
         Threads that test the points (:func:`covered`).
 
     Returns
     -------
-    geoms : ndarray of shape (G,)
-        The geometries, repaired where needed.
-    failed : ndarray of bool, shape (G,)
-        Groups of ``check`` that could not be made to hold the guarantee, for
-        the caller to declare degenerate.
+    geoms, failed : ndarray of shape (G,)
+        The geometries, repaired where needed, and the groups of ``check``
+        that could not hold the guarantee (for the caller to declare
+        degenerate).
 
     Examples
     --------
@@ -235,17 +231,15 @@ def covered(
 
     For a point, covering and intersecting are the same predicate, so this is
     ``shapely.covers`` evaluated as :func:`shapely.intersects_xy` on prepared
-    geometries, without building Point objects (ten times the test's cost).
+    geometries (prepared here, in place), without building Point objects.
 
     Parameters
     ----------
-    geoms : ndarray of shape (G,)
-        Geometry of each group (prepared here, in place).
-    xy, codes : ndarray of shape (k, 2) and (k,)
-        Points, in the geometries' coordinates, and the group of each.
+    geoms, xy, codes : ndarray of shape (G,), (k, 2), (k,)
+        Geometry of each group; points in its coordinates; group of each.
     n_jobs : int or None, default 1
-        Threads (None or -1: every core) from :data:`THREAD_POINTS` points on,
-        each testing its own share of the groups (GEOS releases the GIL).
+        Threads (None or -1: every core) sharing the groups, from
+        :data:`THREAD_POINTS` points on.
 
     Returns
     -------
@@ -321,9 +315,8 @@ def _take_in(poly, p):
 def repair_invalid(geoms: np.ndarray) -> np.ndarray:
     """Make invalid geometries valid and keep their polygonal parts.
 
-    ``make_valid(method="structure")`` on shapely 2.1+, "linework" (its only
-    method) on 2.0, whose parts may differ where a ring overlaps itself; the
-    callers check the result again.
+    ``make_valid(method="structure")`` on shapely 2.1+, "linework" on 2.0
+    (parts may differ where a ring overlaps itself; callers check again).
 
     Examples
     --------

@@ -42,11 +42,10 @@ def knn_hull(
     Returns
     -------
     polygon : shapely.Polygon
-        A valid polygon, counter-clockwise, whose vertices are input points
-        and which covers every input point.
+        Valid, counter-clockwise, covering every input point, vertices input
+        points.
     k : int
-        The ``k`` that gave the polygon; ``n`` if every ``k`` up to ``max_k``
-        failed and the polygon is the convex hull.
+        The ``k`` that gave it; ``n`` if every ``k`` failed (the convex hull).
 
     Raises
     ------

@@ -125,12 +125,10 @@ def crosses_antimeridian(lon: Any, codes: Any, n_groups: int) -> np.ndarray:
 
     Parameters
     ----------
-    lon : array_like of float, shape (n,)
-        Longitudes in degrees, in [-180, 180].
-    codes : array_like of int, shape (n,)
-        Group code of every point, ``0 .. n_groups - 1``.
+    lon, codes : array_like, shape (n,)
+        Longitudes in degrees, in [-180, 180], and the group code of each
+        point, ``0 .. n_groups - 1``.
     n_groups : int
-        Number of groups.
 
     Returns
     -------
@@ -161,8 +159,7 @@ def unwrap_lon(lon: Any, codes: Any, crossing: Any) -> np.ndarray:
     Returns
     -------
     numpy.ndarray of float64, shape (n,)
-        ``lon`` with 360 added to the negative longitudes of crossing groups
-        (back with :func:`split_antimeridian`).
+        ``lon``, plus 360 where negative in crossing groups.
 
     Examples
     --------

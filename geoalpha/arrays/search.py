@@ -26,13 +26,13 @@ def ladder_alpha(
     """Largest integer alpha found by the seed paper's ladder search.
 
     Test the descending ``rungs``; at the first that passes, bisect the
-    integers between it and the rung above. A group valid at the top rung gets
-    the top rung.
+    integers between it and the rung above (a group valid at the top rung gets
+    the top rung).
 
     Parameters
     ----------
     valid : callable
-        ``valid(groups, alphas)`` -> bool array, vectorised over groups.
+        ``valid(groups, alphas)`` -> bool array (the :data:`Oracle`).
     n_groups : int
     rungs : tuple of int
         Descending alphas ending with 0 (the convex hull, always valid).
@@ -40,7 +40,6 @@ def ladder_alpha(
     Returns
     -------
     alpha : ndarray of shape (n_groups,)
-        The integer alpha of each group.
     tests : int
         Largest number of validity tests one group needed.
 
@@ -92,15 +91,13 @@ def bisect_alpha(
     valid, n_groups
         As for :func:`ladder_alpha`.
     max_iterations : int
-        Bisection steps before giving up.
     lower, upper : float
         Initial bracket.
 
     Returns
     -------
-    alpha : ndarray of shape (n_groups,)
-    gave_up : ndarray of bool, shape (n_groups,)
-        Groups for which the bisection did not converge (alpha set to 0).
+    alpha, gave_up : ndarray of shape (n_groups,)
+        The alphas, and the groups that did not converge (alpha 0).
     tests : int
 
     Examples

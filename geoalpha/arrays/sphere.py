@@ -53,9 +53,8 @@ def polar_groups(
 ) -> np.ndarray:
     """Of the groups ``which``, those whose spherical convex hull holds a pole.
 
-    The pole is in the hull when its gnomonic image (from the group's centre,
-    the normalised mean of its unit vectors) is in the convex hull of the
-    points' images: the gnomonic projection maps great circles to lines.
+    The pole is in the hull when its gnomonic image (from the group's centre)
+    is in the convex hull of the points' images (great circles map to lines).
 
     Examples
     --------
