@@ -162,16 +162,10 @@ def _densify(ring: np.ndarray, step: float = 0.25, keep: bool = False) -> np.nda
             t = np.linspace(0.0, 1.0, pieces + 1)[1:-1, None]
             w = (1 - t) * a + t * b  # on the chord, then onto the sphere
             w /= np.linalg.norm(w, axis=1)[:, None]
-            inner = np.column_stack(
-                [
-                    np.degrees(np.arctan2(w[:, 1], w[:, 0])),
-                    np.degrees(np.arcsin(w[:, 2])),
-                ]
-            )
+            lon = np.degrees(np.arctan2(w[:, 1], w[:, 0]))
             if keep:
-                near = ring[k, 0] + (inner[:, 0] - ring[k, 0] + 180.0) % 360.0 - 180.0
-                inner[:, 0] = near
-            out.append(inner)
+                lon = ring[k, 0] + (lon - ring[k, 0] + 180.0) % 360.0 - 180.0
+            out.append(np.column_stack([lon, np.degrees(np.arcsin(w[:, 2]))]))
         out.append(ring[k + 1 : k + 2])
     return np.vstack(out)
 
