@@ -14,7 +14,6 @@ __all__ = [
     "check_codes",
     "crosses_antimeridian",
     "group_arcs",
-    "group_min_max",
     "output_lonlat",
     "restore_longitudes",
     "row_positions",
@@ -60,7 +59,7 @@ def check_codes(codes: Any, n_groups: int, n_points: int) -> np.ndarray:
     return codes
 
 
-def group_min_max(
+def _group_min_max(
     values: np.ndarray, codes: np.ndarray, n_groups: int
 ) -> tuple[np.ndarray, np.ndarray]:
     """Per-group minimum and maximum (NaN for groups without points)."""
@@ -82,10 +81,10 @@ def group_arcs(
     (``east`` may exceed 180) and with ``lat`` ``south``/``north``; NaN ends
     for empty groups.
     """
-    west, east = group_min_max(lon, codes, n_groups)
+    west, east = _group_min_max(lon, codes, n_groups)
     out = {"crossing": np.zeros(n_groups, dtype=bool), "west": west, "east": east}
     if lat is not None:
-        out["south"], out["north"] = group_min_max(lat, codes, n_groups)
+        out["south"], out["north"] = _group_min_max(lat, codes, n_groups)
     # A group narrower than 180 degrees in plain longitudes cannot cross: the
     # gap containing +-180 is then wider than any gap between its points. Only
     # the wider groups need the gaps between their sorted longitudes.
@@ -316,7 +315,7 @@ def output_lonlat(
     if crossing.any():  # unwrap_lon on the checked codes
         out = coords.copy()
         out[:, 0] = np.where(crossing[codes] & (lon < 0.0), lon + 360.0, lon)
-        low, high = group_min_max(out[:, 0], codes, n_groups)
+        low, high = _group_min_max(out[:, 0], codes, n_groups)
     with np.errstate(invalid="ignore"):
         wide = high - low > 180.0
     return out, crossing, wide

@@ -73,11 +73,8 @@ class AlphaShapes(NamedTuple):
         holding the most rows hit :data:`geoalpha.kernel.MAX_UNION_NODES` and
         kept the best union found (named in an :class:`OutlierWarning`).
     reason : ndarray of int
-        0 (not degenerate), a key of :data:`geoalpha.kernel.REASONS` (1: fewer
-        than 3 distinct points, 2: collinear within
-        :data:`geoalpha.kernel.NEAR_RTOL` of the extent, 3: collinear in
-        ``coords``, 4: no rings), or 5: the polygon failed the guarantee in
-        ``coords`` and could not be repaired.
+        0 (not degenerate), a key of :data:`geoalpha.kernel.REASONS`, or 5:
+        the guarantee failed in ``coords`` (:doc:`/user_guide/arrays`).
     """
 
     alpha: np.ndarray
@@ -128,11 +125,8 @@ def alpha_shapes(
     components : int, default 1
         Largest number of edge-connected pieces a valid shape may have.
     search : {"exact", "ladder", "bisect"}, default "exact"
-        ``"exact"``: the true maximum over the Delaunay circumradius spectrum;
-        ``"ladder"``: the seed paper's integer ladder (nearly always 0, the
-        convex hull, in 1/metre); ``"bisect"``: ``alphashape``'s float
-        bisection, which cannot converge when the optimum is >= 4 and then
-        returns 0 with a :class:`SearchWarning`.
+        The true maximum over the circumradius spectrum, or the seed paper's
+        and ``alphashape``'s searches, for comparison (:doc:`/user_guide/optimal`).
     max_iterations : int, default 10000
         Bisection steps before ``search="bisect"`` gives up.
     coords : array_like of shape (n, 2), optional
@@ -147,21 +141,16 @@ def alpha_shapes(
         Threads of the compiled kernel (None or -1: every core); the result
         is the same for any.
     outliers : float or int, default 0
-        Rows each group may leave out: a fraction in ``[0, 1)`` of its rows
-        or a count (:func:`geoalpha.arrays.budget.outlier_budget`). The
-        optimum is then the largest alpha at which at most ``components``
-        pieces cover at least ``rows - k`` rows; only those pieces are kept,
-        the rows they miss are reported (``n_outliers``, ``outlier``).
+        Rows each group may leave out (a fraction or a count,
+        :func:`~geoalpha.arrays.budget.outlier_budget`), reported in
+        ``n_outliers`` and ``outlier`` (:doc:`/user_guide/outliers`).
     name_groups : callable, optional
         Names the groups of an array of codes in warnings, as text (by key in
         :func:`geoalpha.hull`); default: by code.
     sphere : bool, default False
         ``points`` are longitudes and latitudes in degrees, computed on the
-        sphere (:mod:`geoalpha.arrays.sphere`): alpha in 1/metre, areas in
-        square metres; a group wider than
-        :data:`~geoalpha.arrays.sphere.MAX_SPHERE_DEGREES` is an error naming
-        it. Without ``coords`` the polygons are in longitude and latitude,
-        unwrapped across +-180 degrees, closed along the pole around one.
+        sphere: alpha in 1/metre, areas in square metres; without ``coords``
+        the polygons are in longitude and latitude (:doc:`/user_guide/sphere`).
     polar : array_like of bool, shape (n_groups,), optional
         With ``sphere``: the groups around a pole
         (:func:`~geoalpha.arrays.sphere.close_around_poles`). Default: found
@@ -174,7 +163,9 @@ def alpha_shapes(
     Raises
     ------
     InvalidInputError
-        On NaN/inf coordinates (naming the rows), bad shapes or options.
+        On NaN/inf coordinates (naming the rows), bad shapes or options, and
+        with ``sphere`` on groups wider than
+        :data:`~geoalpha.arrays.sphere.MAX_SPHERE_DEGREES` (naming them).
 
     Notes
     -----
@@ -316,8 +307,7 @@ class Unverified(NamedTuple):
     #: per group; ``degenerate`` and ``reason`` by the kernel's reasons only
     shapes: AlphaShapes
     #: per point: a vertex of its group's polygon in the output coordinates, or
-    #: covered by construction there, so covered as long as that very polygon
-    #: is valid (the guarantee tests only the other points)
+    #: covered by construction there while that polygon is valid (not tested)
     certain: np.ndarray
     #: parts a valid polygon may have, per group (any number around a pole)
     components: np.ndarray | int
