@@ -259,11 +259,7 @@ def _run(xy, out, offsets, alpha, budget, progress, **kwargs) -> dict:
 
 
 def _geometries(coords, res, n_groups: int) -> np.ndarray:
-    """One Polygon, MultiPolygon or empty Polygon per group, in two calls.
-
-    Every part is built as a Polygon at once; a group of one part takes it as
-    it is (no copy), the others are gathered into MultiPolygons.
-    """
+    """One Polygon (a part as built), MultiPolygon or empty Polygon per group."""
     out = np.full(n_groups, EMPTY_POLYGON, dtype=object)
     n_parts = res["n_parts"]
     if not n_parts.any():

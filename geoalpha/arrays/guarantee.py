@@ -166,9 +166,8 @@ def enforce(
             geoms[repaired] = repair_invalid(geoms[repaired])
         except shapely.errors.GEOSException:  # pragma: no cover - defensive
             failed |= repaired
-    needed = np.ones(len(codes), dtype=bool) if exempt is None else ~exempt
     covering = np.broadcast_to(np.asarray(cover, dtype=bool), (len(geoms),))
-    needed &= covering[codes]  # (none where only validity is checked)
+    needed = covering[codes] if exempt is None else covering[codes] & ~exempt
     mine = check[codes] & ~failed[codes] & needed
     if test is not None:
         mine &= test | repaired[codes]
@@ -277,11 +276,9 @@ def covered(
 
 
 def _take_in(poly, p):
-    """Insert ``p`` into the nearest ring edge of ``poly`` (shell or hole) that works.
+    """Insert ``p`` into the nearest ring edge of ``poly`` that gives a valid polygon.
 
-    The first insertion giving a valid polygon covering ``p`` wins, so the
-    vertices stay input points; failing that, the outline of the ear to the
-    nearest edge, slightly widened, is added.
+    Failing that, add the outline of the ear to the nearest edge, slightly widened.
     """
     parts = list(shapely.get_parts(poly))
     i = int(np.argmin(shapely.distance(parts, p)))

@@ -175,7 +175,6 @@ def alpha_shapes(
 
     Examples
     --------
-    >>> import numpy as np
     >>> pts = np.array([[0, 0], [4, 0], [4, 4], [0, 4], [2, 3.5],
     ...                 [10, 0], [12, 0], [11, 2]])
     >>> res = alpha_shapes(pts, [0, 0, 0, 0, 0, 1, 1, 1])
@@ -387,8 +386,7 @@ def _on_the_sphere(res: kernel.Solved, polar) -> kernel.Solved:
 def _shapes(res: kernel.Solved, codes, rows, given, gave_up, elsewhere: bool):
     """Return the kernel's result per group and, per point, whether it is certain.
 
-    A group whose rings failed (reason 4) but whose shape is every triangle
-    gets the convex hull of its points, built by GEOS.
+    A group without rings (reason 4) whose shape is every triangle gets its convex hull.
     """
     n_groups = len(rows)
     geometry = res.geometry.copy()
@@ -465,8 +463,7 @@ def _verified(raw: Unverified, out_xy, codes, optimum: bool) -> AlphaShapes:
 def _sphere_output(lonlat, codes, n_groups):
     """Output lon/lat of ``sphere=True`` without ``coords``, and the polar groups.
 
-    Longitudes unwrapped for groups across +-180 degrees, as given for groups
-    around a pole (closed along it, :func:`~geoalpha.arrays.sphere.close_around_poles`).
+    Longitudes unwrapped across +-180 degrees, but as given around a pole.
     """
     out, crossing, wide = output_lonlat(lonlat, codes, n_groups)
     maybe = np.flatnonzero(crossing | wide)
@@ -543,9 +540,8 @@ def optimal_alpha(
     -------
     float
         ``max{alpha >= 0 : S(alpha) valid}``, exactly ``1 / r(t)`` for one
-        Delaunay triangle ``t`` (or 0 for the convex hull); ``nan`` with a
-        :class:`DegenerateGroupWarning` for fewer than 3 distinct points or
-        collinear points.
+        Delaunay triangle ``t`` (or 0, the convex hull); ``nan`` with a
+        :class:`DegenerateGroupWarning` for fewer than 3 or collinear points.
 
     Raises
     ------
@@ -597,10 +593,9 @@ def alpha_shape(
     Returns
     -------
     shapely.Polygon or shapely.MultiPolygon
-        At the optimum, one valid Polygon (a MultiPolygon of at most
-        ``components`` parts) covering every input point, whose vertices are
-        input points. At a given alpha, a MultiPolygon where pieces separate
-        and an empty Polygon when nothing is solid.
+        At the optimum, one valid Polygon (at most ``components`` parts)
+        covering every input point, vertices input points. At a given alpha,
+        a MultiPolygon where pieces separate, empty when nothing is solid.
 
     Examples
     --------

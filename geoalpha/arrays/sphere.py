@@ -146,10 +146,9 @@ def _unit(lonlat: np.ndarray) -> np.ndarray:
 
 
 def _densify(ring: np.ndarray, step: float = 0.25, keep: bool = False) -> np.ndarray:
-    """Points along the great-circle arcs between a ring's vertices, kept as they are.
+    """Points every ``step`` degrees (of arc and of longitude) along a ring's arcs.
 
-    Pieces of at most ``step`` degrees of longitude and of arc; with ``keep``,
-    the new longitudes follow their edge's (beyond 180 where it is).
+    With ``keep`` the new longitudes follow their edge's (beyond 180 where it is).
     """
     u = _unit(ring)
     out = [ring[:1]]
@@ -171,10 +170,7 @@ def _densify(ring: np.ndarray, step: float = 0.25, keep: bool = False) -> np.nda
 
 
 def _unwrap(ring: np.ndarray) -> tuple[np.ndarray, float]:
-    """Make a ring's longitudes continuous, by whole turns (exact).
-
-    Returns the ring and its net turn in degrees (+-360 around a pole).
-    """
+    """Return a ring unwrapped by whole turns of longitude, and its net turn."""
     dlon = np.diff(ring[:, 0])
     dlon = (dlon + 180.0) % 360.0 - 180.0
     steps = ring[0, 0] + np.concatenate([[0.0], np.cumsum(dlon)])
