@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 import shapely
 
-from geoalpha.arrays.guarantee import EMPTY_POLYGON, each_or_none
+from geoalpha.arrays.guarantee import EMPTY_POLYGON
 from geoalpha.arrays.knn import knn_hull
 from geoalpha.errors import InvalidInputError
 
@@ -27,6 +27,20 @@ class ComparisonHulls(NamedTuple):
     labels: np.ndarray
     degenerate: np.ndarray
     without_holes: np.ndarray
+
+
+def _each_or_none(func, geoms: np.ndarray, **kwargs) -> np.ndarray:
+    """Apply a vectorised shapely ``func``; None where GEOS raises (halving batches)."""
+    try:
+        return func(geoms, **kwargs)
+    except shapely.errors.GEOSException:
+        if len(geoms) == 1:
+            return np.array([None], dtype=object)
+    half = len(geoms) // 2
+    out = np.empty(len(geoms), dtype=object)
+    out[:half] = _each_or_none(func, geoms[:half], **kwargs)
+    out[half:] = _each_or_none(func, geoms[half:], **kwargs)
+    return out
 
 
 def _to_input_vertices(geoms, groups, xy, out, codes) -> np.ndarray:
@@ -72,12 +86,12 @@ def comparison_hulls(
         mp = shapely.multipoints(sorted_xy, indices=sc)
         present = np.unique(sc)
         labels[:] = f"concave ratio={ratio:g}"
-        hulls = each_or_none(
+        hulls = _each_or_none(
             shapely.concave_hull, mp[present], ratio=ratio, allow_holes=holes
         )
         if holes:  # GEOS fails some nearly collinear groups with holes only
             failed = shapely.is_missing(hulls)
-            hulls[failed] = each_or_none(
+            hulls[failed] = _each_or_none(
                 shapely.concave_hull, mp[present][failed], ratio=ratio
             )
             without_holes[present[failed]] = True

@@ -17,7 +17,6 @@ __all__ = [
     "EMPTY_POLYGON",
     "convex_hulls",
     "covered",
-    "each_or_none",
     "enforce",
     "left_outside",
     "repair_invalid",
@@ -31,32 +30,6 @@ EMPTY_POLYGON = kernel.EMPTY_POLYGON
 _MAKE_VALID_METHOD = "method" in inspect.signature(shapely.make_valid).parameters
 #: Points from which :func:`covered` spreads its tests over threads.
 THREAD_POINTS = 100_000
-
-
-def each_or_none(func, geoms: np.ndarray, **kwargs) -> np.ndarray:
-    """Apply a vectorised shapely ``func``; None where GEOS raises.
-
-    A batch that raises is split in halves until the failing geometries are alone.
-
-    Examples
-    --------
-    >>> def fussy(g):  # raises for any batch that holds an empty geometry
-    ...     if shapely.is_empty(g).any():
-    ...         raise shapely.errors.GEOSException("empty")
-    ...     return shapely.area(g)
-    >>> each_or_none(fussy, np.array([shapely.box(0, 0, 1, 1), shapely.Polygon()]))
-    array([1.0, None], dtype=object)
-    """
-    try:
-        return func(geoms, **kwargs)
-    except shapely.errors.GEOSException:
-        if len(geoms) == 1:
-            return np.array([None], dtype=object)
-    half = len(geoms) // 2
-    out = np.empty(len(geoms), dtype=object)
-    out[:half] = each_or_none(func, geoms[:half], **kwargs)
-    out[half:] = each_or_none(func, geoms[half:], **kwargs)
-    return out
 
 
 def convex_hulls(out_xy: np.ndarray, codes: np.ndarray, n_groups: int) -> np.ndarray:
