@@ -52,13 +52,11 @@ MAX_COORDINATE: float = _kernel.MAX_COORDINATE
 # The tolerances of the Python side, here with the kernel's so that every
 # tolerance of geoalpha is in this module (docs/user_guide/guarantee.md).
 
-#: Width of a repair in the output coordinates, relative to the polygon's
-#: extent (at least that times 1): the outline of an ear that takes in a
-#: point no other repair could (:func:`geoalpha.arrays.guarantee.enforce`).
+#: Width of the widened ear that takes in a point no other repair could, in the
+#: output coordinates, relative to the polygon's extent (at least 1).
 REPAIR_RTOL = 1e-9
 #: Width of the ``degenerate="buffer"`` polygon made in the output coordinates
-#: (where the metric buffer is no valid polygon there), relative to the
-#: group's extent in those coordinates.
+#: (where the metric one is not valid there), relative to the extent there.
 OUTPUT_BUFFER_RTOL = 1e-6
 #: Longitudes this close (degrees) to the antimeridian are put on it when a
 #: hull is split there.
@@ -79,8 +77,7 @@ EMPTY_POLYGON = shapely.Polygon()
 #: ``components > 1``); a group that reaches it gets the best union found.
 MAX_UNION_NODES: int = _kernel.MAX_UNION_NODES
 
-#: Runs of groups per kernel call when a progress bar is shown (it advances
-#: once per run); one call otherwise.
+#: Runs of groups, one kernel call each, when a progress bar is shown (else one).
 PROGRESS_CHUNKS = 20
 
 
@@ -107,8 +104,6 @@ def check_points(points) -> np.ndarray:
 
     Examples
     --------
-    >>> check_points([[0, 1], [2, 3]]).dtype
-    dtype('float64')
     >>> check_points([[0, 1], [float("nan"), 3]])
     Traceback (most recent call last):
     ...

@@ -22,8 +22,7 @@ __all__ = [
     "repair_invalid",
 ]
 
-#: The geometry of a group with no shape (empty Polygon, so that a column of
-#: hulls keeps a single geometry type).
+#: The geometry of a group with no shape (a column of hulls keeps one type).
 EMPTY_POLYGON = kernel.EMPTY_POLYGON
 #: Whether ``shapely.make_valid`` takes ``method=`` (shapely >= 2.1; 2.0 is what
 #: the QGIS plugin installs to match QGIS's GEOS 3.11).

@@ -22,8 +22,7 @@ __all__ = [
     "refused_message",
 ]
 
-#: Radius of the sphere (metres): the authalic radius of WGS84, the sphere
-#: with the ellipsoid's area.
+#: Radius of the sphere (metres): WGS84's authalic radius (the ellipsoid's area).
 EARTH_RADIUS: float = _kernel.EARTH_RADIUS
 #: Largest angle (degrees) from a group's centre to one of its points.
 MAX_SPHERE_DEGREES: float = _kernel.MAX_SPHERE_DEGREES
