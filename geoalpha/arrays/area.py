@@ -53,7 +53,6 @@ def geodesic_areas(
 
     Examples
     --------
-    >>> import shapely
     >>> cell = shapely.box(0, 0, 1, 1)  # one degree at the equator
     >>> geodesic_areas([cell, shapely.MultiPolygon([cell, cell]), None]).round(3)
     array([1.23087784e+10, 2.46175567e+10, 0.00000000e+00])

@@ -63,8 +63,6 @@ def knn_hull(
     --------
     An L-shaped grid of points gets an L-shaped hull, not the convex hull:
 
-    >>> import numpy as np
-    >>> from geoalpha.arrays.knn import knn_hull
     >>> xy = np.array([(x, y) for x in range(5) for y in range(5)
     ...                if x <= 1 or y <= 1], dtype=float)
     >>> poly, k = knn_hull(xy)

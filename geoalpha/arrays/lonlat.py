@@ -135,7 +135,6 @@ def crosses_antimeridian(lon: Any, codes: Any, n_groups: int) -> np.ndarray:
 
     Examples
     --------
-    >>> from geoalpha.frame.crs import crosses_antimeridian
     >>> lon = [177.5, 179.9, -179.5, -178.2, 10.0, 12.0]  # Fiji, then Italy
     >>> crosses_antimeridian(lon, [0, 0, 0, 0, 1, 1], 2)
     array([ True, False])
@@ -162,7 +161,6 @@ def unwrap_lon(lon: Any, codes: Any, crossing: Any) -> np.ndarray:
 
     Examples
     --------
-    >>> from geoalpha.frame.crs import unwrap_lon
     >>> unwrap_lon([179.0, -179.0, -5.0], [0, 0, 1], [True, False]).tolist()
     [179.0, 181.0, -5.0]
     """
@@ -200,12 +198,10 @@ def split_antimeridian(geom: Any) -> Any:
 
     Examples
     --------
-    >>> from shapely import box
-    >>> from geoalpha.frame.crs import split_antimeridian
-    >>> parts = split_antimeridian(box(178, -18, 182, -16))
+    >>> parts = split_antimeridian(shapely.box(178, -18, 182, -16))
     >>> parts.geom_type, [p.bounds for p in parts.geoms]
     ('MultiPolygon', [(178.0, -18.0, 180.0, -16.0), (-180.0, -18.0, -178.0, -16.0)])
-    >>> split_antimeridian(box(10, 0, 11, 1)).bounds
+    >>> split_antimeridian(shapely.box(10, 0, 11, 1)).bounds
     (10.0, 0.0, 11.0, 1.0)
     """
     geoms = np.asarray(geom, dtype=object)  # 0-d for one geometry
@@ -257,11 +253,10 @@ def restore_longitudes(
 
     Examples
     --------
-    >>> from shapely import Polygon
     >>> lon = np.array([175.0, -114.6042657247226, -119.0])
     >>> lat = np.array([-38.0, 25.0, 33.0])
     >>> unwrapped = unwrap_lon(lon, [0, 0, 0], [True])
-    >>> parts = split_antimeridian(np.array([Polygon(zip(unwrapped, lat))]))
+    >>> parts = split_antimeridian(np.array([shapely.Polygon(zip(unwrapped, lat))]))
     >>> float(parts[0].geoms[1].exterior.coords[1][0])  # lon + 360 - 360
     -114.60426572472261
     >>> fixed = restore_longitudes(parts, [0], lon, lat, [0, 0, 0])

@@ -87,11 +87,10 @@ def polar_groups(
 def close_around_poles(geometry: np.ndarray) -> np.ndarray:
     """Longitude/latitude polygons of the shapes of groups around a pole.
 
-    Every ring is densified along its great-circle arcs and unwrapped; a
-    shell that goes once around in longitude is closed along the pole's
-    latitude (+-90); each piece is cut at +-180 degrees and put back in
-    [-180, 180], made valid. The points it misses are for the guarantee
-    (:func:`geoalpha.arrays.guarantee.enforce`) to take in.
+    Rings follow their great-circle arcs, unwrapped; a shell once around in
+    longitude is closed along the pole (+-90), cut at +-180 degrees and made
+    valid. The guarantee (:func:`~geoalpha.arrays.guarantee.enforce`) takes in
+    the points it misses.
 
     Examples
     --------
