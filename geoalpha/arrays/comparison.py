@@ -18,8 +18,7 @@ __all__ = ["ComparisonHulls", "comparison_hulls"]
 class ComparisonHulls(NamedTuple):
     """Per group: ``geometry`` (output CRS), ``area``, ``labels``, ``degenerate``.
 
-    ``without_holes``: groups whose concave hull with holes GEOS could not
-    build, which got the one without holes.
+    ``without_holes``: GEOS failed the concave hull with holes; got the one without.
     """
 
     geometry: np.ndarray

@@ -15,8 +15,6 @@ from geoalpha.errors import InvalidInputError, first_n
 
 __all__ = ["knn_hull"]
 
-_TWO_PI = 2.0 * np.pi
-
 
 def knn_hull(
     points: ArrayLike, k: int = 3, *, max_k: int | None = None
@@ -164,7 +162,7 @@ def _walk(local: np.ndarray, tree: cKDTree, start: int, k: int) -> np.ndarray | 
         near, ux, uy = near[keep], ux[keep], uy[keep]
         # Counter-clockwise angle from the way back, ascending: the largest
         # right-hand turn first; ties keep the nearer point first.
-        angle = (np.arctan2(uy, ux) - math.atan2(-dy, -dx)) % _TWO_PI
+        angle = (np.arctan2(uy, ux) - math.atan2(-dy, -dx)) % (2.0 * np.pi)
         order = np.argsort(angle, kind="stable")
         near, ux, uy = near[order], ux[order], uy[order]
         free = _free(ax, ay, ux, uy, near == start, local[ring[:m]])
