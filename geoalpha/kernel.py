@@ -1,11 +1,8 @@
 """The compiled kernel (:mod:`geoalpha._kernel`) and the polygons it returns.
 
-One call of :func:`solve` hands every group (points sorted by group, offsets,
-options) to the Rust kernel, which runs them on its threads without the GIL and
-returns each shape's rings as indices of input points; every polygon is built
-from them in one ``shapely.from_ragged_array`` call, so every vertex is an input
-point, bit for bit. The kernel's tolerances (``src/frame.rs``,
-``src/spectrum.rs``) are exported here, for the docs and the messages.
+:func:`solve` hands every group to the Rust kernel in one call; it returns each
+shape's rings as indices of input points, so every vertex is an input point,
+bit for bit. The kernel's tolerances are exported here.
 """
 
 from __future__ import annotations
@@ -55,13 +52,11 @@ MAX_COORDINATE: float = _kernel.MAX_COORDINATE
 # The tolerances of the Python side, here with the kernel's so that every
 # tolerance of geoalpha is in this module (docs/user_guide/guarantee.md).
 
-#: Width of a repair in the output coordinates, relative to the polygon's
-#: extent (at least that times 1): the outline of an ear that takes in a
-#: point no other repair could (:func:`geoalpha.arrays.guarantee.cover_points`).
+#: Width of the widened ear that takes in a point no other repair could, in the
+#: output coordinates, relative to the polygon's extent (at least 1).
 REPAIR_RTOL = 1e-9
 #: Width of the ``degenerate="buffer"`` polygon made in the output coordinates
-#: (where the metric buffer is no valid polygon there), relative to the
-#: group's extent in those coordinates.
+#: (where the metric one is not valid there), relative to the extent there.
 OUTPUT_BUFFER_RTOL = 1e-6
 #: Longitudes this close (degrees) to the antimeridian are put on it when a
 #: hull is split there.
@@ -82,8 +77,7 @@ EMPTY_POLYGON = shapely.Polygon()
 #: ``components > 1``); a group that reaches it gets the best union found.
 MAX_UNION_NODES: int = _kernel.MAX_UNION_NODES
 
-#: Runs of groups per kernel call when a progress bar is shown (it advances
-#: once per run); one call otherwise.
+#: Runs of groups, one kernel call each, when a progress bar is shown (else one).
 PROGRESS_CHUNKS = 20
 
 
@@ -110,8 +104,6 @@ def check_points(points) -> np.ndarray:
 
     Examples
     --------
-    >>> check_points([[0, 1], [2, 3]]).dtype
-    dtype('float64')
     >>> check_points([[0, 1], [float("nan"), 3]])
     Traceback (most recent call last):
     ...
@@ -189,17 +181,16 @@ def radius_of_alpha(alpha) -> np.ndarray:
 
 
 class Solved(NamedTuple):
-    """What the kernel returns, in the order of the points sorted by group.
+    """What the kernel returns.
 
     Per group: ``reason`` (0, or a key of :data:`REASONS`), ``alpha``,
     ``radius``, ``n_distinct``, ``n_parts``, ``area``, ``n_outliers`` (rows),
     ``whole`` (every triangle is in the shape), ``capped`` (the outlier
     search hit its node budget) and ``geometry``. Per point, sorted by group
     (``order[i]`` is the input row of sorted point ``i``): ``codes``, ``rep``
-    (the sorted index of its representative), ``left_out`` and ``on_ring``
-    (its representative is a ring vertex), ``coords`` (the output
-    coordinates the polygons are built from). ``curve`` holds the validity
-    curves when asked: ``(values, valid, offsets)``.
+    (the sorted index of its representative), ``left_out``, ``on_ring`` (its
+    representative is a ring vertex), ``coords`` (the output coordinates).
+    ``curve``: the validity curves when asked, ``(values, valid, offsets)``.
     """
 
     order: np.ndarray
@@ -263,11 +254,7 @@ def _run(xy, out, offsets, alpha, budget, progress, **kwargs) -> dict:
 
 
 def _geometries(coords, res, n_groups: int) -> np.ndarray:
-    """One Polygon, MultiPolygon or empty Polygon per group, in two calls.
-
-    Every part is built as a Polygon at once; a group of one part takes it as
-    it is (no copy), the others are gathered into MultiPolygons.
-    """
+    """One Polygon (a part as built), MultiPolygon or empty Polygon per group."""
     out = np.full(n_groups, EMPTY_POLYGON, dtype=object)
     n_parts = res["n_parts"]
     if not n_parts.any():
@@ -307,31 +294,19 @@ def solve(
 
     Parameters
     ----------
-    xy : ndarray of shape (n, 2)
-        Checked coordinates (:func:`check_points`) in the computation CRS.
-    codes : ndarray of int, shape (n,)
-        Checked group codes ``0 .. n_groups - 1`` (:func:`group_codes`).
-    n_groups : int
-        Number of groups.
+    xy, codes, n_groups
+        Checked points (:func:`check_points`) in the computation CRS, their
+        group codes ``0 .. n_groups - 1`` (:func:`group_codes`), and how many.
     out : ndarray of shape (n, 2), optional
-        The same points in the output coordinates, which the polygons are built
-        from and collinearity is decided in too; default ``xy``.
-    holes, components : bool, int
-        The definition of the shape and of a valid one.
-    alpha : ndarray of shape (n_groups,), optional
-        A given alpha per group (>= 0) instead of the optimum.
-    budget : ndarray of int, shape (n_groups,), optional
-        Rows each group may leave out (``outliers=``).
+        The points in the output coordinates (polygons, collinearity).
+    holes, components, n_jobs, progress, sphere
+        As for :func:`geoalpha.alpha_shapes` (``progress`` advances in about
+        20 steps; ``sphere``: reason 6 for a group the sphere refuses).
+    alpha, budget : ndarray of shape (n_groups,), optional
+        A given alpha per group (>= 0) instead of the optimum; rows each group
+        may leave out (``outliers=``).
     curve : bool
         Also return the validity curves.
-    n_jobs : int, optional
-        Threads (None or -1: every core; see :func:`threads`).
-    progress : object with ``update(n)``, optional
-        Told how many groups are done, in about 20 steps.
-    sphere : bool
-        ``xy`` are longitudes and latitudes (degrees) computed on the sphere
-        (``crs="sphere"``): radii in metres, areas in square metres, reason 6
-        for a group the sphere refuses (:mod:`geoalpha.arrays.sphere`).
 
     Returns
     -------

@@ -1,10 +1,8 @@
 """Areas of polygons on the WGS84 ellipsoid, in one compiled call.
 
-:func:`geodesic_areas` lays the polygons out as flat vertex arrays with
-offsets (:func:`shapely.to_ragged_array`), moves the vertices to
-longitude/latitude when asked, and hands them to the kernel
+The polygons go to the kernel as flat vertex arrays with offsets
 (``src/geodesic.rs``: Karney's algorithm, GeographicLib's, on the kernel's
-threads with the GIL released). The frame calls it for ``area_m2``.
+threads). The frame calls it for ``area_m2``.
 """
 
 from __future__ import annotations
@@ -29,19 +27,15 @@ def geodesic_areas(
 ) -> np.ndarray:
     """Return the area (m²) of each geometry on the WGS84 ellipsoid.
 
-    Every ring's edges are geodesics between its vertices. A polygon's area
-    is its exterior's minus its holes', a multipolygon's the sum of its
-    polygons'; a ring's area is that of the side smaller than half the
-    ellipsoid, whichever way it turns (so a ring around a pole gives the cap,
-    and polygons need no orientation). The polygons of a geometry collection
-    count; points, lines, empty and missing geometries get 0.
+    Edges are geodesics; a ring's area is that of its side smaller than half
+    the ellipsoid, whichever way it turns. Holes count negative, the parts of
+    multipolygons and the polygons of collections add up; other geometries 0.
 
     Parameters
     ----------
     geometry : array_like of shapely geometries
-        Polygons in longitude/latitude (EPSG:4326, degrees), or in the
-        coordinates ``to_lonlat`` takes. Longitudes may run past +-180
-        (an unwrapped ring across the antimeridian).
+        Polygons in longitude/latitude (degrees; longitudes may run past
+        +-180), or in the coordinates ``to_lonlat`` takes.
     to_lonlat : callable, optional
         ``to_lonlat(x, y) -> (lon, lat)`` for all the vertices at once (a
         vectorised pyproj transform); None: they are longitude/latitude.
@@ -51,17 +45,14 @@ def geodesic_areas(
     Returns
     -------
     numpy.ndarray of float64
-        One area per geometry, in square metres.
 
     Raises
     ------
     ValueError
-        A vertex that is not a longitude/latitude (not finite, or a latitude
-        beyond +-90).
+        A vertex that is not finite, or a latitude beyond +-90.
 
     Examples
     --------
-    >>> import shapely
     >>> cell = shapely.box(0, 0, 1, 1)  # one degree at the equator
     >>> geodesic_areas([cell, shapely.MultiPolygon([cell, cell]), None]).round(3)
     array([1.23087784e+10, 2.46175567e+10, 0.00000000e+00])
@@ -102,11 +93,8 @@ def geodesic_areas(
 
 
 def _layout(geoms: np.ndarray) -> tuple[np.ndarray, tuple[np.ndarray, ...]]:
-    """Vertices and the ring, polygon and geometry offsets the kernel takes.
-
-    Polygons without holes (most hulls) have one ring each: their offsets are
-    their vertex counts', several times faster than a ragged array's.
-    """
+    """Vertices and the ring, polygon and geometry offsets the kernel takes."""
+    # Polygons without holes (most hulls): offsets from vertex counts (faster).
     one_ring = shapely.get_type_id(geoms) == shapely.GeometryType.POLYGON
     if one_ring.all() and not shapely.get_num_interior_rings(geoms).any():
         counts = shapely.get_num_coordinates(geoms)

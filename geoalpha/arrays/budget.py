@@ -1,8 +1,4 @@
-"""The outlier budget (``outliers=``): rows each group may leave out.
-
-A location that holds several rows weighs as many rows, so ``n_outliers <= k``
-always holds in rows, as users read the option.
-"""
+"""The outlier budget (``outliers=``): rows each group may leave out."""
 
 from __future__ import annotations
 
@@ -15,12 +11,9 @@ def outlier_budget(outliers, rows):
     Parameters
     ----------
     outliers : float or int
-        A float ``q`` in ``[0, 1)``: ``k = floor(q * rows)`` (``q * rows``
-        rounded to 9 decimals first, so that ``0.29 * 100`` gives 29, not 28);
-        an int: ``k`` itself for every group. Already checked
-        (:func:`geoalpha.options.check_outliers`).
+        Checked. A float ``q`` in ``[0, 1)``: ``k = floor(q * rows)`` (rounded
+        to 9 decimals first: ``0.29 * 100`` gives 29, not 28); an int: ``k``.
     rows : array_like of int, shape (G,)
-        Rows of each group.
 
     Returns
     -------

@@ -1,40 +1,45 @@
-"""The comparison methods of :func:`geoalpha.hull`: concave and KNN hulls.
-
-``method="concave"`` (GEOS ``concave_hull``) and ``"knn"``
-(:func:`geoalpha.arrays.knn.knn_hull`) are built in metres by
-:func:`comparison_hulls`, then given the input coordinates as vertices
-(``"convex"``: :func:`geoalpha.arrays.guarantee.convex_hulls`, built there).
-"""
+"""The comparison methods of :func:`geoalpha.hull`: concave and KNN hulls."""
 
 from __future__ import annotations
+
+from typing import NamedTuple
 
 import numpy as np
 import pandas as pd
 import shapely
 
-from geoalpha.arrays.guarantee import EMPTY_POLYGON, each_or_none
-from geoalpha.arrays.guarantee import (
-    convex_hulls as convex_hulls,  # (its home until 0.1)
-)
+from geoalpha.arrays.guarantee import EMPTY_POLYGON
 from geoalpha.arrays.knn import knn_hull
 from geoalpha.errors import InvalidInputError
 
 __all__ = ["ComparisonHulls", "comparison_hulls"]
 
 
-class ComparisonHulls:
+class ComparisonHulls(NamedTuple):
     """Per group: ``geometry`` (output CRS), ``area``, ``labels``, ``degenerate``.
 
-    ``without_holes``: groups whose concave hull with holes GEOS could not
-    build, which got the one without holes.
+    ``without_holes``: GEOS failed the concave hull with holes; got the one without.
     """
 
-    def __init__(self, geometry, area, labels, degenerate, without_holes):
-        self.geometry = geometry
-        self.area = area
-        self.labels = labels
-        self.degenerate = degenerate
-        self.without_holes = without_holes
+    geometry: np.ndarray
+    area: np.ndarray
+    labels: np.ndarray
+    degenerate: np.ndarray
+    without_holes: np.ndarray
+
+
+def _each_or_none(func, geoms: np.ndarray, **kwargs) -> np.ndarray:
+    """Apply a vectorised shapely ``func``; None where GEOS raises (halving batches)."""
+    try:
+        return func(geoms, **kwargs)
+    except shapely.errors.GEOSException:
+        if len(geoms) == 1:
+            return np.array([None], dtype=object)
+    half = len(geoms) // 2
+    out = np.empty(len(geoms), dtype=object)
+    out[:half] = _each_or_none(func, geoms[:half], **kwargs)
+    out[half:] = _each_or_none(func, geoms[half:], **kwargs)
+    return out
 
 
 def _to_input_vertices(geoms, groups, xy, out, codes) -> np.ndarray:
@@ -80,12 +85,12 @@ def comparison_hulls(
         mp = shapely.multipoints(sorted_xy, indices=sc)
         present = np.unique(sc)
         labels[:] = f"concave ratio={ratio:g}"
-        hulls = each_or_none(
+        hulls = _each_or_none(
             shapely.concave_hull, mp[present], ratio=ratio, allow_holes=holes
         )
         if holes:  # GEOS fails some nearly collinear groups with holes only
             failed = shapely.is_missing(hulls)
-            hulls[failed] = each_or_none(
+            hulls[failed] = _each_or_none(
                 shapely.concave_hull, mp[present][failed], ratio=ratio
             )
             without_holes[present[failed]] = True

@@ -1,7 +1,6 @@
-"""The guarantee in the output coordinates, and the polygons GEOS builds.
+"""The guarantee in the output coordinates: valid polygons covering their points.
 
-Polygons are checked where they are returned: valid and covering every point of
-their group (``shapely.covers``, distance 0), repaired, or reported.
+Checked with ``shapely.covers`` (distance 0), repaired, or reported.
 """
 
 from __future__ import annotations
@@ -17,50 +16,19 @@ from geoalpha import kernel
 __all__ = [
     "EMPTY_POLYGON",
     "convex_hulls",
-    "cover_points",
     "covered",
-    "each_or_none",
     "enforce",
     "left_outside",
-    "polygonal",
     "repair_invalid",
 ]
 
-#: The geometry of a group with no shape (empty Polygon, so that a column of
-#: hulls keeps a single geometry type).
+#: The geometry of a group with no shape (a column of hulls keeps one type).
 EMPTY_POLYGON = kernel.EMPTY_POLYGON
 #: Whether ``shapely.make_valid`` takes ``method=`` (shapely >= 2.1; 2.0 is what
 #: the QGIS plugin installs to match QGIS's GEOS 3.11).
 _MAKE_VALID_METHOD = "method" in inspect.signature(shapely.make_valid).parameters
 #: Points from which :func:`covered` spreads its tests over threads.
 THREAD_POINTS = 100_000
-
-
-def each_or_none(func, geoms: np.ndarray, **kwargs) -> np.ndarray:
-    """Apply a vectorised shapely ``func``; None where GEOS raises.
-
-    A batch that raises is split in halves until the failing geometries are
-    alone (``O(f log k)`` calls for ``f`` failures among ``k``).
-
-    Examples
-    --------
-    >>> def fussy(g):  # raises for any batch that holds an empty geometry
-    ...     if shapely.is_empty(g).any():
-    ...         raise shapely.errors.GEOSException("empty")
-    ...     return shapely.area(g)
-    >>> each_or_none(fussy, np.array([shapely.box(0, 0, 1, 1), shapely.Polygon()]))
-    array([1.0, None], dtype=object)
-    """
-    try:
-        return func(geoms, **kwargs)
-    except shapely.errors.GEOSException:
-        if len(geoms) == 1:
-            return np.array([None], dtype=object)
-    half = len(geoms) // 2
-    out = np.empty(len(geoms), dtype=object)
-    out[:half] = each_or_none(func, geoms[:half], **kwargs)
-    out[half:] = each_or_none(func, geoms[half:], **kwargs)
-    return out
 
 
 def convex_hulls(out_xy: np.ndarray, codes: np.ndarray, n_groups: int) -> np.ndarray:
@@ -87,9 +55,7 @@ def convex_hulls(out_xy: np.ndarray, codes: np.ndarray, n_groups: int) -> np.nda
 
 
 def left_outside(flag, geoms, xy, codes) -> np.ndarray:
-    """Of the points ``flag`` marks, those their group's geometry does not cover.
-
-    For points left out on purpose (``outliers=``), which a repair may take in.
+    """Of the points ``flag`` marks (left out, ``outliers=``), those still outside.
 
     Examples
     --------
@@ -122,42 +88,34 @@ def enforce(
     Every group in ``check`` must get a valid, non-empty Polygon or
     MultiPolygon (of at most ``components`` parts) that covers every one of
     its points (``shapely.covers``, distance 0, in these coordinates).
-    Invalid geometries are repaired (:func:`repair_invalid`) and uncovered
-    points taken in as vertices (:func:`cover_points`); a group that still
-    fails is reported, for the caller to declare degenerate.
+    Invalid geometries are repaired (:func:`repair_invalid`), uncovered
+    points taken in as vertices of their nearest edges.
 
     Parameters
     ----------
-    geoms : ndarray of shape (G,)
-        Geometry of each group.
-    out_xy : ndarray of shape (k, 2)
-        Points, in the geometries' coordinates.
-    codes : ndarray of shape (k,)
-        Group of each point.
-    check : ndarray of bool, shape (G,)
-        Groups to verify (the others are returned as they are).
+    geoms, check : ndarray of shape (G,)
+        Geometry of each group, and the groups to verify (bool).
+    out_xy, codes : ndarray of shape (k, 2) and (k,)
+        Points, in the geometries' coordinates, and the group of each.
     cover : bool or ndarray of bool, shape (G,), default True
         Whether every point must be covered, for all groups or per group
         (False: validity only, e.g. for a shape at a given alpha > 0).
     components : int or ndarray of float, shape (G,), optional
         Largest number of parts allowed.
     test : ndarray of bool, shape (k,), optional
-        The points whose coverage must be tested (default: all); a caller may
-        leave out those certain for the geometry given, e.g. vertices of a
-        valid triangulation in the very coordinates of the geometry. Every
-        point of a geometry that had to be repaired is tested.
+        The points whose coverage must be tested (default: all, and always
+        all of a repaired geometry); a caller may leave out the certain ones.
     exempt : ndarray of bool, shape (k,), optional
-        Points that need not be covered (left out on purpose, ``outliers=``):
-        never tested, and never taken in when a group is repaired.
+        Points left out on purpose (``outliers=``): never tested or taken in.
     n_jobs : int or None, default 1
         Threads that test the points (:func:`covered`).
 
     Returns
     -------
-    geoms : ndarray of shape (G,)
-        The geometries, repaired where needed.
-    failed : ndarray of bool, shape (G,)
-        Groups of ``check`` that could not be made to hold the guarantee.
+    geoms, failed : ndarray of shape (G,)
+        The geometries, repaired where needed, and the groups of ``check``
+        that could not hold the guarantee (for the caller to declare
+        degenerate).
 
     Examples
     --------
@@ -180,24 +138,22 @@ def enforce(
             geoms[repaired] = repair_invalid(geoms[repaired])
         except shapely.errors.GEOSException:  # pragma: no cover - defensive
             failed |= repaired
-    needed = np.ones(len(codes), dtype=bool) if exempt is None else ~exempt
     covering = np.broadcast_to(np.asarray(cover, dtype=bool), (len(geoms),))
-    needed &= covering[codes]
-    if covering.any():
-        mine = check[codes] & ~failed[codes] & needed
-        if test is not None:
-            mine &= test | repaired[codes]
-        outside = ~covered(
-            geoms, np.compress(mine, out_xy, axis=0), codes[mine], n_jobs=n_jobs
-        )
-        repair = np.unique(codes[mine][outside])
-        if len(repair):
-            take = np.isin(codes, repair) & needed
-            try:
-                geoms = cover_points(geoms, out_xy[take], codes[take])
-            except shapely.errors.GEOSException:
-                failed[repair] = True
-            repaired[repair] = True
+    needed = covering[codes] if exempt is None else covering[codes] & ~exempt
+    mine = check[codes] & ~failed[codes] & needed
+    if test is not None:
+        mine &= test | repaired[codes]
+    outside = ~covered(
+        geoms, np.compress(mine, out_xy, axis=0), codes[mine], n_jobs=n_jobs
+    )
+    repair = np.unique(codes[mine][outside])
+    if len(repair):
+        take = np.isin(codes, repair) & needed
+        try:
+            geoms = _cover_points(geoms, out_xy[take], codes[take])
+        except shapely.errors.GEOSException:
+            failed[repair] = True
+        repaired[repair] = True
     # Whatever was repaired is verified again, from scratch.
     again = repaired & ~failed
     if again.any():
@@ -208,49 +164,22 @@ def enforce(
             limit = components if np.ndim(components) == 0 else components[again]
             bad |= shapely.get_num_geometries(g) > limit
         failed[np.flatnonzero(again)[bad]] = True
-        if covering.any():
-            take = again[codes] & ~failed[codes] & needed
-            miss = ~covered(geoms, np.compress(take, out_xy, axis=0), codes[take])
-            failed[codes[take][miss]] = True
+        take = again[codes] & ~failed[codes] & needed
+        miss = ~covered(geoms, np.compress(take, out_xy, axis=0), codes[take])
+        failed[codes[take][miss]] = True
     # An empty optimum covers nothing.
     failed[sel[covering[sel] & shapely.is_empty(geoms[sel])]] = True
     geoms[failed] = EMPTY_POLYGON
     return geoms, failed
 
 
-def cover_points(geoms, out_xy, codes) -> np.ndarray:
-    """Make sure every point is covered by its group's geometry.
+def _cover_points(geoms, out_xy, codes) -> np.ndarray:
+    """Grow each group's geometry to cover its points, taken in as vertices.
 
-    Parameters
-    ----------
-    geoms : ndarray of shape (G,)
-        Polygonal geometry of each group.
-    out_xy : ndarray of shape (k, 2)
-        Points that must be covered, in the geometries' coordinates.
-    codes : ndarray of shape (k,)
-        Group of each point.
-
-    Returns
-    -------
-    ndarray of shape (G,)
-        The geometries, where needed grown to cover their points. A polygon
-        GEOS cannot grow (invalid or folded, e.g. around a pole in lon/lat) is
-        returned unchanged: callers check coverage afterwards.
-
-    Notes
-    -----
-    A hull built in metres and given the input (e.g. lon/lat) coordinates of
-    its vertices can leave a point next to a long edge just outside, as can a
-    point the kernel merged with a vertex as a near-duplicate. Such a point
-    becomes a vertex of its nearest edge (a-b becomes a-p-b, all input
-    points), which changes areas by well under 1 %.
-
-    Examples
-    --------
-    >>> square = shapely.box(0, 0, 1, 1)
-    >>> grown = cover_points(np.array([square]), np.array([[1.5, 0.5]]), np.array([0]))
-    >>> grown[0].covers(shapely.Point(1.5, 0.5)), grown[0].area
-    (True, 1.25)
+    A point just outside (next to a long edge of a hull built in metres and
+    given lon/lat vertices, or merged by the kernel as a near-duplicate)
+    becomes a vertex of its nearest edge (a-b becomes a-p-b), which changes
+    areas by well under 1 %. A polygon GEOS cannot grow is left unchanged.
     """
     geoms = geoms.copy()
     outside = ~covered(geoms, out_xy, codes) & ~shapely.is_empty(geoms[codes])
@@ -273,20 +202,15 @@ def covered(
 
     For a point, covering and intersecting are the same predicate, so this is
     ``shapely.covers`` evaluated as :func:`shapely.intersects_xy` on prepared
-    geometries, without building Point objects (ten times the test's cost).
+    geometries (prepared here, in place), without building Point objects.
 
     Parameters
     ----------
-    geoms : ndarray of shape (G,)
-        Geometry of each group (prepared here, in place).
-    xy : ndarray of shape (k, 2)
-        Points, in the geometries' coordinates.
-    codes : ndarray of shape (k,)
-        Group of each point.
+    geoms, xy, codes : ndarray of shape (G,), (k, 2), (k,)
+        Geometry of each group; points in its coordinates; group of each.
     n_jobs : int or None, default 1
-        Threads (None or -1: every core): from :data:`THREAD_POINTS` points
-        on, each thread tests the points of its own share of the groups (GEOS
-        releases the GIL; no geometry is shared between threads).
+        Threads (None or -1: every core) sharing the groups, from
+        :data:`THREAD_POINTS` points on.
 
     Returns
     -------
@@ -324,11 +248,9 @@ def covered(
 
 
 def _take_in(poly, p):
-    """Insert ``p`` into the nearest ring edge of ``poly`` (shell or hole) that works.
+    """Insert ``p`` into the nearest ring edge of ``poly`` that gives a valid polygon.
 
-    The first insertion giving a valid polygon covering ``p`` wins, so the
-    vertices stay input points; failing that, the outline of the ear to the
-    nearest edge, slightly widened, is added.
+    Failing that, add the outline of the ear to the nearest edge, slightly widened.
     """
     parts = list(shapely.get_parts(poly))
     i = int(np.argmin(shapely.distance(parts, p)))
@@ -352,7 +274,7 @@ def _take_in(poly, p):
         extent = max(np.ptp(rings[0], axis=0).max(), abs(p.x), abs(p.y), 1.0)
         width = kernel.REPAIR_RTOL * extent
         grown = shapely.union(part, shapely.buffer(ear, width))
-        grown = polygonal(np.array([grown], dtype=object))[0]
+        grown = _polygonal(np.array([grown], dtype=object))[0]
     parts[i] = grown
     if len(parts) == 1:
         return parts[0]
@@ -362,10 +284,8 @@ def _take_in(poly, p):
 def repair_invalid(geoms: np.ndarray) -> np.ndarray:
     """Make invalid geometries valid and keep their polygonal parts.
 
-    ``make_valid(method="structure")`` (the union of the exterior rings minus
-    the holes) where shapely has it (2.1+); on shapely 2.0, its only method
-    ("linework"), whose parts may differ where a ring overlaps itself. Either
-    way the callers check the result again (validity, parts, coverage).
+    ``make_valid(method="structure")`` on shapely 2.1+, "linework" on 2.0
+    (parts may differ where a ring overlaps itself; callers check again).
 
     Examples
     --------
@@ -375,23 +295,11 @@ def repair_invalid(geoms: np.ndarray) -> np.ndarray:
     (True, 'MultiPolygon', 2.0)
     """
     method = {"method": "structure"} if _MAKE_VALID_METHOD else {}
-    return polygonal(shapely.make_valid(geoms, **method))
+    return _polygonal(shapely.make_valid(geoms, **method))
 
 
-def polygonal(geoms: np.ndarray) -> np.ndarray:
-    """Keep the polygonal parts (area > 0) of repaired geometries.
-
-    ``make_valid`` may return collapsed lines (e.g. where lon/lat vertices
-    made a ring touch itself), which are dropped here.
-
-    Examples
-    --------
-    >>> mixed = shapely.GeometryCollection(
-    ...     [shapely.box(0, 0, 1, 1), shapely.LineString([(1, 1), (2, 2)])]
-    ... )
-    >>> polygonal(np.array([mixed]))[0].geom_type
-    'Polygon'
-    """
+def _polygonal(geoms: np.ndarray) -> np.ndarray:
+    """Keep the polygonal parts (area > 0) of geometries, not collapsed lines."""
     parts, which = shapely.get_parts(geoms, return_index=True)
     keep = (shapely.get_type_id(parts) == 3) & (shapely.area(parts) > 0)
     out = geoms.copy()

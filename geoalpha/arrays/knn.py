@@ -1,7 +1,4 @@
-"""The k-nearest-neighbours concave hull of Moreira & Santos (2007).
-
-The method the seed paper compares against (:func:`knn_hull`).
-"""
+"""The k-nearest-neighbours concave hull of Moreira & Santos (2007), for comparison."""
 
 from __future__ import annotations
 
@@ -18,8 +15,6 @@ from geoalpha.errors import InvalidInputError, first_n
 
 __all__ = ["knn_hull"]
 
-_TWO_PI = 2.0 * np.pi
-
 
 def knn_hull(
     points: ArrayLike, k: int = 3, *, max_k: int | None = None
@@ -29,44 +24,32 @@ def knn_hull(
     From the lowest point, walk counter-clockwise, each step to the one of
     the ``k`` nearest unused points with the largest right-hand turn whose
     new edge touches no earlier edge; raise ``k`` until the closed ring is a
-    valid polygon covering every point.
+    valid polygon covering every point (the paper checks only the points left
+    off the hull, and not validity).
 
     Parameters
     ----------
     points : array_like of shape (n, 2)
         x, y coordinates in a metric (projected) CRS. Duplicates are ignored.
     k : int, default 3
-        Number of nearest neighbours to start with. Raised to 3 if smaller
-        (as in the paper) and capped at ``n - 1`` for ``n`` distinct points.
+        Number of nearest neighbours to start with: at least 3 (as in the
+        paper), at most ``n - 1`` for ``n`` distinct points.
     max_k : int, optional
-        Largest ``k`` to try; default ``n - 1``. Must be at least
-        ``max(k, 3)``.
+        Largest ``k`` to try, at least ``max(k, 3)``; default ``n - 1``.
 
     Returns
     -------
     polygon : shapely.Polygon
-        A valid polygon, counter-clockwise, whose vertices are input points
-        and which covers every input point.
+        Valid, counter-clockwise, covering every input point, vertices input
+        points.
     k : int
-        The ``k`` that gave the polygon. If every ``k`` up to ``max_k``
-        failed, the polygon is the convex hull of the points and ``k`` is
-        ``n``, the number of distinct points.
+        The ``k`` that gave it; ``n`` if every ``k`` failed (the convex hull).
 
     Raises
     ------
     InvalidInputError
-        If ``points`` is not a finite (n, 2) array, ``k`` or ``max_k`` is not
-        a positive integer or ``max_k < max(k, 3)``, or there are fewer than 3
-        distinct points or they are all collinear.
-
-    See Also
-    --------
-    geoalpha.alpha_shape : Alpha shape with the optimal alpha.
-
-    Notes
-    -----
-    Unlike the paper, the final check covers all points (not only those left
-    off the hull) and also requires :func:`shapely.is_valid`.
+        If ``points`` is not a finite (n, 2) array, ``k`` or ``max_k`` is
+        wrong, or there are fewer than 3 distinct points or all collinear.
 
     References
     ----------
@@ -78,8 +61,6 @@ def knn_hull(
     --------
     An L-shaped grid of points gets an L-shaped hull, not the convex hull:
 
-    >>> import numpy as np
-    >>> from geoalpha.arrays.knn import knn_hull
     >>> xy = np.array([(x, y) for x in range(5) for y in range(5)
     ...                if x <= 1 or y <= 1], dtype=float)
     >>> poly, k = knn_hull(xy)
@@ -141,9 +122,8 @@ def _as_points(points: ArrayLike) -> np.ndarray:
 
 def _first_k(k: int, max_k: int | None) -> int:
     """Check ``k`` and ``max_k``; return the first k to try, max(k, 3)."""
-    for name, value in (("k", k), ("max_k", max_k)):
-        if value is None and name == "max_k":
-            continue
+    named = {"k": k} if max_k is None else {"k": k, "max_k": max_k}
+    for name, value in named.items():
         if not isinstance(value, Integral) or isinstance(value, bool) or value < 1:
             raise InvalidInputError(
                 f"knn_hull() needs {name} to be a positive integer; got {value!r}"
@@ -182,7 +162,7 @@ def _walk(local: np.ndarray, tree: cKDTree, start: int, k: int) -> np.ndarray | 
         near, ux, uy = near[keep], ux[keep], uy[keep]
         # Counter-clockwise angle from the way back, ascending: the largest
         # right-hand turn first; ties keep the nearer point first.
-        angle = (np.arctan2(uy, ux) - math.atan2(-dy, -dx)) % _TWO_PI
+        angle = (np.arctan2(uy, ux) - math.atan2(-dy, -dx)) % (2.0 * np.pi)
         order = np.argsort(angle, kind="stable")
         near, ux, uy = near[order], ux[order], uy[order]
         free = _free(ax, ay, ux, uy, near == start, local[ring[:m]])

@@ -1,8 +1,4 @@
-"""Longitudes and latitudes of grouped points: groups across the antimeridian.
-
-Which groups cross +-180 degrees, their longitudes unwrapped into one
-continuous range, and polygons split back at the antimeridian.
-"""
+"""Longitude/latitude groups across the antimeridian: found, unwrapped, split back."""
 
 from __future__ import annotations
 
@@ -18,7 +14,6 @@ __all__ = [
     "check_codes",
     "crosses_antimeridian",
     "group_arcs",
-    "group_min_max",
     "output_lonlat",
     "restore_longitudes",
     "row_positions",
@@ -30,12 +25,6 @@ __all__ = [
 def row_positions(mask: np.ndarray, labels: Any = None) -> str:
     """Describe the rows where ``mask`` is true: "3 rows (positions 4, 9, 12)".
 
-    With ``labels`` (one per row) they are named by label: "(index 4, 9, 12)".
-
-    Examples
-    --------
-    >>> row_positions(np.array([False, True, True]))
-    '2 rows (positions 1, 2)'
     >>> row_positions(np.array([True, False]), labels=np.array(["a", "b"]))
     '1 row (index a)'
     """
@@ -49,13 +38,7 @@ def row_positions(mask: np.ndarray, labels: Any = None) -> str:
 
 
 def check_codes(codes: Any, n_groups: int, n_points: int) -> np.ndarray:
-    """Return ``codes`` as integers, checked: one per point, ``0 .. n_groups - 1``.
-
-    Examples
-    --------
-    >>> check_codes([0, 1, 1], 2, 3).tolist()
-    [0, 1, 1]
-    """
+    """Return ``codes`` as integers, checked: one per point, ``0 .. n_groups - 1``."""
     codes = np.asarray(codes).ravel()
     if codes.size != n_points:
         raise InvalidInputError(
@@ -76,17 +59,10 @@ def check_codes(codes: Any, n_groups: int, n_points: int) -> np.ndarray:
     return codes
 
 
-def group_min_max(
+def _group_min_max(
     values: np.ndarray, codes: np.ndarray, n_groups: int
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Per-group minimum and maximum (NaN for groups without points).
-
-    Examples
-    --------
-    >>> low, high = group_min_max(np.array([3.0, 1.0, 5.0]), np.array([0, 0, 1]), 2)
-    >>> low.tolist(), high.tolist()
-    ([1.0, 5.0], [3.0, 5.0])
-    """
+    """Per-group minimum and maximum (NaN for groups without points)."""
     low = np.full(n_groups, np.inf)
     high = np.full(n_groups, -np.inf)
     np.minimum.at(low, codes, values)
@@ -104,18 +80,11 @@ def group_arcs(
     Returns arrays of shape (n_groups,): ``crossing``, ``west``/``east``
     (``east`` may exceed 180) and with ``lat`` ``south``/``north``; NaN ends
     for empty groups.
-
-    Examples
-    --------
-    >>> arcs = group_arcs(np.array([179.0, -179.0, 10.0, 20.0]), None,
-    ...                   np.array([0, 0, 1, 1]), 2)
-    >>> arcs["crossing"].tolist(), arcs["west"].tolist(), arcs["east"].tolist()
-    ([True, False], [179.0, 10.0], [181.0, 20.0])
     """
-    west, east = group_min_max(lon, codes, n_groups)
+    west, east = _group_min_max(lon, codes, n_groups)
     out = {"crossing": np.zeros(n_groups, dtype=bool), "west": west, "east": east}
     if lat is not None:
-        out["south"], out["north"] = group_min_max(lat, codes, n_groups)
+        out["south"], out["north"] = _group_min_max(lat, codes, n_groups)
     # A group narrower than 180 degrees in plain longitudes cannot cross: the
     # gap containing +-180 is then wider than any gap between its points. Only
     # the wider groups need the gaps between their sorted longitudes.
@@ -151,27 +120,21 @@ def crosses_antimeridian(lon: Any, codes: Any, n_groups: int) -> np.ndarray:
     """Tell which groups span the +-180 degree meridian.
 
     A group crosses when the smallest longitude interval covering it contains
-    +-180 degrees (ties: not crossing).
+    +-180 degrees (ties, and groups without points: not crossing).
 
     Parameters
     ----------
-    lon : array_like of float, shape (n,)
-        Longitudes in degrees, in [-180, 180].
-    codes : array_like of int, shape (n,)
-        Group code of every point, ``0 .. n_groups - 1`` (as from
-        :func:`pandas.factorize`).
+    lon, codes : array_like, shape (n,)
+        Longitudes in degrees, in [-180, 180], and the group code of each
+        point, ``0 .. n_groups - 1``.
     n_groups : int
-        Number of groups.
 
     Returns
     -------
     numpy.ndarray of bool, shape (n_groups,)
-        True for the groups that cross; False for the others and for groups
-        without points.
 
     Examples
     --------
-    >>> from geoalpha.frame.crs import crosses_antimeridian
     >>> lon = [177.5, 179.9, -179.5, -178.2, 10.0, 12.0]  # Fiji, then Italy
     >>> crosses_antimeridian(lon, [0, 0, 0, 0, 1, 1], 2)
     array([ True, False])
@@ -189,17 +152,15 @@ def unwrap_lon(lon: Any, codes: Any, crossing: Any) -> np.ndarray:
     lon, codes
         As for :func:`crosses_antimeridian`.
     crossing : array_like of bool, shape (n_groups,)
-        Which groups cross the antimeridian, from :func:`crosses_antimeridian`.
+        Which groups cross (:func:`crosses_antimeridian`).
 
     Returns
     -------
     numpy.ndarray of float64, shape (n,)
-        A copy of ``lon`` in which the negative longitudes of crossing groups
-        have 360 added (back with :func:`split_antimeridian`).
+        ``lon``, plus 360 where negative in crossing groups.
 
     Examples
     --------
-    >>> from geoalpha.frame.crs import unwrap_lon
     >>> unwrap_lon([179.0, -179.0, -5.0], [0, 0, 1], [True, False]).tolist()
     [179.0, 181.0, -5.0]
     """
@@ -232,17 +193,15 @@ def split_antimeridian(geom: Any) -> Any:
     Returns
     -------
     shapely geometry or numpy.ndarray of geometries
-        Same shape as the input; a geometry with some x > 180 becomes a valid
-        MultiPolygon of the same area, the others are unchanged.
+        A geometry with some x > 180 becomes a valid MultiPolygon of the same
+        area, the others are unchanged.
 
     Examples
     --------
-    >>> from shapely import box
-    >>> from geoalpha.frame.crs import split_antimeridian
-    >>> parts = split_antimeridian(box(178, -18, 182, -16))
+    >>> parts = split_antimeridian(shapely.box(178, -18, 182, -16))
     >>> parts.geom_type, [p.bounds for p in parts.geoms]
     ('MultiPolygon', [(178.0, -18.0, 180.0, -16.0), (-180.0, -18.0, -178.0, -16.0)])
-    >>> split_antimeridian(box(10, 0, 11, 1)).bounds
+    >>> split_antimeridian(shapely.box(10, 0, 11, 1)).bounds
     (10.0, 0.0, 11.0, 1.0)
     """
     geoms = np.asarray(geom, dtype=object)  # 0-d for one geometry
@@ -278,29 +237,26 @@ def restore_longitudes(
     """Give split polygons the input points' own longitudes back.
 
     The round trip ``lon + 360 - 360`` can move a vertex by one unit in the
-    last place, leaving its point outside the polygon.
+    last place, leaving its point outside the polygon. Vertices that match no
+    input point stay as they are.
 
     Parameters
     ----------
-    geoms : ndarray of shapely geometries, shape (k,)
-        Polygons from :func:`split_antimeridian`.
-    geom_group : array_like of int, shape (k,)
-        Group code of each geometry.
+    geoms, geom_group : ndarray of shape (k,)
+        Polygons from :func:`split_antimeridian` and the group of each.
     lon, lat, codes : array_like, shape (n,)
         The input points' longitudes, latitudes and group codes.
 
     Returns
     -------
     ndarray of shapely geometries, shape (k,)
-        New geometries; vertices that match no input point stay as they are.
 
     Examples
     --------
-    >>> from shapely import Polygon
     >>> lon = np.array([175.0, -114.6042657247226, -119.0])
     >>> lat = np.array([-38.0, 25.0, 33.0])
     >>> unwrapped = unwrap_lon(lon, [0, 0, 0], [True])
-    >>> parts = split_antimeridian(np.array([Polygon(zip(unwrapped, lat))]))
+    >>> parts = split_antimeridian(np.array([shapely.Polygon(zip(unwrapped, lat))]))
     >>> float(parts[0].geoms[1].exterior.coords[1][0])  # lon + 360 - 360
     -114.60426572472261
     >>> fixed = restore_longitudes(parts, [0], lon, lat, [0, 0, 0])
@@ -354,7 +310,7 @@ def output_lonlat(
     if crossing.any():  # unwrap_lon on the checked codes
         out = coords.copy()
         out[:, 0] = np.where(crossing[codes] & (lon < 0.0), lon + 360.0, lon)
-        low, high = group_min_max(out[:, 0], codes, n_groups)
+        low, high = _group_min_max(out[:, 0], codes, n_groups)
     with np.errstate(invalid="ignore"):
         wide = high - low > 180.0
     return out, crossing, wide

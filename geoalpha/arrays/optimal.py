@@ -1,8 +1,6 @@
 """Optimal alpha shapes of point arrays: the array-level public API.
 
-:func:`alpha_shapes` is the batched entry point (many groups in one call, as
-the GeoPandas layer uses it); :func:`optimal_alpha` and :func:`alpha_shape`
-are the one-group conveniences.
+:func:`alpha_shapes` for many groups in one call, the others for one group.
 """
 
 from __future__ import annotations
@@ -58,33 +56,25 @@ class AlphaShapes(NamedTuple):
     n_parts : ndarray of int
         Edge-connected pieces of the shape.
     area : ndarray of float
-        Area of the shape in the units of ``points`` squared (square metres for
-        metric coordinates), whatever ``coords`` the geometry was built from.
+        Area of the shape in the units of ``points`` squared, whatever
+        ``coords`` the geometry was built from.
     degenerate : ndarray of bool
-        Fewer than 3 distinct points, or all collinear, within a tolerance
-        relative to the group's extent (:data:`geoalpha.kernel.NEAR_RTOL`), in
-        ``points`` and in ``coords``: no triangle, no alpha. Also a group whose
-        shape float geometry cannot make valid and covering (never a polygon
-        that misses a point).
+        The group has no shape (``reason`` > 0): no triangle, no alpha, or no
+        valid covering polygon (never a polygon that misses a point).
     n_outliers : ndarray of int
         Rows of the group left out of the shape (``outliers=``), else 0.
     outlier : ndarray of bool, shape (n,)
-        Per input point (not per group): True where the point was left out
-        (duplicates of a left-out point too).
+        Per input point: left out (duplicates of a left-out point too).
     gave_up : ndarray of bool
         ``search="bisect"`` stopped at ``max_iterations`` and returned alpha
-        0, the convex hull (named in a :class:`SearchWarning`); False for the
-        other searches.
+        0, the convex hull (named in a :class:`SearchWarning`).
     capped : ndarray of bool
-        ``outliers=`` with several ``components``: the exact search for the
-        pieces holding the most rows stopped at its node budget
-        (:data:`geoalpha.kernel.MAX_UNION_NODES`) and kept the best union found
-        (named in an :class:`OutlierWarning`).
+        ``outliers=`` with several ``components``: the search for the pieces
+        holding the most rows hit :data:`geoalpha.kernel.MAX_UNION_NODES` and
+        kept the best union found (named in an :class:`OutlierWarning`).
     reason : ndarray of int
-        Why a group is degenerate: 0 (it is not), a key of
-        :data:`geoalpha.kernel.REASONS` (1: fewer than 3 distinct points, 2:
-        collinear, 3: collinear in ``coords``, 4: no rings), or 5: the polygon
-        failed the guarantee in ``coords`` and could not be repaired.
+        0 (not degenerate), a key of :data:`geoalpha.kernel.REASONS`, or 5:
+        the guarantee failed in ``coords`` (:doc:`/user_guide/arrays`).
     """
 
     alpha: np.ndarray
@@ -126,86 +116,65 @@ def alpha_shapes(
     points : array_like of shape (n, 2)
         Coordinates in a metric (projected) CRS; alpha is in 1/unit of them.
     groups : array_like of int, shape (n,), optional
-        Group code ``0 .. G-1`` of each point (e.g. from
-        :func:`pandas.factorize`); all points form one group if None.
+        Group code ``0 .. G-1`` of each point (:func:`pandas.factorize`);
+        default: one group.
     alpha : float or array_like of shape (G,), optional
         Use this alpha instead of the optimum (0 is the convex hull).
     holes : bool, default False
-        Keep holes (True) or fill every hole not connected to the outside
-        (False, the seed paper's "no empty space in the middle").
+        Keep holes (True) or fill every hole not connected to the outside.
     components : int, default 1
         Largest number of edge-connected pieces a valid shape may have.
     search : {"exact", "ladder", "bisect"}, default "exact"
-        ``"exact"``: the true maximum over the Delaunay circumradius spectrum;
-        ``"ladder"``: the seed paper's integer ladder (5000, 3000, ..., 5, 0,
-        then integer bisection); ``"bisect"``: ``alphashape``'s float
-        bisection from 0 to the largest float. All use the same validity test,
-        but the last two depend on the units: integer alphas in 1/metre are
-        nearly always 0, the convex hull; the bisection cannot converge when
-        the optimum is >= 4 and then returns 0 with a :class:`SearchWarning`.
+        The true maximum over the circumradius spectrum, or the seed paper's
+        and ``alphashape``'s searches, for comparison (:doc:`/user_guide/optimal`).
     max_iterations : int, default 10000
         Bisection steps before ``search="bisect"`` gives up.
     coords : array_like of shape (n, 2), optional
         Coordinates to build the output geometries from, one row per point
-        (default: ``points``): :func:`geoalpha.hull` passes the input
-        longitude/latitude, so that every vertex is exactly an input point.
+        (default: ``points``), e.g. the input longitude/latitude, so that
+        every vertex is exactly an input point.
     n_groups : int, optional
         Number of groups (default: largest code + 1).
     progress : object with an ``update(n)`` method, optional
-        Progress of the triangulation, in groups (e.g. a ``tqdm`` bar).
+        Progress in groups (e.g. a ``tqdm`` bar).
     n_jobs : int, optional
-        Threads of the compiled kernel (None, the default, or -1: every core),
-        over which it spreads the groups; the result is the same for any.
+        Threads of the compiled kernel (None or -1: every core); the result
+        is the same for any.
     outliers : float or int, default 0
-        Rows each group may leave out: a float in ``[0, 1)`` is a fraction
-        of the group's rows (``k = floor(outliers * rows)``), an int a count
-        ``k``; a location holding several rows weighs as many. The optimum is
-        then the largest alpha at which at most ``components`` pieces of the
-        shape cover at least ``rows - k`` rows; only those pieces are kept,
-        and the rows they miss are reported (``n_outliers``, ``outlier``).
-        Groups with ``k = 0`` get the result without outliers. See
-        :mod:`geoalpha.arrays.budget`.
+        Rows each group may leave out (a fraction or a count,
+        :func:`~geoalpha.arrays.budget.outlier_budget`), reported in
+        ``n_outliers`` and ``outlier`` (:doc:`/user_guide/outliers`).
     name_groups : callable, optional
-        Turns an array of group codes into the text naming those groups in a
-        warning (:func:`geoalpha.hull` names them by key); default: the codes.
+        Names the groups of an array of codes in warnings, as text (by key in
+        :func:`geoalpha.hull`); default: by code.
     sphere : bool, default False
         ``points`` are longitudes and latitudes in degrees, computed on the
-        sphere (``crs="sphere"`` of :func:`geoalpha.hull`,
-        :mod:`geoalpha.arrays.sphere`): alpha in 1/metre, areas in square
-        metres. A group with a point farther than
-        :data:`geoalpha.arrays.sphere.MAX_SPHERE_DEGREES` from its centre is an
-        error naming it. Without ``coords`` the polygons are in longitude and
-        latitude, unwrapped beyond 180 for groups across +-180 degrees and
-        closed along the pole for groups around one.
+        sphere: alpha in 1/metre, areas in square metres; without ``coords``
+        the polygons are in longitude and latitude (:doc:`/user_guide/sphere`).
     polar : array_like of bool, shape (n_groups,), optional
-        With ``sphere``: the groups whose spherical hull holds a pole, whose
-        polygons are closed along it
-        (:func:`geoalpha.arrays.sphere.close_around_poles`). Default: found
+        With ``sphere``: the groups around a pole
+        (:func:`~geoalpha.arrays.sphere.close_around_poles`). Default: found
         from ``points`` without ``coords``, none otherwise.
 
     Returns
     -------
     AlphaShapes
-        Per group: ``alpha``, ``geometry``, ``n_points``, ``n_distinct``,
-        ``n_parts``, ``area``, ``degenerate``, ``n_outliers``; per input
-        point: ``outlier``.
 
     Raises
     ------
     InvalidInputError
-        On NaN/inf coordinates (naming the rows), bad shapes or options.
+        On NaN/inf coordinates (naming the rows), bad shapes or options, and
+        with ``sphere`` on groups wider than
+        :data:`~geoalpha.arrays.sphere.MAX_SPHERE_DEGREES` (naming them).
 
     Notes
     -----
-    A triangle is solid when ``alpha * r <= 1`` (evaluated with a few ulps
-    of slack, so that feeding an optimal alpha back gives the optimal
-    shape). Groups with fewer than 3 distinct points, or all collinear, are
-    *degenerate*: ``alpha`` is nan and the geometry an empty Polygon; no
-    warning is raised here (check ``degenerate``).
+    A triangle is solid when ``alpha * r <= 1`` (with a few ulps of slack, so
+    that an optimal alpha fed back gives the optimal shape). Degenerate groups
+    raise no warning here (check ``degenerate``).
 
     Examples
     --------
-    >>> import numpy as np
     >>> pts = np.array([[0, 0], [4, 0], [4, 4], [0, 4], [2, 3.5],
     ...                 [10, 0], [12, 0], [11, 2]])
     >>> res = alpha_shapes(pts, [0, 0, 0, 0, 0, 1, 1, 1])
@@ -312,9 +281,8 @@ def _given_alpha(alpha, n_groups: int) -> np.ndarray:
 def _searched_alpha(curve, n_groups: int, search: str, max_iterations: int):
     """Return the alpha ``search="ladder"``/``"bisect"`` finds on the validity curves.
 
-    A curve holds every distinct weight of a group (ascending) and whether the
-    shape at it is valid; the shape at a threshold is that of the largest
-    weight below it (none below the first).
+    A curve: a group's distinct weights, ascending, and whether the shape at
+    each is valid (at a threshold: that of the largest weight below it).
     """
     values, valid_at, offsets = curve
 
@@ -338,8 +306,7 @@ class Unverified(NamedTuple):
     #: per group; ``degenerate`` and ``reason`` by the kernel's reasons only
     shapes: AlphaShapes
     #: per point: a vertex of its group's polygon in the output coordinates, or
-    #: covered by construction there, so covered as long as that very polygon
-    #: is valid (the guarantee tests only the other points)
+    #: covered by construction there while that polygon is valid (not tested)
     certain: np.ndarray
     #: parts a valid polygon may have, per group (any number around a pole)
     components: np.ndarray | int
@@ -367,22 +334,9 @@ def solve_checked(
 ) -> Unverified:
     """:func:`alpha_shapes` on checked inputs, without the guarantee: one kernel call.
 
-    Trusts its inputs: ``xy`` finite floats (n, 2), ``codes`` int64 in
-    ``0 .. n_groups - 1``, ``alpha`` None or one float >= 0 per group, the
-    options checked (:class:`geoalpha.options.Options`). The caller enforces
-    the guarantee (:func:`geoalpha.arrays.guarantee.enforce`) where it returns
-    the polygons. Raises :class:`InvalidInputError` for the groups the sphere
-    refuses; warns about the searches that gave up.
-
-    Examples
-    --------
-    >>> xy = np.array([[0, 0], [4, 0], [4, 4], [0, 4], [2, 3.5]])
-    >>> raw = solve_checked(
-    ...     xy, np.zeros(5, dtype=np.int64), 1, alpha=None, holes=False,
-    ...     components=1, search="exact", max_iterations=100, outliers=0,
-    ... )
-    >>> float(raw.shapes.geometry[0].area), raw.certain.tolist()
-    (15.0, [True, True, True, True, True])
+    Trusts its inputs (checked as :func:`alpha_shapes` does); the caller
+    enforces the guarantee (:func:`geoalpha.arrays.guarantee.enforce`). Raises
+    for the groups the sphere refuses; warns about the searches that gave up.
     """
     rows = np.bincount(codes, minlength=n_groups)
     if sphere and out is None:
@@ -432,8 +386,7 @@ def _on_the_sphere(res: kernel.Solved, polar) -> kernel.Solved:
 def _shapes(res: kernel.Solved, codes, rows, given, gave_up, elsewhere: bool):
     """Return the kernel's result per group and, per point, whether it is certain.
 
-    A group whose rings failed (reason 4) but whose shape is every triangle
-    gets the convex hull of its points, built by GEOS.
+    A group without rings (reason 4) whose shape is every triangle gets its convex hull.
     """
     n_groups = len(rows)
     geometry = res.geometry.copy()
@@ -510,8 +463,7 @@ def _verified(raw: Unverified, out_xy, codes, optimum: bool) -> AlphaShapes:
 def _sphere_output(lonlat, codes, n_groups):
     """Output lon/lat of ``sphere=True`` without ``coords``, and the polar groups.
 
-    Longitudes unwrapped for groups across +-180 degrees, as given for groups
-    around a pole (closed along it, :func:`~geoalpha.arrays.sphere.close_around_poles`).
+    Longitudes unwrapped across +-180 degrees, but as given around a pole.
     """
     out, crossing, wide = output_lonlat(lonlat, codes, n_groups)
     maybe = np.flatnonzero(crossing | wide)
@@ -529,9 +481,8 @@ def _as_xy(points):
     if isinstance(points, shapely.Geometry):
         points = [points]
     values = getattr(points, "values", points)  # a GeoSeries / Series
-    if not isinstance(values, np.ndarray | list | tuple):
+    if not isinstance(values, list | tuple):
         values = np.asarray(values)  # e.g. a GeometryArray: its geometries
-    if isinstance(values, np.ndarray):
         if values.dtype != object:
             return points
     elif not (values and isinstance(values[0], shapely.Geometry)):
@@ -582,25 +533,15 @@ def optimal_alpha(
     ----------
     points : array_like of shape (n, 2)
         Coordinates in a metric CRS (alpha comes in 1/unit of them).
-    holes : bool, default False
-        Keep holes (True) or fill them (False).
-    components : int, default 1
-        Largest number of edge-connected pieces allowed.
-    search : {"exact", "ladder", "bisect"}, default "exact"
-        See :func:`alpha_shapes`.
-    max_iterations : int, default 10000
-        For ``search="bisect"``.
-    outliers : float or int, default 0
-        Rows that may stay out: a fraction in ``[0, 1)`` of the rows or a
-        count; see :func:`alpha_shapes`.
+    holes, components, search, max_iterations, outliers
+        As for :func:`alpha_shapes`.
 
     Returns
     -------
     float
         ``max{alpha >= 0 : S(alpha) valid}``, exactly ``1 / r(t)`` for one
-        Delaunay triangle ``t`` (or 0 for the convex hull); ``nan`` with a
-        :class:`DegenerateGroupWarning` for fewer than 3 distinct points or
-        collinear points.
+        Delaunay triangle ``t`` (or 0, the convex hull); ``nan`` with a
+        :class:`DegenerateGroupWarning` for fewer than 3 or collinear points.
 
     Raises
     ------
@@ -645,24 +586,16 @@ def alpha_shape(
     alpha : float, optional
         None for the optimum, 0 for the convex hull, else the union of the
         Delaunay triangles with ``alpha * circumradius <= 1``.
-    holes : bool, default False
-        Keep holes (True) or fill them (False).
-    components : int, default 1
-        For the optimum: largest number of pieces allowed.
-    search : {"exact", "ladder", "bisect"}, default "exact"
-        See :func:`alpha_shapes`.
-    outliers : float or int, default 0
-        For the optimum: points that may stay out (a fraction in ``[0, 1)`` or
-        a count); the shape then holds only the pieces that cover the others.
-        See :func:`alpha_shapes`.
+    holes, components, search, outliers
+        As for :func:`alpha_shapes` (``components`` and ``outliers`` apply to
+        the optimum).
 
     Returns
     -------
     shapely.Polygon or shapely.MultiPolygon
-        At the optimum, one valid Polygon (a MultiPolygon of at most
-        ``components`` parts) covering every input point, whose vertices are
-        input points. At a given alpha, a MultiPolygon where pieces separate
-        and an empty Polygon when nothing is solid.
+        At the optimum, one valid Polygon (at most ``components`` parts)
+        covering every input point, vertices input points. At a given alpha,
+        a MultiPolygon where pieces separate, empty when nothing is solid.
 
     Examples
     --------

@@ -1,8 +1,7 @@
 """The seed paper's integer ladder and ``alphashape``'s float bisection.
 
-Kept for comparison with the exact optimum, on the same validity test (the
-kernel's validity curve), vectorised over groups. Their answers depend on the
-units: an integer alpha in 1/metre is nearly always 0 (the convex hull).
+For comparison with the exact optimum, on the same validity test, vectorised
+over groups; an integer alpha in 1/metre is nearly always 0 (the convex hull).
 """
 
 from __future__ import annotations
@@ -27,22 +26,20 @@ def ladder_alpha(
     """Largest integer alpha found by the seed paper's ladder search.
 
     Test the descending ``rungs``; at the first that passes, bisect the
-    integers between it and the rung above. A group valid at the top rung gets
-    the top rung.
+    integers between it and the rung above (a group valid at the top rung gets
+    the top rung).
 
     Parameters
     ----------
     valid : callable
-        ``valid(groups, alphas)`` -> bool array, vectorised over groups.
+        ``valid(groups, alphas)`` -> bool array (the :data:`Oracle`).
     n_groups : int
-        Number of groups.
     rungs : tuple of int
         Descending alphas ending with 0 (the convex hull, always valid).
 
     Returns
     -------
     alpha : ndarray of shape (n_groups,)
-        The integer alpha of each group.
     tests : int
         Largest number of validity tests one group needed.
 
@@ -91,22 +88,17 @@ def bisect_alpha(
 
     Parameters
     ----------
-    valid : callable
-        ``valid(groups, alphas)`` -> bool array, vectorised over groups.
-    n_groups : int
-        Number of groups.
+    valid, n_groups
+        As for :func:`ladder_alpha`.
     max_iterations : int
-        Bisection steps before giving up.
     lower, upper : float
         Initial bracket.
 
     Returns
     -------
-    alpha : ndarray of shape (n_groups,)
-    gave_up : ndarray of bool, shape (n_groups,)
-        Groups for which the bisection did not converge (alpha set to 0).
+    alpha, gave_up : ndarray of shape (n_groups,)
+        The alphas, and the groups that did not converge (alpha 0).
     tests : int
-        Largest number of validity tests one group needed.
 
     Examples
     --------

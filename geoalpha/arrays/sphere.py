@@ -1,11 +1,7 @@
 """Alpha shapes on the sphere: the array side of ``crs="sphere"``.
 
-The compiled kernel does the geometry (``src/sphere.rs``, on the sphere of
-radius :data:`EARTH_RADIUS`). This module words the groups it refuses (a point
-farther than :data:`MAX_SPHERE_DEGREES` from the group's centre) and turns its
-rings into valid longitude/latitude polygons: around a pole
-(:func:`close_around_poles`) and along great-circle arcs where a shape would
-fold (:func:`follow_arcs`). The frame's side is :mod:`geoalpha.frame.sphere`.
+The kernel does the geometry (``src/sphere.rs``); this module words the groups
+it refuses and turns its rings into valid longitude/latitude polygons.
 """
 
 from __future__ import annotations
@@ -26,8 +22,7 @@ __all__ = [
     "refused_message",
 ]
 
-#: Radius of the sphere (metres): the authalic radius of WGS84, the sphere
-#: with the ellipsoid's area.
+#: Radius of the sphere (metres): WGS84's authalic radius (the ellipsoid's area).
 EARTH_RADIUS: float = _kernel.EARTH_RADIUS
 #: Largest angle (degrees) from a group's centre to one of its points.
 MAX_SPHERE_DEGREES: float = _kernel.MAX_SPHERE_DEGREES
@@ -57,9 +52,8 @@ def polar_groups(
 ) -> np.ndarray:
     """Of the groups ``which``, those whose spherical convex hull holds a pole.
 
-    The pole is in the hull when its gnomonic image (from the group's centre,
-    the normalised mean of its unit vectors) is in the convex hull of the
-    points' images: the gnomonic projection maps great circles to lines.
+    The pole is in the hull when its gnomonic image (from the group's centre)
+    is in the convex hull of the points' images (great circles map to lines).
 
     Examples
     --------
@@ -93,14 +87,10 @@ def polar_groups(
 def close_around_poles(geometry: np.ndarray) -> np.ndarray:
     """Longitude/latitude polygons of the shapes of groups around a pole.
 
-    Every ring is densified along its great-circle arcs (near a pole a
-    straight edge in longitude/latitude is far from the arc on the sphere)
-    and unwrapped (consecutive longitudes less than 180 degrees apart); a
-    shell that goes once around in longitude, which no longitude/latitude
-    polygon can hold, is closed along the pole's latitude (+-90); each piece
-    is cut at +-180 degrees and put back in [-180, 180]. The result is valid
-    (repaired with ``make_valid`` otherwise); the points it misses are for
-    the guarantee's check (:func:`geoalpha.arrays.guarantee.enforce`) to take in.
+    Rings follow their great-circle arcs, unwrapped; a shell once around in
+    longitude is closed along the pole (+-90), cut at +-180 degrees and made
+    valid. The guarantee (:func:`~geoalpha.arrays.guarantee.enforce`) takes in
+    the points it misses.
 
     Examples
     --------
@@ -115,11 +105,9 @@ def close_around_poles(geometry: np.ndarray) -> np.ndarray:
 def follow_arcs(geometry: np.ndarray) -> np.ndarray:
     """Polygons whose edges follow the sphere's great-circle arcs.
 
-    For shapes whose longitude/latitude polygon (straight edges between the
-    input points) is invalid: an edge thousands of kilometres long is far
-    from its arc, and a shape concave on the sphere can fold over itself.
-    Each edge gets points along its arc; longitudes stay as they are
-    (unwrapped across +-180 degrees where they were).
+    For shapes whose longitude/latitude polygon folds over itself (long edges
+    far from their arcs). Each edge gets points along its arc; longitudes stay
+    as they are (unwrapped across +-180 degrees where they were).
 
     Examples
     --------
@@ -156,10 +144,9 @@ def _unit(lonlat: np.ndarray) -> np.ndarray:
 
 
 def _densify(ring: np.ndarray, step: float = 0.25, keep: bool = False) -> np.ndarray:
-    """Points along the great-circle arcs between a ring's vertices, kept as they are.
+    """Points every ``step`` degrees (of arc and of longitude) along a ring's arcs.
 
-    Pieces of at most ``step`` degrees of longitude and of arc; with ``keep``,
-    the new longitudes follow their edge's (beyond 180 where it is).
+    With ``keep`` the new longitudes follow their edge's (beyond 180 where it is).
     """
     u = _unit(ring)
     out = [ring[:1]]
@@ -172,25 +159,16 @@ def _densify(ring: np.ndarray, step: float = 0.25, keep: bool = False) -> np.nda
             t = np.linspace(0.0, 1.0, pieces + 1)[1:-1, None]
             w = (1 - t) * a + t * b  # on the chord, then onto the sphere
             w /= np.linalg.norm(w, axis=1)[:, None]
-            inner = np.column_stack(
-                [
-                    np.degrees(np.arctan2(w[:, 1], w[:, 0])),
-                    np.degrees(np.arcsin(w[:, 2])),
-                ]
-            )
+            lon = np.degrees(np.arctan2(w[:, 1], w[:, 0]))
             if keep:
-                near = ring[k, 0] + (inner[:, 0] - ring[k, 0] + 180.0) % 360.0 - 180.0
-                inner[:, 0] = near
-            out.append(inner)
+                lon = ring[k, 0] + (lon - ring[k, 0] + 180.0) % 360.0 - 180.0
+            out.append(np.column_stack([lon, np.degrees(np.arcsin(w[:, 2]))]))
         out.append(ring[k + 1 : k + 2])
     return np.vstack(out)
 
 
 def _unwrap(ring: np.ndarray) -> tuple[np.ndarray, float]:
-    """Make a ring's longitudes continuous, by whole turns (exact).
-
-    Returns the ring and its net turn in degrees (+-360 around a pole).
-    """
+    """Return a ring unwrapped by whole turns of longitude, and its net turn."""
     dlon = np.diff(ring[:, 0])
     dlon = (dlon + 180.0) % 360.0 - 180.0
     steps = ring[0, 0] + np.concatenate([[0.0], np.cumsum(dlon)])
