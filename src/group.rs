@@ -148,10 +148,12 @@ pub fn triangulated(
     }
     let s = frame.scale;
     let scaled: Vec<Xy> = plane.iter().map(|p| [p[0] * s, p[1] * s]).collect();
-    let radius = mesh.tri.par_iter().with_min_len(PARALLEL_TRIANGLES);
-    let radius = radius
-        .map(|t| radius_of(t.map(|v| scaled[v as usize])))
-        .collect();
+    let radius = |t: &[u32; 3]| radius_of(t.map(|v| scaled[v as usize]));
+    let radius = if mesh.tri.len() > PARALLEL_TRIANGLES {
+        mesh.tri.par_iter().map(radius).collect()
+    } else {
+        mesh.tri.iter().map(radius).collect() // rayon would cost more here
+    };
     Some((mesh, radius, scaled))
 }
 

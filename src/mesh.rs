@@ -260,20 +260,25 @@ pub fn triangulate(points: &[Xy], frame: &Frame, build: bool) -> Mesh {
 /// The mesh's edges shorter than `close` (scaled by `s`), each once.
 fn close_pairs(points: &[Xy], mesh: &Mesh, close: f64, s: f64) -> Vec<(u32, u32)> {
     let close = close * close;
-    (0..mesh.tri.len())
-        .into_par_iter()
-        .with_min_len(PARALLEL_POINTS)
-        .flat_map_iter(|t| {
-            (0..3).filter_map(move |j| {
-                let across = mesh.nb[t][j];
-                let (a, b) = (mesh.tri[t][j], mesh.tri[t][(j + 1) % 3]);
-                let (pa, pb) = (points[a as usize], points[b as usize]);
-                let (dx, dy) = ((pa[0] - pb[0]) * s, (pa[1] - pb[1]) * s);
-                let once = across == NONE || across > t as u32;
-                (once && dx * dx + dy * dy < close).then_some((a, b))
-            })
+    let edges = |t: usize| {
+        (0..3).filter_map(move |j| {
+            let across = mesh.nb[t][j];
+            let (a, b) = (mesh.tri[t][j], mesh.tri[t][(j + 1) % 3]);
+            let (pa, pb) = (points[a as usize], points[b as usize]);
+            let (dx, dy) = ((pa[0] - pb[0]) * s, (pa[1] - pb[1]) * s);
+            let once = across == NONE || across > t as u32;
+            (once && dx * dx + dy * dy < close).then_some((a, b))
         })
-        .collect()
+    };
+    // Here and below: rayon's machinery costs more than a small group's work.
+    if mesh.tri.len() > PARALLEL_POINTS {
+        (0..mesh.tri.len())
+            .into_par_iter()
+            .flat_map_iter(edges)
+            .collect()
+    } else {
+        (0..mesh.tri.len()).flat_map(edges).collect()
+    }
 }
 
 /// The triangle and neighbour arrays, the triangles numbered along the curve
@@ -287,24 +292,26 @@ fn fill_arrays(t: &DelaunayTriangulation<Vertex>) -> Mesh {
     let face = |f: FaceHandle<PossiblyOuterTag, Vertex, (), (), ()>| {
         f.as_inner().map_or(NONE, |f| f.fix().index() as u32)
     };
-    let (faces, (tri, mut nb)): (Vec<u32>, (Vec<_>, Vec<_>)) = by_rank
-        .par_iter()
-        .with_min_len(PARALLEL_POINTS / 8)
-        .flat_map_iter(|&v| {
-            let v = t.vertex(FixedVertexHandle::from_index(v as usize));
-            let rank = v.data().rank;
-            v.out_edges().filter_map(move |e| {
-                let f = face(e.face());
-                let (next, prev) = (e.next(), e.prev());
-                let lowest = next.from().data().rank > rank && prev.from().data().rank > rank;
-                (f != NONE && lowest).then(|| {
-                    let tri = [v.data().id, next.from().data().id, prev.from().data().id];
-                    let nb = [e, next, prev].map(|d| face(d.rev().face()));
-                    (f, (tri, nb))
-                })
+    let around = |&v: &u32| {
+        let v = t.vertex(FixedVertexHandle::from_index(v as usize));
+        let rank = v.data().rank;
+        v.out_edges().filter_map(move |e| {
+            let f = face(e.face());
+            let (next, prev) = (e.next(), e.prev());
+            let lowest = next.from().data().rank > rank && prev.from().data().rank > rank;
+            (f != NONE && lowest).then(|| {
+                let tri = [v.data().id, next.from().data().id, prev.from().data().id];
+                let nb = [e, next, prev].map(|d| face(d.rev().face()));
+                (f, (tri, nb))
             })
         })
-        .unzip();
+    };
+    let (faces, (tri, mut nb)): (Vec<u32>, (Vec<_>, Vec<_>)) =
+        if by_rank.len() > PARALLEL_POINTS / 8 {
+            by_rank.par_iter().flat_map_iter(around).unzip()
+        } else {
+            by_rank.iter().flat_map(around).unzip()
+        };
     let mut place = vec![NONE; t.num_all_faces()];
     for (p, &f) in faces.iter().enumerate() {
         place[f as usize] = p as u32;
