@@ -17,7 +17,7 @@ import pyproj
 
 from geoalpha.crs_parsing import crs_name, is_mercator, is_sphere, parse_crs
 from geoalpha.errors import CRSWarning, GroupingWarning, setting, user_stacklevel
-from geoalpha.frame.crs import metric_crs
+from geoalpha.frame.crs import auto_mode, metric_crs
 
 __all__ = [
     "AREA_TOLERANCE",
@@ -172,7 +172,7 @@ def computation_crs(source: Any, crs: Any) -> tuple[pyproj.CRS | None, str]:
     src = parse_crs(source)
     if src is None or crs is None or is_sphere(crs):
         return None, ""
-    if isinstance(crs, str) and crs.strip().lower() in ("auto", "auto-group"):
+    if auto_mode(crs) is not None:
         kept = src.is_projected and not is_mercator(src)
         return (src, "input") if kept else (None, "")
     try:

@@ -76,31 +76,24 @@ __all__ = [
 _POINT_TYPES = (0, 4)  # shapely type ids of Point and MultiPoint
 
 
-class Groups:
+class Groups(NamedTuple):
     """Output of :func:`group`: a code per row and the key columns, as arrays.
 
     The DataFrame :attr:`keys` is built only when asked for (dask's ``meta``):
     on small inputs building DataFrames is a large share of the run.
     """
 
-    __slots__ = ("_keys", "codes", "columns", "n_groups", "names")
-
-    def __init__(self, codes: np.ndarray, names, columns, n_groups: int):
-        self.codes = codes  #: group code per row, -1 for a dropped missing key
-        self.names = tuple(names)  #: names of the key columns
-        self.columns = tuple(columns)  #: one array per key column, a row a group
-        self.n_groups = n_groups  #: number of groups
-        self._keys = None
+    codes: np.ndarray  #: group code per row, -1 for a dropped missing key
+    names: tuple  #: names of the key columns
+    columns: tuple  #: one array per key column, a row a group
+    n_groups: int  #: number of groups
 
     @property
     def keys(self) -> pd.DataFrame:
         """One row per group: the key column(s) (none for one group of all rows)."""
-        if self._keys is None:
-            self._keys = pd.DataFrame(
-                dict(enumerate(self.columns)), range(self.n_groups)
-            )
-            self._keys.columns = list(self.names)
-        return self._keys
+        keys = pd.DataFrame(dict(enumerate(self.columns)), range(self.n_groups))
+        keys.columns = list(self.names)
+        return keys
 
 
 class Points(NamedTuple):
@@ -152,8 +145,7 @@ def run(frame, by, options: Options, *, checks: bool = True, rows: bool = True):
 
 def _per_group_crs(source, crs, coords: np.ndarray) -> bool:
     """Guess whether groups get a metric CRS each: wide lon/lat, ``crs="auto"``."""
-    auto = isinstance(crs, str) and crs.strip().lower() in ("auto", "auto-group")
-    src = parse_crs(source) if auto else None
+    src = parse_crs(source) if gcrs.auto_mode(crs) is not None else None
     if src is None or not src.is_geographic or not len(coords):
         return False
     return bool(np.ptp(coords[:, 0]) > 2 * gcrs.UTM_HALF_WIDTH)
@@ -240,16 +232,16 @@ def group(frame, by, options: Options) -> Groups:
     names = by if isinstance(by, list) else [by]
     levels = [n for n in frame.index.names if n is not None]
     for name in names:
-        if isinstance(name, str | int | tuple) and not isinstance(name, bool):
-            if name not in frame.columns and name not in levels:
-                geometry = frame._geometry_column_name
-                choices = [c for c in frame.columns if c != geometry] + levels
-                also = f" and the index levels {', '.join(map(str, levels))}"
-                raise InvalidInputError(
-                    f"hull(by={by!r}): no column {name!r}"
-                    f"{did_you_mean(name, choices)}; the columns "
-                    f"are {', '.join(map(str, frame.columns))}{also if levels else ''}"
-                )
+        label = isinstance(name, str | int | tuple) and not isinstance(name, bool)
+        if label and name not in frame.columns and name not in levels:
+            geometry = frame._geometry_column_name
+            choices = [c for c in frame.columns if c != geometry] + levels
+            also = f" and the index levels {', '.join(map(str, levels))}"
+            raise InvalidInputError(
+                f"hull(by={by!r}): no column {name!r}"
+                f"{did_you_mean(name, choices)}; the columns "
+                f"are {', '.join(map(str, frame.columns))}{also if levels else ''}"
+            )
     try:
         groups = _factorize_column(frame, by, options)
         if groups is None:
@@ -257,11 +249,11 @@ def group(frame, by, options: Options) -> Groups:
             codes = grouped.ngroup().fillna(-1).to_numpy(dtype=np.int64)
             keys = grouped.size().index.to_frame(index=False)
             columns = [keys.iloc[:, j].array for j in range(keys.shape[1])]
-            groups = Groups(codes, keys.columns, columns, len(keys))
+            groups = Groups(codes, tuple(keys.columns), tuple(columns), len(keys))
     except (ValueError, KeyError, TypeError) as err:
         raise InvalidInputError(f"hull(by=...) cannot group the rows: {err}") from err
     if len(groups.names) == 1 and isinstance(groups.names[0], int | None):
-        groups.names = ("group",)
+        groups = groups._replace(names=("group",))
     clash = [c for c in groups.names if c in (*RESULT_COLUMNS, "geometry")]
     if clash:
         raise InvalidInputError(
@@ -360,7 +352,7 @@ def scan_rows(frame, codes: np.ndarray, vertices: bool, n_jobs: int | None = 1):
         n_rows=len(geoms),
         counts={k: int(m.sum()) for k, m in masks.items()},
         labels={
-            k: frame.index[np.flatnonzero(m)[:_SHOWN]].tolist() if m.any() else []
+            k: frame.index[np.flatnonzero(m)[:_SHOWN]].tolist()
             for k, m in masks.items()
         },
         types=dict(types),
@@ -394,7 +386,6 @@ def _threaded(func, geoms: np.ndarray, n_jobs: int | None) -> tuple:
 def merge_reports(reports) -> RowReport:
     """Add up the :class:`RowReport` of consecutive parts of a frame (in order)."""
     reports = list(reports)
-    types = sum((Counter(r.types) for r in reports), Counter())
     return RowReport(
         n_rows=sum(r.n_rows for r in reports),
         counts={k: sum(r.counts[k] for r in reports) for k in _ROW_KINDS},
@@ -402,7 +393,7 @@ def merge_reports(reports) -> RowReport:
             k: [label for r in reports for label in r.labels[k]][:_SHOWN]
             for k in _ROW_KINDS
         },
-        types=dict(types),
+        types=dict(sum((Counter(r.types) for r in reports), Counter())),
     )
 
 
@@ -602,7 +593,6 @@ def degenerate_policy(
         return hulls
     geometry = hulls.geometry.copy()
     area = np.array(hulls.area, dtype=np.float64)
-    keep = hulls.keep
     policy = options.degenerate
     if policy == "buffer":
         codes = points.codes
@@ -638,7 +628,6 @@ def degenerate_policy(
         area[which] = 0.0
         done = "their rows hold an empty polygon"
     else:
-        keep = ~degenerate
         done = f"they were dropped ({n_points[which].sum()} rows)"
     warnings.warn(
         _why_degenerate(hulls.reason, which, groups, n_points, proj.wide)
@@ -646,6 +635,7 @@ def degenerate_policy(
         DegenerateGroupWarning,
         stacklevel=user_stacklevel(),
     )
+    keep = ~degenerate if policy == "drop" else hulls.keep
     return hulls._replace(
         geometry=geometry, area=area, degenerate=degenerate, keep=keep
     )
@@ -896,13 +886,9 @@ def area_m2(
     """
     if options.crs is None:
         return hulls.area
-    area = gcrs.geodesic_areas(hulls.geometry, proj.source, n_jobs=options.n_jobs)
-    wide = np.flatnonzero(proj.wide & ~hulls.degenerate)
-    if len(wide):
-        area[wide] = gcrs.geodesic_areas(
-            before_split[wide], proj.source, n_jobs=options.n_jobs
-        )
-    return area
+    wide = proj.wide & ~hulls.degenerate
+    geometry = np.where(wide, before_split, hulls.geometry)
+    return gcrs.geodesic_areas(geometry, proj.source, n_jobs=options.n_jobs)
 
 
 def table(

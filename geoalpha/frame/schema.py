@@ -175,14 +175,7 @@ def result_frame(
             columns[name] = pd.array(text, dtype=dtype)
     geoms = np.asarray(geometry, dtype=object).reshape(-1)
     columns[geometry_name] = gpd.array.from_shapely(geoms, crs=crs)
-    return _geodataframe(columns, geometry_name)
-
-
-def _geodataframe(columns: dict[Any, Any], geometry_name: str):
-    """``GeoDataFrame(columns, geometry=geometry_name)`` without a second copy."""
-    import geopandas as gpd
-    import pandas as pd
-
+    # GeoDataFrame(columns, geometry=geometry_name) without a second copy:
     frame = pd.DataFrame(columns, copy=False)
     from_mgr = getattr(gpd.GeoDataFrame, "_from_mgr", None)
     if from_mgr is None:  # pragma: no cover - pandas < 2.1 (Debian 12's QGIS)
@@ -202,10 +195,5 @@ def empty_result(keys: pd.DataFrame, crs, geometry_name: str = "geometry"):
     >>> len(meta), meta.columns.tolist()[:3], str(meta.dtypes["n_parts"])
     (0, ['g', 'alpha', 'radius'], 'int32')
     """
-    import numpy as np
-
-    values = {
-        name: np.array([], dtype=object if dtype == "text" else dtype)
-        for name, dtype in DTYPES.items()
-    }
+    values = {name: [] for name in DTYPES}  # (result_frame casts them)
     return result_frame(keys.iloc[:0], values, [], crs, geometry_name)
