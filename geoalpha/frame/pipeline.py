@@ -143,14 +143,6 @@ def run(frame, by, options: Options, *, checks: bool = True, rows: bool = True):
         return _stages(frame, by, options, bar, checks, rows)
 
 
-def _per_group_crs(source, crs, coords: np.ndarray) -> bool:
-    """Guess whether groups get a metric CRS each: wide lon/lat, ``crs="auto"``."""
-    src = parse_crs(source) if gcrs.auto_mode(crs) is not None else None
-    if src is None or not src.is_geographic or not len(coords):
-        return False
-    return bool(np.ptp(coords[:, 0]) > 2 * gcrs.UTM_HALF_WIDTH)
-
-
 def _stages(frame, by, options, bar: progress.Phases, checks: bool, rows: bool):
     bar.estimate(progress.hull_costs(len(frame), 0, per_group_crs=False))  # 0: unknown
     bar.start("group")
@@ -160,7 +152,10 @@ def _stages(frame, by, options, bar: progress.Phases, checks: bool, rows: bool):
         check_grouping(n_groups, len(frame), by)
     points = read_points(frame, groups, options, warn=rows)
     crs = points.crs  # (frame.crs builds a GeoSeries each time)
-    many = _per_group_crs(crs, options.crs, points.coords)
+    # Guess whether groups get a metric CRS each: wide lon/lat, crs="auto".
+    src = parse_crs(crs) if gcrs.auto_mode(options.crs) is not None else None
+    lon = points.coords[:, 0] if src is not None and src.is_geographic else []
+    many = len(lon) > 0 and bool(np.ptp(lon) > 2 * gcrs.UTM_HALF_WIDTH)
     bar.sized(len(points.codes), n_groups, per_group_crs=many)
     bar.start("project")
     if checks:
@@ -767,6 +762,15 @@ def guarantee(
     check = ~hulls.degenerate
     beyond = _beyond_the_line(geometry, points, proj.crossing & check)
     exempt = hulls.outlier | beyond
+    # Per point: certain to be covered, its group's polygon being the one made.
+    certain = hulls.certain
+    if geometry is not hulls.made and certain.any():
+        same = np.fromiter(
+            (a is b for a, b in zip(geometry, hulls.made, strict=True)),
+            dtype=bool,
+            count=len(hulls.made),
+        )
+        certain = certain & same[codes]
     fixed = options.method == "alpha" and options.alpha is not None
     limit, unfaithful = None, np.zeros_like(check)
     if options.method == "alpha" and not fixed:  # a split adds parts
@@ -783,7 +787,7 @@ def guarantee(
         # At a given alpha only alpha 0 (the convex hull) holds every point.
         cover=(np.asarray(hulls.alpha) == 0) if fixed else True,
         components=limit,
-        test=~_still_certain(hulls, codes),
+        test=~certain,
         exempt=exempt if exempt.any() else None,
         n_jobs=options.n_jobs,
     )
@@ -808,18 +812,6 @@ def guarantee(
         reason=np.where(failed & (hulls.reason == 0), 5, hulls.reason),
         outlier=outlier,
     )
-
-
-def _still_certain(hulls: Hulls, codes: np.ndarray) -> np.ndarray:
-    """Per point: certain to be covered, its group's polygon being the one made."""
-    if hulls.geometry is hulls.made or not hulls.certain.any():
-        return hulls.certain
-    same = np.fromiter(
-        (a is b for a, b in zip(hulls.geometry, hulls.made, strict=True)),
-        dtype=bool,
-        count=len(hulls.made),
-    )
-    return hulls.certain & same[codes]
 
 
 def _beyond_the_line(geometry, points: Points, crossing) -> np.ndarray:
