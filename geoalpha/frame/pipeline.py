@@ -198,6 +198,11 @@ def _names(groups: Groups, which: np.ndarray, counts=None, value=None) -> str:
     return first_n(names, limit=10, sep="; ")
 
 
+def _warn(message: str, category: type[Warning]) -> None:
+    """Warn, pointing at the user's own line."""
+    warnings.warn(message, category, stacklevel=user_stacklevel())
+
+
 def as_frame(data):
     """Return the input as a GeoDataFrame with an active geometry column."""
     import geopandas as gpd
@@ -261,9 +266,8 @@ def group(frame, by, options: Options) -> Groups:
 def _factorize_column(frame, by, options: Options) -> Groups | None:
     """Group one plain column as ``groupby`` does, without its cost; else None."""
     name = by[0] if isinstance(by, list) and len(by) == 1 else by
-    if not isinstance(name, str) or name in frame.index.names:
-        return None
-    if name not in frame.columns or not frame.columns.is_unique:
+    plain = isinstance(name, str) and name not in frame.index.names
+    if not plain or name not in frame.columns or not frame.columns.is_unique:
         return None
     column = frame[name]
     if isinstance(column.dtype, pd.CategoricalDtype):
@@ -331,8 +335,7 @@ def scan_rows(frame, codes: np.ndarray, vertices: bool, n_jobs: int | None = 1):
         which = usable[at]
     nan = np.isnan(coords).any(axis=1)
     if nan.any():
-        missing = missing.copy()
-        missing[which[nan]] = True
+        missing[which[nan]] = True  # (an array of our own)
     no_key = (codes < 0) & ~missing
     keep = ~(missing | no_key)[which]
     if not keep.all():
@@ -436,11 +439,10 @@ def report_rows(report: RowReport, *, warn: bool = True) -> None:
                 f"{_shown_labels(labels['no_key'])}; {setting('dropna', False)} "
                 "keeps them)"
             )
-        warnings.warn(
+        _warn(
             f"{spelled('hull()')} dropped {dropped} of {report.n_rows} rows: "
             + "; ".join(parts),
             DroppedRowsWarning,
-            stacklevel=user_stacklevel(),
         )
     if counts["infinite"]:
         raise InvalidInputError(
@@ -553,12 +555,11 @@ def _comparison(points, proj, n_groups: int, options: Options, names, bar) -> Hu
     if made.without_holes.any():
         which = np.flatnonzero(made.without_holes)
         named = names(which) if names is not None else first_n(map(str, which))
-        warnings.warn(
+        _warn(
             f"GEOS's concave hull with holes failed for {len(which)} "
             f"group(s): {named}; they got the concave hull without holes "
             "(the 'method' column says so)",
             GeoAlphaWarning,
-            stacklevel=user_stacklevel(),
         )
     return Hulls(
         geometry=made.geometry,
@@ -624,11 +625,10 @@ def degenerate_policy(
         done = "their rows hold an empty polygon"
     else:
         done = f"they were dropped ({n_points[which].sum()} rows)"
-    warnings.warn(
+    _warn(
         _why_degenerate(hulls.reason, which, groups, n_points, proj.wide)
         + f"; {done} ({setting('degenerate', policy)})",
         DegenerateGroupWarning,
-        stacklevel=user_stacklevel(),
     )
     keep = ~degenerate if policy == "drop" else hulls.keep
     return hulls._replace(
@@ -795,13 +795,12 @@ def guarantee(
     outlier = left_outside(hulls.outlier, geometry, xy, codes)
     if failed.any():
         which = np.flatnonzero(failed)
-        warnings.warn(
+        _warn(
             f"{len(which)} group(s) got no valid polygon covering all their points "
             f"in the output CRS (float geometry is too coarse for them there): "
             f"{_names(groups, which, points.n_points)}; they are treated as "
             "degenerate",
             DegenerateGroupWarning,
-            stacklevel=user_stacklevel(),
         )
     failed |= unfaithful  # (degenerate_policy says why)
     geometry[failed] = EMPTY_POLYGON
@@ -850,10 +849,10 @@ def warn_output_crs(hulls: Hulls, groups: Groups, points: Points, proj) -> None:
                 "hull that reaches the line at +180, or the reverse): "
                 + _names(groups, np.unique(missed), counts)
             )
-        warnings.warn(message, AntimeridianWarning, stacklevel=user_stacklevel())
+        _warn(message, AntimeridianWarning)
     wide = proj.wide & ~hulls.degenerate
     if wide.any():
-        warnings.warn(
+        _warn(
             f"{wide.sum()} group(s) span more than 180 degrees of longitude: "
             f"{_names(groups, np.flatnonzero(wide))}; no longitude/latitude "
             "polygon can represent their hull faithfully (it may not contain all "
@@ -862,7 +861,6 @@ def warn_output_crs(hulls: Hulls, groups: Groups, points: Points, proj) -> None:
             "for the geometry, give the points in a projected CRS that holds them, "
             "or split the group",
             GeoAlphaWarning,
-            stacklevel=user_stacklevel(),
         )
 
 
@@ -944,11 +942,10 @@ def grow(
         geometry[sel].copy(), proj.xy[np.flatnonzero(first)[np.maximum(loc, 0)]]
     )
     if not exact.all():  # pragma: no cover - hull vertices are input points
-        warnings.warn(
+        _warn(
             f"{(~exact).sum()} hull(s) were not grown: a vertex is not an input "
             "point (repaired geometry)",
             GeoAlphaWarning,
-            stacklevel=user_stacklevel(),
         )
     grown = shapely.buffer(metric[exact], distance, quad_segs=4)
     geometry = geometry.copy()
@@ -970,11 +967,10 @@ def report_outliers(
         )
         which = np.flatnonzero(n_outliers)
         each = _names(groups, which, n_outliers, value=repr)
-        warnings.warn(
+        _warn(
             f"{spelled('hull()')} left {n_outliers.sum()} row(s) of {len(which)} "
             f"group(s) outside their hulls ({setting('outliers', options.outliers)}): "
             f"{each}; geoalpha.outlier_rows() marks them",
             OutlierWarning,
-            stacklevel=user_stacklevel(),
         )
     return left_out

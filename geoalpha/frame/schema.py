@@ -43,13 +43,12 @@ RESULT_COLUMNS: tuple[str, ...] = tuple(DTYPES)
 
 
 @cache
-def _dtype(name: str):
+def _text_dtype():
+    """Return the dtype of "text": ``str`` (pandas 3) or object, as pandas infers."""
     import numpy as np
     import pandas as pd
 
-    if DTYPES[name] == "text":  # str (pandas 3) or object: what pandas infers
-        return pd.Series(np.array([""], dtype=object)).dtype
-    return np.dtype(DTYPES[name])
+    return pd.Series(np.array([""], dtype=object)).dtype
 
 
 def planar_unit(input_crs, crs) -> str | None:
@@ -166,13 +165,12 @@ def result_frame(
     if isinstance(keys, pd.DataFrame):
         keys = {name: keys.iloc[:, i].array for i, name in enumerate(keys.columns)}
     columns = dict(keys)
-    for name in RESULT_COLUMNS:
-        dtype = _dtype(name)
-        if isinstance(dtype, np.dtype):
-            columns[name] = np.asarray(values[name]).astype(dtype, copy=False)
-        else:
+    for name, dtype in DTYPES.items():
+        if dtype == "text":
             text = np.asarray(values[name], dtype=object)
-            columns[name] = pd.array(text, dtype=dtype)
+            columns[name] = pd.array(text, dtype=_text_dtype())
+        else:
+            columns[name] = np.asarray(values[name]).astype(dtype, copy=False)
     geoms = np.asarray(geometry, dtype=object).reshape(-1)
     columns[geometry_name] = gpd.array.from_shapely(geoms, crs=crs)
     # GeoDataFrame(columns, geometry=geometry_name) without a second copy:
