@@ -349,8 +349,8 @@ def scan_rows(frame, codes: np.ndarray, vertices: bool, n_jobs: int | None = 1):
     report = RowReport(
         n_rows=len(geoms),
         counts={k: int(m.sum()) for k, m in masks.items()},
-        labels={
-            k: frame.index[np.flatnonzero(m)[:_SHOWN]].tolist()
+        labels={  # (taking an Index at no row costs more than the test)
+            k: frame.index[np.flatnonzero(m)[:_SHOWN]].tolist() if m.any() else []
             for k, m in masks.items()
         },
         types=dict(types),
