@@ -17,7 +17,7 @@ import pyproj
 
 from geoalpha.crs_parsing import crs_name, is_mercator, is_sphere, parse_crs
 from geoalpha.errors import CRSWarning, GroupingWarning, setting, user_stacklevel
-from geoalpha.frame.crs import metric_crs
+from geoalpha.frame.crs import auto_mode, metric_crs
 
 __all__ = [
     "AREA_TOLERANCE",
@@ -99,16 +99,6 @@ def _factors_of(source: str, target: str) -> tuple[pyproj.Transformer, pyproj.Pr
     return to_lonlat, pyproj.Proj(crs)
 
 
-def _by_text(by) -> tuple[str, str]:
-    """``by`` as a message shows it, and the question to ask about it."""
-    names = by if isinstance(by, list) else [by]
-    if not all(isinstance(n, str) for n in names):
-        return setting("by"), "is this the right grouping?"
-    if len(names) > 1:
-        return setting("by", names), "are these the right columns?"
-    return setting("by", names[0]), "is this the right column?"
-
-
 def check_grouping(n_groups: int, n_rows: int, by: Any) -> None:
     """Warn when ``by`` makes nearly one group per row.
 
@@ -124,22 +114,18 @@ def check_grouping(n_groups: int, n_rows: int, by: Any) -> None:
     GroupingWarning
         From :data:`MANY_GROUPS_SHARE` groups per row and
         :data:`MANY_GROUPS_MIN_ROWS` rows on.
-
-    Examples
-    --------
-    >>> import warnings
-    >>> with warnings.catch_warnings(record=True) as caught:
-    ...     warnings.simplefilter("always")
-    ...     check_grouping(47, 55, "Latitude")
-    >>> str(caught[0].message)
-    "by='Latitude' makes 47 groups of 55 rows; groups of 1-2 points have no alpha
-    shape, so is this the right column?"
     """
     if by is None or n_rows < MANY_GROUPS_MIN_ROWS:
         return
     if n_groups <= MANY_GROUPS_SHARE * n_rows:
         return
-    text, question = _by_text(by)
+    names = by if isinstance(by, list) else [by]
+    if not all(isinstance(n, str) for n in names):
+        text, question = setting("by"), "is this the right grouping?"
+    elif len(names) > 1:
+        text, question = setting("by", names), "are these the right columns?"
+    else:
+        text, question = setting("by", names[0]), "is this the right column?"
     warnings.warn(
         f"{text} makes {n_groups:,} groups of {n_rows:,} rows; groups of 1-2 "
         f"points have no alpha shape, so {question}",
@@ -172,7 +158,7 @@ def computation_crs(source: Any, crs: Any) -> tuple[pyproj.CRS | None, str]:
     src = parse_crs(source)
     if src is None or crs is None or is_sphere(crs):
         return None, ""
-    if isinstance(crs, str) and crs.strip().lower() in ("auto", "auto-group"):
+    if auto_mode(crs) is not None:
         kept = src.is_projected and not is_mercator(src)
         return (src, "input") if kept else (None, "")
     try:
@@ -216,17 +202,6 @@ def check_distortion(coords: np.ndarray, source: Any, crs: Any) -> None:
     CRSWarning
         When the computation CRS's areal scale is further than
         :data:`AREA_TOLERANCE` from 1 at a point.
-
-    Examples
-    --------
-    >>> import warnings
-    >>> london = np.array([[-0.12, 51.5], [-0.10, 51.52]])
-    >>> with warnings.catch_warnings(record=True) as caught:
-    ...     warnings.simplefilter("always")
-    ...     check_distortion(london, "EPSG:4326", "EPSG:3857")
-    ...     check_distortion(london, "EPSG:4326", "EPSG:32630")
-    >>> len(caught), str(caught[0].message)[:64]
-    (1, 'the shapes are computed in EPSG:3857 (crs=), which stretches are')
     """
     target, chosen_by = computation_crs(source, crs)
     coords = np.asarray(coords, dtype=float).reshape(-1, 2)

@@ -56,6 +56,12 @@ UTM_MAX_LAT = 84.0
 LAEA_CENTRE_STEP = 1.0
 
 
+def auto_mode(crs: Any) -> str | None:
+    """Return ``"auto"`` or ``"auto-group"`` for those ``crs=`` options, else None."""
+    mode = crs.strip().lower() if isinstance(crs, str) else None
+    return mode if mode in ("auto", "auto-group") else None
+
+
 def _as_coords(lon: Any, lat: Any) -> tuple[np.ndarray, np.ndarray]:
     lon = np.asarray(lon, dtype=np.float64).ravel()
     lat = np.asarray(lat, dtype=np.float64).ravel()
@@ -245,8 +251,8 @@ def metric_crs(
         )
     source_key = _WGS84 if source is None else source.srs
     check_lonlat(lon, lat, labels)
-    mode = crs.strip().lower() if isinstance(crs, str) else None
-    if mode in ("auto", "auto-group"):
+    mode = auto_mode(crs)
+    if mode is not None:
         crs_list, crs_index = _choose_auto(lon, lat, codes, n_groups, mode == "auto")
     else:
         crs_list, crs_index = [target_crs(crs)], np.zeros(n_groups, dtype=np.intp)
@@ -434,7 +440,7 @@ class Projection:
                 "with gdf.set_crs(...) or pass crs=None to use the coordinates as "
                 "planar values"
             )
-        auto = isinstance(crs, str) and crs.strip().lower() in ("auto", "auto-group")
+        auto = auto_mode(crs) is not None
         if src.is_geographic:
             lon, lat = coords[:, 0], coords[:, 1]
             self.xy, self._crs_list, self._crs_index = metric_crs(

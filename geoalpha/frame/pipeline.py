@@ -76,31 +76,24 @@ __all__ = [
 _POINT_TYPES = (0, 4)  # shapely type ids of Point and MultiPoint
 
 
-class Groups:
+class Groups(NamedTuple):
     """Output of :func:`group`: a code per row and the key columns, as arrays.
 
     The DataFrame :attr:`keys` is built only when asked for (dask's ``meta``):
     on small inputs building DataFrames is a large share of the run.
     """
 
-    __slots__ = ("_keys", "codes", "columns", "n_groups", "names")
-
-    def __init__(self, codes: np.ndarray, names, columns, n_groups: int):
-        self.codes = codes  #: group code per row, -1 for a dropped missing key
-        self.names = tuple(names)  #: names of the key columns
-        self.columns = tuple(columns)  #: one array per key column, a row a group
-        self.n_groups = n_groups  #: number of groups
-        self._keys = None
+    codes: np.ndarray  #: group code per row, -1 for a dropped missing key
+    names: tuple  #: names of the key columns
+    columns: tuple  #: one array per key column, a row a group
+    n_groups: int  #: number of groups
 
     @property
     def keys(self) -> pd.DataFrame:
         """One row per group: the key column(s) (none for one group of all rows)."""
-        if self._keys is None:
-            self._keys = pd.DataFrame(
-                dict(enumerate(self.columns)), range(self.n_groups)
-            )
-            self._keys.columns = list(self.names)
-        return self._keys
+        keys = pd.DataFrame(dict(enumerate(self.columns)), range(self.n_groups))
+        keys.columns = list(self.names)
+        return keys
 
 
 class Points(NamedTuple):
@@ -150,15 +143,6 @@ def run(frame, by, options: Options, *, checks: bool = True, rows: bool = True):
         return _stages(frame, by, options, bar, checks, rows)
 
 
-def _per_group_crs(source, crs, coords: np.ndarray) -> bool:
-    """Guess whether groups get a metric CRS each: wide lon/lat, ``crs="auto"``."""
-    auto = isinstance(crs, str) and crs.strip().lower() in ("auto", "auto-group")
-    src = parse_crs(source) if auto else None
-    if src is None or not src.is_geographic or not len(coords):
-        return False
-    return bool(np.ptp(coords[:, 0]) > 2 * gcrs.UTM_HALF_WIDTH)
-
-
 def _stages(frame, by, options, bar: progress.Phases, checks: bool, rows: bool):
     bar.estimate(progress.hull_costs(len(frame), 0, per_group_crs=False))  # 0: unknown
     bar.start("group")
@@ -168,7 +152,10 @@ def _stages(frame, by, options, bar: progress.Phases, checks: bool, rows: bool):
         check_grouping(n_groups, len(frame), by)
     points = read_points(frame, groups, options, warn=rows)
     crs = points.crs  # (frame.crs builds a GeoSeries each time)
-    many = _per_group_crs(crs, options.crs, points.coords)
+    # Guess whether groups get a metric CRS each: wide lon/lat, crs="auto".
+    src = parse_crs(crs) if gcrs.auto_mode(options.crs) is not None else None
+    lon = points.coords[:, 0] if src is not None and src.is_geographic else []
+    many = len(lon) > 0 and bool(np.ptp(lon) > 2 * gcrs.UTM_HALF_WIDTH)
     bar.sized(len(points.codes), n_groups, per_group_crs=many)
     bar.start("project")
     if checks:
@@ -211,6 +198,11 @@ def _names(groups: Groups, which: np.ndarray, counts=None, value=None) -> str:
     return first_n(names, limit=10, sep="; ")
 
 
+def _warn(message: str, category: type[Warning]) -> None:
+    """Warn, pointing at the user's own line."""
+    warnings.warn(message, category, stacklevel=user_stacklevel())
+
+
 def as_frame(data):
     """Return the input as a GeoDataFrame with an active geometry column."""
     import geopandas as gpd
@@ -240,16 +232,16 @@ def group(frame, by, options: Options) -> Groups:
     names = by if isinstance(by, list) else [by]
     levels = [n for n in frame.index.names if n is not None]
     for name in names:
-        if isinstance(name, str | int | tuple) and not isinstance(name, bool):
-            if name not in frame.columns and name not in levels:
-                geometry = frame._geometry_column_name
-                choices = [c for c in frame.columns if c != geometry] + levels
-                also = f" and the index levels {', '.join(map(str, levels))}"
-                raise InvalidInputError(
-                    f"hull(by={by!r}): no column {name!r}"
-                    f"{did_you_mean(name, choices)}; the columns "
-                    f"are {', '.join(map(str, frame.columns))}{also if levels else ''}"
-                )
+        label = isinstance(name, str | int | tuple) and not isinstance(name, bool)
+        if label and name not in frame.columns and name not in levels:
+            geometry = frame._geometry_column_name
+            choices = [c for c in frame.columns if c != geometry] + levels
+            also = f" and the index levels {', '.join(map(str, levels))}"
+            raise InvalidInputError(
+                f"hull(by={by!r}): no column {name!r}"
+                f"{did_you_mean(name, choices)}; the columns "
+                f"are {', '.join(map(str, frame.columns))}{also if levels else ''}"
+            )
     try:
         groups = _factorize_column(frame, by, options)
         if groups is None:
@@ -257,11 +249,11 @@ def group(frame, by, options: Options) -> Groups:
             codes = grouped.ngroup().fillna(-1).to_numpy(dtype=np.int64)
             keys = grouped.size().index.to_frame(index=False)
             columns = [keys.iloc[:, j].array for j in range(keys.shape[1])]
-            groups = Groups(codes, keys.columns, columns, len(keys))
+            groups = Groups(codes, tuple(keys.columns), tuple(columns), len(keys))
     except (ValueError, KeyError, TypeError) as err:
         raise InvalidInputError(f"hull(by=...) cannot group the rows: {err}") from err
     if len(groups.names) == 1 and isinstance(groups.names[0], int | None):
-        groups.names = ("group",)
+        groups = groups._replace(names=("group",))
     clash = [c for c in groups.names if c in (*RESULT_COLUMNS, "geometry")]
     if clash:
         raise InvalidInputError(
@@ -274,9 +266,8 @@ def group(frame, by, options: Options) -> Groups:
 def _factorize_column(frame, by, options: Options) -> Groups | None:
     """Group one plain column as ``groupby`` does, without its cost; else None."""
     name = by[0] if isinstance(by, list) and len(by) == 1 else by
-    if not isinstance(name, str) or name in frame.index.names:
-        return None
-    if name not in frame.columns or not frame.columns.is_unique:
+    plain = isinstance(name, str) and name not in frame.index.names
+    if not plain or name not in frame.columns or not frame.columns.is_unique:
         return None
     column = frame[name]
     if isinstance(column.dtype, pd.CategoricalDtype):
@@ -344,8 +335,7 @@ def scan_rows(frame, codes: np.ndarray, vertices: bool, n_jobs: int | None = 1):
         which = usable[at]
     nan = np.isnan(coords).any(axis=1)
     if nan.any():
-        missing = missing.copy()
-        missing[which[nan]] = True
+        missing[which[nan]] = True  # (an array of our own)
     no_key = (codes < 0) & ~missing
     keep = ~(missing | no_key)[which]
     if not keep.all():
@@ -359,7 +349,7 @@ def scan_rows(frame, codes: np.ndarray, vertices: bool, n_jobs: int | None = 1):
     report = RowReport(
         n_rows=len(geoms),
         counts={k: int(m.sum()) for k, m in masks.items()},
-        labels={
+        labels={  # (taking an Index at no row costs more than the test)
             k: frame.index[np.flatnonzero(m)[:_SHOWN]].tolist() if m.any() else []
             for k, m in masks.items()
         },
@@ -394,7 +384,6 @@ def _threaded(func, geoms: np.ndarray, n_jobs: int | None) -> tuple:
 def merge_reports(reports) -> RowReport:
     """Add up the :class:`RowReport` of consecutive parts of a frame (in order)."""
     reports = list(reports)
-    types = sum((Counter(r.types) for r in reports), Counter())
     return RowReport(
         n_rows=sum(r.n_rows for r in reports),
         counts={k: sum(r.counts[k] for r in reports) for k in _ROW_KINDS},
@@ -402,7 +391,7 @@ def merge_reports(reports) -> RowReport:
             k: [label for r in reports for label in r.labels[k]][:_SHOWN]
             for k in _ROW_KINDS
         },
-        types=dict(types),
+        types=dict(sum((Counter(r.types) for r in reports), Counter())),
     )
 
 
@@ -450,11 +439,10 @@ def report_rows(report: RowReport, *, warn: bool = True) -> None:
                 f"{_shown_labels(labels['no_key'])}; {setting('dropna', False)} "
                 "keeps them)"
             )
-        warnings.warn(
+        _warn(
             f"{spelled('hull()')} dropped {dropped} of {report.n_rows} rows: "
             + "; ".join(parts),
             DroppedRowsWarning,
-            stacklevel=user_stacklevel(),
         )
     if counts["infinite"]:
         raise InvalidInputError(
@@ -567,12 +555,11 @@ def _comparison(points, proj, n_groups: int, options: Options, names, bar) -> Hu
     if made.without_holes.any():
         which = np.flatnonzero(made.without_holes)
         named = names(which) if names is not None else first_n(map(str, which))
-        warnings.warn(
+        _warn(
             f"GEOS's concave hull with holes failed for {len(which)} "
             f"group(s): {named}; they got the concave hull without holes "
             "(the 'method' column says so)",
             GeoAlphaWarning,
-            stacklevel=user_stacklevel(),
         )
     return Hulls(
         geometry=made.geometry,
@@ -602,7 +589,6 @@ def degenerate_policy(
         return hulls
     geometry = hulls.geometry.copy()
     area = np.array(hulls.area, dtype=np.float64)
-    keep = hulls.keep
     policy = options.degenerate
     if policy == "buffer":
         codes = points.codes
@@ -638,14 +624,13 @@ def degenerate_policy(
         area[which] = 0.0
         done = "their rows hold an empty polygon"
     else:
-        keep = ~degenerate
         done = f"they were dropped ({n_points[which].sum()} rows)"
-    warnings.warn(
+    _warn(
         _why_degenerate(hulls.reason, which, groups, n_points, proj.wide)
         + f"; {done} ({setting('degenerate', policy)})",
         DegenerateGroupWarning,
-        stacklevel=user_stacklevel(),
     )
+    keep = ~degenerate if policy == "drop" else hulls.keep
     return hulls._replace(
         geometry=geometry, area=area, degenerate=degenerate, keep=keep
     )
@@ -777,6 +762,15 @@ def guarantee(
     check = ~hulls.degenerate
     beyond = _beyond_the_line(geometry, points, proj.crossing & check)
     exempt = hulls.outlier | beyond
+    # Per point: certain to be covered, its group's polygon being the one made.
+    certain = hulls.certain
+    if geometry is not hulls.made and certain.any():
+        same = np.fromiter(
+            (a is b for a, b in zip(geometry, hulls.made, strict=True)),
+            dtype=bool,
+            count=len(hulls.made),
+        )
+        certain = certain & same[codes]
     fixed = options.method == "alpha" and options.alpha is not None
     limit, unfaithful = None, np.zeros_like(check)
     if options.method == "alpha" and not fixed:  # a split adds parts
@@ -793,7 +787,7 @@ def guarantee(
         # At a given alpha only alpha 0 (the convex hull) holds every point.
         cover=(np.asarray(hulls.alpha) == 0) if fixed else True,
         components=limit,
-        test=~_still_certain(hulls, codes),
+        test=~certain,
         exempt=exempt if exempt.any() else None,
         n_jobs=options.n_jobs,
     )
@@ -801,13 +795,12 @@ def guarantee(
     outlier = left_outside(hulls.outlier, geometry, xy, codes)
     if failed.any():
         which = np.flatnonzero(failed)
-        warnings.warn(
+        _warn(
             f"{len(which)} group(s) got no valid polygon covering all their points "
             f"in the output CRS (float geometry is too coarse for them there): "
             f"{_names(groups, which, points.n_points)}; they are treated as "
             "degenerate",
             DegenerateGroupWarning,
-            stacklevel=user_stacklevel(),
         )
     failed |= unfaithful  # (degenerate_policy says why)
     geometry[failed] = EMPTY_POLYGON
@@ -818,18 +811,6 @@ def guarantee(
         reason=np.where(failed & (hulls.reason == 0), 5, hulls.reason),
         outlier=outlier,
     )
-
-
-def _still_certain(hulls: Hulls, codes: np.ndarray) -> np.ndarray:
-    """Per point: certain to be covered, its group's polygon being the one made."""
-    if hulls.geometry is hulls.made or not hulls.certain.any():
-        return hulls.certain
-    same = np.fromiter(
-        (a is b for a, b in zip(hulls.geometry, hulls.made, strict=True)),
-        dtype=bool,
-        count=len(hulls.made),
-    )
-    return hulls.certain & same[codes]
 
 
 def _beyond_the_line(geometry, points: Points, crossing) -> np.ndarray:
@@ -868,10 +849,10 @@ def warn_output_crs(hulls: Hulls, groups: Groups, points: Points, proj) -> None:
                 "hull that reaches the line at +180, or the reverse): "
                 + _names(groups, np.unique(missed), counts)
             )
-        warnings.warn(message, AntimeridianWarning, stacklevel=user_stacklevel())
+        _warn(message, AntimeridianWarning)
     wide = proj.wide & ~hulls.degenerate
     if wide.any():
-        warnings.warn(
+        _warn(
             f"{wide.sum()} group(s) span more than 180 degrees of longitude: "
             f"{_names(groups, np.flatnonzero(wide))}; no longitude/latitude "
             "polygon can represent their hull faithfully (it may not contain all "
@@ -880,7 +861,6 @@ def warn_output_crs(hulls: Hulls, groups: Groups, points: Points, proj) -> None:
             "for the geometry, give the points in a projected CRS that holds them, "
             "or split the group",
             GeoAlphaWarning,
-            stacklevel=user_stacklevel(),
         )
 
 
@@ -896,13 +876,9 @@ def area_m2(
     """
     if options.crs is None:
         return hulls.area
-    area = gcrs.geodesic_areas(hulls.geometry, proj.source, n_jobs=options.n_jobs)
-    wide = np.flatnonzero(proj.wide & ~hulls.degenerate)
-    if len(wide):
-        area[wide] = gcrs.geodesic_areas(
-            before_split[wide], proj.source, n_jobs=options.n_jobs
-        )
-    return area
+    wide = proj.wide & ~hulls.degenerate
+    geometry = np.where(wide, before_split, hulls.geometry)
+    return gcrs.geodesic_areas(geometry, proj.source, n_jobs=options.n_jobs)
 
 
 def table(
@@ -966,11 +942,10 @@ def grow(
         geometry[sel].copy(), proj.xy[np.flatnonzero(first)[np.maximum(loc, 0)]]
     )
     if not exact.all():  # pragma: no cover - hull vertices are input points
-        warnings.warn(
+        _warn(
             f"{(~exact).sum()} hull(s) were not grown: a vertex is not an input "
             "point (repaired geometry)",
             GeoAlphaWarning,
-            stacklevel=user_stacklevel(),
         )
     grown = shapely.buffer(metric[exact], distance, quad_segs=4)
     geometry = geometry.copy()
@@ -992,11 +967,10 @@ def report_outliers(
         )
         which = np.flatnonzero(n_outliers)
         each = _names(groups, which, n_outliers, value=repr)
-        warnings.warn(
+        _warn(
             f"{spelled('hull()')} left {n_outliers.sum()} row(s) of {len(which)} "
             f"group(s) outside their hulls ({setting('outliers', options.outliers)}): "
             f"{each}; geoalpha.outlier_rows() marks them",
             OutlierWarning,
-            stacklevel=user_stacklevel(),
         )
     return left_out

@@ -141,8 +141,7 @@ class Phases:
         return tqdm
 
     def _open(self) -> None:
-        tqdm = self._tqdm()
-        file = self._file
+        tqdm, file = self._tqdm(), self._file
         self._bar = tqdm(
             total=TICKS,
             initial=self.done,
@@ -162,7 +161,7 @@ class Phases:
         warnings.showwarning = above_the_bar
 
     def _description(self) -> str:
-        if 0 <= self._phase < len(self.names):
+        if self._phase >= 0:
             return f"{self._desc}: {self.names[self._phase]}"
         return self._desc
 
@@ -200,13 +199,10 @@ class Phases:
         self._groups = int(n_groups)
         if self._bar is not None:
             self._bar.set_postfix_str(self._postfix(), refresh=True)
-            return
-        if self._show is not None or n_groups < PROGRESS_MIN_GROUPS:
-            return
-        if not getattr(self._file, "isatty", lambda: False)():
-            return
-        with contextlib.suppress(ImportError):
-            self._open()
+        elif self._show is None and n_groups >= PROGRESS_MIN_GROUPS:
+            if getattr(self._file, "isatty", lambda: False)():
+                with contextlib.suppress(ImportError):
+                    self._open()
 
     def start(self, name: str, units: int = 0) -> None:
         """End the current phase and start ``name``, to advance in ``units`` steps."""

@@ -43,13 +43,12 @@ RESULT_COLUMNS: tuple[str, ...] = tuple(DTYPES)
 
 
 @cache
-def _dtype(name: str):
+def _text_dtype():
+    """Return the dtype of "text": ``str`` (pandas 3) or object, as pandas infers."""
     import numpy as np
     import pandas as pd
 
-    if DTYPES[name] == "text":  # str (pandas 3) or object: what pandas infers
-        return pd.Series(np.array([""], dtype=object)).dtype
-    return np.dtype(DTYPES[name])
+    return pd.Series(np.array([""], dtype=object)).dtype
 
 
 def planar_unit(input_crs, crs) -> str | None:
@@ -166,23 +165,15 @@ def result_frame(
     if isinstance(keys, pd.DataFrame):
         keys = {name: keys.iloc[:, i].array for i, name in enumerate(keys.columns)}
     columns = dict(keys)
-    for name in RESULT_COLUMNS:
-        dtype = _dtype(name)
-        if isinstance(dtype, np.dtype):
-            columns[name] = np.asarray(values[name]).astype(dtype, copy=False)
-        else:
+    for name, dtype in DTYPES.items():
+        if dtype == "text":
             text = np.asarray(values[name], dtype=object)
-            columns[name] = pd.array(text, dtype=dtype)
+            columns[name] = pd.array(text, dtype=_text_dtype())
+        else:
+            columns[name] = np.asarray(values[name]).astype(dtype, copy=False)
     geoms = np.asarray(geometry, dtype=object).reshape(-1)
     columns[geometry_name] = gpd.array.from_shapely(geoms, crs=crs)
-    return _geodataframe(columns, geometry_name)
-
-
-def _geodataframe(columns: dict[Any, Any], geometry_name: str):
-    """``GeoDataFrame(columns, geometry=geometry_name)`` without a second copy."""
-    import geopandas as gpd
-    import pandas as pd
-
+    # GeoDataFrame(columns, geometry=geometry_name) without a second copy:
     frame = pd.DataFrame(columns, copy=False)
     from_mgr = getattr(gpd.GeoDataFrame, "_from_mgr", None)
     if from_mgr is None:  # pragma: no cover - pandas < 2.1 (Debian 12's QGIS)
@@ -202,10 +193,5 @@ def empty_result(keys: pd.DataFrame, crs, geometry_name: str = "geometry"):
     >>> len(meta), meta.columns.tolist()[:3], str(meta.dtypes["n_parts"])
     (0, ['g', 'alpha', 'radius'], 'int32')
     """
-    import numpy as np
-
-    values = {
-        name: np.array([], dtype=object if dtype == "text" else dtype)
-        for name, dtype in DTYPES.items()
-    }
+    values = {name: [] for name in DTYPES}  # (result_frame casts them)
     return result_frame(keys.iloc[:0], values, [], crs, geometry_name)

@@ -99,15 +99,8 @@ class SphereProjection(gcrs.Projection):
         groups = np.arange(len(which))
         return local.xy, lambda geoms: local.to_output(geoms, groups)
 
-    @property
-    def xy(self) -> np.ndarray:  # type: ignore[override]
-        """Metres (``crs="auto"``'s projection), for stages other than the shape."""
-        return self._metric.xy
-
-    @property
-    def _crs_list(self):  # the way back of :attr:`xy`
-        return self._metric._crs_list
-
-    @property
-    def _crs_index(self):
-        return self._metric._crs_index
+    # Metres (``crs="auto"``'s projection) for the stages other than the shape,
+    # and their way back (:meth:`to_output`), made on first use.
+    xy = property(lambda self: self._metric.xy)
+    _crs_list = property(lambda self: self._metric._crs_list)
+    _crs_index = property(lambda self: self._metric._crs_index)
