@@ -538,13 +538,7 @@ def signature(func: Callable) -> inspect.Signature:
     return inspect.Signature(fixed)
 
 
-def docstring(template: str, indent: str = "    ", skip: tuple[str, ...] = ()) -> str:
+def docstring(template: str, indent: str = "    ") -> str:
     """Fill ``{options}`` in ``template`` with the numpydoc entries of the options."""
-    lines = []
-    for f in FIELDS:
-        if f.name in skip:
-            continue
-        kind, _, text = f.metadata["meta"].doc.partition("\n")
-        lines.append(f"{indent}{f.name} : {kind}")
-        lines.extend(f"{indent}{line}" for line in text.splitlines())
-    return template.replace("{options}", "\n".join(lines).lstrip())
+    entries = "\n".join(f"{name} : {meta.doc}" for name, meta in META.items())
+    return template.replace("{options}", entries.replace("\n", "\n" + indent))
