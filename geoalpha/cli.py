@@ -221,8 +221,7 @@ def _input_size(path) -> int | None:
 def _session(verbose, quiet, progress, size, points_layer=False, **target) -> Iterator:
     """Run a command: check OUTPUT, yield :func:`_run` bound to ``target``.
 
-    ``target``: _run's ``output``, ``layer``, ``overwrite``, ``engine``,
-    ``preview``. Messages as :func:`_reporting` shows them; one progress bar
+    Messages as :func:`_reporting` shows them; one progress bar
     over ``read``, the phases of hull(), ``write`` and ``preview``, their
     shares estimated from the input's bytes until it is read, then from its
     rows and groups. ``-q`` means no bar unless ``--progress``.
@@ -257,7 +256,7 @@ def _session(verbose, quiet, progress, size, points_layer=False, **target) -> It
             target["output"], layer=target["layer"], overwrite=target["overwrite"]
         )
         _check_preview(target["preview"])
-        yield functools.partial(_run, verbosity=verbosity, bar=bar, **target)
+        yield functools.partial(_run, target=target, verbosity=verbosity, bar=bar)
 
 
 def _plural(n: int, noun: str) -> str:
@@ -277,19 +276,14 @@ def _left_out(points, hulls, by: list[str], options: dict) -> str:
     if by and options.get("dropna", True):
         codes[points[by].isna().any(axis=1).to_numpy()] = -1
     counts = scan_rows(points, codes, bool(options.get("vertices")))[0].counts
-    reasons = []
-    if counts["missing"]:
-        reasons.append(
-            f"{counts['missing']:,} without a point (a missing, empty or NaN geometry)"
-        )
-    if counts["no_key"]:
-        reasons.append(
-            f"{counts['no_key']:,} without a --by value (--no-dropna keeps them)"
-        )
     dropped = left - counts["missing"] - counts["no_key"]
-    if dropped > 0:
-        reasons.append(f"{dropped:,} in groups without alpha shape (--degenerate drop)")
-    return f"; {left:,} of {len(points):,} rows left out: " + ", ".join(reasons)
+    reasons = [
+        (counts["missing"], "without a point (a missing, empty or NaN geometry)"),
+        (counts["no_key"], "without a --by value (--no-dropna keeps them)"),
+        (dropped, "in groups without alpha shape (--degenerate drop)"),
+    ]
+    shown = ", ".join(f"{n:,} {why}" for n, why in reasons if n > 0)
+    return f"; {left:,} of {len(points):,} rows left out: {shown}"
 
 
 def _summary(points, hulls, source: str, by: list[str], options: dict, unit) -> list:
@@ -341,22 +335,11 @@ def _summary(points, hulls, source: str, by: list[str], options: dict, unit) -> 
     return lines
 
 
-def _run(
-    points,
-    *,
-    output: str,
-    source: str,
-    by: list[str],
-    layer: str | None,
-    overwrite: bool,
-    engine: str | None,
-    verbosity: int,
-    preview: str | None,
-    bar,
-    extra_layers: dict | None = None,
-    **options,
-) -> None:
-    """Compute the hulls (in the command's ``bar``), write them and report."""
+def _run(points, target, verbosity, bar, *, source, by, extra_layers=None, **options):
+    """Compute the hulls (in the command's ``bar``), write them and report.
+
+    ``target``: ``output``, ``layer``, ``overwrite``, ``engine`` and ``preview``.
+    """
     from geoalpha.frame.schema import planar_unit, with_area_unit
     from geoalpha.hulls import hull
     from geoalpha.io.files import write_hulls
@@ -372,12 +355,13 @@ def _run(
     unit = planar_unit(points.crs, options.get("crs", "auto"))
     table = with_area_unit(hulls, unit)  # say the unit instead of a wrong "m2"
     bar.start("write")
+    output, layer, preview = target["output"], target["layer"], target["preview"]
     mapping = write_hulls(
         table,
         output,
         layer=layer,
-        overwrite=overwrite,
-        engine=engine,
+        overwrite=target["overwrite"],
+        engine=target["engine"],
         extra_layers=extra_layers,
     )
     if preview is not None:
@@ -478,32 +462,26 @@ def _checked(ctx: click.Context, param: click.Parameter, value):
         raise click.BadParameter(str(err), ctx, param) from None
 
 
-def _option(name: str):
-    """Return the click option of hull()'s option ``name``, from its ``META``."""
-    meta = META[name]
-    if meta.kind == "bool":
-        flag_only = "/" not in meta.flags[-1]
-        typed = {"is_flag": flag_only or None}
-    else:
-        choices = f"[{'|'.join(meta.choices)}]" if meta.choices else None
-        metavar = meta.metavar or choices or meta.kind.upper()
-        typed = {"type": click.STRING, "callback": _checked, "metavar": metavar}
-    return click.option(
-        *meta.flags,
-        name,
-        default=defaults(name)[name],
-        show_default=True,
-        help=meta.help,
-        **typed,
-    )
-
-
 def _options(*names: str):
-    """Apply :func:`_option` for ``names`` (all options of hull() if none), in order."""
+    """Add the click options of hull()'s ``names`` (all if none), from ``META``."""
 
     def decorate(command):
         for name in reversed(names or tuple(META)):
-            command = _option(name)(command)
+            meta = META[name]
+            if meta.kind == "bool":  # a switch, or a flag alone (--vertices)
+                typed = {"is_flag": "/" not in meta.flags[-1] or None}
+            else:
+                choices = f"[{'|'.join(meta.choices)}]" if meta.choices else None
+                metavar = meta.metavar or choices or meta.kind.upper()
+                typed = {"type": click.STRING, "callback": _checked, "metavar": metavar}
+            command = click.option(
+                *meta.flags,
+                name,
+                default=defaults(name)[name],
+                show_default=True,
+                help=meta.help,
+                **typed,
+            )(command)
         return command
 
     return decorate
