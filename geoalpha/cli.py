@@ -218,21 +218,26 @@ def _input_size(path) -> int | None:
 
 
 @contextlib.contextmanager
-def _session(verbose, quiet, progress, size, points_layer=False, **target) -> Iterator:
-    """Run a command: check OUTPUT, yield :func:`_run` bound to ``target``.
+def _session(params: dict, size, points_layer=False) -> Iterator:
+    """Run a command: check OUTPUT, yield :func:`_run` bound to the output.
 
-    Messages as :func:`_reporting` shows them; one progress bar
-    over ``read``, the phases of hull(), ``write`` and ``preview``, their
-    shares estimated from the input's bytes until it is read, then from its
-    rows and groups. ``-q`` means no bar unless ``--progress``.
+    Takes the output's flags out of ``params``, the command's: ``output``,
+    ``output_layer``, ``overwrite``, ``engine``, ``preview``, ``verbose`` and
+    ``quiet`` (the others are left for the command). Messages as
+    :func:`_reporting` shows them; one progress bar over ``read``, the phases
+    of hull(), ``write`` and ``preview``, their shares estimated from the
+    input's bytes until it is read, then from its rows and groups. ``-q``
+    means no bar unless ``--progress``.
     """
     import functools
 
     from geoalpha.frame.progress import HULL_PHASES, hull_costs, phases
     from geoalpha.io.files import check_output
 
-    verbosity = _verbosity(verbose, quiet)
-    show = False if progress is None and verbosity < 0 else progress
+    keys = ("output", "overwrite", "engine", "preview")
+    target = {k: params.pop(k) for k in keys} | {"layer": params.pop("output_layer")}
+    verbosity = _verbosity(params.pop("verbose"), params.pop("quiet"))
+    show = False if params["progress"] is None and verbosity < 0 else params["progress"]
 
     # Importing geopandas (read) and matplotlib (preview) takes about a second.
     load = {m: 0 if m in sys.modules else 800_000 for m in ("geopandas", "matplotlib")}
@@ -570,19 +575,7 @@ _preview_option = click.option(
 @_preview_option
 @_verbose_option
 @_quiet_option
-def hull(
-    input_path: str,
-    output: str,
-    by: tuple[str, ...],
-    crs_in: str,
-    output_layer: str | None,
-    overwrite: bool,
-    engine: str | None,
-    preview: str | None,
-    verbose: int,
-    quiet: int,
-    **options,
-) -> None:
+def hull(input_path: str, by: tuple[str, ...], crs_in: str, **options) -> None:
     """Write one hull per group of the points in INPUT to OUTPUT.
 
     INPUT is a GeoPackage, Shapefile, GeoJSON, FlatGeobuf, GeoParquet or
@@ -612,17 +605,7 @@ def hull(
     """  # noqa: D301
     from geoalpha.io.files import read_input_points
 
-    with _session(
-        verbose,
-        quiet,
-        options["progress"],
-        _input_size(input_path),  # None for a database
-        output=output,
-        layer=output_layer,
-        overwrite=overwrite,
-        engine=engine,
-        preview=preview,
-    ) as run:
+    with _session(options, _input_size(input_path)) as run:  # size None: a database
         work_crs = options["crs"]  # checked at the flag: none is None
         reading = {
             k: options.pop(k) for k in ("x", "y", "layer", "sql", "geometry_column")
@@ -669,17 +652,7 @@ hull.help = hull.help.replace("RESULT_COLUMNS", _result_columns())
 @_preview_option
 @_verbose_option
 @_quiet_option
-def demo(
-    output: str,
-    dataset: str,
-    grow: float,
-    overwrite: bool,
-    engine: str | None,
-    progress: bool | None,
-    preview: str | None,
-    verbose: int,
-    quiet: int,
-) -> None:
+def demo(dataset: str, **params) -> None:
     """Write the optimal hulls of a bundled real dataset to OUTPUT.
 
     A first run that needs no data of your own; open OUTPUT in QGIS. A
@@ -703,25 +676,14 @@ def demo(
     """  # noqa: D301
     from geoalpha import datasets
 
-    gpkg = output.lower().endswith(".gpkg")
-    with _session(
-        verbose,
-        quiet,
-        progress,
-        _input_size(datasets.path(dataset)),
-        gpkg,
-        output=output,
-        layer=None,
-        overwrite=overwrite,
-        engine=engine,
-        preview=preview,
-    ) as run:
+    gpkg = params["output"].lower().endswith(".gpkg")
+    params["output_layer"] = None  # the hulls' layer is named after the file
+    with _session(params, _input_size(datasets.path(dataset)), gpkg) as run:
         points = datasets.load(dataset)
         run(
             points,
             source=f"dataset {dataset}",
             by=[DATASETS[dataset][3]],
             extra_layers={"points": points} if gpkg else None,
-            progress=progress,
-            grow=grow,
+            **params,  # grow and progress
         )
