@@ -147,9 +147,8 @@ def _checks(ddf, names: list, by, options: Options):
     """Return a lazy :func:`_check` of ``ddf``, or None when nothing can warn."""
     keys = rows = sample = None
     if names:
-        meta = _keys(ddf._meta, names, options.dropna)
         keys = ddf.map_partitions(
-            _keys, names, options.dropna, meta=meta, enforce_metadata=False
+            _keys, names, options.dropna, meta=ddf._meta[names], enforce_metadata=False
         )
         meta = pd.DataFrame({"report": pd.Series([], dtype=object)})
         rows = ddf.map_partitions(
