@@ -140,13 +140,13 @@ def _shown(value):
 
 
 def _check_crs(value):
-    if isinstance(value, str) and value.strip().lower() in ("auto", "auto-group"):
-        return value
-    if isinstance(value, str) and value.strip().lower() == "sphere":
+    word = value.strip().lower() if isinstance(value, str) else None
+    if word == "sphere":
         return "sphere"
-    from geoalpha.crs_parsing import target_crs
+    if word not in ("auto", "auto-group"):
+        from geoalpha.crs_parsing import target_crs
 
-    target_crs(value)  # raises on anything but a projected CRS
+        target_crs(value)  # raises on anything but a projected CRS
     return value
 
 
