@@ -237,7 +237,8 @@ def _session(params: dict, size, points_layer=False) -> Iterator:
     keys = ("output", "overwrite", "engine", "preview")
     target = {k: params.pop(k) for k in keys} | {"layer": params.pop("output_layer")}
     verbosity = _verbosity(params.pop("verbose"), params.pop("quiet"))
-    show = False if params["progress"] is None and verbosity < 0 else params["progress"]
+    if params["progress"] is None and verbosity < 0:
+        params["progress"] = False  # -q: no bar (in hull() too) unless --progress
 
     # Importing geopandas (read) and matplotlib (preview) takes about a second.
     load = {m: 0 if m in sys.modules else 800_000 for m in ("geopandas", "matplotlib")}
@@ -251,7 +252,10 @@ def _session(params: dict, size, points_layer=False) -> Iterator:
 
     names = ("read", *HULL_PHASES, "write")
     names += ("preview",) if target["preview"] is not None else ()
-    with _reporting(verbosity), phases(names, show, costs=after_hull) as bar:
+    with (
+        _reporting(verbosity),
+        phases(names, params["progress"], costs=after_hull) as bar,
+    ):
         rows = size / 50 if size else 100_000  # a guess until INPUT is read
         costs = hull_costs(rows, rows / 100, per_group_crs=False)
         costs["read"] = load["geopandas"] + (0.04 * size if size else 2 * rows)
@@ -349,8 +353,6 @@ def _run(points, target, verbosity, bar, *, source, by, extra_layers=None, **opt
     from geoalpha.hulls import hull
     from geoalpha.io.files import write_hulls
 
-    if options.get("progress") is None and verbosity < 0:
-        options["progress"] = False
     key = None if not by else by[0] if len(by) == 1 else by
     hulls = hull(points, by=key, **options)
     if len(hulls) == 0:
