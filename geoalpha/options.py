@@ -47,12 +47,13 @@ class OptionMeta:
 
     Attributes
     ----------
-    kind : str
-        ``"bool"``, ``"int"``, ``"float"``, ``"number"`` (an int stays an
-        int, another real a float), ``"choice"`` or ``"crs"``.
     doc : str
         numpydoc text of the parameter: the type line (made from the field's
         type and default), then the description given to :func:`option`.
+    kind : str
+        ``"bool"``, ``"int"``, ``"float"``, ``"number"`` (an int stays an
+        int, another real a float), ``"choice"`` or ``"crs"``; by default
+        from the field's annotation (``"choice"`` with ``choices``).
     choices, low, high, low_open, optional
         Allowed values, bounds (``low_open`` excludes ``low``), None allowed.
     what : str, optional
@@ -65,8 +66,8 @@ class OptionMeta:
         :class:`~geoalpha.errors.InvalidInputError`) instead of the generic one.
     """
 
-    kind: str
     doc: str
+    kind: str = ""
     choices: tuple = ()
     low: float | None = None
     high: float | None = None
@@ -224,7 +225,6 @@ class Options:
 
     alpha: float | None = option(
         None,
-        kind="float",
         low=0.0,
         optional=True,
         doc="Use this alpha (1/metre) for every group instead of the optimum;\n"
@@ -235,14 +235,12 @@ class Options:
     )
     holes: bool = option(
         False,
-        kind="bool",
         doc="Keep holes (True) or fill every hole (False: no empty space in\n"
         "the middle).",
         help="Keep holes inside the shapes, or fill them.",
     )
     components: int = option(
         1,
-        kind="int",
         low=1,
         doc="Largest number of separate pieces per group (a MultiPolygon when\n"
         "more than 1).",
@@ -268,7 +266,6 @@ class Options:
     )
     method: str = option(
         "alpha",
-        kind="choice",
         choices=METHODS,
         doc='``"alpha"``: the optimal alpha shape; ``"convex"``: convex hulls;\n'
         '``"concave"``: ``shapely.concave_hull(ratio=ratio)``; ``"knn"``:\n'
@@ -279,7 +276,6 @@ class Options:
     )
     search: str = option(
         "exact",
-        kind="choice",
         choices=SEARCHES,
         doc='How the optimum is searched; ``"ladder"`` and ``"bisect"``\n'
         "reproduce the seed paper's and ``alphashape``'s searches, for\n"
@@ -289,7 +285,6 @@ class Options:
     )
     max_iterations: int = option(
         10_000,
-        kind="int",
         low=1,
         doc='Bisection steps before ``search="bisect"`` gives up.',
         metavar="N",
@@ -297,7 +292,6 @@ class Options:
     )
     ratio: float = option(
         0.3,
-        kind="float",
         low=0.0,
         high=1.0,
         doc='For ``method="concave"``: 0 is the tightest, 1 the convex hull.',
@@ -305,14 +299,12 @@ class Options:
     )
     k: int = option(
         3,
-        kind="int",
         low=1,
         doc='For ``method="knn"``: the number of neighbours to start with.',
         help="Starting number of neighbours for --method knn.",
     )
     degenerate: str = option(
         "buffer",
-        kind="choice",
         choices=DEGENERATE_POLICIES,
         doc="Groups with fewer than 3 distinct points or all collinear have\n"
         'no alpha shape: ``"buffer"`` gives them a polygon ``buffer``\n'
@@ -324,7 +316,6 @@ class Options:
     )
     buffer: float = option(
         1.0,
-        kind="float",
         low=0.0,
         low_open=True,
         doc='Width for ``degenerate="buffer"``, in metres (in the coordinate\n'
@@ -335,7 +326,6 @@ class Options:
     )
     vertices: bool = option(
         False,
-        kind="bool",
         doc="Accept non-point geometries and use their vertices as points\n"
         "(otherwise they are an error).",
         flags=("--vertices",),
@@ -344,7 +334,6 @@ class Options:
     )
     dropna: bool = option(
         True,
-        kind="bool",
         doc="Drop rows whose group key is missing (counted in a\n"
         ":class:`DroppedRowsWarning`), as in ``dissolve``; False makes them a\n"
         "group of their own.",
@@ -352,14 +341,12 @@ class Options:
     )
     sort: bool = option(
         True,
-        kind="bool",
         doc="Sort the groups by key, as in ``dissolve``; False keeps the order\n"
         "of first appearance.",
         help="Write the groups sorted by --by value, or in order of first appearance.",
     )
     progress: bool | None = option(
         None,
-        kind="bool",
         optional=True,
         doc="Show one progress bar through every phase (needs ``pip install\n"
         '"geoalpha[progress]"``). Default: only for long runs on a terminal.',
@@ -367,7 +354,6 @@ class Options:
     )
     n_jobs: int | None = option(
         None,
-        kind="int",
         doc="Threads of the compiled kernel, which spreads the groups over them.\n"
         "None or -1: every core. The result is the same for every value.",
         flags=("-j", "--jobs"),
@@ -378,7 +364,6 @@ class Options:
 
     outliers: int | float = option(
         0,
-        kind="number",
         validate=check_outliers,
         doc='Rows each group may leave out (``method="alpha"``, exact search):\n'
         "a fraction in ``[0, 1)`` of its rows (``k = floor(outliers * rows)``)\n"
@@ -392,7 +377,6 @@ class Options:
     )
     grow: float = option(
         0.0,
-        kind="float",
         low=0.0,
         what="a distance >= 0 (metres)",
         doc="Grow every hull (not the degenerate buffers) by this distance in\n"
@@ -437,10 +421,17 @@ class Options:
         return cls(**kwargs)
 
 
+#: The ``kind`` of an option by its annotation (strings: PEP 563).
+_KINDS = {"bool": "bool", "int": "int", "float": "float", "int | float": "number"}
+
+
 def _completed(fields: tuple[dataclasses.Field, ...]) -> tuple[dataclasses.Field, ...]:
-    """Give each field's :class:`OptionMeta` its default flag and its type line."""
+    """Give each field's :class:`OptionMeta` its kind, default flag and type line."""
     for f in fields:
         meta = f.metadata["meta"]
+        if not meta.kind:  # OptionMeta is frozen for its users; completed here, once
+            kind = "choice" if meta.choices else _KINDS[f.type.removesuffix(" | None")]
+            object.__setattr__(meta, "kind", kind)
         dashed = f.name.replace("_", "-")
         flag = f"--{dashed}/--no-{dashed}" if meta.kind == "bool" else f"--{dashed}"
         kind = {"number": "float or int", "crs": '"auto", "sphere", CRS or None'}
@@ -453,7 +444,6 @@ def _completed(fields: tuple[dataclasses.Field, ...]) -> tuple[dataclasses.Field
         else:
             default = f"default {f.default!r}"
         doc = f"{kind.get(meta.kind, meta.kind)}, {default}\n    "
-        # OptionMeta is frozen for its users; it is completed here, once.
         object.__setattr__(meta, "flags", meta.flags or (flag,))
         object.__setattr__(meta, "doc", doc + meta.doc.replace("\n", "\n    "))
     return fields
