@@ -110,19 +110,13 @@ class _RegisterOnImport:
             exec_module(module)
             if self in sys.meta_path:
                 sys.meta_path.remove(self)
-            _register()
+            importlib.import_module("geoalpha.accessor").register()
 
         loader.exec_module = exec_and_register
         return spec
 
 
-def _register() -> None:
-    from geoalpha.accessor import register
-
-    register()
-
-
 if "geopandas" in sys.modules:
-    _register()
+    importlib.import_module("geoalpha.accessor").register()
 elif not any(isinstance(f, _RegisterOnImport) for f in sys.meta_path):
     sys.meta_path.insert(0, _RegisterOnImport())

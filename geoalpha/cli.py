@@ -218,22 +218,27 @@ def _input_size(path) -> int | None:
 
 
 @contextlib.contextmanager
-def _session(verbose, quiet, progress, size, points_layer=False, **target) -> Iterator:
-    """Run a command: check OUTPUT, yield :func:`_run` bound to ``target``.
+def _session(params: dict, size, points_layer=False) -> Iterator:
+    """Run a command: check OUTPUT, yield :func:`_run` bound to the output.
 
-    ``target``: _run's ``output``, ``layer``, ``overwrite``, ``engine``,
-    ``preview``. Messages as :func:`_reporting` shows them; one progress bar
-    over ``read``, the phases of hull(), ``write`` and ``preview``, their
-    shares estimated from the input's bytes until it is read, then from its
-    rows and groups. ``-q`` means no bar unless ``--progress``.
+    Takes the output's flags out of ``params``, the command's: ``output``,
+    ``output_layer``, ``overwrite``, ``engine``, ``preview``, ``verbose`` and
+    ``quiet`` (the others are left for the command). Messages as
+    :func:`_reporting` shows them; one progress bar over ``read``, the phases
+    of hull(), ``write`` and ``preview``, their shares estimated from the
+    input's bytes until it is read, then from its rows and groups. ``-q``
+    means no bar unless ``--progress``.
     """
     import functools
 
     from geoalpha.frame.progress import HULL_PHASES, hull_costs, phases
     from geoalpha.io.files import check_output
 
-    verbosity = _verbosity(verbose, quiet)
-    show = False if progress is None and verbosity < 0 else progress
+    keys = ("output", "overwrite", "engine", "preview")
+    target = {k: params.pop(k) for k in keys} | {"layer": params.pop("output_layer")}
+    verbosity = _verbosity(params.pop("verbose"), params.pop("quiet"))
+    if params["progress"] is None and verbosity < 0:
+        params["progress"] = False  # -q: no bar (in hull() too) unless --progress
 
     # Importing geopandas (read) and matplotlib (preview) takes about a second.
     load = {m: 0 if m in sys.modules else 800_000 for m in ("geopandas", "matplotlib")}
@@ -247,7 +252,10 @@ def _session(verbose, quiet, progress, size, points_layer=False, **target) -> It
 
     names = ("read", *HULL_PHASES, "write")
     names += ("preview",) if target["preview"] is not None else ()
-    with _reporting(verbosity), phases(names, show, costs=after_hull) as bar:
+    with (
+        _reporting(verbosity),
+        phases(names, params["progress"], costs=after_hull) as bar,
+    ):
         rows = size / 50 if size else 100_000  # a guess until INPUT is read
         costs = hull_costs(rows, rows / 100, per_group_crs=False)
         costs["read"] = load["geopandas"] + (0.04 * size if size else 2 * rows)
@@ -257,7 +265,7 @@ def _session(verbose, quiet, progress, size, points_layer=False, **target) -> It
             target["output"], layer=target["layer"], overwrite=target["overwrite"]
         )
         _check_preview(target["preview"])
-        yield functools.partial(_run, verbosity=verbosity, bar=bar, **target)
+        yield functools.partial(_run, target=target, verbosity=verbosity, bar=bar)
 
 
 def _plural(n: int, noun: str) -> str:
@@ -277,19 +285,14 @@ def _left_out(points, hulls, by: list[str], options: dict) -> str:
     if by and options.get("dropna", True):
         codes[points[by].isna().any(axis=1).to_numpy()] = -1
     counts = scan_rows(points, codes, bool(options.get("vertices")))[0].counts
-    reasons = []
-    if counts["missing"]:
-        reasons.append(
-            f"{counts['missing']:,} without a point (a missing, empty or NaN geometry)"
-        )
-    if counts["no_key"]:
-        reasons.append(
-            f"{counts['no_key']:,} without a --by value (--no-dropna keeps them)"
-        )
     dropped = left - counts["missing"] - counts["no_key"]
-    if dropped > 0:
-        reasons.append(f"{dropped:,} in groups without alpha shape (--degenerate drop)")
-    return f"; {left:,} of {len(points):,} rows left out: " + ", ".join(reasons)
+    reasons = [
+        (counts["missing"], "without a point (a missing, empty or NaN geometry)"),
+        (counts["no_key"], "without a --by value (--no-dropna keeps them)"),
+        (dropped, "in groups without alpha shape (--degenerate drop)"),
+    ]
+    shown = ", ".join(f"{n:,} {why}" for n, why in reasons if n > 0)
+    return f"; {left:,} of {len(points):,} rows left out: {shown}"
 
 
 def _summary(points, hulls, source: str, by: list[str], options: dict, unit) -> list:
@@ -341,28 +344,15 @@ def _summary(points, hulls, source: str, by: list[str], options: dict, unit) -> 
     return lines
 
 
-def _run(
-    points,
-    *,
-    output: str,
-    source: str,
-    by: list[str],
-    layer: str | None,
-    overwrite: bool,
-    engine: str | None,
-    verbosity: int,
-    preview: str | None,
-    bar,
-    extra_layers: dict | None = None,
-    **options,
-) -> None:
-    """Compute the hulls (in the command's ``bar``), write them and report."""
+def _run(points, target, verbosity, bar, *, source, by, extra_layers=None, **options):
+    """Compute the hulls (in the command's ``bar``), write them and report.
+
+    ``target``: ``output``, ``layer``, ``overwrite``, ``engine`` and ``preview``.
+    """
     from geoalpha.frame.schema import planar_unit, with_area_unit
     from geoalpha.hulls import hull
     from geoalpha.io.files import write_hulls
 
-    if options.get("progress") is None and verbosity < 0:
-        options["progress"] = False
     key = None if not by else by[0] if len(by) == 1 else by
     hulls = hull(points, by=key, **options)
     if len(hulls) == 0:
@@ -372,12 +362,13 @@ def _run(
     unit = planar_unit(points.crs, options.get("crs", "auto"))
     table = with_area_unit(hulls, unit)  # say the unit instead of a wrong "m2"
     bar.start("write")
+    output, layer, preview = target["output"], target["layer"], target["preview"]
     mapping = write_hulls(
         table,
         output,
         layer=layer,
-        overwrite=overwrite,
-        engine=engine,
+        overwrite=target["overwrite"],
+        engine=target["engine"],
         extra_layers=extra_layers,
     )
     if preview is not None:
@@ -478,32 +469,26 @@ def _checked(ctx: click.Context, param: click.Parameter, value):
         raise click.BadParameter(str(err), ctx, param) from None
 
 
-def _option(name: str):
-    """Return the click option of hull()'s option ``name``, from its ``META``."""
-    meta = META[name]
-    if meta.kind == "bool":
-        flag_only = "/" not in meta.flags[-1]
-        typed = {"is_flag": flag_only or None}
-    else:
-        choices = f"[{'|'.join(meta.choices)}]" if meta.choices else None
-        metavar = meta.metavar or choices or meta.kind.upper()
-        typed = {"type": click.STRING, "callback": _checked, "metavar": metavar}
-    return click.option(
-        *meta.flags,
-        name,
-        default=defaults(name)[name],
-        show_default=True,
-        help=meta.help,
-        **typed,
-    )
-
-
 def _options(*names: str):
-    """Apply :func:`_option` for ``names`` (all options of hull() if none), in order."""
+    """Add the click options of hull()'s ``names`` (all if none), from ``META``."""
 
     def decorate(command):
         for name in reversed(names or tuple(META)):
-            command = _option(name)(command)
+            meta = META[name]
+            if meta.kind == "bool":  # a switch, or a flag alone (--vertices)
+                typed = {"is_flag": "/" not in meta.flags[-1] or None}
+            else:
+                choices = f"[{'|'.join(meta.choices)}]" if meta.choices else None
+                metavar = meta.metavar or choices or meta.kind.upper()
+                typed = {"type": click.STRING, "callback": _checked, "metavar": metavar}
+            command = click.option(
+                *meta.flags,
+                name,
+                default=defaults(name)[name],
+                show_default=True,
+                help=meta.help,
+                **typed,
+            )(command)
         return command
 
     return decorate
@@ -592,19 +577,7 @@ _preview_option = click.option(
 @_preview_option
 @_verbose_option
 @_quiet_option
-def hull(
-    input_path: str,
-    output: str,
-    by: tuple[str, ...],
-    crs_in: str,
-    output_layer: str | None,
-    overwrite: bool,
-    engine: str | None,
-    preview: str | None,
-    verbose: int,
-    quiet: int,
-    **options,
-) -> None:
+def hull(input_path: str, by: tuple[str, ...], crs_in: str, **options) -> None:
     """Write one hull per group of the points in INPUT to OUTPUT.
 
     INPUT is a GeoPackage, Shapefile, GeoJSON, FlatGeobuf, GeoParquet or
@@ -634,17 +607,7 @@ def hull(
     """  # noqa: D301
     from geoalpha.io.files import read_input_points
 
-    with _session(
-        verbose,
-        quiet,
-        options["progress"],
-        _input_size(input_path),  # None for a database
-        output=output,
-        layer=output_layer,
-        overwrite=overwrite,
-        engine=engine,
-        preview=preview,
-    ) as run:
+    with _session(options, _input_size(input_path)) as run:  # size None: a database
         work_crs = options["crs"]  # checked at the flag: none is None
         reading = {
             k: options.pop(k) for k in ("x", "y", "layer", "sql", "geometry_column")
@@ -691,17 +654,7 @@ hull.help = hull.help.replace("RESULT_COLUMNS", _result_columns())
 @_preview_option
 @_verbose_option
 @_quiet_option
-def demo(
-    output: str,
-    dataset: str,
-    grow: float,
-    overwrite: bool,
-    engine: str | None,
-    progress: bool | None,
-    preview: str | None,
-    verbose: int,
-    quiet: int,
-) -> None:
+def demo(dataset: str, **params) -> None:
     """Write the optimal hulls of a bundled real dataset to OUTPUT.
 
     A first run that needs no data of your own; open OUTPUT in QGIS. A
@@ -725,25 +678,14 @@ def demo(
     """  # noqa: D301
     from geoalpha import datasets
 
-    gpkg = output.lower().endswith(".gpkg")
-    with _session(
-        verbose,
-        quiet,
-        progress,
-        _input_size(datasets.path(dataset)),
-        gpkg,
-        output=output,
-        layer=None,
-        overwrite=overwrite,
-        engine=engine,
-        preview=preview,
-    ) as run:
+    gpkg = params["output"].lower().endswith(".gpkg")
+    params["output_layer"] = None  # the hulls' layer is named after the file
+    with _session(params, _input_size(datasets.path(dataset)), gpkg) as run:
         points = datasets.load(dataset)
         run(
             points,
             source=f"dataset {dataset}",
             by=[DATASETS[dataset][3]],
             extra_layers={"points": points} if gpkg else None,
-            progress=progress,
-            grow=grow,
+            **params,  # grow and progress
         )

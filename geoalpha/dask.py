@@ -119,14 +119,9 @@ def _sample(part) -> pd.DataFrame:
 
 
 def _keys(part, names: list, dropna: bool) -> pd.DataFrame:
-    """Return the distinct group keys of a partition; ``__rows__``: its rows, once."""
+    """Return the distinct group keys of a partition."""
     keys = part[names]
-    if dropna:
-        keys = keys.dropna()
-    keys = keys.drop_duplicates().assign(__key__=True)
-    if not len(keys) and len(part):
-        keys = part[names].iloc[:1].assign(__key__=False)
-    return keys.assign(__rows__=np.where(np.arange(len(keys)) == 0, len(part), 0))
+    return (keys.dropna() if dropna else keys).drop_duplicates()
 
 
 def _rows(part, names: list, options: Options) -> pd.DataFrame:
@@ -141,10 +136,9 @@ def _rows(part, names: list, options: Options) -> pd.DataFrame:
 def _check(keys, rows, sample, by, source_crs, crs) -> None:
     """Make the errors and warnings about the input, once, in the eager order."""
     if keys is not None:  # and rows
-        names = [c for c in keys.columns if c not in ("__rows__", "__key__")]
-        groups = keys.loc[keys["__key__"].to_numpy(bool), names].drop_duplicates()
-        check_grouping(len(groups), int(keys["__rows__"].sum()), by)
-        report_rows(merge_reports(rows["report"].tolist()))
+        report = merge_reports(rows["report"].tolist())
+        check_grouping(len(keys.drop_duplicates()), report.n_rows, by)
+        report_rows(report)
     if sample is not None:
         check_distortion(sample[["x", "y"]].to_numpy(), source_crs, crs)
 
@@ -153,9 +147,8 @@ def _checks(ddf, names: list, by, options: Options):
     """Return a lazy :func:`_check` of ``ddf``, or None when nothing can warn."""
     keys = rows = sample = None
     if names:
-        meta = _keys(ddf._meta, names, options.dropna)
         keys = ddf.map_partitions(
-            _keys, names, options.dropna, meta=meta, enforce_metadata=False
+            _keys, names, options.dropna, meta=ddf._meta[names], enforce_metadata=False
         )
         meta = pd.DataFrame({"report": pd.Series([], dtype=object)})
         rows = ddf.map_partitions(

@@ -47,24 +47,27 @@ class OptionMeta:
 
     Attributes
     ----------
+    doc : str
+        numpydoc text of the parameter: the type line (made from the field's
+        type and default), then the description given to :func:`option`.
     kind : str
         ``"bool"``, ``"int"``, ``"float"``, ``"number"`` (an int stays an
-        int, another real a float), ``"choice"`` or ``"crs"``.
-    doc : str
-        numpydoc text of the parameter (type line, then the description).
+        int, another real a float), ``"choice"`` or ``"crs"``; by default
+        from the field's annotation (``"choice"`` with ``choices``).
     choices, low, high, low_open, optional
         Allowed values, bounds (``low_open`` excludes ``low``), None allowed.
     what : str, optional
         The allowed values in words, when the fields above do not say it.
     flags, metavar, help
-        Command-line spelling (``("--holes/--no-holes",)``), metavar, help.
+        Command-line spelling (by default ``--name``, ``--name/--no-name`` for
+        a bool: ``("--holes/--no-holes",)``), metavar, help.
     validate : callable, optional
         A check of its own (returns the value or raises
         :class:`~geoalpha.errors.InvalidInputError`) instead of the generic one.
     """
 
-    kind: str
     doc: str
+    kind: str = ""
     choices: tuple = ()
     low: float | None = None
     high: float | None = None
@@ -138,13 +141,13 @@ def _shown(value):
 
 
 def _check_crs(value):
-    if isinstance(value, str) and value.strip().lower() in ("auto", "auto-group"):
-        return value
-    if isinstance(value, str) and value.strip().lower() == "sphere":
+    word = value.strip().lower() if isinstance(value, str) else None
+    if word == "sphere":
         return "sphere"
-    from geoalpha.crs_parsing import target_crs
+    if word not in ("auto", "auto-group"):
+        from geoalpha.crs_parsing import target_crs
 
-    target_crs(value)  # raises on anything but a projected CRS
+        target_crs(value)  # raises on anything but a projected CRS
     return value
 
 
@@ -222,45 +225,37 @@ class Options:
 
     alpha: float | None = option(
         None,
-        kind="float",
         low=0.0,
         optional=True,
-        doc="float, optional\n    Use this alpha (1/metre) for every group instead of "
-        "the optimum;\n    0 is the convex hull.",
-        flags=("--alpha",),
+        doc="Use this alpha (1/metre) for every group instead of the optimum;\n"
+        "0 is the convex hull.",
         metavar="FLOAT",
         help="Use this alpha (1/metre) instead of searching for the optimum; "
         "0 gives convex hulls.",
     )
     holes: bool = option(
         False,
-        kind="bool",
-        doc="bool, default False\n    Keep holes (True) or fill every hole "
-        "(False: no empty space in\n    the middle).",
-        flags=("--holes/--no-holes",),
+        doc="Keep holes (True) or fill every hole (False: no empty space in\n"
+        "the middle).",
         help="Keep holes inside the shapes, or fill them.",
     )
     components: int = option(
         1,
-        kind="int",
         low=1,
-        doc="int, default 1\n    Largest number of separate pieces per group "
-        "(a MultiPolygon when\n    more than 1).",
-        flags=("--components",),
+        doc="Largest number of separate pieces per group (a MultiPolygon when\n"
+        "more than 1).",
         help="Most pieces a group's shape may have (1: one Polygon).",
     )
     crs: Any = option(
         "auto",
         kind="crs",
-        doc='"auto", "sphere", CRS or None, default "auto"\n'
-        '    Metric CRS of the computation. ``"auto"``: lon/lat (and Mercator)\n'
-        "    input goes to one UTM zone when all points fit it, else to a UTM\n"
-        "    zone or a local equal-area CRS per group; projected input is kept.\n"
-        "    A projected CRS forces that CRS (feet are scaled to metres). None:\n"
-        "    the coordinates as planar numbers (alpha in 1/degree for lon/lat).\n"
-        '    ``"sphere"``: no projection, on the sphere of WGS84\'s authalic\n'
-        "    radius (continent-wide groups; see the sphere page of the guide).",
-        flags=("--crs",),
+        doc='Metric CRS of the computation. ``"auto"``: lon/lat (and Mercator)\n'
+        "input goes to one UTM zone when all points fit it, else to a UTM\n"
+        "zone or a local equal-area CRS per group; projected input is kept.\n"
+        "A projected CRS forces that CRS (feet are scaled to metres). None:\n"
+        "the coordinates as planar numbers (alpha in 1/degree for lon/lat).\n"
+        '``"sphere"``: no projection, on the sphere of WGS84\'s authalic\n'
+        "radius (continent-wide groups; see the sphere page of the guide).",
         metavar="auto|sphere|CRS|none",
         help="Metric CRS the shapes are computed in; 'auto' picks a UTM zone "
         "(or a local CRS per group) for lon/lat input and keeps projected input "
@@ -271,127 +266,96 @@ class Options:
     )
     method: str = option(
         "alpha",
-        kind="choice",
         choices=METHODS,
-        doc='{"alpha", "convex", "concave", "knn"}, default "alpha"\n'
-        '    ``"alpha"``: the optimal alpha shape; ``"convex"``: convex hulls;\n'
-        '    ``"concave"``: ``shapely.concave_hull(ratio=ratio)``; ``"knn"``:\n'
-        "    the Moreira-Santos k-nearest-neighbour concave hull, starting\n"
-        "    at ``k``. All give the same table.",
-        flags=("--method",),
+        doc='``"alpha"``: the optimal alpha shape; ``"convex"``: convex hulls;\n'
+        '``"concave"``: ``shapely.concave_hull(ratio=ratio)``; ``"knn"``:\n'
+        "the Moreira-Santos k-nearest-neighbour concave hull, starting\n"
+        "at ``k``. All give the same table.",
         help="Shape: optimal alpha shape, convex hull, shapely concave hull "
         "(see --ratio) or k-nearest-neighbour concave hull.",
     )
     search: str = option(
         "exact",
-        kind="choice",
         choices=SEARCHES,
-        doc='{"exact", "ladder", "bisect"}, default "exact"\n'
-        '    How the optimum is searched; ``"ladder"`` and ``"bisect"``\n'
-        "    reproduce the seed paper's and ``alphashape``'s searches, for\n"
-        "    comparison (see :func:`geoalpha.alpha_shapes`).",
-        flags=("--search",),
+        doc='How the optimum is searched; ``"ladder"`` and ``"bisect"``\n'
+        "reproduce the seed paper's and ``alphashape``'s searches, for\n"
+        "comparison (see :func:`geoalpha.alpha_shapes`).",
         help="How the optimal alpha is found: exactly, or (for comparison) with "
         "the integer ladder or float bisection.",
     )
     max_iterations: int = option(
         10_000,
-        kind="int",
         low=1,
-        doc="int, default 10000\n"
-        '    Bisection steps before ``search="bisect"`` gives up.',
-        flags=("--max-iterations",),
+        doc='Bisection steps before ``search="bisect"`` gives up.',
         metavar="N",
         help="Bisection steps before --search bisect gives up.",
     )
     ratio: float = option(
         0.3,
-        kind="float",
         low=0.0,
         high=1.0,
-        doc='float, default 0.3\n    For ``method="concave"``: 0 is the tightest, '
-        "1 the convex hull.",
-        flags=("--ratio",),
+        doc='For ``method="concave"``: 0 is the tightest, 1 the convex hull.',
         help="Concaveness for --method concave (0: tightest, 1: convex).",
     )
     k: int = option(
         3,
-        kind="int",
         low=1,
-        doc='int, default 3\n    For ``method="knn"``: the number of neighbours '
-        "to start with.",
-        flags=("--k",),
+        doc='For ``method="knn"``: the number of neighbours to start with.',
         help="Starting number of neighbours for --method knn.",
     )
     degenerate: str = option(
         "buffer",
-        kind="choice",
         choices=DEGENERATE_POLICIES,
-        doc='{"buffer", "empty", "drop"}, default "buffer"\n'
-        "    Groups with fewer than 3 distinct points or all collinear have\n"
-        '    no alpha shape: ``"buffer"`` gives them a polygon ``buffer``\n'
-        '    metres around their points, ``"empty"`` an empty Polygon,\n'
-        '    ``"drop"`` no row. A :class:`DegenerateGroupWarning` names\n'
-        "    the groups in every case.",
-        flags=("--degenerate",),
+        doc="Groups with fewer than 3 distinct points or all collinear have\n"
+        'no alpha shape: ``"buffer"`` gives them a polygon ``buffer``\n'
+        'metres around their points, ``"empty"`` an empty Polygon,\n'
+        '``"drop"`` no row. A :class:`DegenerateGroupWarning` names\n'
+        "the groups in every case.",
         help="Groups with fewer than 3 distinct or only collinear points: a small "
         "buffer polygon, an empty geometry, or no row.",
     )
     buffer: float = option(
         1.0,
-        kind="float",
         low=0.0,
         low_open=True,
-        doc='float, default 1.0\n    Width for ``degenerate="buffer"``, in metres '
-        "(in the coordinate\n    units with ``crs=None``: degrees for lon/lat "
-        "input).",
-        flags=("--buffer",),
+        doc='Width for ``degenerate="buffer"``, in metres (in the coordinate\n'
+        "units with ``crs=None``: degrees for lon/lat input).",
         metavar="M",
         help="Width of the polygon around a degenerate group with --degenerate "
         "buffer, in metres (in the coordinate units with --crs none).",
     )
     vertices: bool = option(
         False,
-        kind="bool",
-        doc="bool, default False\n    Accept non-point geometries and use their "
-        "vertices as points\n    (otherwise they are an error).",
+        doc="Accept non-point geometries and use their vertices as points\n"
+        "(otherwise they are an error).",
         flags=("--vertices",),
         help="Accept lines and polygons in INPUT and use their vertices as points "
         "(otherwise they are an error).",
     )
     dropna: bool = option(
         True,
-        kind="bool",
-        doc="bool, default True\n    Drop rows whose group key is missing (counted "
-        "in a\n    :class:`DroppedRowsWarning`), as in ``dissolve``; False makes "
-        "them a\n    group of their own.",
-        flags=("--dropna/--no-dropna",),
+        doc="Drop rows whose group key is missing (counted in a\n"
+        ":class:`DroppedRowsWarning`), as in ``dissolve``; False makes them a\n"
+        "group of their own.",
         help="Leave out rows whose --by value is missing, or make them a group.",
     )
     sort: bool = option(
         True,
-        kind="bool",
-        doc="bool, default True\n    Sort the groups by key, as in ``dissolve``; "
-        "False keeps the order\n    of first appearance.",
-        flags=("--sort/--no-sort",),
+        doc="Sort the groups by key, as in ``dissolve``; False keeps the order\n"
+        "of first appearance.",
         help="Write the groups sorted by --by value, or in order of first appearance.",
     )
     progress: bool | None = option(
         None,
-        kind="bool",
         optional=True,
-        doc="bool, optional\n    Show one progress bar through every phase (needs "
-        '``pip install\n    "geoalpha[progress]"``). Default: only for long runs on a '
-        "terminal.",
-        flags=("--progress/--no-progress",),
+        doc="Show one progress bar through every phase (needs ``pip install\n"
+        '"geoalpha[progress]"``). Default: only for long runs on a terminal.',
         help="Show a progress bar [default: when there are many groups].",
     )
     n_jobs: int | None = option(
         None,
-        kind="int",
-        doc="int, optional\n    Threads of the compiled kernel, which spreads the "
-        "groups over them.\n    None or -1: every core. The result is the same "
-        "for every value.",
+        doc="Threads of the compiled kernel, which spreads the groups over them.\n"
+        "None or -1: every core. The result is the same for every value.",
         flags=("-j", "--jobs"),
         metavar="N",
         validate=_check_n_jobs,
@@ -400,15 +364,12 @@ class Options:
 
     outliers: int | float = option(
         0,
-        kind="number",
         validate=check_outliers,
-        doc="float or int, default 0\n"
-        '    Rows each group may leave out (``method="alpha"``, exact search):\n'
-        "    a fraction in ``[0, 1)`` of its rows (``k = floor(outliers * rows)``)\n"
-        "    or a count ``k``. The optimum is then the largest alpha at which at\n"
-        "    most ``components`` pieces cover ``rows - k`` rows or more; only\n"
-        "    they are kept. :func:`outlier_rows` tells which rows were left out.",
-        flags=("--outliers",),
+        doc='Rows each group may leave out (``method="alpha"``, exact search):\n'
+        "a fraction in ``[0, 1)`` of its rows (``k = floor(outliers * rows)``)\n"
+        "or a count ``k``. The optimum is then the largest alpha at which at\n"
+        "most ``components`` pieces cover ``rows - k`` rows or more; only\n"
+        "they are kept. :func:`outlier_rows` tells which rows were left out.",
         metavar="FRACTION|COUNT",
         help="Rows each group may leave out: a fraction of its rows (0.02) or a "
         "count (3); the hull is then the tightest shape around the others. The "
@@ -416,14 +377,11 @@ class Options:
     )
     grow: float = option(
         0.0,
-        kind="float",
         low=0.0,
         what="a distance >= 0 (metres)",
-        doc="float, default 0.0\n"
-        "    Grow every hull (not the degenerate buffers) by this distance in\n"
-        "    metres (coordinate units with ``crs=None``), so that every point\n"
-        "    is strictly inside; ``area_m2`` is the grown polygon's area.",
-        flags=("--grow",),
+        doc="Grow every hull (not the degenerate buffers) by this distance in\n"
+        "metres (coordinate units with ``crs=None``), so that every point\n"
+        "is strictly inside; ``area_m2`` is the grown polygon's area.",
         metavar="M",
         help="Grow every hull by M metres (in coordinate units with --crs none) so "
         "that every point is strictly inside, for QGIS 'Count points in polygon' "
@@ -463,8 +421,36 @@ class Options:
         return cls(**kwargs)
 
 
+#: The ``kind`` of an option by its annotation (strings: PEP 563).
+_KINDS = {"bool": "bool", "int": "int", "float": "float", "int | float": "number"}
+
+
+def _completed(fields: tuple[dataclasses.Field, ...]) -> tuple[dataclasses.Field, ...]:
+    """Give each field's :class:`OptionMeta` its kind, default flag and type line."""
+    for f in fields:
+        meta = f.metadata["meta"]
+        if not meta.kind:  # OptionMeta is frozen for its users; completed here, once
+            kind = "choice" if meta.choices else _KINDS[f.type.removesuffix(" | None")]
+            object.__setattr__(meta, "kind", kind)
+        dashed = f.name.replace("_", "-")
+        flag = f"--{dashed}/--no-{dashed}" if meta.kind == "bool" else f"--{dashed}"
+        kind = {"number": "float or int", "crs": '"auto", "sphere", CRS or None'}
+        if meta.choices:
+            kind[meta.kind] = "{" + ", ".join(f'"{c}"' for c in meta.choices) + "}"
+        if f.default is None:
+            default = "optional"
+        elif isinstance(f.default, str):
+            default = f'default "{f.default}"'
+        else:
+            default = f"default {f.default!r}"
+        doc = f"{kind.get(meta.kind, meta.kind)}, {default}\n    "
+        object.__setattr__(meta, "flags", meta.flags or (flag,))
+        object.__setattr__(meta, "doc", doc + meta.doc.replace("\n", "\n    "))
+    return fields
+
+
 #: The fields of :class:`Options`, in signature order.
-FIELDS: tuple[dataclasses.Field, ...] = dataclasses.fields(Options)
+FIELDS: tuple[dataclasses.Field, ...] = _completed(dataclasses.fields(Options))
 #: The option names, in signature order.
 NAMES: tuple[str, ...] = tuple(f.name for f in FIELDS)
 #: The :class:`OptionMeta` of every option, by name.
@@ -542,13 +528,7 @@ def signature(func: Callable) -> inspect.Signature:
     return inspect.Signature(fixed)
 
 
-def docstring(template: str, indent: str = "    ", skip: tuple[str, ...] = ()) -> str:
+def docstring(template: str, indent: str = "    ") -> str:
     """Fill ``{options}`` in ``template`` with the numpydoc entries of the options."""
-    lines = []
-    for f in FIELDS:
-        if f.name in skip:
-            continue
-        kind, _, text = f.metadata["meta"].doc.partition("\n")
-        lines.append(f"{indent}{f.name} : {kind}")
-        lines.extend(f"{indent}{line}" for line in text.splitlines())
-    return template.replace("{options}", "\n".join(lines).lstrip())
+    entries = "\n".join(f"{name} : {meta.doc}" for name, meta in META.items())
+    return template.replace("{options}", entries.replace("\n", "\n" + indent))
