@@ -261,11 +261,6 @@ def _database_cause(err: BaseException, kind) -> BaseException | None:
     return None
 
 
-def _scalar(conn, sql: str, *params) -> Any:
-    row = _execute(conn, sql, params).fetchone()
-    return None if row is None else row[0]
-
-
 _GEOMETRY_OID = "SELECT to_regtype('geometry')::oid"
 
 
@@ -571,14 +566,18 @@ def _output_table(table: str | None) -> tuple[str | None, str]:
 
 
 def _check_target(conn, schema, name, table, overwrite, where) -> tuple[str, bool]:
-    _check_postgis(_scalar(conn, _GEOMETRY_OID), where)
+    oid, schema, found, exists = _execute(  # one round trip
+        conn,
+        f"{_GEOMETRY_OID}, s, to_regnamespace(quote_ident(s)), "
+        "to_regclass(quote_ident(s) || '.' || quote_ident(%s)) "
+        "FROM (SELECT coalesce(%s, current_schema()) AS s) AS _ga_s",
+        (name, schema),
+    ).fetchone()
+    _check_postgis(oid, where)
     if schema is None:
-        schema = _scalar(conn, "SELECT current_schema()")
-        if schema is None:
-            raise DatabaseError(f"{where} has no schema on its search path")
-    elif _scalar(conn, "SELECT to_regnamespace(%s)", _quote(schema)) is None:
+        raise DatabaseError(f"{where} has no schema on its search path")
+    if found is None:
         raise DatabaseError(f"schema {schema} does not exist in {where}")
-    exists = _scalar(conn, "SELECT to_regclass(%s)", _quote(schema, name))
     if exists is not None and not overwrite:
         raise DatabaseError(
             f"table {table} already exists in {where}; use "
@@ -685,19 +684,24 @@ def _rename_indexes(conn, schema: str, name: str, temporary: str) -> None:
     for (index,) in rows:
         if temporary not in index:
             continue
-        new = index.replace(temporary, name)
-        new = new.encode("utf-8")[:_IDENTIFIER_BYTES].decode("utf-8", "ignore")
-        if _scalar(conn, "SELECT to_regclass(%s)", _quote(schema, new)) is None:
+        new = _truncate_bytes(index.replace(temporary, name), _IDENTIFIER_BYTES)
+        free = conn.exec_driver_sql("SELECT to_regclass(%s)", (_quote(schema, new),))
+        if free.scalar() is None:
             conn.exec_driver_sql(
                 f"ALTER INDEX {_quote(schema, index)} RENAME TO {_quote(new)}"
             )
 
 
-def _one_line(err: BaseException | str) -> str:
-    """Return the text of ``err`` on one line, its lines joined as sentences."""
+def _truncate_bytes(name: str, limit: int) -> str:
+    """Longest prefix of ``name`` whose UTF-8 encoding fits in ``limit`` bytes."""
+    return name.encode("utf-8")[:limit].decode("utf-8", errors="ignore")
+
+
+def _one_line(err: BaseException | str, *, sentences: bool = True) -> str:
+    """Return the text of ``err`` on one line (``sentences``: lines end in ".")."""
     lines = [" ".join(line.split()) for line in str(err).splitlines()]
     lines = [line for line in lines if line]
     for i, line in enumerate(lines[:-1]):
-        if line[-1] not in ".:;,!?":
+        if sentences and line[-1] not in ".:;,!?":
             lines[i] = line + "."
     return " ".join(lines) or type(err).__name__
