@@ -171,7 +171,7 @@ def read_input_points(
             f"{_term('sql= and geometry_column=', '--sql and --geometry-column')} "
             "apply to a postgresql:// INPUT"
         )
-    local = "://" not in source and not source.startswith(("/vsi", "PG:"))
+    local = "://" not in source and not source.startswith("/vsi")  # (PG: refused)
     if local and not Path(source).exists():
         raise FileNotFoundError(f"input file {shown} does not exist")
     if local and Path(source).is_file() and not os.access(source, os.R_OK):
@@ -179,10 +179,9 @@ def read_input_points(
     crs = parse_crs(crs)
 
     suffix = Path(source).suffix.lower()
-    is_table = suffix in _TABLE_SUFFIXES
-    if suffix in _PARQUET_SUFFIXES and not _has_geo_metadata(source):
-        is_table = True
-    if is_table:
+    if suffix in _TABLE_SUFFIXES or (
+        suffix in _PARQUET_SUFFIXES and not _has_geo_metadata(source)
+    ):
         if layer is not None:
             raise InvalidInputError(
                 f"{shown} is a table; {_term('layer=', '--layer')} applies to "

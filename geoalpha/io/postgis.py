@@ -35,7 +35,7 @@ __all__ = [
 
 _SCHEMES = ("postgresql://", "postgres://", "postgresql+psycopg://")
 _CONNECT_TIMEOUT = 15  # seconds, unless the URL says connect_timeout=...
-_LOCK_TIMEOUT = "30s"
+_LOCK_TIMEOUT = "SET LOCAL lock_timeout = '30s'"
 _IDENTIFIER_BYTES = 63  # PostgreSQL's NAMEDATALEN - 1
 _secrets: set[str] = set()
 # one part of schema.table: "quoted" ("" is a quote), or bare up to a dot
@@ -205,9 +205,8 @@ def _connection(url: str, *, write: bool) -> Iterator[Any]:
     try:
         with engine.begin() if write else _read_only(url) as conn:
             connected = True
-            if write:
-                _execute(conn, "SET TRANSACTION READ WRITE")
-                _execute(conn, f"SET LOCAL lock_timeout = '{_LOCK_TIMEOUT}'")
+            if write:  # one round trip (no parameters: the simple protocol)
+                _execute(conn, "SET TRANSACTION READ WRITE; " + _LOCK_TIMEOUT)
             yield conn
     except BaseException as err:
         cause = _database_cause(err, errors)
@@ -232,17 +231,14 @@ def _read_only(url) -> Iterator[Any]:
         idle = url.info.transaction_status == psycopg.pq.TransactionStatus.IDLE
         with url.transaction():
             if idle:  # one round trip (no parameters: the simple protocol)
-                url.execute(
-                    "SET TRANSACTION READ ONLY; "
-                    f"SET LOCAL lock_timeout = '{_LOCK_TIMEOUT}'"
-                )
+                url.execute("SET TRANSACTION READ ONLY; " + _LOCK_TIMEOUT)
             yield url
         return
     parsed, args = _parse_url(url)
     _, params = parsed.get_dialect()().create_connect_args(parsed)
     with psycopg.connect(**params, **args) as conn:  # commits, or rolls back
         conn.read_only = True
-        conn.execute(f"SET LOCAL lock_timeout = '{_LOCK_TIMEOUT}'")
+        conn.execute(_LOCK_TIMEOUT)
         yield conn
 
 
@@ -668,22 +664,17 @@ def _promote_to_multi(gdf: gpd.GeoDataFrame) -> gpd.GeoDataFrame:
     if not (polygons.any() and (kinds == shapely.GeometryType.MULTIPOLYGON).any()):
         return gdf
     geoms[polygons] = shapely.multipolygons(geoms[polygons, np.newaxis])
-    return gdf.set_geometry(
-        gdf.geometry.__class__(geoms, index=gdf.index, crs=gdf.crs),
-        crs=gdf.crs,
-    )
+    return gdf.set_geometry(gdf.geometry.__class__(geoms, index=gdf.index, crs=gdf.crs))
 
 
 def _rename_indexes(conn, schema: str, name: str, temporary: str) -> None:
     """Give the new table's indexes names after the table, where free."""
     rows = conn.exec_driver_sql(
         "SELECT c.relname FROM pg_index i JOIN pg_class c ON c.oid = i.indexrelid "
-        "WHERE i.indrelid = to_regclass(%s)",
-        (_quote(schema, name),),
+        "WHERE i.indrelid = to_regclass(%s) AND strpos(c.relname, %s) > 0",
+        (_quote(schema, name), temporary),
     ).fetchall()
     for (index,) in rows:
-        if temporary not in index:
-            continue
         new = _truncate_bytes(index.replace(temporary, name), _IDENTIFIER_BYTES)
         free = conn.exec_driver_sql("SELECT to_regclass(%s)", (_quote(schema, new),))
         if free.scalar() is None:
