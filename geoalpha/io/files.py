@@ -249,9 +249,7 @@ def _missing_crs(what: str) -> InvalidInputError:
 
 
 def _cannot_read(source: str, err: BaseException) -> InvalidInputError:
-    return InvalidInputError(
-        f"cannot read {redact(source)}: {_one_line(err, sentences=False)}"
-    )
+    return InvalidInputError(f"cannot read {redact(source)}: {_one_line(err)}")
 
 
 def _read_vector(source: str, shown: str, suffix: str, layer: str | int | None):
@@ -549,9 +547,7 @@ def _write_layers(layers, staged: Path, suffix: str, engine, target: Path) -> No
     except (ImportError, InvalidInputError):
         raise
     except Exception as err:
-        text = _one_line(err, sentences=False).replace(
-            str(staged.parent), str(target.parent)
-        )
+        text = _one_line(err).replace(str(staged.parent), str(target.parent))
         raise OSError(f"cannot write {target}: {text}") from err
     crs = layers[0][0].crs
     if suffix == ".shp" and crs is not None:

@@ -142,7 +142,8 @@ def _parse_url(url: str) -> tuple[sqlalchemy.engine.URL, dict[str, Any]]:
         port = parsed.port  # noqa: F841 - a bad port raises here
     except Exception as err:  # ArgumentError, ValueError for a bad port
         raise InvalidInputError(
-            f"cannot read the database URL {redact(url)}: {redact(_one_line(err))}"
+            f"cannot read the database URL {redact(url)}: "
+            + redact(_one_line(err, sentences=True))
         ) from None
     if parsed.password:
         _secrets.add(str(parsed.password))
@@ -177,11 +178,10 @@ def _message(err: BaseException) -> str:
     orig = getattr(err, "orig", None) or err
     diag = getattr(orig, "diag", None)
     primary = getattr(diag, "message_primary", None) if diag is not None else None
-    text = primary or str(orig)
+    line = _one_line(primary or str(orig), sentences=True)
     # libpq: 'connection failed: connection to server at "h" (ip), port 5 failed:
     # FATAL:  password authentication failed for user "ga"' -> the last part
-    text = re.sub(r"^.*failed:\s*(FATAL:\s*)?", "", _one_line(text)) or _one_line(text)
-    return redact(text)
+    return redact(re.sub(r"^.*failed:\s*(FATAL:\s*)?", "", line) or line)
 
 
 @contextlib.contextmanager
@@ -688,7 +688,7 @@ def _truncate_bytes(name: str, limit: int) -> str:
     return name.encode("utf-8")[:limit].decode("utf-8", errors="ignore")
 
 
-def _one_line(err: BaseException | str, *, sentences: bool = True) -> str:
+def _one_line(err: BaseException | str, *, sentences: bool = False) -> str:
     """Return the text of ``err`` on one line (``sentences``: lines end in ".")."""
     lines = [" ".join(line.split()) for line in str(err).splitlines()]
     lines = [line for line in lines if line]
