@@ -21,11 +21,11 @@ from typing import TYPE_CHECKING, Any
 
 from geoalpha.errors import FLAGS, CRSWarning, InvalidInputError, did_you_mean
 from geoalpha.io.postgis import (
-    _one_line,
-    _truncate_bytes,
     check_postgis_output,
     is_postgres_url,
+    one_line,
     read_postgis,
+    truncate_bytes,
     write_postgis,
 )
 from geoalpha.io.redact import redact, secrets_in
@@ -249,7 +249,7 @@ def _missing_crs(what: str) -> InvalidInputError:
 
 
 def _cannot_read(source: str, err: BaseException) -> InvalidInputError:
-    return InvalidInputError(f"cannot read {redact(source)}: {_one_line(err)}")
+    return InvalidInputError(f"cannot read {redact(source)}: {one_line(err)}")
 
 
 def _read_vector(source: str, shown: str, suffix: str, layer: str | int | None):
@@ -547,7 +547,7 @@ def _write_layers(layers, staged: Path, suffix: str, engine, target: Path) -> No
     except (ImportError, InvalidInputError):
         raise
     except Exception as err:
-        text = _one_line(err).replace(str(staged.parent), str(target.parent))
+        text = one_line(err).replace(str(staged.parent), str(target.parent))
         raise OSError(f"cannot write {target}: {text}") from err
     crs = layers[0][0].crs
     if suffix == ".shp" and crs is not None:
@@ -783,12 +783,12 @@ def _shapefile_names(frame) -> dict[str, str]:
         name = str(column)
         if kept.get(name.lower()) == name:  # (also a 1 beside a "1")
             continue
-        new = _truncate_bytes(name, _DBF_NAME_BYTES)
+        new = truncate_bytes(name, _DBF_NAME_BYTES)
         number = 0
         while not new or new.lower() in used:
             number += 1
             tail = f"_{number}"
-            new = _truncate_bytes(name, _DBF_NAME_BYTES - len(tail)) + tail
+            new = truncate_bytes(name, _DBF_NAME_BYTES - len(tail)) + tail
         used.add(new.lower())
         mapping[column] = new
     return mapping

@@ -143,7 +143,7 @@ def _parse_url(url: str) -> tuple[sqlalchemy.engine.URL, dict[str, Any]]:
     except Exception as err:  # ArgumentError, ValueError for a bad port
         raise InvalidInputError(
             f"cannot read the database URL {redact(url)}: "
-            + redact(_one_line(err, sentences=True))
+            + redact(one_line(err, sentences=True))
         ) from None
     if parsed.password:
         _secrets.add(str(parsed.password))
@@ -178,7 +178,7 @@ def _message(err: BaseException) -> str:
     orig = getattr(err, "orig", None) or err
     diag = getattr(orig, "diag", None)
     primary = getattr(diag, "message_primary", None) if diag is not None else None
-    line = _one_line(primary or str(orig), sentences=True)
+    line = one_line(primary or str(orig), sentences=True)
     # libpq: 'connection failed: connection to server at "h" (ip), port 5 failed:
     # FATAL:  password authentication failed for user "ga"' -> the last part
     return redact(re.sub(r"^.*failed:\s*(FATAL:\s*)?", "", line) or line)
@@ -675,7 +675,7 @@ def _rename_indexes(conn, schema: str, name: str, temporary: str) -> None:
         (_quote(schema, name), temporary),
     ).fetchall()
     for (index,) in rows:
-        new = _truncate_bytes(index.replace(temporary, name), _IDENTIFIER_BYTES)
+        new = truncate_bytes(index.replace(temporary, name), _IDENTIFIER_BYTES)
         free = conn.exec_driver_sql("SELECT to_regclass(%s)", (_quote(schema, new),))
         if free.scalar() is None:
             conn.exec_driver_sql(
@@ -683,12 +683,12 @@ def _rename_indexes(conn, schema: str, name: str, temporary: str) -> None:
             )
 
 
-def _truncate_bytes(name: str, limit: int) -> str:
+def truncate_bytes(name: str, limit: int) -> str:
     """Longest prefix of ``name`` whose UTF-8 encoding fits in ``limit`` bytes."""
     return name.encode("utf-8")[:limit].decode("utf-8", errors="ignore")
 
 
-def _one_line(err: BaseException | str, *, sentences: bool = False) -> str:
+def one_line(err: BaseException | str, *, sentences: bool = False) -> str:
     """Return the text of ``err`` on one line (``sentences``: lines end in ".")."""
     lines = [" ".join(line.split()) for line in str(err).splitlines()]
     lines = [line for line in lines if line]
