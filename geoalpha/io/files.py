@@ -23,7 +23,9 @@ from geoalpha.errors import FLAGS, CRSWarning, InvalidInputError, did_you_mean
 from geoalpha.io.postgis import (
     check_postgis_output,
     is_postgres_url,
+    one_line,
     read_postgis,
+    truncate_bytes,
     write_postgis,
 )
 from geoalpha.io.redact import redact, secrets_in
@@ -169,7 +171,7 @@ def read_input_points(
             f"{_term('sql= and geometry_column=', '--sql and --geometry-column')} "
             "apply to a postgresql:// INPUT"
         )
-    local = "://" not in source and not source.startswith(("/vsi", "PG:"))
+    local = "://" not in source and not source.startswith("/vsi")  # (PG: refused)
     if local and not Path(source).exists():
         raise FileNotFoundError(f"input file {shown} does not exist")
     if local and Path(source).is_file() and not os.access(source, os.R_OK):
@@ -177,10 +179,9 @@ def read_input_points(
     crs = parse_crs(crs)
 
     suffix = Path(source).suffix.lower()
-    is_table = suffix in _TABLE_SUFFIXES
-    if suffix in _PARQUET_SUFFIXES and not _has_geo_metadata(source):
-        is_table = True
-    if is_table:
+    if suffix in _TABLE_SUFFIXES or (
+        suffix in _PARQUET_SUFFIXES and not _has_geo_metadata(source)
+    ):
         if layer is not None:
             raise InvalidInputError(
                 f"{shown} is a table; {_term('layer=', '--layer')} applies to "
@@ -248,7 +249,7 @@ def _missing_crs(what: str) -> InvalidInputError:
 
 
 def _cannot_read(source: str, err: BaseException) -> InvalidInputError:
-    return InvalidInputError(f"cannot read {redact(source)}: {_one_line(err)}")
+    return InvalidInputError(f"cannot read {redact(source)}: {one_line(err)}")
 
 
 def _read_vector(source: str, shown: str, suffix: str, layer: str | int | None):
@@ -546,7 +547,7 @@ def _write_layers(layers, staged: Path, suffix: str, engine, target: Path) -> No
     except (ImportError, InvalidInputError):
         raise
     except Exception as err:
-        text = _one_line(err).replace(str(staged.parent), str(target.parent))
+        text = one_line(err).replace(str(staged.parent), str(target.parent))
         raise OSError(f"cannot write {target}: {text}") from err
     crs = layers[0][0].crs
     if suffix == ".shp" and crs is not None:
@@ -565,24 +566,18 @@ def check_output(
 
     Parameters
     ----------
-    path : str or os.PathLike
-        Output file or URL, as for :func:`write_hulls`.
-    layer : str, optional
-        GeoPackage layer name or PostGIS table, as for :func:`write_hulls`.
-    overwrite : bool, default False
-        Whether an existing file may be replaced.
+    path, layer, overwrite
+        As for :func:`write_hulls`.
 
     Raises
     ------
-    FileExistsError, FileNotFoundError, IsADirectoryError
-        If ``path`` exists (without ``overwrite``), its directory does not, or
-        it is a directory.
+    FileExistsError, FileNotFoundError, IsADirectoryError, PermissionError
+        If ``path`` exists (without ``overwrite``), its directory does not, it
+        is a directory, or its folder is not writable (a staging folder is
+        created there and removed).
     geoalpha.errors.InvalidInputError
         For an unknown extension (or an upper-case ``.SHP``), or ``layer``
         with a format without layers.
-    PermissionError
-        If the output folder is not writable (a staging folder is created
-        there and removed).
 
     Examples
     --------
@@ -772,43 +767,28 @@ def _index_as_columns(gdf):
     return gdf if plain and set(index.names) == {None} else gdf.reset_index()
 
 
-def _truncate_bytes(name: str, limit: int) -> str:
-    """Longest prefix of ``name`` whose UTF-8 encoding fits in ``limit`` bytes."""
-    encoded = name.encode("utf-8")[:limit]
-    return encoded.decode("utf-8", errors="ignore")
-
-
 def _shapefile_names(frame) -> dict[str, str]:
     """Map column names that do not fit a dBASE field to unique short names.
 
     Names that fit are kept (and reserved first); see :func:`write_hulls`.
     """
     columns = [c for c in frame.columns if c != frame.geometry.name]
-    used: set[str] = set()
-    keep: set[str] = set()
-    for column in columns:
-        name = str(column)
-        fits = len(name.encode("utf-8")) <= _DBF_NAME_BYTES
-        if fits and name.lower() not in used:
-            used.add(name.lower())
-            keep.add(name)
+    kept: dict[str, str] = {}  # lower case -> the first name that fits
+    for name in map(str, columns):
+        if len(name.encode("utf-8")) <= _DBF_NAME_BYTES:
+            kept.setdefault(name.lower(), name)
+    used = set(kept)
     mapping: dict[str, str] = {}
     for column in columns:
         name = str(column)
-        if name in keep:
+        if kept.get(name.lower()) == name:  # (also a 1 beside a "1")
             continue
-        new = _truncate_bytes(name, _DBF_NAME_BYTES)
+        new = truncate_bytes(name, _DBF_NAME_BYTES)
         number = 0
         while not new or new.lower() in used:
             number += 1
             tail = f"_{number}"
-            new = _truncate_bytes(name, _DBF_NAME_BYTES - len(tail)) + tail
+            new = truncate_bytes(name, _DBF_NAME_BYTES - len(tail)) + tail
         used.add(new.lower())
         mapping[column] = new
     return mapping
-
-
-def _one_line(err: BaseException) -> str:
-    """Return an exception's message on one line."""
-    text = " ".join(str(err).split())
-    return text or type(err).__name__

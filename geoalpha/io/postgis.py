@@ -35,7 +35,7 @@ __all__ = [
 
 _SCHEMES = ("postgresql://", "postgres://", "postgresql+psycopg://")
 _CONNECT_TIMEOUT = 15  # seconds, unless the URL says connect_timeout=...
-_LOCK_TIMEOUT = "30s"
+_LOCK_TIMEOUT = "SET LOCAL lock_timeout = '30s'"
 _IDENTIFIER_BYTES = 63  # PostgreSQL's NAMEDATALEN - 1
 _secrets: set[str] = set()
 # one part of schema.table: "quoted" ("" is a quote), or bare up to a dot
@@ -142,7 +142,8 @@ def _parse_url(url: str) -> tuple[sqlalchemy.engine.URL, dict[str, Any]]:
         port = parsed.port  # noqa: F841 - a bad port raises here
     except Exception as err:  # ArgumentError, ValueError for a bad port
         raise InvalidInputError(
-            f"cannot read the database URL {redact(url)}: {redact(_one_line(err))}"
+            f"cannot read the database URL {redact(url)}: "
+            + redact(one_line(err, sentences=True))
         ) from None
     if parsed.password:
         _secrets.add(str(parsed.password))
@@ -177,11 +178,10 @@ def _message(err: BaseException) -> str:
     orig = getattr(err, "orig", None) or err
     diag = getattr(orig, "diag", None)
     primary = getattr(diag, "message_primary", None) if diag is not None else None
-    text = primary or str(orig)
+    line = one_line(primary or str(orig), sentences=True)
     # libpq: 'connection failed: connection to server at "h" (ip), port 5 failed:
     # FATAL:  password authentication failed for user "ga"' -> the last part
-    text = re.sub(r"^.*failed:\s*(FATAL:\s*)?", "", _one_line(text)) or _one_line(text)
-    return redact(text)
+    return redact(re.sub(r"^.*failed:\s*(FATAL:\s*)?", "", line) or line)
 
 
 @contextlib.contextmanager
@@ -205,9 +205,8 @@ def _connection(url: str, *, write: bool) -> Iterator[Any]:
     try:
         with engine.begin() if write else _read_only(url) as conn:
             connected = True
-            if write:
-                _execute(conn, "SET TRANSACTION READ WRITE")
-                _execute(conn, f"SET LOCAL lock_timeout = '{_LOCK_TIMEOUT}'")
+            if write:  # one round trip (no parameters: the simple protocol)
+                _execute(conn, "SET TRANSACTION READ WRITE; " + _LOCK_TIMEOUT)
             yield conn
     except BaseException as err:
         cause = _database_cause(err, errors)
@@ -232,17 +231,14 @@ def _read_only(url) -> Iterator[Any]:
         idle = url.info.transaction_status == psycopg.pq.TransactionStatus.IDLE
         with url.transaction():
             if idle:  # one round trip (no parameters: the simple protocol)
-                url.execute(
-                    "SET TRANSACTION READ ONLY; "
-                    f"SET LOCAL lock_timeout = '{_LOCK_TIMEOUT}'"
-                )
+                url.execute("SET TRANSACTION READ ONLY; " + _LOCK_TIMEOUT)
             yield url
         return
     parsed, args = _parse_url(url)
     _, params = parsed.get_dialect()().create_connect_args(parsed)
     with psycopg.connect(**params, **args) as conn:  # commits, or rolls back
         conn.read_only = True
-        conn.execute(f"SET LOCAL lock_timeout = '{_LOCK_TIMEOUT}'")
+        conn.execute(_LOCK_TIMEOUT)
         yield conn
 
 
@@ -259,11 +255,6 @@ def _database_cause(err: BaseException, kind) -> BaseException | None:
             return err
         err = err.__cause__ or err.__context__
     return None
-
-
-def _scalar(conn, sql: str, *params) -> Any:
-    row = _execute(conn, sql, params).fetchone()
-    return None if row is None else row[0]
 
 
 _GEOMETRY_OID = "SELECT to_regtype('geometry')::oid"
@@ -571,14 +562,18 @@ def _output_table(table: str | None) -> tuple[str | None, str]:
 
 
 def _check_target(conn, schema, name, table, overwrite, where) -> tuple[str, bool]:
-    _check_postgis(_scalar(conn, _GEOMETRY_OID), where)
+    oid, schema, found, exists = _execute(  # one round trip
+        conn,
+        f"{_GEOMETRY_OID}, s, to_regnamespace(quote_ident(s)), "
+        "to_regclass(quote_ident(s) || '.' || quote_ident(%s)) "
+        "FROM (SELECT coalesce(%s, current_schema()) AS s) AS _ga_s",
+        (name, schema),
+    ).fetchone()
+    _check_postgis(oid, where)
     if schema is None:
-        schema = _scalar(conn, "SELECT current_schema()")
-        if schema is None:
-            raise DatabaseError(f"{where} has no schema on its search path")
-    elif _scalar(conn, "SELECT to_regnamespace(%s)", _quote(schema)) is None:
+        raise DatabaseError(f"{where} has no schema on its search path")
+    if found is None:
         raise DatabaseError(f"schema {schema} does not exist in {where}")
-    exists = _scalar(conn, "SELECT to_regclass(%s)", _quote(schema, name))
     if exists is not None and not overwrite:
         raise DatabaseError(
             f"table {table} already exists in {where}; use "
@@ -669,35 +664,35 @@ def _promote_to_multi(gdf: gpd.GeoDataFrame) -> gpd.GeoDataFrame:
     if not (polygons.any() and (kinds == shapely.GeometryType.MULTIPOLYGON).any()):
         return gdf
     geoms[polygons] = shapely.multipolygons(geoms[polygons, np.newaxis])
-    return gdf.set_geometry(
-        gdf.geometry.__class__(geoms, index=gdf.index, crs=gdf.crs),
-        crs=gdf.crs,
-    )
+    return gdf.set_geometry(gdf.geometry.__class__(geoms, index=gdf.index, crs=gdf.crs))
 
 
 def _rename_indexes(conn, schema: str, name: str, temporary: str) -> None:
     """Give the new table's indexes names after the table, where free."""
     rows = conn.exec_driver_sql(
         "SELECT c.relname FROM pg_index i JOIN pg_class c ON c.oid = i.indexrelid "
-        "WHERE i.indrelid = to_regclass(%s)",
-        (_quote(schema, name),),
+        "WHERE i.indrelid = to_regclass(%s) AND strpos(c.relname, %s) > 0",
+        (_quote(schema, name), temporary),
     ).fetchall()
     for (index,) in rows:
-        if temporary not in index:
-            continue
-        new = index.replace(temporary, name)
-        new = new.encode("utf-8")[:_IDENTIFIER_BYTES].decode("utf-8", "ignore")
-        if _scalar(conn, "SELECT to_regclass(%s)", _quote(schema, new)) is None:
+        new = truncate_bytes(index.replace(temporary, name), _IDENTIFIER_BYTES)
+        free = conn.exec_driver_sql("SELECT to_regclass(%s)", (_quote(schema, new),))
+        if free.scalar() is None:
             conn.exec_driver_sql(
                 f"ALTER INDEX {_quote(schema, index)} RENAME TO {_quote(new)}"
             )
 
 
-def _one_line(err: BaseException | str) -> str:
-    """Return the text of ``err`` on one line, its lines joined as sentences."""
+def truncate_bytes(name: str, limit: int) -> str:
+    """Longest prefix of ``name`` whose UTF-8 encoding fits in ``limit`` bytes."""
+    return name.encode("utf-8")[:limit].decode("utf-8", errors="ignore")
+
+
+def one_line(err: BaseException | str, *, sentences: bool = False) -> str:
+    """Return the text of ``err`` on one line (``sentences``: lines end in ".")."""
     lines = [" ".join(line.split()) for line in str(err).splitlines()]
     lines = [line for line in lines if line]
     for i, line in enumerate(lines[:-1]):
-        if line[-1] not in ".:;,!?":
+        if sentences and line[-1] not in ".:;,!?":
             lines[i] = line + "."
     return " ".join(lines) or type(err).__name__

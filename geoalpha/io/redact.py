@@ -68,17 +68,11 @@ def secrets_in(text: str) -> list[str]:
     >>> secrets_in("postgresql://me:pw%40x@db/gis")
     ['pw%40x']
     """
-    keyed, urls = _found(text)
-    return sorted((keyed | urls) - {"", MASK}, key=len, reverse=True)
-
-
-def _found(text: str) -> tuple[set[str], set[str]]:
-    """Return the values of password-like keys, and the passwords of URLs, in text."""
     keyed = set()
     if "=" in text:  # skip the scan of a long text that cannot hold key=value
         keyed = {_unquote(m.group("value")) for m in _KEY_VALUE.finditer(text)}
     urls = {m.group("value") for m in _URL_PASSWORD.finditer(text)}
-    return keyed, urls
+    return sorted((keyed | urls) - {"", MASK}, key=len, reverse=True)
 
 
 def redact(text: object, secrets: Iterable[str] = ()) -> str:
@@ -107,11 +101,9 @@ def redact(text: object, secrets: Iterable[str] = ()) -> str:
     "nonnumeric port: '***@example.com'"
     """
     out = str(text)
-    keyed, urls = _found(out)
-    known = set(secrets) | keyed | urls
-    if urls:  # (each pattern is run again only where it found something)
-        out = _URL_PASSWORD.sub(lambda m: m.group("head") + MASK, out)
-    if keyed and "=" in out:
+    known = {*secrets, *secrets_in(out)}
+    out = _URL_PASSWORD.sub(lambda m: m.group("head") + MASK, out)
+    if "=" in out:
         out = _KEY_VALUE.sub(lambda m: m.group("key") + m.group("eq") + MASK, out)
     for secret in sorted(known - {"", MASK}, key=len, reverse=True):
         if len(secret) >= _SHORT:
