@@ -388,14 +388,13 @@ def _shapes(res: kernel.Solved, codes, rows, gave_up, elsewhere: bool):
 
     A group without rings (reason 4) whose shape is every triangle gets its convex hull.
     """
-    n_groups = len(rows)
     geometry = res.geometry.copy()
     reason = res.reason.astype(np.int64)
     n_parts = res.n_parts.astype(np.int64)
     whole = np.flatnonzero((res.reason == 4) & res.whole)
     if len(whole):
         take = np.isin(res.codes, whole)
-        hulls = guarantee.convex_hulls(res.coords[take], res.codes[take], n_groups)
+        hulls = guarantee.convex_hulls(res.coords[take], res.codes[take], len(rows))
         geometry[whole] = hulls[whole]
         reason[whole] = 0
         n_parts[whole] = 1
