@@ -10,8 +10,8 @@ import numpy as np
 import shapely
 
 from geoalpha import _kernel
-from geoalpha.arrays.lonlat import _snap
 from geoalpha.errors import setting
+from geoalpha.kernel import ANTIMERIDIAN_SNAP
 
 __all__ = [
     "EARTH_RADIUS",
@@ -193,9 +193,16 @@ def _close_one(polygon):
         whole = shapely.make_valid(whole)
     seam = shell[0, 0]
     pieces = []
-    for turn in (-720.0, -360.0, 0.0, 360.0, 720.0):
-        box = shapely.box(-180.0 + turn, -90.0, 180.0 + turn, 90.0)
+    for k in range(-2, 3):
+        box = shapely.box(-180.0 + 360.0 * k, -90.0, 180.0 + 360.0 * k, 90.0)
         piece = shapely.intersection(whole, box)
-        if not piece.is_empty:  # shifted back, the closing meridian exactly on seam
-            pieces.append(shapely.transform(piece, lambda c, t=turn: _snap(c, seam, t)))
+        if not piece.is_empty:
+            pieces.append(shapely.transform(piece, lambda c, k=k: _seam(c, k, seam)))
     return shapely.union_all(pieces)
+
+
+def _seam(coords: np.ndarray, k: int, seam: float) -> np.ndarray:
+    """Shift by ``k`` turns west; put the closing meridian exactly on ``seam``."""
+    coords = coords - (360.0 * k, 0.0)
+    coords[np.abs(coords[:, 0] - seam) <= ANTIMERIDIAN_SNAP, 0] = seam
+    return coords
