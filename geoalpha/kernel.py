@@ -326,7 +326,6 @@ def solve(
         order = np.argsort(keys, kind="stable")
     else:
         order = np.arange(n)
-    sorted_codes = codes[order]
     offsets = np.zeros(n_groups + 1, dtype=np.int64)
     np.cumsum(np.bincount(codes, minlength=n_groups), out=offsets[1:])
     sxy = np.ascontiguousarray(np.take(xy, order, axis=0), dtype=float)
@@ -350,7 +349,7 @@ def solve(
     on_ring[res["ring_vertex"]] = True
     return Solved(
         order=order,
-        codes=sorted_codes,
+        codes=codes[order],
         **{k: res[k] for k in _PER_GROUP},
         rep=res["rep"],
         left_out=res["left_out"],

@@ -109,10 +109,7 @@ def comparison_hulls(
                 bar.update(1)
     degenerate = (shapely.get_type_id(geoms) != 3) | shapely.is_empty(geoms)
     geoms[degenerate] = EMPTY_POLYGON
-    area = shapely.area(geoms)
-    present = ~degenerate
-    hulls = np.full(n_groups, EMPTY_POLYGON, dtype=object)
-    hulls[present] = _to_input_vertices(
-        geoms[present], np.flatnonzero(present), xy, out, codes
-    )
-    return ComparisonHulls(hulls, area, labels, degenerate, without_holes)
+    area = shapely.area(geoms)  # in metres, before the vertices move to ``out``
+    present = np.flatnonzero(~degenerate)
+    geoms[present] = _to_input_vertices(geoms[present], present, xy, out, codes)
+    return ComparisonHulls(geoms, area, labels, degenerate, without_holes)

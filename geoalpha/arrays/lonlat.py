@@ -170,16 +170,11 @@ def unwrap_lon(lon: Any, codes: Any, crossing: Any) -> np.ndarray:
     return np.where(crossing[codes] & (lon < 0.0), lon + 360.0, lon)
 
 
-def _snap(coords: np.ndarray, x: float) -> np.ndarray:
-    """Put x coordinates within ``ANTIMERIDIAN_SNAP`` (degrees) of ``x`` on ``x``."""
-    near = np.abs(coords[:, 0] - x) <= ANTIMERIDIAN_SNAP
-    coords[near, 0] = x
+def _snap(coords: np.ndarray, x: float, west: float = 0.0) -> np.ndarray:
+    """Shift ``west`` degrees west; put x within ANTIMERIDIAN_SNAP of ``x`` on ``x``."""
+    coords = coords - (west, 0.0)
+    coords[np.abs(coords[:, 0] - x) <= ANTIMERIDIAN_SNAP, 0] = x
     return coords
-
-
-def _back_east(coords: np.ndarray) -> np.ndarray:
-    """Unwrapped coordinates east of 180 degrees, shifted back by -360."""
-    return _snap(coords - (360.0, 0.0), -180.0)
 
 
 def split_antimeridian(geom: Any) -> Any:
@@ -219,7 +214,7 @@ def split_antimeridian(geom: Any) -> Any:
             flat[todo], shapely.box(180.0, miny - 1.0, maxx + 1.0, maxy + 1.0)
         )
         west = shapely.transform(west, lambda c: _snap(c, 180.0))
-        east = shapely.transform(east, _back_east)
+        east = shapely.transform(east, lambda c: _snap(c, -180.0, 360.0))
         parts, idx = shapely.get_parts(np.r_[west, east], return_index=True)
         # Keep areas only: touching the line gives points/lines, not parts.
         keep = (shapely.get_type_id(parts) == 3) & ~shapely.is_empty(parts)
@@ -273,7 +268,7 @@ def restore_longitudes(
     if len(coords) == 0 or not mine.any():
         return geoms
     # What each shifted point's longitude became in split_antimeridian.
-    shifted = _back_east(np.column_stack([lon[mine] + 360.0, lat[mine]]))
+    shifted = _snap(np.column_stack([lon[mine] + 360.0, lat[mine]]), -180.0, 360.0)
     table = np.column_stack([codes[mine].astype(np.float64), shifted])
     query = np.column_stack([geom_group[which].astype(np.float64), coords])
     _, key = np.unique(np.concatenate([table, query]), axis=0, return_inverse=True)

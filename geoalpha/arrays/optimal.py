@@ -221,6 +221,8 @@ def alpha_shapes(
                 )
     except ValueError as err:
         raise InvalidInputError(str(err)) from err
+    if sphere and coords is None:
+        coords, polar = _sphere_output(xy, codes, n_groups)
     raw = solve_checked(
         xy,
         codes,
@@ -233,7 +235,10 @@ def alpha_shapes(
         name_groups=name_groups,
         **checked,
     )
-    return _verified(raw, xy if raw.out is None else raw.out, codes, alpha is None)
+    # Around a pole a valid polygon may have any number of parts.
+    limit = np.where(polar, np.inf, components) if np.any(polar) else components
+    out_xy = xy if coords is None else coords
+    return _verified(raw, out_xy, codes, limit if alpha is None else None)
 
 
 def _named(which: np.ndarray, name_groups) -> str:
@@ -308,10 +313,6 @@ class Unverified(NamedTuple):
     #: per point: a vertex of its group's polygon in the output coordinates, or
     #: covered by construction there while that polygon is valid (not tested)
     certain: np.ndarray
-    #: parts a valid polygon may have, per group (any number around a pole)
-    components: np.ndarray | int
-    #: the output coordinates (None: the points themselves)
-    out: np.ndarray | None
 
 
 def solve_checked(
@@ -337,10 +338,9 @@ def solve_checked(
     Trusts its inputs (checked as :func:`alpha_shapes` does); the caller
     enforces the guarantee (:func:`geoalpha.arrays.guarantee.enforce`). Raises
     for the groups the sphere refuses; warns about the searches that gave up.
+    With ``sphere``, ``out`` is given (the output longitudes and latitudes).
     """
     rows = np.bincount(codes, minlength=n_groups)
-    if sphere and out is None:
-        out, polar = _sphere_output(xy, codes, n_groups)
     options = dict(
         holes=holes, components=components, n_jobs=n_jobs, out=out, sphere=sphere
     )
@@ -356,19 +356,19 @@ def solve_checked(
         )
     except ValueError as err:  # what the kernel refuses (e.g. |coordinate| > 1e100)
         raise InvalidInputError(str(err)) from err
-    if sphere and (res.reason == REFUSED).any():
-        which = np.flatnonzero(res.reason == REFUSED)
-        raise InvalidInputError(refused_message(_named(which, name_groups), len(which)))
     if sphere:
-        res = _on_the_sphere(res, polar)
-    limit = np.where(polar, np.inf, components) if np.any(polar) else components
-    shapes, certain = _shapes(res, codes, rows, alpha, gave_up, out is not None)
+        res = _on_the_sphere(res, polar, name_groups)
+    shapes, certain = _shapes(res, codes, rows, gave_up, out is not None)
     _warn_search(shapes, max_iterations, components, name_groups)
-    return Unverified(shapes, certain, limit, out)
+    return Unverified(shapes, certain)
 
 
-def _on_the_sphere(res: kernel.Solved, polar) -> kernel.Solved:
-    """Unfold the lon/lat polygons of ``sphere=True``; close those around a pole."""
+def _on_the_sphere(res: kernel.Solved, polar, name_groups) -> kernel.Solved:
+    """Refuse groups too wide for the sphere; unfold the others, close polar ones."""
+    refused = np.flatnonzero(res.reason == REFUSED)
+    if len(refused):
+        named = _named(refused, name_groups)
+        raise InvalidInputError(refused_message(named, len(refused)))
     polar = np.zeros(len(res.reason), bool) if polar is None else np.asarray(polar)
     geometry = res.geometry.copy()
     # Long edges of a shape concave on the sphere can fold in lon/lat.
@@ -383,19 +383,18 @@ def _on_the_sphere(res: kernel.Solved, polar) -> kernel.Solved:
     return res._replace(geometry=geometry, on_ring=res.on_ring & ~polar[res.codes])
 
 
-def _shapes(res: kernel.Solved, codes, rows, given, gave_up, elsewhere: bool):
+def _shapes(res: kernel.Solved, codes, rows, gave_up, elsewhere: bool):
     """Return the kernel's result per group and, per point, whether it is certain.
 
     A group without rings (reason 4) whose shape is every triangle gets its convex hull.
     """
-    n_groups = len(rows)
     geometry = res.geometry.copy()
     reason = res.reason.astype(np.int64)
     n_parts = res.n_parts.astype(np.int64)
     whole = np.flatnonzero((res.reason == 4) & res.whole)
     if len(whole):
         take = np.isin(res.codes, whole)
-        hulls = guarantee.convex_hulls(res.coords[take], res.codes[take], n_groups)
+        hulls = guarantee.convex_hulls(res.coords[take], res.codes[take], len(rows))
         geometry[whole] = hulls[whole]
         reason[whole] = 0
         n_parts[whole] = 1
@@ -414,14 +413,14 @@ def _shapes(res: kernel.Solved, codes, rows, given, gave_up, elsewhere: bool):
     outlier = np.empty(len(codes), dtype=bool)
     outlier[res.order] = res.left_out
     shapes = AlphaShapes(
-        alpha=np.where(degenerate, np.nan, res.alpha if given is None else given),
+        alpha=np.where(degenerate, np.nan, res.alpha),  # (the given one, if any)
         geometry=geometry,
         n_points=rows,
         n_distinct=res.n_distinct.astype(np.int64),
         n_parts=np.where(degenerate, 0, n_parts),
         area=np.where(degenerate, 0.0, res.area),
         degenerate=degenerate,
-        n_outliers=np.bincount(codes[outlier], minlength=n_groups),
+        n_outliers=res.n_outliers.astype(np.int64),
         outlier=outlier,
         gave_up=gave_up & ~degenerate,
         capped=res.capped & ~degenerate,
@@ -430,8 +429,8 @@ def _shapes(res: kernel.Solved, codes, rows, given, gave_up, elsewhere: bool):
     return shapes, back
 
 
-def _verified(raw: Unverified, out_xy, codes, optimum: bool) -> AlphaShapes:
-    """Enforce the guarantee on ``raw`` in ``out_xy``; failed groups are degenerate."""
+def _verified(raw: Unverified, out_xy, codes, components) -> AlphaShapes:
+    """Enforce the guarantee (``components``: None at a given alpha) on ``raw``."""
     res = raw.shapes
     geometry, failed = guarantee.enforce(
         res.geometry,
@@ -439,8 +438,8 @@ def _verified(raw: Unverified, out_xy, codes, optimum: bool) -> AlphaShapes:
         codes,
         ~res.degenerate,
         # At a given alpha only alpha 0 (the convex hull) holds every point.
-        cover=True if optimum else res.alpha == 0,
-        components=raw.components if optimum else None,
+        cover=True if components is not None else res.alpha == 0,
+        components=components,
         test=~raw.certain,
         exempt=res.outlier if res.outlier.any() else None,
     )
@@ -470,10 +469,7 @@ def _sphere_output(lonlat, codes, n_groups):
     polar = np.zeros(n_groups, dtype=bool)
     if len(maybe):
         polar[maybe] = polar_groups(lonlat, codes, maybe)
-    if polar.any():
-        out = out.copy()
-        out[polar[codes]] = lonlat[polar[codes]]
-    return out, polar
+    return np.where(polar[codes, None], lonlat, out), polar
 
 
 def _as_xy(points):
@@ -503,8 +499,9 @@ def _one_group(points, **kwargs) -> AlphaShapes:
     res = alpha_shapes(_as_xy(points), None, n_groups=1, **kwargs)
     if res.degenerate[0]:
         why = (
-            "are fewer than 3 or all collinear (within 1e-9 of their extent "
-            "of a line; points closer than that are one)"
+            "are fewer than 3 or all collinear (within "
+            f"{np.format_float_scientific(kernel.NEAR_RTOL, trim='-', exp_digits=1)}"
+            " of their extent of a line; points closer than that are one)"
             if res.reason[0] in (1, 2, 3)
             else "got no valid polygon holding all of them (float64 could not "
             "build one: near-duplicates or slivers where pieces touch)"

@@ -11,6 +11,7 @@ import shapely
 
 from geoalpha import _kernel
 from geoalpha.errors import setting
+from geoalpha.kernel import ANTIMERIDIAN_SNAP
 
 __all__ = [
     "EARTH_RADIUS",
@@ -203,5 +204,5 @@ def _close_one(polygon):
 def _seam(coords: np.ndarray, k: int, seam: float) -> np.ndarray:
     """Shift by ``k`` turns west; put the closing meridian exactly on ``seam``."""
     coords = coords - (360.0 * k, 0.0)
-    coords[np.abs(coords[:, 0] - seam) <= 1e-9, 0] = seam
+    coords[np.abs(coords[:, 0] - seam) <= ANTIMERIDIAN_SNAP, 0] = seam
     return coords
