@@ -416,6 +416,30 @@ mod tests {
     }
 
     #[test]
+    fn a_group_above_the_parallel_size_is_triangulated_on_threads_exactly() {
+        // More points than PARALLEL_POINTS: the curve sort, the close pairs
+        // and the triangle arrays take their rayon branches.
+        let mut state = 12345u64;
+        let mut next = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut pts: Vec<Xy> = (0..PARALLEL_POINTS + 5_000)
+            .map(|_| [next(), next()])
+            .collect();
+        let first = pts[0];
+        pts.push([first[0] + 1e-13, first[1]]); // a near-duplicate of row 0
+        let mesh = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .unwrap()
+            .install(|| triangulate(&pts, &Frame::of(&pts), true));
+        assert_eq!(mesh.n_distinct, pts.len() - 1);
+        assert_eq!(mesh.rep[pts.len() - 1], 0);
+        assert_delaunay(&pts, &mesh);
+    }
+
+    #[test]
     fn near_duplicates_merge_into_the_first() {
         let pts = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0 + 1e-12, 0.0]];
         let mesh = triangulate(&pts, &Frame::of(&pts), true);
