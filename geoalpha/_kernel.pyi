@@ -89,7 +89,7 @@ def alpha_shapes(
         points, 2 collinear (on a great circle with ``sphere``), 3 collinear in
         ``out_xy``, 4 no rings, 6 a point beyond ``MAX_SPHERE_DEGREES`` of
         the group's centre),
-        ``alpha``, ``radius``, ``n_distinct``, ``n_parts``, ``area``,
+        ``alpha``, ``n_distinct``, ``n_parts``, ``area``,
         ``n_outliers`` (rows), ``whole``, ``capped``. Per point (n):
         ``rep`` (index of the point that represents it), ``left_out``.
         Rings: ``ring_vertex`` (point indices, closed rings),

@@ -184,9 +184,9 @@ class Solved(NamedTuple):
     """What the kernel returns.
 
     Per group: ``reason`` (0, or a key of :data:`REASONS`), ``alpha``,
-    ``radius``, ``n_distinct``, ``n_parts``, ``area``, ``n_outliers`` (rows),
-    ``whole`` (every triangle is in the shape), ``capped`` (the outlier
-    search hit its node budget) and ``geometry``. Per point, sorted by group
+    ``n_distinct``, ``n_parts``, ``area``, ``n_outliers`` (rows), ``whole``
+    (every triangle is in the shape), ``capped`` (the outlier search hit its
+    node budget) and ``geometry``. Per point, sorted by group
     (``order[i]`` is the input row of sorted point ``i``): ``codes``, ``rep``
     (the sorted index of its representative), ``left_out``, ``on_ring`` (its
     representative is a ring vertex), ``coords`` (the output coordinates).
@@ -197,7 +197,6 @@ class Solved(NamedTuple):
     codes: np.ndarray
     reason: np.ndarray
     alpha: np.ndarray
-    radius: np.ndarray
     n_distinct: np.ndarray
     n_parts: np.ndarray
     area: np.ndarray
@@ -212,7 +211,7 @@ class Solved(NamedTuple):
     curve: tuple[np.ndarray, np.ndarray, np.ndarray] | None
 
 
-_PER_GROUP = ("reason", "alpha", "radius", "n_distinct", "n_parts", "area")
+_PER_GROUP = ("reason", "alpha", "n_distinct", "n_parts", "area")
 _PER_GROUP += ("n_outliers", "whole", "capped")
 
 
@@ -319,7 +318,7 @@ def solve(
     >>> res.reason.tolist(), res.n_distinct.tolist(), res.geometry[0].geom_type
     ([0], [5], 'Polygon')
     """
-    n = len(xy)
+    n, sizes = len(xy), np.bincount(codes, minlength=n_groups)
     if n > 1 and (codes[1:] < codes[:-1]).any():
         # numpy sorts 16-bit keys by radix (linear), wider ones by timsort.
         keys = codes.astype(np.uint16) if n_groups <= 1 << 16 else codes
@@ -327,7 +326,7 @@ def solve(
     else:
         order = np.arange(n)
     offsets = np.zeros(n_groups + 1, dtype=np.int64)
-    np.cumsum(np.bincount(codes, minlength=n_groups), out=offsets[1:])
+    np.cumsum(sizes, out=offsets[1:])
     sxy = np.ascontiguousarray(np.take(xy, order, axis=0), dtype=float)
     sout = None if out is None else np.ascontiguousarray(np.take(out, order, axis=0))
     res = _run(
@@ -349,7 +348,7 @@ def solve(
     on_ring[res["ring_vertex"]] = True
     return Solved(
         order=order,
-        codes=codes[order],
+        codes=np.repeat(np.arange(n_groups), sizes),
         **{k: res[k] for k in _PER_GROUP},
         rep=res["rep"],
         left_out=res["left_out"],

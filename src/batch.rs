@@ -32,7 +32,6 @@ pub struct Input<'a> {
 pub struct Output {
     pub(crate) reason: Vec<u8>,
     pub(crate) alpha: Vec<f64>,
-    pub(crate) radius: Vec<f64>,
     pub(crate) n_distinct: Vec<u32>,
     pub(crate) n_parts: Vec<u32>,
     pub(crate) area: Vec<f64>,
@@ -145,7 +144,6 @@ fn flatten(solved: &[Solved], offsets: &[i64], n: usize) -> Output {
         let base = range[0];
         o.reason.push(s.reason);
         o.alpha.push(s.alpha);
-        o.radius.push(s.radius);
         o.n_distinct.push(s.n_distinct);
         o.n_parts.push(s.polygons.len() as u32);
         o.area.push(s.area);

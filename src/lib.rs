@@ -106,7 +106,7 @@ fn py_alpha_shapes<'py>(
     };
     let o = detached(py, threads, || batch::run(&input))?;
     Ok(dict_of!(py, o;
-        reason, alpha, radius, n_distinct, n_parts, area, n_outliers, whole, capped,
+        reason, alpha, n_distinct, n_parts, area, n_outliers, whole, capped,
         rep, left_out, ring_vertex, ring_offsets, polygon_offsets, group_offsets,
         curve_value, curve_valid, curve_offsets))
 }
