@@ -14,14 +14,14 @@ import shapely
 from geoalpha import kernel
 from geoalpha.arrays import guarantee
 from geoalpha.arrays.budget import outlier_budget
-from geoalpha.arrays.lonlat import output_lonlat, restore_longitudes
+from geoalpha.arrays.lonlat import restore_longitudes
 from geoalpha.arrays.search import bisect_alpha, ladder_alpha
 from geoalpha.arrays.sphere import (
     REFUSED,
     close_around_poles,
     follow_arcs,
-    polar_groups,
     refused_message,
+    sphere_output,
 )
 from geoalpha.errors import (
     DegenerateGroupWarning,
@@ -222,7 +222,7 @@ def alpha_shapes(
     except ValueError as err:
         raise InvalidInputError(str(err)) from err
     if sphere and coords is None:
-        coords, polar = _sphere_output(xy, codes, n_groups)
+        coords, _, _, polar = sphere_output(xy, codes, n_groups)
     raw = solve_checked(
         xy,
         codes,
@@ -457,19 +457,6 @@ def _verified(raw: Unverified, out_xy, codes, components) -> AlphaShapes:
         capped=res.capped & ~failed,
         reason=np.where(failed, 5, res.reason),
     )
-
-
-def _sphere_output(lonlat, codes, n_groups):
-    """Output lon/lat of ``sphere=True`` without ``coords``, and the polar groups.
-
-    Longitudes unwrapped across +-180 degrees, but as given around a pole.
-    """
-    out, crossing, wide = output_lonlat(lonlat, codes, n_groups)
-    maybe = np.flatnonzero(crossing | wide)
-    polar = np.zeros(n_groups, dtype=bool)
-    if len(maybe):
-        polar[maybe] = polar_groups(lonlat, codes, maybe)
-    return np.where(polar[codes, None], lonlat, out), polar
 
 
 def _as_xy(points):

@@ -10,6 +10,7 @@ import numpy as np
 import shapely
 
 from geoalpha import _kernel
+from geoalpha.arrays.lonlat import output_lonlat
 from geoalpha.errors import setting
 from geoalpha.kernel import ANTIMERIDIAN_SNAP
 
@@ -21,6 +22,7 @@ __all__ = [
     "follow_arcs",
     "polar_groups",
     "refused_message",
+    "sphere_output",
 ]
 
 #: Radius of the sphere (metres): WGS84's authalic radius (the ellipsoid's area).
@@ -83,6 +85,24 @@ def polar_groups(
         pole = shapely.Point(e1[2] / c[2], e2[2] / c[2])  # the one on c's side
         out[k] = shapely.covers(hull.convex_hull, pole)
     return out
+
+
+def sphere_output(lonlat: np.ndarray, codes: np.ndarray, n_groups: int):
+    """Output longitudes and latitudes of ``crs="sphere"``, and the polar groups.
+
+    Returns ``(out, crossing, wide, polar)``: as
+    :func:`~geoalpha.arrays.lonlat.output_lonlat`, but the groups around a pole
+    (:func:`polar_groups`) keep their input longitudes and neither cross nor are wide.
+    """
+    out, crossing, wide = output_lonlat(lonlat, codes, n_groups)
+    maybe = np.flatnonzero(crossing | wide)
+    polar = np.zeros(n_groups, dtype=bool)
+    if len(maybe):
+        polar[maybe] = polar_groups(lonlat, codes, maybe)
+    if polar.any() and out is not lonlat:  # (a copy output_lonlat made)
+        mine = polar[codes]
+        out[mine] = lonlat[mine]
+    return out, crossing & ~polar, wide & ~polar, polar
 
 
 def close_around_poles(geometry: np.ndarray) -> np.ndarray:
