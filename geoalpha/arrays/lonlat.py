@@ -17,6 +17,7 @@ __all__ = [
     "output_lonlat",
     "restore_longitudes",
     "row_positions",
+    "snap_meridian",
     "split_antimeridian",
     "unwrap_lon",
 ]
@@ -170,8 +171,8 @@ def unwrap_lon(lon: Any, codes: Any, crossing: Any) -> np.ndarray:
     return np.where(crossing[codes] & (lon < 0.0), lon + 360.0, lon)
 
 
-def _snap(coords: np.ndarray, x: float, west: float = 0.0) -> np.ndarray:
-    """Shift ``west`` degrees west; put x within ANTIMERIDIAN_SNAP of ``x`` on ``x``."""
+def snap_meridian(coords: np.ndarray, x: float, west: float = 0.0) -> np.ndarray:
+    """Shift ``coords`` ``west`` degrees west; snap x near ``x`` onto ``x``."""
     coords = coords - (west, 0.0)
     coords[np.abs(coords[:, 0] - x) <= ANTIMERIDIAN_SNAP, 0] = x
     return coords
@@ -213,8 +214,8 @@ def split_antimeridian(geom: Any) -> Any:
         east = shapely.intersection(
             flat[todo], shapely.box(180.0, miny - 1.0, maxx + 1.0, maxy + 1.0)
         )
-        west = shapely.transform(west, lambda c: _snap(c, 180.0))
-        east = shapely.transform(east, lambda c: _snap(c, -180.0, 360.0))
+        west = shapely.transform(west, lambda c: snap_meridian(c, 180.0))
+        east = shapely.transform(east, lambda c: snap_meridian(c, -180.0, 360.0))
         parts, idx = shapely.get_parts(np.r_[west, east], return_index=True)
         # Keep areas only: touching the line gives points/lines, not parts.
         keep = (shapely.get_type_id(parts) == 3) & ~shapely.is_empty(parts)
@@ -268,7 +269,9 @@ def restore_longitudes(
     if len(coords) == 0 or not mine.any():
         return geoms
     # What each shifted point's longitude became in split_antimeridian.
-    shifted = _snap(np.column_stack([lon[mine] + 360.0, lat[mine]]), -180.0, 360.0)
+    shifted = snap_meridian(
+        np.column_stack([lon[mine] + 360.0, lat[mine]]), -180.0, 360.0
+    )
     table = np.column_stack([codes[mine].astype(np.float64), shifted])
     query = np.column_stack([geom_group[which].astype(np.float64), coords])
     _, key = np.unique(np.concatenate([table, query]), axis=0, return_inverse=True)

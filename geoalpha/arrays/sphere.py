@@ -6,13 +6,14 @@ it refuses and turns its rings into valid longitude/latitude polygons.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import shapely
 
 from geoalpha import _kernel
-from geoalpha.arrays.lonlat import output_lonlat
+from geoalpha.arrays.lonlat import output_lonlat, snap_meridian
 from geoalpha.errors import setting
-from geoalpha.kernel import ANTIMERIDIAN_SNAP
 
 __all__ = [
     "EARTH_RADIUS",
@@ -217,12 +218,6 @@ def _close_one(polygon):
         box = shapely.box(-180.0 + 360.0 * k, -90.0, 180.0 + 360.0 * k, 90.0)
         piece = shapely.intersection(whole, box)
         if not piece.is_empty:
-            pieces.append(shapely.transform(piece, lambda c, k=k: _seam(c, k, seam)))
+            shift = functools.partial(snap_meridian, x=seam, west=360.0 * k)
+            pieces.append(shapely.transform(piece, shift))
     return shapely.union_all(pieces)
-
-
-def _seam(coords: np.ndarray, k: int, seam: float) -> np.ndarray:
-    """Shift by ``k`` turns west; put the closing meridian exactly on ``seam``."""
-    coords = coords - (360.0 * k, 0.0)
-    coords[np.abs(coords[:, 0] - seam) <= ANTIMERIDIAN_SNAP, 0] = seam
-    return coords

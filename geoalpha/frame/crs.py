@@ -123,10 +123,7 @@ _OWN_LAEA = re.compile(
 
 @functools.lru_cache(maxsize=1024)
 def _transformer(source: str, target: str) -> pyproj.Transformer:
-    """Return one cached transformer per pair of CRS definitions.
-
-    A PROJ pipeline between WGS 84 and our LAEA CRSs (100 times faster to build).
-    """
+    """One cached transformer per pair of CRSs (to/from our LAEA: a fast pipeline)."""
     laea = target if source == _WGS84 else source if target == _WGS84 else ""
     if _OWN_LAEA.fullmatch(laea):
         params = laea.replace(" +datum=WGS84", " +ellps=WGS84").replace(" +no_defs", "")
@@ -208,11 +205,8 @@ def metric_crs(
     n_groups : int
         Number of groups.
     crs : "auto", "auto-group" or CRS, default "auto"
-        ``"auto"``: one UTM zone for all groups when every point lies within
-        ``UTM_HALF_WIDTH`` degrees of its central meridian and 84 of the
-        equator; else, per group, its centre's UTM zone if it fits so, or a
-        local Lambert azimuthal equal-area CRS. ``"auto-group"``: the
-        per-group choice only. Another CRS is used for every group.
+        The UTM zones and local LAEA CRSs of :doc:`/user_guide/crs`
+        (``"auto-group"``: always per group), or one CRS for every group.
     source_crs : CRS, optional
         The geographic CRS of ``lon``/``lat``; default EPSG:4326 (WGS 84).
     labels : array_like, optional
@@ -230,8 +224,7 @@ def metric_crs(
     Raises
     ------
     InvalidInputError
-        On bad input (coordinates, codes, CRSs) or points the CRS cannot
-        project (named).
+        On bad coordinates, codes or CRSs, or points the CRS cannot project.
 
     Examples
     --------
@@ -339,15 +332,13 @@ def geodesic_areas(
 ) -> np.ndarray:
     """Return the areas (m²) on the WGS84 ellipsoid of polygons in ``source``.
 
-    The vertices moved to EPSG:4326 in one transform, then
-    :func:`geoalpha.arrays.area.geodesic_areas` (edges are geodesics).
+    :func:`geoalpha.arrays.area.geodesic_areas` of the vertices moved to EPSG:4326.
 
     Parameters
     ----------
     geometry : numpy.ndarray of shapely geometries
         (Multi)polygons; other geometries get 0.
     source : CRS
-        Their CRS.
     n_jobs : int, optional
         Threads (None or -1: every core).
 
@@ -373,13 +364,11 @@ class Projection:
     Parameters
     ----------
     coords : numpy.ndarray, shape (n, 2)
-        Point coordinates in ``source``.
+        Point coordinates in ``source``, the input CRS (or None).
     codes, n_groups, labels
         As for :func:`metric_crs`.
-    source : CRS or None
-        The input CRS.
-    crs : "auto", "auto-group", CRS or None
-        The ``crs=`` option.
+    source, crs
+        The input CRS and the ``crs=`` option.
 
     Attributes
     ----------
