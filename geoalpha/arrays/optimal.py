@@ -59,8 +59,7 @@ class AlphaShapes(NamedTuple):
         Area of the shape in the units of ``points`` squared, whatever
         ``coords`` the geometry was built from.
     degenerate : ndarray of bool
-        The group has no shape (``reason`` > 0): no triangle, no alpha, or no
-        valid covering polygon (never a polygon that misses a point).
+        The group has no shape (``reason`` > 0), never one that misses a point.
     n_outliers : ndarray of int
         Rows of the group left out of the shape (``outliers=``), else 0.
     outlier : ndarray of bool, shape (n,)
@@ -73,8 +72,7 @@ class AlphaShapes(NamedTuple):
         holding the most rows hit :data:`geoalpha.kernel.MAX_UNION_NODES` and
         kept the best union found (named in an :class:`OutlierWarning`).
     reason : ndarray of int
-        0 (not degenerate), a key of :data:`geoalpha.kernel.REASONS`, or 5:
-        the guarantee failed in ``coords`` (:doc:`/user_guide/arrays`).
+        Why a group is degenerate, 0 if not (:doc:`/user_guide/arrays`).
     """
 
     alpha: np.ndarray
@@ -131,8 +129,7 @@ def alpha_shapes(
         Bisection steps before ``search="bisect"`` gives up.
     coords : array_like of shape (n, 2), optional
         Coordinates to build the output geometries from, one row per point
-        (default: ``points``), e.g. the input longitude/latitude, so that
-        every vertex is exactly an input point.
+        (default: ``points``), e.g. the input longitude/latitude.
     n_groups : int, optional
         Number of groups (default: largest code + 1).
     progress : object with an ``update(n)`` method, optional
@@ -169,9 +166,8 @@ def alpha_shapes(
 
     Notes
     -----
-    A triangle is solid when ``alpha * r <= 1`` (with a few ulps of slack, so
-    that an optimal alpha fed back gives the optimal shape). Degenerate groups
-    raise no warning here (check ``degenerate``).
+    A triangle is solid when ``alpha * r <= 1`` (:doc:`/user_guide/guarantee`).
+    Degenerate groups raise no warning here (check ``degenerate``).
 
     Examples
     --------
@@ -284,11 +280,8 @@ def _given_alpha(alpha, n_groups: int) -> np.ndarray:
 
 
 def _searched_alpha(curve, n_groups: int, search: str, max_iterations: int):
-    """Return the alpha ``search="ladder"``/``"bisect"`` finds on the validity curves.
-
-    A curve: a group's distinct weights, ascending, and whether the shape at
-    each is valid (at a threshold: that of the largest weight below it).
-    """
+    """Return the alpha ``search="ladder"``/``"bisect"`` finds on validity curves."""
+    # per group: its distinct weights, ascending, and whether the shape at each is valid
     values, valid_at, offsets = curve
 
     def valid(groups, alphas):
@@ -367,8 +360,9 @@ def _on_the_sphere(res: kernel.Solved, polar, name_groups) -> kernel.Solved:
     """Refuse groups too wide for the sphere; unfold the others, close polar ones."""
     refused = np.flatnonzero(res.reason == REFUSED)
     if len(refused):
-        named = _named(refused, name_groups)
-        raise InvalidInputError(refused_message(named, len(refused)))
+        raise InvalidInputError(
+            refused_message(_named(refused, name_groups), len(refused))
+        )
     polar = np.zeros(len(res.reason), bool) if polar is None else np.asarray(polar)
     geometry = res.geometry.copy()
     # Long edges of a shape concave on the sphere can fold in lon/lat.

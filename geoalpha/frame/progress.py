@@ -39,15 +39,9 @@ _CURRENT: contextvars.ContextVar[Phases | None] = contextvars.ContextVar(
 def hull_costs(n_rows: int, n_groups: int, *, per_group_crs: bool) -> dict:
     """Estimate the time of each phase of :func:`geoalpha.hull`, in microseconds.
 
-    Measured: about 4 us a point to compute; with a metric CRS per group,
-    about 150 us a group to project and to check. Only the ratios matter.
-
-    Parameters
-    ----------
-    n_rows, n_groups : int
-        Points and groups of the run.
-    per_group_crs : bool
-        Whether groups likely get a metric CRS each (wide lon/lat input).
+    Measured: about 4 us a point to compute; with a metric CRS per group
+    (``per_group_crs``: wide lon/lat input), about 150 us a group to project and
+    to check. Only the ratios matter.
 
     Returns
     -------
@@ -188,10 +182,7 @@ class Phases:
                 self._costs[name] = max(float(cost), 0.0)
 
     def sized(self, n_rows: int, n_groups: int, *, per_group_crs: bool) -> None:
-        """Estimate the phases to come from the run's size; show the bar if due.
-
-        ``show=None``: from :data:`PROGRESS_MIN_GROUPS` groups on a terminal.
-        """
+        """Estimate the phases to come from the run's size; show the bar if due."""
         costs = hull_costs(n_rows, n_groups, per_group_crs=per_group_crs)
         if self._extra_costs is not None:
             costs.update(self._extra_costs(n_rows, n_groups))

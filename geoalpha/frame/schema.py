@@ -65,7 +65,7 @@ def planar_unit(input_crs, crs) -> str | None:
     -------
     str or None
         ``"coordinate unit"`` without CRS, else the first axis' unit; None
-        when ``area_m2`` is in square metres (else :func:`with_area_unit`).
+        when ``area_m2`` is in square metres.
 
     Examples
     --------
@@ -98,7 +98,6 @@ def with_area_unit(table, unit: str | None):
     Returns
     -------
     geopandas.GeoDataFrame
-        ``area_m2`` renamed ``area``, followed by a ``unit`` column.
     """
     if unit is None:
         return table
@@ -123,7 +122,6 @@ def result_geometry_name(frame, keys) -> str:
     import pandas as pd
 
     name = frame._geometry_column_name  # frame.geometry.name builds a GeoSeries
-    name = name if name is not None else "geometry"
     taken = keys.columns if isinstance(keys, pd.DataFrame) else keys
     if not isinstance(name, str) or name in taken or name in RESULT_COLUMNS:
         return "geometry"
