@@ -118,15 +118,9 @@ def alpha_shapes(
         default: one group.
     alpha : float or array_like of shape (G,), optional
         Use this alpha instead of the optimum (0 is the convex hull).
-    holes : bool, default False
-        Keep holes (True) or fill every hole not connected to the outside.
-    components : int, default 1
-        Largest number of edge-connected pieces a valid shape may have.
-    search : {"exact", "ladder", "bisect"}, default "exact"
-        The true maximum over the circumradius spectrum, or the seed paper's
-        and ``alphashape``'s searches, for comparison (:doc:`/user_guide/optimal`).
-    max_iterations : int, default 10000
-        Bisection steps before ``search="bisect"`` gives up.
+    holes, components, search, max_iterations, n_jobs, outliers
+        As for :func:`geoalpha.hull`; the rows left out are reported in
+        ``n_outliers`` and ``outlier`` (:doc:`/user_guide/outliers`).
     coords : array_like of shape (n, 2), optional
         Coordinates to build the output geometries from, one row per point
         (default: ``points``), e.g. the input longitude/latitude.
@@ -134,13 +128,6 @@ def alpha_shapes(
         Number of groups (default: largest code + 1).
     progress : object with an ``update(n)`` method, optional
         Progress in groups (e.g. a ``tqdm`` bar).
-    n_jobs : int, optional
-        Threads of the compiled kernel (None or -1: every core); the result
-        is the same for any.
-    outliers : float or int, default 0
-        Rows each group may leave out (a fraction or a count,
-        :func:`~geoalpha.arrays.budget.outlier_budget`), reported in
-        ``n_outliers`` and ``outlier`` (:doc:`/user_guide/outliers`).
     name_groups : callable, optional
         Names the groups of an array of codes in warnings, as text (by key in
         :func:`geoalpha.hull`); default: by code.

@@ -1,7 +1,6 @@
 """The seed paper's integer ladder and ``alphashape``'s float bisection.
 
-For comparison with the exact optimum, on the same validity test, vectorised
-over groups; an integer alpha in 1/metre is nearly always 0 (the convex hull).
+Vectorised over groups, for comparison (:doc:`/user_guide/optimal`).
 """
 
 from __future__ import annotations
@@ -15,8 +14,6 @@ __all__ = ["LADDER", "bisect_alpha", "ladder_alpha"]
 
 #: The seed paper's descending rungs of integer alphas.
 LADDER: tuple[int, ...] = (5000, 3000, 1000, 500, 300, 100, 50, 25, 18, 10, 5, 0)
-
-#: ``valid(groups, alphas) -> bool array``: is the shape of each group valid?
 Oracle = Callable[[np.ndarray, np.ndarray], np.ndarray]
 
 
@@ -32,7 +29,7 @@ def ladder_alpha(
     Parameters
     ----------
     valid : callable
-        ``valid(groups, alphas)`` -> bool array (the :data:`Oracle`).
+        ``valid(groups, alphas)`` -> bool array: is the shape of each group valid?
     n_groups : int
     rungs : tuple of int
         Descending alphas ending with 0 (the convex hull, always valid).
@@ -92,7 +89,6 @@ def bisect_alpha(
         As for :func:`ladder_alpha`.
     max_iterations : int
     lower, upper : float
-        Initial bracket.
 
     Returns
     -------

@@ -86,8 +86,7 @@ def check_lonlat(lon: Any, lat: Any, labels: Any = None) -> None:
     Raises
     ------
     InvalidInputError
-        On NaN, infinite or out-of-range coordinates, naming the rows (and
-        saying when latitude and longitude look swapped).
+        On NaN, infinite or out-of-range (or swapped) coordinates, naming the rows.
     """
     lon, lat = _as_coords(lon, lat)
     bad = ~(np.isfinite(lon) & np.isfinite(lat))
@@ -210,7 +209,7 @@ def metric_crs(
     source_crs : CRS, optional
         The geographic CRS of ``lon``/``lat``; default EPSG:4326 (WGS 84).
     labels : array_like, optional
-        A label per point to name rows by in errors (default: positions).
+        As for :func:`check_lonlat`.
 
     Returns
     -------
@@ -374,11 +373,9 @@ class Projection:
     ----------
     xy : numpy.ndarray, shape (n, 2)
         Coordinates to compute in: metres (the input units with ``crs=None``).
-    out : numpy.ndarray, shape (n, 2)
-        The output vertices: the input coordinates (longitudes unwrapped in
-        groups across the antimeridian).
-    crossing, wide : numpy.ndarray of bool, shape (n_groups,)
-        Groups across +-180 degrees; wider than 180 degrees (lon/lat input).
+    out, crossing, wide : numpy.ndarray
+        The output vertices (the input coordinates) and groups, as
+        :func:`~geoalpha.arrays.lonlat.output_lonlat` (lon/lat input).
     names : numpy.ndarray of str, shape (n_groups,)
         The computation CRS of each group, for the output table.
     unit : str

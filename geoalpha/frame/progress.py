@@ -71,15 +71,15 @@ class Phases:
     names : sequence of str
         The phases, in the order they run.
     show : bool or None
-        True: show the bar from the start (needs tqdm); False: never;
-        None: decide in :meth:`sized`, once the number of groups is known.
+        True: show the bar from the start (needs tqdm); False: never; None:
+        from :data:`PROGRESS_MIN_GROUPS` groups on a terminal (:meth:`sized`).
     desc : str, optional
         Start of the bar's description; the current phase follows it.
     file : file-like, optional
         Where the bar is drawn (default: ``sys.stderr``).
     costs : callable, optional
-        ``costs(n_rows, n_groups)`` -> estimated costs of phases other than
-        :func:`geoalpha.hull`'s (the command's ``write``), for :meth:`sized`.
+        ``costs(n_rows, n_groups)`` -> estimated costs of the phases other
+        than :func:`geoalpha.hull`'s (the command's ``write``).
 
     Raises
     ------
