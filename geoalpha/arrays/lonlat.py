@@ -78,9 +78,8 @@ def group_arcs(
 ) -> dict[str, np.ndarray]:
     """Smallest longitude arc (and latitude range) covering each group.
 
-    Returns arrays of shape (n_groups,): ``crossing``, ``west``/``east``
-    (``east`` may exceed 180) and with ``lat`` ``south``/``north``; NaN ends
-    for empty groups.
+    Arrays by name: ``crossing``, ``west``, ``east`` (may exceed 180) and with
+    ``lat`` ``south``, ``north``; NaN ends for empty groups.
     """
     west, east = _group_min_max(lon, codes, n_groups)
     out = {"crossing": np.zeros(n_groups, dtype=bool), "west": west, "east": east}
@@ -126,8 +125,7 @@ def crosses_antimeridian(lon: Any, codes: Any, n_groups: int) -> np.ndarray:
     Parameters
     ----------
     lon, codes : array_like, shape (n,)
-        Longitudes in degrees, in [-180, 180], and the group code of each
-        point, ``0 .. n_groups - 1``.
+        Longitudes in [-180, 180] degrees, and group codes ``0 .. n_groups - 1``.
     n_groups : int
 
     Returns
@@ -189,8 +187,7 @@ def split_antimeridian(geom: Any) -> Any:
     Returns
     -------
     shapely geometry or numpy.ndarray of geometries
-        A geometry with some x > 180 becomes a valid MultiPolygon of the same
-        area, the others are unchanged.
+        Those with some x > 180 as valid MultiPolygons of the same area.
 
     Examples
     --------

@@ -46,18 +46,16 @@ class AlphaShapes(NamedTuple):
     Attributes
     ----------
     alpha : ndarray of float
-        The alpha used (the optimum unless one was given), in 1/unit of the
-        coordinates; ``nan`` for degenerate groups, 0 means the convex hull.
+        The alpha used (the optimum unless given), in 1/unit of the coordinates;
+        ``nan`` for degenerate groups, 0 means the convex hull.
     geometry : ndarray of object
-        Polygon, MultiPolygon (several pieces) or empty Polygon (degenerate
-        group, or nothing solid at the given alpha).
+        Polygon, MultiPolygon (several pieces) or empty Polygon.
     n_points, n_distinct : ndarray of int
         Input points of the group (duplicates included), and distinct points.
     n_parts : ndarray of int
         Edge-connected pieces of the shape.
     area : ndarray of float
-        Area of the shape in the units of ``points`` squared, whatever
-        ``coords`` the geometry was built from.
+        In the units of ``points`` squared, whatever ``coords`` the geometry has.
     degenerate : ndarray of bool
         The group has no shape (``reason`` > 0), never one that misses a point.
     n_outliers : ndarray of int
@@ -65,12 +63,12 @@ class AlphaShapes(NamedTuple):
     outlier : ndarray of bool, shape (n,)
         Per input point: left out (duplicates of a left-out point too).
     gave_up : ndarray of bool
-        ``search="bisect"`` stopped at ``max_iterations`` and returned alpha
-        0, the convex hull (named in a :class:`SearchWarning`).
+        ``search="bisect"`` stopped at ``max_iterations`` with alpha 0
+        (named in a :class:`SearchWarning`).
     capped : ndarray of bool
-        ``outliers=`` with several ``components``: the search for the pieces
-        holding the most rows hit :data:`geoalpha.kernel.MAX_UNION_NODES` and
-        kept the best union found (named in an :class:`OutlierWarning`).
+        With ``outliers=`` and several ``components``, the search for the best
+        pieces stopped at :data:`geoalpha.kernel.MAX_UNION_NODES` (an
+        :class:`OutlierWarning` names them).
     reason : ndarray of int
         Why a group is degenerate, 0 if not (:doc:`/user_guide/arrays`).
     """
@@ -132,13 +130,11 @@ def alpha_shapes(
         Names the groups of an array of codes in warnings, as text (by key in
         :func:`geoalpha.hull`); default: by code.
     sphere : bool, default False
-        ``points`` are longitudes and latitudes in degrees, computed on the
-        sphere: alpha in 1/metre, areas in square metres; without ``coords``
-        the polygons are in longitude and latitude (:doc:`/user_guide/sphere`).
+        ``points`` are longitudes and latitudes, computed on the sphere: alpha
+        in 1/metre, areas in square metres (:doc:`/user_guide/sphere`).
     polar : array_like of bool, shape (n_groups,), optional
-        With ``sphere``: the groups around a pole
-        (:func:`~geoalpha.arrays.sphere.close_around_poles`). Default: found
-        from ``points`` without ``coords``, none otherwise.
+        With ``sphere``: the groups around a pole. Default: found from
+        ``points`` without ``coords`` (:func:`~geoalpha.arrays.sphere.sphere_output`).
 
     Returns
     -------
@@ -148,8 +144,7 @@ def alpha_shapes(
     ------
     InvalidInputError
         On NaN/inf coordinates (naming the rows), bad shapes or options, and
-        with ``sphere`` on groups wider than
-        :data:`~geoalpha.arrays.sphere.MAX_SPHERE_DEGREES` (naming them).
+        with ``sphere`` on groups too wide for it (naming them).
 
     Notes
     -----
@@ -504,9 +499,8 @@ def optimal_alpha(
     Returns
     -------
     float
-        ``max{alpha >= 0 : S(alpha) valid}``, exactly ``1 / r(t)`` for one
-        Delaunay triangle ``t`` (or 0, the convex hull); ``nan`` with a
-        :class:`DegenerateGroupWarning` for fewer than 3 or collinear points.
+        ``1 / r(t)`` for one Delaunay triangle ``t`` (or 0, the convex hull);
+        ``nan`` with a :class:`DegenerateGroupWarning` if there is no shape.
 
     Raises
     ------
@@ -558,9 +552,9 @@ def alpha_shape(
     Returns
     -------
     shapely.Polygon or shapely.MultiPolygon
-        At the optimum, one valid Polygon (at most ``components`` parts)
-        covering every input point, vertices input points. At a given alpha,
-        a MultiPolygon where pieces separate, empty when nothing is solid.
+        At the optimum, a valid (Multi)Polygon of at most ``components`` parts
+        covering every input point; at a given alpha, a MultiPolygon where
+        pieces separate, empty when nothing is solid.
 
     Examples
     --------

@@ -38,7 +38,7 @@ def ladder_alpha(
     -------
     alpha : ndarray of shape (n_groups,)
     tests : int
-        Largest number of validity tests one group needed.
+        Most validity tests of one group.
 
     Examples
     --------

@@ -111,8 +111,7 @@ def close_around_poles(geometry: np.ndarray) -> np.ndarray:
 
     Rings follow their great-circle arcs, unwrapped; a shell once around in
     longitude is closed along the pole (+-90), cut at +-180 degrees and made
-    valid. The guarantee (:func:`~geoalpha.arrays.guarantee.enforce`) takes in
-    the points it misses.
+    valid (:doc:`/user_guide/sphere`).
 
     Examples
     --------
@@ -127,9 +126,8 @@ def close_around_poles(geometry: np.ndarray) -> np.ndarray:
 def follow_arcs(geometry: np.ndarray) -> np.ndarray:
     """Polygons whose edges follow the sphere's great-circle arcs.
 
-    For shapes whose longitude/latitude polygon folds over itself (long edges
-    far from their arcs). Each edge gets points along its arc; longitudes stay
-    as they are (unwrapped across +-180 degrees where they were).
+    For longitude/latitude polygons that fold over themselves (long edges far
+    from their arcs); longitudes stay unwrapped across +-180 where they were.
 
     Examples
     --------
