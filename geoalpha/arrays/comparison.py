@@ -70,10 +70,9 @@ def comparison_hulls(
 ) -> ComparisonHulls:
     """GEOS concave (``method="concave"``) or KNN hull per group, built in metres.
 
-    ``xy`` holds the points in metres, ``out`` the same in the output
-    coordinates, one row per point of ``codes``. The polygons come back in the
-    output coordinates, not yet checked (:func:`geoalpha.hull`'s guarantee
-    stage does, with :func:`geoalpha.arrays.guarantee.enforce`).
+    ``xy`` holds the points in metres, ``out`` in the output coordinates, one row
+    per point of ``codes``; the polygons come back in ``out``'s, not yet checked
+    (:func:`geoalpha.arrays.guarantee.enforce`).
     """
     order = np.argsort(codes, kind="stable")
     sorted_xy, sc = xy[order], codes[order]

@@ -22,9 +22,8 @@ def ladder_alpha(
 ) -> tuple[np.ndarray, int]:
     """Largest integer alpha found by the seed paper's ladder search.
 
-    Test the descending ``rungs``; at the first that passes, bisect the
-    integers between it and the rung above (a group valid at the top rung gets
-    the top rung).
+    Test the descending ``rungs``; at the first that passes, bisect the integers
+    between it and the rung above (valid at the top rung: the top rung).
 
     Parameters
     ----------
@@ -78,10 +77,9 @@ def bisect_alpha(
 ) -> tuple[np.ndarray, np.ndarray, int]:
     """``alphashape.optimizealpha``'s float bisection, vectorised over groups.
 
-    Bisects between ``lower`` and ``upper`` until they are closer than
-    ``2 * eps`` (absolute, so never once the optimum is >= 4) or gives up
-    after ``max_iterations`` and returns 0 (the convex hull), as ``alphashape``
-    does. A group valid at ``upper`` also gets 0.
+    Bisects until the bracket is narrower than ``2 * eps`` (absolute: never
+    once the optimum is >= 4) or gives up after ``max_iterations`` with 0 (the
+    convex hull), as ``alphashape`` does; so does a group valid at ``upper``.
 
     Parameters
     ----------

@@ -56,8 +56,8 @@ def polar_groups(
 ) -> np.ndarray:
     """Of the groups ``which``, those whose spherical convex hull holds a pole.
 
-    The pole is in the hull when its gnomonic image (from the group's centre)
-    is in the convex hull of the points' images (great circles map to lines).
+    Tested in the gnomonic projection from the group's centre (great circles
+    map to lines).
 
     Examples
     --------
@@ -164,10 +164,7 @@ def _unit(lonlat: np.ndarray) -> np.ndarray:
 
 
 def _densify(ring: np.ndarray, step: float = 0.25, keep: bool = False) -> np.ndarray:
-    """Points every ``step`` degrees (of arc and of longitude) along a ring's arcs.
-
-    With ``keep`` the new longitudes follow their edge's (beyond 180 where it is).
-    """
+    """Points every ``step`` degrees (of arc and of longitude) along a ring's arcs."""
     u = _unit(ring)
     out = [ring[:1]]
     for k in range(len(ring) - 1):
@@ -180,7 +177,7 @@ def _densify(ring: np.ndarray, step: float = 0.25, keep: bool = False) -> np.nda
             w = (1 - t) * a + t * b  # on the chord, then onto the sphere
             w /= np.linalg.norm(w, axis=1)[:, None]
             lon = np.degrees(np.arctan2(w[:, 1], w[:, 0]))
-            if keep:
+            if keep:  # the edge's longitudes (beyond 180 where it is)
                 lon = ring[k, 0] + (lon - ring[k, 0] + 180.0) % 360.0 - 180.0
             out.append(np.column_stack([lon, np.degrees(np.arcsin(w[:, 2]))]))
         out.append(ring[k + 1 : k + 2])

@@ -39,7 +39,6 @@ __all__ = [
     "crosses_antimeridian",
     "geodesic_areas",
     "metric_crs",
-    "output_lonlat",
     "restore_longitudes",
     "split_antimeridian",
     "to_wgs84",
@@ -199,10 +198,8 @@ def metric_crs(
     ----------
     lon, lat : array_like of float, shape (n,)
         Degrees in ``source_crs`` (checked with :func:`check_lonlat`).
-    codes : array_like of int, shape (n,)
+    codes, n_groups : array_like of int, shape (n,), and int
         Group code of every point, ``0 .. n_groups - 1`` (no ``-1``).
-    n_groups : int
-        Number of groups.
     crs : "auto", "auto-group" or CRS, default "auto"
         The UTM zones and local LAEA CRSs of :doc:`/user_guide/crs`
         (``"auto-group"``: always per group), or one CRS for every group.
@@ -335,9 +332,8 @@ def geodesic_areas(
 
     Parameters
     ----------
-    geometry : numpy.ndarray of shapely geometries
-        (Multi)polygons; other geometries get 0.
-    source : CRS
+    geometry, source : numpy.ndarray of shapely geometries, CRS
+        (Multi)polygons (other geometries get 0) and their CRS.
     n_jobs : int, optional
         Threads (None or -1: every core).
 

@@ -39,14 +39,13 @@ _CURRENT: contextvars.ContextVar[Phases | None] = contextvars.ContextVar(
 def hull_costs(n_rows: int, n_groups: int, *, per_group_crs: bool) -> dict:
     """Estimate the time of each phase of :func:`geoalpha.hull`, in microseconds.
 
-    Measured: about 4 us a point to compute; with a metric CRS per group
-    (``per_group_crs``: wide lon/lat input), about 150 us a group to project and
-    to check. Only the ratios matter.
+    Measured: 4 us a point to compute; with a metric CRS per group (wide lon/lat
+    input), 150 us a group to project and to check. Only the ratios matter.
 
     Returns
     -------
     dict
-        Phase name -> estimated cost, for :meth:`Phases.estimate`.
+        Phase name -> estimated cost (:meth:`Phases.estimate`).
 
     Examples
     --------

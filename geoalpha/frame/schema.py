@@ -56,16 +56,13 @@ def planar_unit(input_crs, crs) -> str | None:
 
     Parameters
     ----------
-    input_crs : CRS or None
-        The CRS of the input points.
-    crs : "auto", CRS or None
-        The ``crs`` option of :func:`geoalpha.hull`.
+    input_crs, crs : CRS or None
+        The CRS of the input points and the ``crs`` option of :func:`geoalpha.hull`.
 
     Returns
     -------
     str or None
-        ``"coordinate unit"`` without CRS, else the first axis' unit; None
-        when ``area_m2`` is in square metres.
+        ``"coordinate unit"`` without CRS, else the first axis' unit; None for metres.
 
     Examples
     --------
@@ -109,8 +106,7 @@ def with_area_unit(table, unit: str | None):
 def result_geometry_name(frame, keys) -> str:
     """Name the result's geometry column after the input's (``geom`` stays ``geom``).
 
-    ``geometry`` if a group key (``keys``: a table or names) or result column
-    has that name.
+    ``geometry`` if a group key (``keys``: a table or names) or result column has it.
 
     Examples
     --------
@@ -144,9 +140,8 @@ def result_frame(
         points), as a DataFrame or arrays by column name.
     values : dict
         One array per name of :data:`RESULT_COLUMNS`; cast to :data:`DTYPES`.
-    geometry : array_like of shapely geometries
-        One per group, in ``crs``.
-    crs : CRS or None
+    geometry, crs : array_like of shapely geometries, CRS or None
+        One per group, and their CRS.
     geometry_name : str, default "geometry"
         Name of the geometry column (:func:`result_geometry_name`).
 
