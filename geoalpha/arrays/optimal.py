@@ -515,16 +515,8 @@ def optimal_alpha(
     >>> round(optimal_alpha(stray), 6), round(optimal_alpha(stray, outliers=1), 6)
     (0.035624, 0.430769)
     """
-    return float(
-        _one_group(
-            points,
-            holes=holes,
-            components=components,
-            search=search,
-            max_iterations=max_iterations,
-            outliers=outliers,
-        ).alpha[0]
-    )
+    options = dict(holes=holes, components=components, search=search, outliers=outliers)
+    return float(_one_group(points, max_iterations=max_iterations, **options).alpha[0])
 
 
 def alpha_shape(
@@ -564,11 +556,5 @@ def alpha_shape(
     >>> alpha_shape([[0, 0], [4, 0], [4, 4], [0, 4], [2, 3.5]], alpha=0).area
     16.0
     """
-    return _one_group(
-        points,
-        alpha=alpha,
-        holes=holes,
-        components=components,
-        search=search,
-        outliers=outliers,
-    ).geometry[0]
+    options = dict(holes=holes, components=components, search=search, outliers=outliers)
+    return _one_group(points, alpha=alpha, **options).geometry[0]

@@ -16,13 +16,11 @@ import shapely
 from geoalpha.arrays.area import geodesic_areas as lonlat_areas
 from geoalpha.arrays.lonlat import (
     check_codes,
-    crosses_antimeridian,
     group_arcs,
     output_lonlat,
     restore_longitudes,
     row_positions,
     split_antimeridian,
-    unwrap_lon,
 )
 from geoalpha.crs_parsing import (
     crs_name,
@@ -36,13 +34,11 @@ from geoalpha.errors import InvalidInputError, setting
 __all__ = [
     "Projection",
     "check_lonlat",
-    "crosses_antimeridian",
     "geodesic_areas",
     "metric_crs",
     "restore_longitudes",
     "split_antimeridian",
     "to_wgs84",
-    "unwrap_lon",
 ]
 
 #: Degrees of longitude either side of a UTM zone's central meridian that "fit
