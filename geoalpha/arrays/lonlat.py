@@ -229,9 +229,8 @@ def restore_longitudes(
 ) -> np.ndarray:
     """Give split polygons the input points' own longitudes back.
 
-    The round trip ``lon + 360 - 360`` can move a vertex by one unit in the
-    last place, leaving its point outside the polygon. Vertices that match no
-    input point stay as they are.
+    The round trip ``lon + 360 - 360`` can move a vertex by one ulp, leaving its
+    point outside the polygon; vertices that match no input point stay as they are.
 
     Parameters
     ----------

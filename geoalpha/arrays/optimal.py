@@ -112,8 +112,7 @@ def alpha_shapes(
     points : array_like of shape (n, 2)
         Coordinates in a metric (projected) CRS; alpha is in 1/unit of them.
     groups : array_like of int, shape (n,), optional
-        Group code ``0 .. G-1`` of each point (:func:`pandas.factorize`);
-        default: one group.
+        Group code ``0 .. G-1`` of each point (:func:`pandas.factorize`), or one group.
     alpha : float or array_like of shape (G,), optional
         Use this alpha instead of the optimum (0 is the convex hull).
     holes, components, search, max_iterations, n_jobs, outliers
@@ -127,8 +126,7 @@ def alpha_shapes(
     progress : object with an ``update(n)`` method, optional
         Progress in groups (e.g. a ``tqdm`` bar).
     name_groups : callable, optional
-        Names the groups of an array of codes in warnings, as text (by key in
-        :func:`geoalpha.hull`); default: by code.
+        Names an array of group codes in warnings, as text (default: by code).
     sphere : bool, default False
         ``points`` are longitudes and latitudes, computed on the sphere: alpha
         in 1/metre, areas in square metres (:doc:`/user_guide/sphere`).

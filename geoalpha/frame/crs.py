@@ -402,8 +402,7 @@ class Projection:
         src = parse_crs(source)
         self.source = src
         self.out = coords
-        self.crossing = np.zeros(n_groups, dtype=bool)
-        self.wide = np.zeros(n_groups, dtype=bool)
+        self.crossing, self.wide = np.zeros((2, n_groups), dtype=bool)
         self._crs_list: list[pyproj.CRS] = []
         self._crs_index = np.zeros(n_groups, dtype=np.intp)
         if crs is None:  # planar: the coordinates as they are

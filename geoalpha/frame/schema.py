@@ -136,8 +136,7 @@ def result_frame(
     Parameters
     ----------
     keys : pandas.DataFrame or mapping
-        One row per group: the key column(s) (none for one group of all
-        points), as a DataFrame or arrays by column name.
+        One row per group: the key column(s) (none for one group), by name.
     values : dict
         One array per name of :data:`RESULT_COLUMNS`; cast to :data:`DTYPES`.
     geometry, crs : array_like of shapely geometries, CRS or None

@@ -63,9 +63,7 @@ class SphereProjection(gcrs.Projection):
         self.unit = "m"
         self.names = np.full(n_groups, "sphere", dtype=object)
         self.out = coords
-        self.crossing = np.zeros(n_groups, dtype=bool)
-        self.wide = np.zeros(n_groups, dtype=bool)
-        self.polar = np.zeros(n_groups, dtype=bool)
+        self.crossing, self.wide, self.polar = np.zeros((3, n_groups), dtype=bool)
         lon, lat = coords[:, 0], coords[:, 1]
         if src.is_geographic:  # around a pole: closed along it, input longitudes
             gcrs.check_lonlat(lon, lat, labels)
