@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 from typing import NamedTuple
 
 import numpy as np
@@ -99,11 +100,9 @@ def comparison_hulls(
             bar.update(n_groups)
     else:
         for g in range(n_groups):
-            try:
+            with contextlib.suppress(InvalidInputError):  # too few or collinear
                 geoms[g], used = knn_hull(sorted_xy[ptr[g] : ptr[g + 1]], k=k)
                 labels[g] = f"knn k={used}"
-            except InvalidInputError:
-                pass
             if bar is not None:
                 bar.update(1)
     degenerate = (shapely.get_type_id(geoms) != 3) | shapely.is_empty(geoms)

@@ -99,10 +99,8 @@ def check_lonlat(lon: Any, lat: Any, labels: Any = None) -> None:
         if bad.any()
     ]
     if problems:
-        message = (
-            "points in a geographic CRS must be longitude/latitude degrees; "
-            + "; ".join(problems)
-        )
+        message = "points in a geographic CRS must be longitude/latitude degrees; "
+        message += "; ".join(problems)
         if np.all(np.abs(lon) <= 90.0) and np.all(np.abs(lat) <= 180.0):
             message += "; latitude and longitude look swapped (x holds latitudes?)"
         raise InvalidInputError(message)
