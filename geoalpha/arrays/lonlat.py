@@ -148,10 +148,8 @@ def unwrap_lon(lon: Any, codes: Any, crossing: Any) -> np.ndarray:
 
     Parameters
     ----------
-    lon, codes
-        As for :func:`crosses_antimeridian`.
-    crossing : array_like of bool, shape (n_groups,)
-        Which groups cross (:func:`crosses_antimeridian`).
+    lon, codes, crossing
+        As for :func:`crosses_antimeridian`, and the groups that cross (its result).
 
     Returns
     -------

@@ -66,9 +66,8 @@ class AlphaShapes(NamedTuple):
         ``search="bisect"`` stopped at ``max_iterations`` with alpha 0
         (named in a :class:`SearchWarning`).
     capped : ndarray of bool
-        With ``outliers=`` and several ``components``, the search for the best
-        pieces stopped at :data:`geoalpha.kernel.MAX_UNION_NODES` (an
-        :class:`OutlierWarning` names them).
+        With ``outliers=`` and several ``components``: the piece search stopped at
+        :data:`geoalpha.kernel.MAX_UNION_NODES` (named in an :class:`OutlierWarning`).
     reason : ndarray of int
         Why a group is degenerate, 0 if not (:doc:`/user_guide/arrays`).
     """
@@ -137,17 +136,13 @@ def alpha_shapes(
     Returns
     -------
     AlphaShapes
+        Degenerate groups are flagged in ``degenerate``, without a warning.
 
     Raises
     ------
     InvalidInputError
         On NaN/inf coordinates (naming the rows), bad shapes or options, and
         with ``sphere`` on groups too wide for it (naming them).
-
-    Notes
-    -----
-    A triangle is solid when ``alpha * r <= 1`` (:doc:`/user_guide/guarantee`).
-    Degenerate groups raise no warning here (check ``degenerate``).
 
     Examples
     --------

@@ -72,10 +72,9 @@ class Phases:
     show : bool or None
         True: show the bar from the start (needs tqdm); False: never; None:
         from :data:`PROGRESS_MIN_GROUPS` groups on a terminal (:meth:`sized`).
-    desc : str, optional
-        Start of the bar's description; the current phase follows it.
-    file : file-like, optional
-        Where the bar is drawn (default: ``sys.stderr``).
+    desc, file : str and file-like, optional
+        Start of the bar's description (the phase follows), and where the bar is
+        drawn (default: ``sys.stderr``).
     costs : callable, optional
         ``costs(n_rows, n_groups)`` -> estimated costs of the phases other
         than :func:`geoalpha.hull`'s (the command's ``write``).
