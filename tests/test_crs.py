@@ -13,15 +13,10 @@ from hypothesis import strategies as st
 from shapely.geometry import MultiPolygon, Polygon, box
 
 from geoalpha import datasets
+from geoalpha.arrays.lonlat import crosses_antimeridian, unwrap_lon
 from geoalpha.crs_parsing import crs_name, parse_crs
 from geoalpha.errors import InvalidInputError
-from geoalpha.frame.crs import (
-    check_lonlat,
-    crosses_antimeridian,
-    metric_crs,
-    split_antimeridian,
-    unwrap_lon,
-)
+from geoalpha.frame.crs import check_lonlat, metric_crs, split_antimeridian
 
 GEOD = pyproj.Geod(ellps="WGS84")
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 from typing import NamedTuple
 
 import numpy as np
@@ -70,10 +71,9 @@ def comparison_hulls(
 ) -> ComparisonHulls:
     """GEOS concave (``method="concave"``) or KNN hull per group, built in metres.
 
-    ``xy`` holds the points in metres, ``out`` the same in the output
-    coordinates, one row per point of ``codes``. The polygons come back in the
-    output coordinates, not yet checked (:func:`geoalpha.hull`'s guarantee
-    stage does, with :func:`geoalpha.arrays.guarantee.enforce`).
+    ``xy`` holds the points in metres, ``out`` in the output coordinates, one row
+    per point of ``codes``; the polygons come back in ``out``'s, not yet checked
+    (:func:`geoalpha.arrays.guarantee.enforce`).
     """
     order = np.argsort(codes, kind="stable")
     sorted_xy, sc = xy[order], codes[order]
@@ -100,11 +100,9 @@ def comparison_hulls(
             bar.update(n_groups)
     else:
         for g in range(n_groups):
-            try:
+            with contextlib.suppress(InvalidInputError):  # too few or collinear
                 geoms[g], used = knn_hull(sorted_xy[ptr[g] : ptr[g + 1]], k=k)
                 labels[g] = f"knn k={used}"
-            except InvalidInputError:
-                pass
             if bar is not None:
                 bar.update(1)
     degenerate = (shapely.get_type_id(geoms) != 3) | shapely.is_empty(geoms)

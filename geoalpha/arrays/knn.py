@@ -21,11 +21,10 @@ def knn_hull(
 ) -> tuple[shapely.Polygon, int]:
     """Concave hull of points by the k-nearest-neighbours walk.
 
-    From the lowest point, walk counter-clockwise, each step to the one of
-    the ``k`` nearest unused points with the largest right-hand turn whose
-    new edge touches no earlier edge; raise ``k`` until the closed ring is a
-    valid polygon covering every point (the paper checks only the points left
-    off the hull, and not validity).
+    From the lowest point, walk counter-clockwise, each step to the one of the
+    ``k`` nearest unused points with the largest right-hand turn whose new edge
+    touches no earlier edge; raise ``k`` until the ring is a valid polygon
+    covering every point (the paper checks neither validity nor every point).
 
     Parameters
     ----------
@@ -40,16 +39,14 @@ def knn_hull(
     Returns
     -------
     polygon : shapely.Polygon
-        Valid, counter-clockwise, covering every input point, vertices input
-        points.
+        Valid, counter-clockwise, covering every input point, input vertices.
     k : int
         The ``k`` that gave it; ``n`` if every ``k`` failed (the convex hull).
 
     Raises
     ------
     InvalidInputError
-        If ``points`` is not a finite (n, 2) array, ``k`` or ``max_k`` is
-        wrong, or there are fewer than 3 distinct points or all collinear.
+        On a bad ``points``, ``k`` or ``max_k``, or < 3 distinct or collinear points.
 
     References
     ----------

@@ -17,6 +17,7 @@ __all__ = [
     "output_lonlat",
     "restore_longitudes",
     "row_positions",
+    "snap_meridian",
     "split_antimeridian",
     "unwrap_lon",
 ]
@@ -77,9 +78,8 @@ def group_arcs(
 ) -> dict[str, np.ndarray]:
     """Smallest longitude arc (and latitude range) covering each group.
 
-    Returns arrays of shape (n_groups,): ``crossing``, ``west``/``east``
-    (``east`` may exceed 180) and with ``lat`` ``south``/``north``; NaN ends
-    for empty groups.
+    Arrays by name: ``crossing``, ``west``, ``east`` (may exceed 180) and with
+    ``lat`` ``south``, ``north``; NaN ends for empty groups.
     """
     west, east = _group_min_max(lon, codes, n_groups)
     out = {"crossing": np.zeros(n_groups, dtype=bool), "west": west, "east": east}
@@ -125,8 +125,7 @@ def crosses_antimeridian(lon: Any, codes: Any, n_groups: int) -> np.ndarray:
     Parameters
     ----------
     lon, codes : array_like, shape (n,)
-        Longitudes in degrees, in [-180, 180], and the group code of each
-        point, ``0 .. n_groups - 1``.
+        Longitudes in [-180, 180] degrees, and group codes ``0 .. n_groups - 1``.
     n_groups : int
 
     Returns
@@ -149,10 +148,8 @@ def unwrap_lon(lon: Any, codes: Any, crossing: Any) -> np.ndarray:
 
     Parameters
     ----------
-    lon, codes
-        As for :func:`crosses_antimeridian`.
-    crossing : array_like of bool, shape (n_groups,)
-        Which groups cross (:func:`crosses_antimeridian`).
+    lon, codes, crossing
+        As for :func:`crosses_antimeridian`, and the groups that cross (its result).
 
     Returns
     -------
@@ -170,8 +167,8 @@ def unwrap_lon(lon: Any, codes: Any, crossing: Any) -> np.ndarray:
     return np.where(crossing[codes] & (lon < 0.0), lon + 360.0, lon)
 
 
-def _snap(coords: np.ndarray, x: float, west: float = 0.0) -> np.ndarray:
-    """Shift ``west`` degrees west; put x within ANTIMERIDIAN_SNAP of ``x`` on ``x``."""
+def snap_meridian(coords: np.ndarray, x: float, west: float = 0.0) -> np.ndarray:
+    """Shift ``coords`` ``west`` degrees west; snap x near ``x`` onto ``x``."""
     coords = coords - (west, 0.0)
     coords[np.abs(coords[:, 0] - x) <= ANTIMERIDIAN_SNAP, 0] = x
     return coords
@@ -188,8 +185,7 @@ def split_antimeridian(geom: Any) -> Any:
     Returns
     -------
     shapely geometry or numpy.ndarray of geometries
-        A geometry with some x > 180 becomes a valid MultiPolygon of the same
-        area, the others are unchanged.
+        Those with some x > 180 as valid MultiPolygons of the same area.
 
     Examples
     --------
@@ -213,8 +209,8 @@ def split_antimeridian(geom: Any) -> Any:
         east = shapely.intersection(
             flat[todo], shapely.box(180.0, miny - 1.0, maxx + 1.0, maxy + 1.0)
         )
-        west = shapely.transform(west, lambda c: _snap(c, 180.0))
-        east = shapely.transform(east, lambda c: _snap(c, -180.0, 360.0))
+        west = shapely.transform(west, lambda c: snap_meridian(c, 180.0))
+        east = shapely.transform(east, lambda c: snap_meridian(c, -180.0, 360.0))
         parts, idx = shapely.get_parts(np.r_[west, east], return_index=True)
         # Keep areas only: touching the line gives points/lines, not parts.
         keep = (shapely.get_type_id(parts) == 3) & ~shapely.is_empty(parts)
@@ -231,9 +227,8 @@ def restore_longitudes(
 ) -> np.ndarray:
     """Give split polygons the input points' own longitudes back.
 
-    The round trip ``lon + 360 - 360`` can move a vertex by one unit in the
-    last place, leaving its point outside the polygon. Vertices that match no
-    input point stay as they are.
+    The round trip ``lon + 360 - 360`` can move a vertex by one ulp, leaving its
+    point outside the polygon; vertices that match no input point stay as they are.
 
     Parameters
     ----------
@@ -268,7 +263,9 @@ def restore_longitudes(
     if len(coords) == 0 or not mine.any():
         return geoms
     # What each shifted point's longitude became in split_antimeridian.
-    shifted = _snap(np.column_stack([lon[mine] + 360.0, lat[mine]]), -180.0, 360.0)
+    shifted = snap_meridian(
+        np.column_stack([lon[mine] + 360.0, lat[mine]]), -180.0, 360.0
+    )
     table = np.column_stack([codes[mine].astype(np.float64), shifted])
     query = np.column_stack([geom_group[which].astype(np.float64), coords])
     _, key = np.unique(np.concatenate([table, query]), axis=0, return_inverse=True)

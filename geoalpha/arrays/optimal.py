@@ -14,14 +14,14 @@ import shapely
 from geoalpha import kernel
 from geoalpha.arrays import guarantee
 from geoalpha.arrays.budget import outlier_budget
-from geoalpha.arrays.lonlat import output_lonlat, restore_longitudes
+from geoalpha.arrays.lonlat import restore_longitudes
 from geoalpha.arrays.search import bisect_alpha, ladder_alpha
 from geoalpha.arrays.sphere import (
     REFUSED,
     close_around_poles,
     follow_arcs,
-    polar_groups,
     refused_message,
+    sphere_output,
 )
 from geoalpha.errors import (
     DegenerateGroupWarning,
@@ -46,35 +46,30 @@ class AlphaShapes(NamedTuple):
     Attributes
     ----------
     alpha : ndarray of float
-        The alpha used (the optimum unless one was given), in 1/unit of the
-        coordinates; ``nan`` for degenerate groups, 0 means the convex hull.
+        The alpha used (the optimum unless given), in 1/unit of the coordinates;
+        ``nan`` for degenerate groups, 0 means the convex hull.
     geometry : ndarray of object
-        Polygon, MultiPolygon (several pieces) or empty Polygon (degenerate
-        group, or nothing solid at the given alpha).
+        Polygon, MultiPolygon (several pieces) or empty Polygon.
     n_points, n_distinct : ndarray of int
         Input points of the group (duplicates included), and distinct points.
     n_parts : ndarray of int
         Edge-connected pieces of the shape.
     area : ndarray of float
-        Area of the shape in the units of ``points`` squared, whatever
-        ``coords`` the geometry was built from.
+        In the units of ``points`` squared, whatever ``coords`` the geometry has.
     degenerate : ndarray of bool
-        The group has no shape (``reason`` > 0): no triangle, no alpha, or no
-        valid covering polygon (never a polygon that misses a point).
+        The group has no shape (``reason`` > 0), never one that misses a point.
     n_outliers : ndarray of int
         Rows of the group left out of the shape (``outliers=``), else 0.
     outlier : ndarray of bool, shape (n,)
         Per input point: left out (duplicates of a left-out point too).
     gave_up : ndarray of bool
-        ``search="bisect"`` stopped at ``max_iterations`` and returned alpha
-        0, the convex hull (named in a :class:`SearchWarning`).
+        ``search="bisect"`` stopped at ``max_iterations`` with alpha 0
+        (named in a :class:`SearchWarning`).
     capped : ndarray of bool
-        ``outliers=`` with several ``components``: the search for the pieces
-        holding the most rows hit :data:`geoalpha.kernel.MAX_UNION_NODES` and
-        kept the best union found (named in an :class:`OutlierWarning`).
+        With ``outliers=`` and several ``components``: the piece search stopped at
+        :data:`geoalpha.kernel.MAX_UNION_NODES` (named in an :class:`OutlierWarning`).
     reason : ndarray of int
-        0 (not degenerate), a key of :data:`geoalpha.kernel.REASONS`, or 5:
-        the guarantee failed in ``coords`` (:doc:`/user_guide/arrays`).
+        Why a group is degenerate, 0 if not (:doc:`/user_guide/arrays`).
     """
 
     alpha: np.ndarray
@@ -116,62 +111,38 @@ def alpha_shapes(
     points : array_like of shape (n, 2)
         Coordinates in a metric (projected) CRS; alpha is in 1/unit of them.
     groups : array_like of int, shape (n,), optional
-        Group code ``0 .. G-1`` of each point (:func:`pandas.factorize`);
-        default: one group.
+        Group code ``0 .. G-1`` of each point (:func:`pandas.factorize`), or one group.
     alpha : float or array_like of shape (G,), optional
         Use this alpha instead of the optimum (0 is the convex hull).
-    holes : bool, default False
-        Keep holes (True) or fill every hole not connected to the outside.
-    components : int, default 1
-        Largest number of edge-connected pieces a valid shape may have.
-    search : {"exact", "ladder", "bisect"}, default "exact"
-        The true maximum over the circumradius spectrum, or the seed paper's
-        and ``alphashape``'s searches, for comparison (:doc:`/user_guide/optimal`).
-    max_iterations : int, default 10000
-        Bisection steps before ``search="bisect"`` gives up.
+    holes, components, search, max_iterations, n_jobs, outliers
+        As for :func:`geoalpha.hull`; the rows left out are reported in
+        ``n_outliers`` and ``outlier`` (:doc:`/user_guide/outliers`).
     coords : array_like of shape (n, 2), optional
         Coordinates to build the output geometries from, one row per point
-        (default: ``points``), e.g. the input longitude/latitude, so that
-        every vertex is exactly an input point.
+        (default: ``points``), e.g. the input longitude/latitude.
     n_groups : int, optional
         Number of groups (default: largest code + 1).
     progress : object with an ``update(n)`` method, optional
         Progress in groups (e.g. a ``tqdm`` bar).
-    n_jobs : int, optional
-        Threads of the compiled kernel (None or -1: every core); the result
-        is the same for any.
-    outliers : float or int, default 0
-        Rows each group may leave out (a fraction or a count,
-        :func:`~geoalpha.arrays.budget.outlier_budget`), reported in
-        ``n_outliers`` and ``outlier`` (:doc:`/user_guide/outliers`).
     name_groups : callable, optional
-        Names the groups of an array of codes in warnings, as text (by key in
-        :func:`geoalpha.hull`); default: by code.
+        Names an array of group codes in warnings, as text (default: by code).
     sphere : bool, default False
-        ``points`` are longitudes and latitudes in degrees, computed on the
-        sphere: alpha in 1/metre, areas in square metres; without ``coords``
-        the polygons are in longitude and latitude (:doc:`/user_guide/sphere`).
+        ``points`` are longitudes and latitudes, computed on the sphere: alpha
+        in 1/metre, areas in square metres (:doc:`/user_guide/sphere`).
     polar : array_like of bool, shape (n_groups,), optional
-        With ``sphere``: the groups around a pole
-        (:func:`~geoalpha.arrays.sphere.close_around_poles`). Default: found
-        from ``points`` without ``coords``, none otherwise.
+        With ``sphere``: the groups around a pole. Default: found from
+        ``points`` without ``coords`` (:func:`~geoalpha.arrays.sphere.sphere_output`).
 
     Returns
     -------
     AlphaShapes
+        Degenerate groups are flagged in ``degenerate``, without a warning.
 
     Raises
     ------
     InvalidInputError
         On NaN/inf coordinates (naming the rows), bad shapes or options, and
-        with ``sphere`` on groups wider than
-        :data:`~geoalpha.arrays.sphere.MAX_SPHERE_DEGREES` (naming them).
-
-    Notes
-    -----
-    A triangle is solid when ``alpha * r <= 1`` (with a few ulps of slack, so
-    that an optimal alpha fed back gives the optimal shape). Degenerate groups
-    raise no warning here (check ``degenerate``).
+        with ``sphere`` on groups too wide for it (naming them).
 
     Examples
     --------
@@ -222,7 +193,7 @@ def alpha_shapes(
     except ValueError as err:
         raise InvalidInputError(str(err)) from err
     if sphere and coords is None:
-        coords, polar = _sphere_output(xy, codes, n_groups)
+        coords, _, _, polar = sphere_output(xy, codes, n_groups)
     raw = solve_checked(
         xy,
         codes,
@@ -284,11 +255,8 @@ def _given_alpha(alpha, n_groups: int) -> np.ndarray:
 
 
 def _searched_alpha(curve, n_groups: int, search: str, max_iterations: int):
-    """Return the alpha ``search="ladder"``/``"bisect"`` finds on the validity curves.
-
-    A curve: a group's distinct weights, ascending, and whether the shape at
-    each is valid (at a threshold: that of the largest weight below it).
-    """
+    """Return the alpha ``search="ladder"``/``"bisect"`` finds on validity curves."""
+    # per group: its distinct weights, ascending, and whether the shape at each is valid
     values, valid_at, offsets = curve
 
     def valid(groups, alphas):
@@ -367,8 +335,9 @@ def _on_the_sphere(res: kernel.Solved, polar, name_groups) -> kernel.Solved:
     """Refuse groups too wide for the sphere; unfold the others, close polar ones."""
     refused = np.flatnonzero(res.reason == REFUSED)
     if len(refused):
-        named = _named(refused, name_groups)
-        raise InvalidInputError(refused_message(named, len(refused)))
+        raise InvalidInputError(
+            refused_message(_named(refused, name_groups), len(refused))
+        )
     polar = np.zeros(len(res.reason), bool) if polar is None else np.asarray(polar)
     geometry = res.geometry.copy()
     # Long edges of a shape concave on the sphere can fold in lon/lat.
@@ -459,19 +428,6 @@ def _verified(raw: Unverified, out_xy, codes, components) -> AlphaShapes:
     )
 
 
-def _sphere_output(lonlat, codes, n_groups):
-    """Output lon/lat of ``sphere=True`` without ``coords``, and the polar groups.
-
-    Longitudes unwrapped across +-180 degrees, but as given around a pole.
-    """
-    out, crossing, wide = output_lonlat(lonlat, codes, n_groups)
-    maybe = np.flatnonzero(crossing | wide)
-    polar = np.zeros(n_groups, dtype=bool)
-    if len(maybe):
-        polar[maybe] = polar_groups(lonlat, codes, maybe)
-    return np.where(polar[codes, None], lonlat, out), polar
-
-
 def _as_xy(points):
     """Coordinates of shapely points (a MultiPoint, Points, a GeoSeries), else as is."""
     if isinstance(points, shapely.Geometry):
@@ -536,9 +492,8 @@ def optimal_alpha(
     Returns
     -------
     float
-        ``max{alpha >= 0 : S(alpha) valid}``, exactly ``1 / r(t)`` for one
-        Delaunay triangle ``t`` (or 0, the convex hull); ``nan`` with a
-        :class:`DegenerateGroupWarning` for fewer than 3 or collinear points.
+        ``1 / r(t)`` for one Delaunay triangle ``t`` (or 0, the convex hull);
+        ``nan`` with a :class:`DegenerateGroupWarning` if there is no shape.
 
     Raises
     ------
@@ -553,16 +508,8 @@ def optimal_alpha(
     >>> round(optimal_alpha(stray), 6), round(optimal_alpha(stray, outliers=1), 6)
     (0.035624, 0.430769)
     """
-    return float(
-        _one_group(
-            points,
-            holes=holes,
-            components=components,
-            search=search,
-            max_iterations=max_iterations,
-            outliers=outliers,
-        ).alpha[0]
-    )
+    options = dict(holes=holes, components=components, search=search, outliers=outliers)
+    return float(_one_group(points, max_iterations=max_iterations, **options).alpha[0])
 
 
 def alpha_shape(
@@ -590,9 +537,9 @@ def alpha_shape(
     Returns
     -------
     shapely.Polygon or shapely.MultiPolygon
-        At the optimum, one valid Polygon (at most ``components`` parts)
-        covering every input point, vertices input points. At a given alpha,
-        a MultiPolygon where pieces separate, empty when nothing is solid.
+        At the optimum, a valid (Multi)Polygon of at most ``components`` parts
+        covering every input point; at a given alpha, a MultiPolygon where
+        pieces separate, empty when nothing is solid.
 
     Examples
     --------
@@ -602,11 +549,5 @@ def alpha_shape(
     >>> alpha_shape([[0, 0], [4, 0], [4, 4], [0, 4], [2, 3.5]], alpha=0).area
     16.0
     """
-    return _one_group(
-        points,
-        alpha=alpha,
-        holes=holes,
-        components=components,
-        search=search,
-        outliers=outliers,
-    ).geometry[0]
+    options = dict(holes=holes, components=components, search=search, outliers=outliers)
+    return _one_group(points, alpha=alpha, **options).geometry[0]

@@ -1,7 +1,6 @@
 """The seed paper's integer ladder and ``alphashape``'s float bisection.
 
-For comparison with the exact optimum, on the same validity test, vectorised
-over groups; an integer alpha in 1/metre is nearly always 0 (the convex hull).
+Vectorised over groups, for comparison (:doc:`/user_guide/optimal`).
 """
 
 from __future__ import annotations
@@ -15,8 +14,6 @@ __all__ = ["LADDER", "bisect_alpha", "ladder_alpha"]
 
 #: The seed paper's descending rungs of integer alphas.
 LADDER: tuple[int, ...] = (5000, 3000, 1000, 500, 300, 100, 50, 25, 18, 10, 5, 0)
-
-#: ``valid(groups, alphas) -> bool array``: is the shape of each group valid?
 Oracle = Callable[[np.ndarray, np.ndarray], np.ndarray]
 
 
@@ -25,14 +22,13 @@ def ladder_alpha(
 ) -> tuple[np.ndarray, int]:
     """Largest integer alpha found by the seed paper's ladder search.
 
-    Test the descending ``rungs``; at the first that passes, bisect the
-    integers between it and the rung above (a group valid at the top rung gets
-    the top rung).
+    Test the descending ``rungs``; at the first that passes, bisect the integers
+    between it and the rung above (valid at the top rung: the top rung).
 
     Parameters
     ----------
     valid : callable
-        ``valid(groups, alphas)`` -> bool array (the :data:`Oracle`).
+        ``valid(groups, alphas)`` -> bool array: is the shape of each group valid?
     n_groups : int
     rungs : tuple of int
         Descending alphas ending with 0 (the convex hull, always valid).
@@ -41,7 +37,7 @@ def ladder_alpha(
     -------
     alpha : ndarray of shape (n_groups,)
     tests : int
-        Largest number of validity tests one group needed.
+        Most validity tests of one group.
 
     Examples
     --------
@@ -81,10 +77,9 @@ def bisect_alpha(
 ) -> tuple[np.ndarray, np.ndarray, int]:
     """``alphashape.optimizealpha``'s float bisection, vectorised over groups.
 
-    Bisects between ``lower`` and ``upper`` until they are closer than
-    ``2 * eps`` (absolute, so never once the optimum is >= 4) or gives up
-    after ``max_iterations`` and returns 0 (the convex hull), as ``alphashape``
-    does. A group valid at ``upper`` also gets 0.
+    Bisects until the bracket is narrower than ``2 * eps`` (absolute: never
+    once the optimum is >= 4) or gives up after ``max_iterations`` with 0 (the
+    convex hull), as ``alphashape`` does; so does a group valid at ``upper``.
 
     Parameters
     ----------
@@ -92,7 +87,6 @@ def bisect_alpha(
         As for :func:`ladder_alpha`.
     max_iterations : int
     lower, upper : float
-        Initial bracket.
 
     Returns
     -------

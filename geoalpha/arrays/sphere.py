@@ -6,12 +6,14 @@ it refuses and turns its rings into valid longitude/latitude polygons.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import shapely
 
 from geoalpha import _kernel
+from geoalpha.arrays.lonlat import output_lonlat, snap_meridian
 from geoalpha.errors import setting
-from geoalpha.kernel import ANTIMERIDIAN_SNAP
 
 __all__ = [
     "EARTH_RADIUS",
@@ -21,6 +23,7 @@ __all__ = [
     "follow_arcs",
     "polar_groups",
     "refused_message",
+    "sphere_output",
 ]
 
 #: Radius of the sphere (metres): WGS84's authalic radius (the ellipsoid's area).
@@ -53,8 +56,8 @@ def polar_groups(
 ) -> np.ndarray:
     """Of the groups ``which``, those whose spherical convex hull holds a pole.
 
-    The pole is in the hull when its gnomonic image (from the group's centre)
-    is in the convex hull of the points' images (great circles map to lines).
+    Tested in the gnomonic projection from the group's centre (great circles
+    map to lines).
 
     Examples
     --------
@@ -85,13 +88,30 @@ def polar_groups(
     return out
 
 
+def sphere_output(lonlat: np.ndarray, codes: np.ndarray, n_groups: int):
+    """Output longitudes and latitudes of ``crs="sphere"``, and the polar groups.
+
+    Returns ``(out, crossing, wide, polar)``: as
+    :func:`~geoalpha.arrays.lonlat.output_lonlat`, but the groups around a pole
+    (:func:`polar_groups`) keep their input longitudes and neither cross nor are wide.
+    """
+    out, crossing, wide = output_lonlat(lonlat, codes, n_groups)
+    maybe = np.flatnonzero(crossing | wide)
+    polar = np.zeros(n_groups, dtype=bool)
+    if len(maybe):
+        polar[maybe] = polar_groups(lonlat, codes, maybe)
+    if polar.any() and out is not lonlat:  # (a copy output_lonlat made)
+        mine = polar[codes]
+        out[mine] = lonlat[mine]
+    return out, crossing & ~polar, wide & ~polar, polar
+
+
 def close_around_poles(geometry: np.ndarray) -> np.ndarray:
     """Longitude/latitude polygons of the shapes of groups around a pole.
 
     Rings follow their great-circle arcs, unwrapped; a shell once around in
     longitude is closed along the pole (+-90), cut at +-180 degrees and made
-    valid. The guarantee (:func:`~geoalpha.arrays.guarantee.enforce`) takes in
-    the points it misses.
+    valid (:doc:`/user_guide/sphere`).
 
     Examples
     --------
@@ -106,9 +126,8 @@ def close_around_poles(geometry: np.ndarray) -> np.ndarray:
 def follow_arcs(geometry: np.ndarray) -> np.ndarray:
     """Polygons whose edges follow the sphere's great-circle arcs.
 
-    For shapes whose longitude/latitude polygon folds over itself (long edges
-    far from their arcs). Each edge gets points along its arc; longitudes stay
-    as they are (unwrapped across +-180 degrees where they were).
+    For longitude/latitude polygons that fold over themselves (long edges far
+    from their arcs); longitudes stay unwrapped across +-180 where they were.
 
     Examples
     --------
@@ -145,10 +164,7 @@ def _unit(lonlat: np.ndarray) -> np.ndarray:
 
 
 def _densify(ring: np.ndarray, step: float = 0.25, keep: bool = False) -> np.ndarray:
-    """Points every ``step`` degrees (of arc and of longitude) along a ring's arcs.
-
-    With ``keep`` the new longitudes follow their edge's (beyond 180 where it is).
-    """
+    """Points every ``step`` degrees (of arc and of longitude) along a ring's arcs."""
     u = _unit(ring)
     out = [ring[:1]]
     for k in range(len(ring) - 1):
@@ -161,7 +177,7 @@ def _densify(ring: np.ndarray, step: float = 0.25, keep: bool = False) -> np.nda
             w = (1 - t) * a + t * b  # on the chord, then onto the sphere
             w /= np.linalg.norm(w, axis=1)[:, None]
             lon = np.degrees(np.arctan2(w[:, 1], w[:, 0]))
-            if keep:
+            if keep:  # the edge's longitudes (beyond 180 where it is)
                 lon = ring[k, 0] + (lon - ring[k, 0] + 180.0) % 360.0 - 180.0
             out.append(np.column_stack([lon, np.degrees(np.arcsin(w[:, 2]))]))
         out.append(ring[k + 1 : k + 2])
@@ -197,12 +213,6 @@ def _close_one(polygon):
         box = shapely.box(-180.0 + 360.0 * k, -90.0, 180.0 + 360.0 * k, 90.0)
         piece = shapely.intersection(whole, box)
         if not piece.is_empty:
-            pieces.append(shapely.transform(piece, lambda c, k=k: _seam(c, k, seam)))
+            shift = functools.partial(snap_meridian, x=seam, west=360.0 * k)
+            pieces.append(shapely.transform(piece, shift))
     return shapely.union_all(pieces)
-
-
-def _seam(coords: np.ndarray, k: int, seam: float) -> np.ndarray:
-    """Shift by ``k`` turns west; put the closing meridian exactly on ``seam``."""
-    coords = coords - (360.0 * k, 0.0)
-    coords[np.abs(coords[:, 0] - seam) <= ANTIMERIDIAN_SNAP, 0] = seam
-    return coords

@@ -16,13 +16,11 @@ import shapely
 from geoalpha.arrays.area import geodesic_areas as lonlat_areas
 from geoalpha.arrays.lonlat import (
     check_codes,
-    crosses_antimeridian,
     group_arcs,
     output_lonlat,
     restore_longitudes,
     row_positions,
     split_antimeridian,
-    unwrap_lon,
 )
 from geoalpha.crs_parsing import (
     crs_name,
@@ -36,14 +34,11 @@ from geoalpha.errors import InvalidInputError, setting
 __all__ = [
     "Projection",
     "check_lonlat",
-    "crosses_antimeridian",
     "geodesic_areas",
     "metric_crs",
-    "output_lonlat",
     "restore_longitudes",
     "split_antimeridian",
     "to_wgs84",
-    "unwrap_lon",
 ]
 
 #: Degrees of longitude either side of a UTM zone's central meridian that "fit
@@ -86,8 +81,7 @@ def check_lonlat(lon: Any, lat: Any, labels: Any = None) -> None:
     Raises
     ------
     InvalidInputError
-        On NaN, infinite or out-of-range coordinates, naming the rows (and
-        saying when latitude and longitude look swapped).
+        On NaN, infinite or out-of-range (or swapped) coordinates, naming the rows.
     """
     lon, lat = _as_coords(lon, lat)
     bad = ~(np.isfinite(lon) & np.isfinite(lat))
@@ -105,10 +99,8 @@ def check_lonlat(lon: Any, lat: Any, labels: Any = None) -> None:
         if bad.any()
     ]
     if problems:
-        message = (
-            "points in a geographic CRS must be longitude/latitude degrees; "
-            + "; ".join(problems)
-        )
+        message = "points in a geographic CRS must be longitude/latitude degrees; "
+        message += "; ".join(problems)
         if np.all(np.abs(lon) <= 90.0) and np.all(np.abs(lat) <= 180.0):
             message += "; latitude and longitude look swapped (x holds latitudes?)"
         raise InvalidInputError(message)
@@ -123,10 +115,7 @@ _OWN_LAEA = re.compile(
 
 @functools.lru_cache(maxsize=1024)
 def _transformer(source: str, target: str) -> pyproj.Transformer:
-    """Return one cached transformer per pair of CRS definitions.
-
-    A PROJ pipeline between WGS 84 and our LAEA CRSs (100 times faster to build).
-    """
+    """One cached transformer per pair of CRSs (to/from our LAEA: a fast pipeline)."""
     laea = target if source == _WGS84 else source if target == _WGS84 else ""
     if _OWN_LAEA.fullmatch(laea):
         params = laea.replace(" +datum=WGS84", " +ellps=WGS84").replace(" +no_defs", "")
@@ -203,20 +192,15 @@ def metric_crs(
     ----------
     lon, lat : array_like of float, shape (n,)
         Degrees in ``source_crs`` (checked with :func:`check_lonlat`).
-    codes : array_like of int, shape (n,)
+    codes, n_groups : array_like of int, shape (n,), and int
         Group code of every point, ``0 .. n_groups - 1`` (no ``-1``).
-    n_groups : int
-        Number of groups.
     crs : "auto", "auto-group" or CRS, default "auto"
-        ``"auto"``: one UTM zone for all groups when every point lies within
-        ``UTM_HALF_WIDTH`` degrees of its central meridian and 84 of the
-        equator; else, per group, its centre's UTM zone if it fits so, or a
-        local Lambert azimuthal equal-area CRS. ``"auto-group"``: the
-        per-group choice only. Another CRS is used for every group.
+        The UTM zones and local LAEA CRSs of :doc:`/user_guide/crs`
+        (``"auto-group"``: always per group), or one CRS for every group.
     source_crs : CRS, optional
         The geographic CRS of ``lon``/``lat``; default EPSG:4326 (WGS 84).
     labels : array_like, optional
-        A label per point to name rows by in errors (default: positions).
+        As for :func:`check_lonlat`.
 
     Returns
     -------
@@ -230,8 +214,7 @@ def metric_crs(
     Raises
     ------
     InvalidInputError
-        On bad input (coordinates, codes, CRSs) or points the CRS cannot
-        project (named).
+        On bad coordinates, codes or CRSs, or points the CRS cannot project.
 
     Examples
     --------
@@ -339,15 +322,12 @@ def geodesic_areas(
 ) -> np.ndarray:
     """Return the areas (m²) on the WGS84 ellipsoid of polygons in ``source``.
 
-    The vertices moved to EPSG:4326 in one transform, then
-    :func:`geoalpha.arrays.area.geodesic_areas` (edges are geodesics).
+    :func:`geoalpha.arrays.area.geodesic_areas` of the vertices moved to EPSG:4326.
 
     Parameters
     ----------
-    geometry : numpy.ndarray of shapely geometries
-        (Multi)polygons; other geometries get 0.
-    source : CRS
-        Their CRS.
+    geometry, source : numpy.ndarray of shapely geometries, CRS
+        (Multi)polygons (other geometries get 0) and their CRS.
     n_jobs : int, optional
         Threads (None or -1: every core).
 
@@ -373,23 +353,19 @@ class Projection:
     Parameters
     ----------
     coords : numpy.ndarray, shape (n, 2)
-        Point coordinates in ``source``.
+        Point coordinates in ``source``, the input CRS (or None).
     codes, n_groups, labels
         As for :func:`metric_crs`.
-    source : CRS or None
-        The input CRS.
-    crs : "auto", "auto-group", CRS or None
-        The ``crs=`` option.
+    source, crs
+        The input CRS and the ``crs=`` option.
 
     Attributes
     ----------
     xy : numpy.ndarray, shape (n, 2)
         Coordinates to compute in: metres (the input units with ``crs=None``).
-    out : numpy.ndarray, shape (n, 2)
-        The output vertices: the input coordinates (longitudes unwrapped in
-        groups across the antimeridian).
-    crossing, wide : numpy.ndarray of bool, shape (n_groups,)
-        Groups across +-180 degrees; wider than 180 degrees (lon/lat input).
+    out, crossing, wide : numpy.ndarray
+        The output vertices (the input coordinates) and groups, as
+        :func:`~geoalpha.arrays.lonlat.output_lonlat` (lon/lat input).
     names : numpy.ndarray of str, shape (n_groups,)
         The computation CRS of each group, for the output table.
     unit : str
@@ -424,8 +400,7 @@ class Projection:
         src = parse_crs(source)
         self.source = src
         self.out = coords
-        self.crossing = np.zeros(n_groups, dtype=bool)
-        self.wide = np.zeros(n_groups, dtype=bool)
+        self.crossing, self.wide = np.zeros((2, n_groups), dtype=bool)
         self._crs_list: list[pyproj.CRS] = []
         self._crs_index = np.zeros(n_groups, dtype=np.intp)
         if crs is None:  # planar: the coordinates as they are

@@ -39,20 +39,13 @@ _CURRENT: contextvars.ContextVar[Phases | None] = contextvars.ContextVar(
 def hull_costs(n_rows: int, n_groups: int, *, per_group_crs: bool) -> dict:
     """Estimate the time of each phase of :func:`geoalpha.hull`, in microseconds.
 
-    Measured: about 4 us a point to compute; with a metric CRS per group,
-    about 150 us a group to project and to check. Only the ratios matter.
-
-    Parameters
-    ----------
-    n_rows, n_groups : int
-        Points and groups of the run.
-    per_group_crs : bool
-        Whether groups likely get a metric CRS each (wide lon/lat input).
+    Measured: 4 us a point to compute; with a metric CRS per group (wide lon/lat
+    input), 150 us a group to project and to check. Only the ratios matter.
 
     Returns
     -------
     dict
-        Phase name -> estimated cost, for :meth:`Phases.estimate`.
+        Phase name -> estimated cost (:meth:`Phases.estimate`).
 
     Examples
     --------
@@ -77,15 +70,14 @@ class Phases:
     names : sequence of str
         The phases, in the order they run.
     show : bool or None
-        True: show the bar from the start (needs tqdm); False: never;
-        None: decide in :meth:`sized`, once the number of groups is known.
-    desc : str, optional
-        Start of the bar's description; the current phase follows it.
-    file : file-like, optional
-        Where the bar is drawn (default: ``sys.stderr``).
+        True: show the bar from the start (needs tqdm); False: never; None:
+        from :data:`PROGRESS_MIN_GROUPS` groups on a terminal (:meth:`sized`).
+    desc, file : str and file-like, optional
+        Start of the bar's description (the phase follows), and where the bar is
+        drawn (default: ``sys.stderr``).
     costs : callable, optional
-        ``costs(n_rows, n_groups)`` -> estimated costs of phases other than
-        :func:`geoalpha.hull`'s (the command's ``write``), for :meth:`sized`.
+        ``costs(n_rows, n_groups)`` -> estimated costs of the phases other
+        than :func:`geoalpha.hull`'s (the command's ``write``).
 
     Raises
     ------
@@ -188,10 +180,7 @@ class Phases:
                 self._costs[name] = max(float(cost), 0.0)
 
     def sized(self, n_rows: int, n_groups: int, *, per_group_crs: bool) -> None:
-        """Estimate the phases to come from the run's size; show the bar if due.
-
-        ``show=None``: from :data:`PROGRESS_MIN_GROUPS` groups on a terminal.
-        """
+        """Estimate the phases to come from the run's size; show the bar if due."""
         costs = hull_costs(n_rows, n_groups, per_group_crs=per_group_crs)
         if self._extra_costs is not None:
             costs.update(self._extra_costs(n_rows, n_groups))

@@ -56,16 +56,13 @@ def planar_unit(input_crs, crs) -> str | None:
 
     Parameters
     ----------
-    input_crs : CRS or None
-        The CRS of the input points.
-    crs : "auto", CRS or None
-        The ``crs`` option of :func:`geoalpha.hull`.
+    input_crs, crs : CRS or None
+        The CRS of the input points and the ``crs`` option of :func:`geoalpha.hull`.
 
     Returns
     -------
     str or None
-        ``"coordinate unit"`` without CRS, else the first axis' unit; None
-        when ``area_m2`` is in square metres (else :func:`with_area_unit`).
+        ``"coordinate unit"`` without CRS, else the first axis' unit; None for metres.
 
     Examples
     --------
@@ -98,7 +95,6 @@ def with_area_unit(table, unit: str | None):
     Returns
     -------
     geopandas.GeoDataFrame
-        ``area_m2`` renamed ``area``, followed by a ``unit`` column.
     """
     if unit is None:
         return table
@@ -110,8 +106,7 @@ def with_area_unit(table, unit: str | None):
 def result_geometry_name(frame, keys) -> str:
     """Name the result's geometry column after the input's (``geom`` stays ``geom``).
 
-    ``geometry`` if a group key (``keys``: a table or names) or result column
-    has that name.
+    ``geometry`` if a group key (``keys``: a table or names) or result column has it.
 
     Examples
     --------
@@ -123,7 +118,6 @@ def result_geometry_name(frame, keys) -> str:
     import pandas as pd
 
     name = frame._geometry_column_name  # frame.geometry.name builds a GeoSeries
-    name = name if name is not None else "geometry"
     taken = keys.columns if isinstance(keys, pd.DataFrame) else keys
     if not isinstance(name, str) or name in taken or name in RESULT_COLUMNS:
         return "geometry"
@@ -142,13 +136,11 @@ def result_frame(
     Parameters
     ----------
     keys : pandas.DataFrame or mapping
-        One row per group: the key column(s) (none for one group of all
-        points), as a DataFrame or arrays by column name.
+        One row per group: the key column(s) (none for one group), by name.
     values : dict
         One array per name of :data:`RESULT_COLUMNS`; cast to :data:`DTYPES`.
-    geometry : array_like of shapely geometries
-        One per group, in ``crs``.
-    crs : CRS or None
+    geometry, crs : array_like of shapely geometries, CRS or None
+        One per group, and their CRS.
     geometry_name : str, default "geometry"
         Name of the geometry column (:func:`result_geometry_name`).
 

@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from geoalpha.arrays.sphere import polar_groups
+from geoalpha.arrays.sphere import sphere_output
 from geoalpha.crs_parsing import parse_crs
 from geoalpha.errors import InvalidInputError
 from geoalpha.frame import crs as gcrs
@@ -63,25 +63,13 @@ class SphereProjection(gcrs.Projection):
         self.unit = "m"
         self.names = np.full(n_groups, "sphere", dtype=object)
         self.out = coords
-        self.crossing = np.zeros(n_groups, dtype=bool)
-        self.wide = np.zeros(n_groups, dtype=bool)
-        self.polar = np.zeros(n_groups, dtype=bool)
+        self.crossing, self.wide, self.polar = np.zeros((3, n_groups), dtype=bool)
         lon, lat = coords[:, 0], coords[:, 1]
-        if src.is_geographic:
+        if src.is_geographic:  # around a pole: closed along it, input longitudes
             gcrs.check_lonlat(lon, lat, labels)
-            self.out, self.crossing, self.wide = gcrs.output_lonlat(
+            self.out, self.crossing, self.wide, self.polar = sphere_output(
                 coords, codes, n_groups
             )
-            # Groups around a pole: polygons closed along it, input longitudes.
-            maybe = np.flatnonzero(self.crossing | self.wide)
-            if len(maybe):
-                self.polar[maybe] = polar_groups(coords, codes, maybe)
-            if self.polar.any():
-                if self.out is not coords:  # (a copy output_lonlat made)
-                    mine = self.polar[codes]
-                    self.out[mine] = coords[mine]
-                self.crossing &= ~self.polar
-                self.wide &= ~self.polar
         if src != _WGS84:
             lon, lat = gcrs.to_wgs84(src, lon, lat, labels)
         self.lonlat = np.ascontiguousarray(np.column_stack([lon, lat]), dtype=float)
