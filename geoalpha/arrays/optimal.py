@@ -358,7 +358,7 @@ def solve_checked(
         raise InvalidInputError(str(err)) from err
     if sphere:
         res = _on_the_sphere(res, polar, name_groups)
-    shapes, certain = _shapes(res, codes, rows, gave_up, out is not None)
+    shapes, certain = _shapes(res, rows, gave_up, out is not None)
     _warn_search(shapes, max_iterations, components, name_groups)
     return Unverified(shapes, certain)
 
@@ -383,7 +383,7 @@ def _on_the_sphere(res: kernel.Solved, polar, name_groups) -> kernel.Solved:
     return res._replace(geometry=geometry, on_ring=res.on_ring & ~polar[res.codes])
 
 
-def _shapes(res: kernel.Solved, codes, rows, gave_up, elsewhere: bool):
+def _shapes(res: kernel.Solved, rows, gave_up, elsewhere: bool):
     """Return the kernel's result per group and, per point, whether it is certain.
 
     A group without rings (reason 4) whose shape is every triangle gets its convex hull.
@@ -404,14 +404,18 @@ def _shapes(res: kernel.Solved, codes, rows, gave_up, elsewhere: bool):
     # point in the computation coordinates; in other output coordinates only
     # the ring vertices are certain, and a near-duplicate merged into its
     # representative never is.
-    x, y, v = res.coords[:, 0], res.coords[:, 1], res.rep
-    certain = (x == x[v]) & (y == y[v])
+    point = np.ascontiguousarray(res.coords, float).view(complex)[:, 0]  # x + yi
+    certain = point == point[res.rep]
     if elsewhere:
         certain &= res.on_ring
-    back = np.empty(len(codes), dtype=bool)
-    back[res.order] = certain
-    outlier = np.empty(len(codes), dtype=bool)
-    outlier[res.order] = res.left_out
+
+    def unsorted(flags: np.ndarray) -> np.ndarray:  # per point, in input order
+        if flags.all() or not flags.any():  # (a constant needs no scatter)
+            return np.full(len(flags), flags.all())
+        back = np.empty(len(flags), dtype=bool)
+        back[res.order] = flags
+        return back
+
     shapes = AlphaShapes(
         alpha=np.where(degenerate, np.nan, res.alpha),  # (the given one, if any)
         geometry=geometry,
@@ -421,12 +425,12 @@ def _shapes(res: kernel.Solved, codes, rows, gave_up, elsewhere: bool):
         area=np.where(degenerate, 0.0, res.area),
         degenerate=degenerate,
         n_outliers=res.n_outliers.astype(np.int64),
-        outlier=outlier,
+        outlier=unsorted(res.left_out),
         gave_up=gave_up & ~degenerate,
         capped=res.capped & ~degenerate,
         reason=reason,
     )
-    return shapes, back
+    return shapes, unsorted(certain)
 
 
 def _verified(raw: Unverified, out_xy, codes, components) -> AlphaShapes:
