@@ -447,14 +447,15 @@ def read_points(
 
     Bad rows are dropped with a warning (``warn=False``: none) or refused.
     """
-    codes = groups.codes
-    report, coords, which = scan_rows(frame, codes, options.vertices)
+    report, coords, which = scan_rows(frame, groups.codes, options.vertices)
     report_rows(report, warn=warn)
-    rows = which[np.diff(which, prepend=-1) != 0]  # which is non-decreasing
+    codes = groups.codes[which]
+    first = np.ones(len(which), dtype=bool)  # a row's first point (which is sorted)
+    first[1:] = which[1:] != which[:-1]
     return Points(
         coords=coords,
-        codes=codes[which],
-        n_points=np.bincount(codes[rows], minlength=groups.n_groups),
+        codes=codes,
+        n_points=np.bincount(codes[first], minlength=groups.n_groups),
         labels=_RowLabels(frame.index, which),
         rows=which,
         crs=frame[frame._geometry_column_name].array.crs,
