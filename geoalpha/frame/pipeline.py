@@ -271,11 +271,21 @@ def _factorize_column(frame, by, options: Options) -> Groups | None:
     column = frame[name]
     if isinstance(column.dtype, pd.CategoricalDtype):
         return None
-    codes, uniques = pd.factorize(
+    counted = _counted(column) if options.sort and column.dtype == np.int64 else None
+    codes, uniques = counted or pd.factorize(
         column, sort=options.sort, use_na_sentinel=options.dropna
     )
     codes = codes.astype(np.int64, copy=False)
     return Groups(codes, (name,), (pd.Index(uniques).array,), len(uniques))
+
+
+def _counted(column: pd.Series) -> tuple | None:
+    """``pd.factorize(column, sort=True)`` of int64 keys 0 .. 4n, by counting."""
+    values = column.to_numpy()
+    if not len(values) or values.min() < 0 or values.max() > 4 * len(values):
+        return None
+    present = np.bincount(values) > 0
+    return (np.cumsum(present) - 1)[values], np.flatnonzero(present)
 
 
 class _RowLabels:
