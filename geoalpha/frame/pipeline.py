@@ -72,8 +72,6 @@ __all__ = [
     "warn_output_crs",
 ]
 
-_POINT_TYPES = (0, 4)  # shapely type ids of Point and MultiPoint
-
 
 class Groups(NamedTuple):
     """Output of :func:`group`: a code per row and the key columns, as arrays.
@@ -362,18 +360,15 @@ def _bad_rows(geoms: np.ndarray, codes: np.ndarray, vertices: bool):
     """:func:`scan_rows` of rows not all usable points: coordinates, rows, masks."""
     kind = shapely.get_type_id(geoms)
     missing = (kind < 0) | shapely.is_empty(geoms)
-    point = np.isin(kind, _POINT_TYPES)
+    point = np.isin(kind, (0, 4))  # shapely type ids of Point and MultiPoint
     non_point = ~missing & ~point
     usable = np.flatnonzero(~missing & (point | vertices))
     coords, at = shapely.get_coordinates(geoms[usable], return_index=True)
     which = usable[at]
-    nan = np.isnan(coords).any(axis=1)
-    if nan.any():
-        missing[which[nan]] = True  # (an array of our own)
+    missing[which[np.isnan(coords).any(axis=1)]] = True
     no_key = (codes < 0) & ~missing
     keep = ~(missing | no_key)[which]
-    if not keep.all():
-        coords, which = coords[keep], which[keep]
+    coords, which = coords[keep], which[keep]
     infinite = np.zeros(len(geoms), dtype=bool)
     infinite[which[~np.isfinite(coords).all(axis=1)]] = True
     kinds = (non_point & (not vertices), missing, no_key, infinite)
