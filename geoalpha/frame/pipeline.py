@@ -454,13 +454,15 @@ def read_points(
     """
     report, coords, which = scan_rows(frame, groups.codes, options.vertices)
     report_rows(report, warn=warn)
-    codes = groups.codes[which]
     first = np.ones(len(which), dtype=bool)  # a row's first point (which is sorted)
     first[1:] = which[1:] != which[:-1]
+    every = len(which) == len(groups.codes) and first.all()  # which: 0 .. n - 1
+    codes = groups.codes if every else groups.codes[which]
+    n_points = np.bincount(codes if every else codes[first], minlength=groups.n_groups)
     return Points(
         coords=coords,
         codes=codes,
-        n_points=np.bincount(codes[first], minlength=groups.n_groups),
+        n_points=n_points,
         labels=_RowLabels(frame.index, which),
         rows=which,
         crs=frame[frame._geometry_column_name].array.crs,
