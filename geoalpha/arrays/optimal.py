@@ -408,14 +408,12 @@ def _shapes(res: kernel.Solved, rows, gave_up, elsewhere: bool):
     certain = point == point[res.rep]
     if elsewhere:
         certain &= res.on_ring
-
-    def unsorted(flags: np.ndarray) -> np.ndarray:  # per point, in input order
-        if flags.all() or not flags.any():  # (a constant needs no scatter)
-            return np.full(len(flags), flags.all())
-        back = np.empty(len(flags), dtype=bool)
-        back[res.order] = flags
-        return back
-
+    back = np.ones(len(certain), dtype=bool)  # in input order (usually all True)
+    if not certain.all():
+        back[res.order] = certain
+    outlier = np.zeros(len(certain), dtype=bool)  # (usually none)
+    if res.left_out.any():
+        outlier[res.order] = res.left_out
     shapes = AlphaShapes(
         alpha=np.where(degenerate, np.nan, res.alpha),  # (the given one, if any)
         geometry=geometry,
@@ -425,12 +423,12 @@ def _shapes(res: kernel.Solved, rows, gave_up, elsewhere: bool):
         area=np.where(degenerate, 0.0, res.area),
         degenerate=degenerate,
         n_outliers=res.n_outliers.astype(np.int64),
-        outlier=unsorted(res.left_out),
+        outlier=outlier,
         gave_up=gave_up & ~degenerate,
         capped=res.capped & ~degenerate,
         reason=reason,
     )
-    return shapes, unsorted(certain)
+    return shapes, back
 
 
 def _verified(raw: Unverified, out_xy, codes, components) -> AlphaShapes:
