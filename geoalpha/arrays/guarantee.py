@@ -140,9 +140,9 @@ def enforce(
             failed |= repaired
     covering = np.broadcast_to(np.asarray(cover, dtype=bool), (len(geoms),))
     needed = covering[codes] if exempt is None else covering[codes] & ~exempt
-    mine = check[codes] & ~failed[codes] & needed
+    mine = (check & ~failed)[codes] & needed
     if test is not None:
-        mine &= test | repaired[codes]
+        mine &= (test | repaired[codes]) if repaired.any() else test
     outside = ~covered(
         geoms, np.compress(mine, out_xy, axis=0), codes[mine], n_jobs=n_jobs
     )

@@ -326,7 +326,7 @@ def solve_checked(
         raise InvalidInputError(str(err)) from err
     if sphere:
         res = _on_the_sphere(res, polar, name_groups)
-    shapes, certain = _shapes(res, codes, rows, gave_up, out is not None)
+    shapes, certain = _shapes(res, rows, gave_up, out is not None)
     _warn_search(shapes, max_iterations, components, name_groups)
     return Unverified(shapes, certain)
 
@@ -352,7 +352,7 @@ def _on_the_sphere(res: kernel.Solved, polar, name_groups) -> kernel.Solved:
     return res._replace(geometry=geometry, on_ring=res.on_ring & ~polar[res.codes])
 
 
-def _shapes(res: kernel.Solved, codes, rows, gave_up, elsewhere: bool):
+def _shapes(res: kernel.Solved, rows, gave_up, elsewhere: bool):
     """Return the kernel's result per group and, per point, whether it is certain.
 
     A group without rings (reason 4) whose shape is every triangle gets its convex hull.
@@ -373,14 +373,16 @@ def _shapes(res: kernel.Solved, codes, rows, gave_up, elsewhere: bool):
     # point in the computation coordinates; in other output coordinates only
     # the ring vertices are certain, and a near-duplicate merged into its
     # representative never is.
-    x, y, v = res.coords[:, 0], res.coords[:, 1], res.rep
-    certain = (x == x[v]) & (y == y[v])
+    point = np.ascontiguousarray(res.coords, float).view(complex)[:, 0]  # x + yi
+    certain = point == point[res.rep]
     if elsewhere:
         certain &= res.on_ring
-    back = np.empty(len(codes), dtype=bool)
-    back[res.order] = certain
-    outlier = np.empty(len(codes), dtype=bool)
-    outlier[res.order] = res.left_out
+    back = np.ones(len(certain), dtype=bool)  # in input order (usually all True)
+    if not certain.all():
+        back[res.order] = certain
+    outlier = np.zeros(len(certain), dtype=bool)  # (usually none)
+    if res.left_out.any():
+        outlier[res.order] = res.left_out
     shapes = AlphaShapes(
         alpha=np.where(degenerate, np.nan, res.alpha),  # (the given one, if any)
         geometry=geometry,

@@ -68,7 +68,8 @@ def area_scale(crs: Any, x: Any, y: Any, source_crs: Any) -> np.ndarray:
     x = np.asarray(x, dtype=float).ravel()
     y = np.asarray(y, dtype=float).ravel()
     finite = np.isfinite(x) & np.isfinite(y)
-    x, y = x[finite], y[finite]
+    if not finite.all():
+        x, y = x[finite], y[finite]
     if x.size > _SAMPLE:
         pick = np.linspace(0, x.size - 1, _SAMPLE).astype(np.intp)
         ends = [np.argmin(x), np.argmax(x), np.argmin(y), np.argmax(y)]

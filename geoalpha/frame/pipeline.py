@@ -12,7 +12,6 @@ from __future__ import annotations
 import warnings
 from collections import Counter
 from collections.abc import Callable
-from concurrent.futures import ThreadPoolExecutor
 from functools import partial
 from typing import Any, NamedTuple
 
@@ -72,8 +71,6 @@ __all__ = [
     "table",
     "warn_output_crs",
 ]
-
-_POINT_TYPES = (0, 4)  # shapely type ids of Point and MultiPoint
 
 
 class Groups(NamedTuple):
@@ -272,11 +269,21 @@ def _factorize_column(frame, by, options: Options) -> Groups | None:
     column = frame[name]
     if isinstance(column.dtype, pd.CategoricalDtype):
         return None
-    codes, uniques = pd.factorize(
+    counted = _counted(column) if options.sort and column.dtype == np.int64 else None
+    codes, uniques = counted or pd.factorize(
         column, sort=options.sort, use_na_sentinel=options.dropna
     )
     codes = codes.astype(np.int64, copy=False)
     return Groups(codes, (name,), (pd.Index(uniques).array,), len(uniques))
+
+
+def _counted(column: pd.Series) -> tuple | None:
+    """``pd.factorize(column, sort=True)`` of int64 keys 0 .. 4n, by counting."""
+    values = column.to_numpy()
+    if not len(values) or values.min() < 0 or values.max() > 4 * len(values):
+        return None
+    present = np.bincount(values) > 0
+    return (np.cumsum(present) - 1)[values], np.flatnonzero(present)
 
 
 class _RowLabels:
@@ -309,8 +316,8 @@ class RowReport(NamedTuple):
 _ROW_KINDS = ("non_point", "missing", "no_key", "infinite")
 
 
-def scan_rows(frame, codes: np.ndarray, vertices: bool, n_jobs: int | None = 1):
-    """Sort the rows of ``frame`` into usable and bad ones (on ``n_jobs`` threads).
+def scan_rows(frame, codes: np.ndarray, vertices: bool):
+    """Sort the rows of ``frame`` into usable and bad ones.
 
     Dropped: a missing or empty geometry, a NaN coordinate (an empty WKB
     point), a missing key (``codes`` -1). Errors: non-point geometries (unless
@@ -323,27 +330,18 @@ def scan_rows(frame, codes: np.ndarray, vertices: bool, n_jobs: int | None = 1):
         position of each coordinate.
     """
     geoms = np.asarray(frame[frame._geometry_column_name].array, dtype=object)
-    kind, missing = _threaded(_kinds, geoms, n_jobs)  # kind -1: missing
-    point = np.isin(kind, _POINT_TYPES)
-    non_point = ~missing & ~point
-    usable = np.flatnonzero(~missing & (point | vertices))
-    if (kind[usable] == _POINT_TYPES[0]).all():  # one coordinate pair per row
-        (coords,) = _threaded(_xy, geoms[usable], n_jobs)
-        which = usable
+    coords = np.empty((len(geoms), 2))
+    try:  # NaN for a missing or non-point geometry; an empty point raises
+        shapely.get_x(geoms, out=coords[:, 0])
+        shapely.get_y(geoms, out=coords[:, 1])
+        clean = np.isfinite(coords).all() and not (codes < 0).any()
+    except shapely.errors.GEOSException:
+        clean = False
+    if clean:  # the usual case, in two passes: finite points, each with a key
+        which = np.arange(len(geoms))
+        masks = dict.fromkeys(_ROW_KINDS, np.zeros(len(geoms), dtype=bool))
     else:
-        coords, at = shapely.get_coordinates(geoms[usable], return_index=True)
-        which = usable[at]
-    nan = np.isnan(coords).any(axis=1)
-    if nan.any():
-        missing[which[nan]] = True  # (an array of our own)
-    no_key = (codes < 0) & ~missing
-    keep = ~(missing | no_key)[which]
-    if not keep.all():
-        coords, which = coords[keep], which[keep]
-    infinite = np.zeros(len(geoms), dtype=bool)
-    infinite[which[~np.isfinite(coords).all(axis=1)]] = True
-    kinds = (non_point & (not vertices), missing, no_key, infinite)
-    masks = dict(zip(_ROW_KINDS, kinds, strict=True))
+        coords, which, masks = _bad_rows(geoms, codes, vertices)
     bad = masks["non_point"]  # (geom_type names every row: only when needed)
     types = Counter(np.asarray(frame.geom_type)[bad].tolist()) if bad.any() else {}
     report = RowReport(
@@ -358,27 +356,23 @@ def scan_rows(frame, codes: np.ndarray, vertices: bool, n_jobs: int | None = 1):
     return report, coords, which
 
 
-def _kinds(geoms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _bad_rows(geoms: np.ndarray, codes: np.ndarray, vertices: bool):
+    """:func:`scan_rows` of rows not all usable points: coordinates, rows, masks."""
     kind = shapely.get_type_id(geoms)
-    return kind, (kind < 0) | shapely.is_empty(geoms)
-
-
-def _xy(points: np.ndarray) -> tuple[np.ndarray]:
-    return (np.column_stack([shapely.get_x(points), shapely.get_y(points)]),)
-
-
-#: Rows from which :func:`scan_rows` reads a frame on several threads.
-THREAD_ROWS = 200_000
-
-
-def _threaded(func, geoms: np.ndarray, n_jobs: int | None) -> tuple:
-    """Return ``func(geoms)`` (a tuple of arrays), computed in chunks on threads."""
-    workers = min(kernel.threads(n_jobs), len(geoms) // THREAD_ROWS)
-    if workers <= 1:
-        return func(geoms)
-    with ThreadPoolExecutor(workers) as pool:
-        parts = list(pool.map(func, np.array_split(geoms, workers)))
-    return tuple(np.concatenate(arrays) for arrays in zip(*parts, strict=True))
+    missing = (kind < 0) | shapely.is_empty(geoms)
+    point = np.isin(kind, (0, 4))  # shapely type ids of Point and MultiPoint
+    non_point = ~missing & ~point
+    usable = np.flatnonzero(~missing & (point | vertices))
+    coords, at = shapely.get_coordinates(geoms[usable], return_index=True)
+    which = usable[at]
+    missing[which[np.isnan(coords).any(axis=1)]] = True
+    no_key = (codes < 0) & ~missing
+    keep = ~(missing | no_key)[which]
+    coords, which = coords[keep], which[keep]
+    infinite = np.zeros(len(geoms), dtype=bool)
+    infinite[which[~np.isfinite(coords).all(axis=1)]] = True
+    kinds = (non_point & (not vertices), missing, no_key, infinite)
+    return coords, which, dict(zip(_ROW_KINDS, kinds, strict=True))
 
 
 def merge_reports(reports) -> RowReport:
@@ -458,14 +452,17 @@ def read_points(
 
     Bad rows are dropped with a warning (``warn=False``: none) or refused.
     """
-    codes = groups.codes
-    report, coords, which = scan_rows(frame, codes, options.vertices, options.n_jobs)
+    report, coords, which = scan_rows(frame, groups.codes, options.vertices)
     report_rows(report, warn=warn)
-    rows = which[np.diff(which, prepend=-1) != 0]  # which is non-decreasing
+    first = np.ones(len(which), dtype=bool)  # a row's first point (which is sorted)
+    first[1:] = which[1:] != which[:-1]
+    every = len(which) == len(groups.codes) and first.all()  # which: 0 .. n - 1
+    codes = groups.codes if every else groups.codes[which]
+    n_points = np.bincount(codes if every else codes[first], minlength=groups.n_groups)
     return Points(
         coords=coords,
-        codes=codes[which],
-        n_points=np.bincount(codes[rows], minlength=groups.n_groups),
+        codes=codes,
+        n_points=n_points,
         labels=_RowLabels(frame.index, which),
         rows=which,
         crs=frame[frame._geometry_column_name].array.crs,
