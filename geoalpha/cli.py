@@ -92,10 +92,9 @@ def _reporting(verbosity: int) -> Iterator[None]:
         return redact(" ".join(str(text).split()), secrets)
 
     def show(message, category, filename, lineno, file=None, line=None):
-        if verbosity < 0:
+        # none with -q; library deprecations and numpy noise only with -v
+        if verbosity < 0 or (verbosity < 1 and not issubclass(category, UserWarning)):
             return
-        if not issubclass(category, UserWarning) and verbosity < 1:
-            return  # library deprecations and numpy noise only with -v
         text = clean(message)
         if (category, text) not in shown:
             shown.add((category, text))
@@ -219,16 +218,7 @@ def _input_size(path) -> int | None:
 
 @contextlib.contextmanager
 def _session(params: dict, size, points_layer=False) -> Iterator:
-    """Run a command: check OUTPUT, yield :func:`_run` bound to the output.
-
-    Takes the output's flags out of ``params``, the command's: ``output``,
-    ``output_layer``, ``overwrite``, ``engine``, ``preview``, ``verbose`` and
-    ``quiet`` (the others are left for the command). Messages as
-    :func:`_reporting` shows them; one progress bar over ``read``, the phases
-    of hull(), ``write`` and ``preview``, their shares estimated from the
-    input's bytes until it is read, then from its rows and groups. ``-q``
-    means no bar unless ``--progress``.
-    """
+    """Check OUTPUT (flags popped from ``params``); yield :func:`_run` bound to it."""
     import functools
 
     from geoalpha.frame.progress import HULL_PHASES, hull_costs, phases
@@ -345,10 +335,7 @@ def _summary(points, hulls, source: str, by: list[str], options: dict, unit) -> 
 
 
 def _run(points, target, verbosity, bar, *, source, by, extra_layers=None, **options):
-    """Compute the hulls (in the command's ``bar``), write them and report.
-
-    ``target``: ``output``, ``layer``, ``overwrite``, ``engine`` and ``preview``.
-    """
+    """Compute the hulls (in the command's ``bar``), write them to ``target``."""
     from geoalpha.frame.schema import planar_unit, with_area_unit
     from geoalpha.hulls import hull
     from geoalpha.io.files import write_hulls

@@ -263,9 +263,8 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
 
     Notes
     -----
-    Warnings about degenerate groups come where the partitions are computed
-    (with ``distributed``: in the worker logs); those about the set-up and
-    bad rows once, for the whole dataset. Each worker needs geoalpha.
+    Warnings about bad rows come once; about degenerate groups, where the
+    partitions are computed (see :doc:`/dask`).
 
     .. versionadded:: 0.1.0
 

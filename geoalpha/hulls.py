@@ -48,16 +48,10 @@ def hull(gdf, by=None, **options):
     Returns
     -------
     GeoDataFrame
-        In the input CRS, one row per group: the group key column(s), then
-        ``alpha`` (1/metre in the computation CRS; nan for the methods
-        without one and for degenerate groups; 0 for the convex hull),
-        ``radius`` (1/alpha, metres), ``n_points`` (input rows of the group),
-        ``n_parts``, ``area_m2`` (on the WGS84 ellipsoid; with ``crs=None``,
-        planar, in the input's units), ``crs_used`` (the computation CRS),
-        ``method`` and ``geometry`` (a Polygon; a MultiPolygon with
-        ``components > 1``, at the antimeridian, or for a ``"concave"`` or
-        ``"knn"`` hull repaired in the input CRS). Polygon vertices are input
-        coordinates (except for degenerate buffers and antimeridian cuts).
+        In the input CRS, one row per group: the group key column(s),
+        :data:`RESULT_COLUMNS` (``alpha`` in 1/metre, ``area_m2`` on the WGS84
+        ellipsoid, ...) and ``geometry``, a Polygon whose vertices are input
+        points; see the output columns in :doc:`/user_guide/hulls`.
 
     Raises
     ------
