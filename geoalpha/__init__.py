@@ -83,11 +83,7 @@ def __dir__() -> list[str]:
 
 
 class _RegisterOnImport:
-    """Import hook: register the accessor once geopandas has been imported.
-
-    It wraps the loader of geopandas (found by the other finders), and leaves
-    ``sys.meta_path`` once geopandas has been executed (not on a mere find_spec).
-    """
+    """Import hook: wrap geopandas' loader to register the accessor once it has run."""
 
     _finding = False
 

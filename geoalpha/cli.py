@@ -9,15 +9,19 @@ and one ``Error: ...`` line (``-v``: and the traceback); warnings are one
 from __future__ import annotations
 
 import contextlib
+import functools
 import logging
+import os
 import sys
 import traceback
 import warnings
 from collections.abc import Iterator
+from pathlib import Path
 
 import click
 
-from geoalpha.errors import FLAGS, GeoAlphaError, InvalidInputError
+from geoalpha.errors import FLAGS, GeoAlphaError, InvalidInputError, did_you_mean
+from geoalpha.frame.schema import RESULT_COLUMNS
 from geoalpha.io.datasets import DATASETS
 from geoalpha.io.postgis import is_postgres_url
 from geoalpha.io.redact import redact, secrets_in
@@ -62,20 +66,16 @@ def _secrets() -> list[str]:
     return sorted(found, key=len, reverse=True)
 
 
-def _flags(command: click.Command) -> dict[str, str]:
-    """Return the command's flag of each option of hull() and its own (``FLAGS``)."""
-    own = {
-        p.name: "/".join(p.opts[-1:] + p.secondary_opts[-1:])
-        for p in command.params
-        if isinstance(p, click.Option) and p.name
-    }
-    return {"hull()": "geoalpha", **{n: m.flags[-1] for n, m in META.items()}, **own}
-
-
 @contextlib.contextmanager
 def _in_flags() -> Iterator[None]:
     """Let the library name options by the current command's flags (``FLAGS``)."""
-    token = FLAGS.set(_flags(click.get_current_context().command))
+    own = {
+        p.name: "/".join(p.opts[-1:] + p.secondary_opts[-1:])
+        for p in click.get_current_context().command.params
+        if isinstance(p, click.Option) and p.name
+    }
+    flags = {n: m.flags[-1] for n, m in META.items()}
+    token = FLAGS.set({"hull()": "geoalpha", **flags, **own})
     try:
         yield
     finally:
@@ -118,15 +118,6 @@ def _reporting(verbosity: int) -> Iterator[None]:
                     "(rerun as 'geoalpha -v ...' for the traceback)"
                 )
             raise click.ClickException(message) from None
-
-
-def _verbosity(verbose: int = 0, quiet: int = 0) -> int:
-    """-v/-q of the group (before the command) plus those after it."""
-    ctx = click.get_current_context()
-    level = (ctx.find_root().obj or {}).get("verbosity", 0) + verbose - quiet
-    if verbose or quiet:
-        _configure_logging(level)
-    return level
 
 
 _verbose_option = click.option(
@@ -187,8 +178,6 @@ def _crs_option(value: str) -> str | None:
 
 def _group_columns(values: tuple[str, ...], columns, source: str) -> list[str]:
     """Resolve ``--by`` values (repeatable, comma-separated) to columns."""
-    from geoalpha.errors import did_you_mean
-
     by: list[str] = []
     for value in values:
         names = [value] if value in columns else value.split(",")
@@ -206,8 +195,6 @@ def _group_columns(values: tuple[str, ...], columns, source: str) -> list[str]:
 
 def _input_size(path) -> int | None:
     """Bytes of an input file (or of the files of a folder); None for a database."""
-    import os
-
     path = os.fspath(path)
     if os.path.isfile(path):
         return os.path.getsize(path)
@@ -219,14 +206,16 @@ def _input_size(path) -> int | None:
 @contextlib.contextmanager
 def _session(params: dict, size, points_layer=False) -> Iterator:
     """Check OUTPUT (flags popped from ``params``); yield :func:`_run` bound to it."""
-    import functools
-
     from geoalpha.frame.progress import HULL_PHASES, hull_costs, phases
     from geoalpha.io.files import check_output
 
     keys = ("output", "overwrite", "engine", "preview")
     target = {k: params.pop(k) for k in keys} | {"layer": params.pop("output_layer")}
-    verbosity = _verbosity(params.pop("verbose"), params.pop("quiet"))
+    verbose, quiet = params.pop("verbose"), params.pop("quiet")  # after the command
+    root = click.get_current_context().find_root()
+    verbosity = (root.obj or {}).get("verbosity", 0) + verbose - quiet
+    if verbose or quiet:
+        _configure_logging(verbosity)
     if params["progress"] is None and verbosity < 0:
         params["progress"] = False  # -q: no bar (in hull() too) unless --progress
 
@@ -372,8 +361,6 @@ def _run(points, target, verbosity, bar, *, source, by, extra_layers=None, **opt
     if is_postgres_url(output):
         where += f" (table {layer})"
     elif output.lower().endswith(".gpkg"):
-        from pathlib import Path
-
         where += f" (layer {layer or Path(output).stem or 'hulls'!r}"
         where += "".join(f", {name!r}" for name in extra_layers or ()) + ")"
     rows = int(hulls["n_points"].sum())  # the points in the hulls' groups
@@ -390,8 +377,6 @@ def _check_preview(path: str | None) -> None:
     """Check, before computing, that --preview can be written."""
     if path is None:
         return
-    from pathlib import Path
-
     target = Path(path)
     if target.suffix.lower() not in (".png", ".svg", ".pdf", ".jpg", ".jpeg"):
         raise InvalidInputError(
@@ -614,15 +599,10 @@ def hull(input_path: str, by: tuple[str, ...], crs_in: str, **options) -> None:
         )
 
 
-def _result_columns() -> str:
-    """Return the columns for --help (:data:`~geoalpha.frame.schema.RESULT_COLUMNS`)."""
-    from geoalpha.frame.schema import RESULT_COLUMNS
-
-    units = {"alpha": " (1/metre)", "radius": " (metres)"}
-    return ", ".join(name + units.get(name, "") for name in RESULT_COLUMNS)
-
-
-hull.help = hull.help.replace("RESULT_COLUMNS", _result_columns())
+_UNITS = {"alpha": " (1/metre)", "radius": " (metres)"}
+hull.help = hull.help.replace(
+    "RESULT_COLUMNS", ", ".join(c + _UNITS.get(c, "") for c in RESULT_COLUMNS)
+)
 
 
 @main.command(context_settings=_CONTEXT)

@@ -11,6 +11,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 
+import geopandas as gpd
 import numpy as np
 import pandas as pd
 import shapely
@@ -198,8 +199,6 @@ def _nan_y_zero(xy: np.ndarray) -> np.ndarray:
 def _hull_partition(
     part, by, crs, meta, geometry, source_crs, options: Options, checked=None
 ):
-    import geopandas as gpd
-
     if len(part) == 0:
         return meta
     if _ROW in part.columns:

@@ -66,12 +66,9 @@ def hull(gdf, by=None, **options):
     OutlierWarning, DroppedRowsWarning, DegenerateGroupWarning, AntimeridianWarning
         Points left out (``outliers``), rows dropped, groups without alpha
         shape, groups split at +-180 degrees.
-    GroupingWarning
-        ``by`` makes more groups than half the rows: a wrong column?
-        (:func:`geoalpha.frame.checks.check_grouping`)
-    CRSWarning
-        The computation CRS stretches areas by more than 2 % where the
-        points are (:func:`geoalpha.frame.checks.check_distortion`).
+    GroupingWarning, CRSWarning
+        ``by`` makes more groups than half the rows (a wrong column?); the
+        computation CRS stretches areas by more than 2 % where the points are.
 
     Notes
     -----

@@ -1,10 +1,7 @@
-"""The options of :func:`geoalpha.hull`, defined once.
+"""The options of :func:`geoalpha.hull`, defined once (``docs/architecture.md``).
 
-:class:`Options` declares each option's default, check, documentation and
-flag; from it come hull()'s signature and docstring (:func:`signature`,
-:func:`docstring`), the array API's checks (:func:`check`) and the command's
-click options (:mod:`geoalpha.cli`). Imports only the standard library, so that
-``geoalpha --help`` stays fast.
+:class:`Options` declares each option's default, check, documentation and flag.
+Imports only the standard library, so that ``geoalpha --help`` stays fast.
 """
 
 from __future__ import annotations
@@ -426,12 +423,8 @@ def _completed(fields: tuple[dataclasses.Field, ...]) -> tuple[dataclasses.Field
         kind = {"number": "float or int", "crs": '"auto", "sphere", CRS or None'}
         if meta.choices:
             kind[meta.kind] = "{" + ", ".join(f'"{c}"' for c in meta.choices) + "}"
-        if f.default is None:
-            default = "optional"
-        elif isinstance(f.default, str):
-            default = f'default "{f.default}"'
-        else:
-            default = f"default {f.default!r}"
+        default = "optional" if f.default is None else f"default {f.default!r}"
+        default = default.replace("'", '"')  # numpydoc's quotes: default "auto"
         doc = f"{kind.get(meta.kind, meta.kind)}, {default}\n    "
         object.__setattr__(meta, "flags", meta.flags or (flag,))
         object.__setattr__(meta, "doc", doc + meta.doc.replace("\n", "\n    "))

@@ -19,6 +19,7 @@ import warnings
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from geoalpha.crs_parsing import crs_name, parse_crs
 from geoalpha.errors import FLAGS, CRSWarning, InvalidInputError, did_you_mean
 from geoalpha.io.postgis import (
     check_postgis_output,
@@ -144,8 +145,6 @@ def read_input_points(
     path, *, x, y, crs, layer, planar_if_missing=False, sql=None, geometry_column=None
 ):
     """:func:`read_points`, PostGIS ``sql=``; ``planar_if_missing``: no CRS is ok."""
-    from geoalpha.crs_parsing import crs_name, parse_crs
-
     source = os.fspath(path)
     shown = redact(source)
     auto = isinstance(crs, str) and crs.strip().lower() == "auto"
@@ -381,8 +380,6 @@ def _check_lonlat(xs, ys, crs, source: str, x: str, y: str) -> None:
     """Refuse lon/lat out of range; warn when projected values look like lon/lat."""
     import numpy as np
 
-    from geoalpha.crs_parsing import crs_name
-
     if crs is None:
         return
     finite = np.isfinite(xs) & np.isfinite(ys)
@@ -448,15 +445,13 @@ def write_hulls(
         not used for GeoParquet. GeoPackages are written as version
         :data:`GPKG_VERSION` with either.
     extra_layers : dict of str to GeoDataFrame, optional
-        More layers of a GeoPackage, by name (e.g. the points next to their
-        hulls), written into the same file before it is moved into place.
+        More layers of a GeoPackage, by name (e.g. the points), in the same file.
 
     Returns
     -------
     dict of str to str
-        ``{old: new}`` for the columns renamed to fit the Shapefile limit of 10
-        bytes per field name (truncated, numbered where they would collide
-        ignoring case: ``Local_Au_1``); empty for the other formats.
+        ``{old: new}`` for the columns renamed to fit a Shapefile's 10-byte
+        field names (``Local_Au_1``: see :doc:`/cli`); empty for other formats.
 
     Raises
     ------
@@ -565,8 +560,7 @@ def check_output(
     ------
     FileExistsError, FileNotFoundError, IsADirectoryError, PermissionError
         If ``path`` exists (without ``overwrite``), its directory does not, it
-        is a directory, or its folder is not writable (a staging folder is
-        created there and removed).
+        is a directory, or its folder is not writable.
     geoalpha.errors.InvalidInputError
         For an unknown extension (or an upper-case ``.SHP``), or ``layer``
         with a format without layers.

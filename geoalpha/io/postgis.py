@@ -576,9 +576,8 @@ def write_postgis(
     Parameters
     ----------
     gdf : geopandas.GeoDataFrame
-        What to write, usually the result of :func:`geoalpha.hull`; its SRID
-        is the EPSG code of ``gdf.crs`` (0 without), Polygons mixed with
-        MultiPolygons are written as MultiPolygons, the index is not written.
+        What to write, usually the result of :func:`geoalpha.hull`, without its
+        index; SRID and column type as ``docs/postgis.md`` tells.
     url : str
         ``postgresql://user@host:port/dbname``.
     table : str
