@@ -66,16 +66,20 @@ def _secrets() -> list[str]:
     return sorted(found, key=len, reverse=True)
 
 
+def _flags(command: click.Command) -> dict[str, str]:
+    """Return the command's flag of each option of hull() and its own (``FLAGS``)."""
+    own = {
+        p.name: "/".join(p.opts[-1:] + p.secondary_opts[-1:])
+        for p in command.params
+        if isinstance(p, click.Option) and p.name
+    }
+    return {"hull()": "geoalpha", **{n: m.flags[-1] for n, m in META.items()}, **own}
+
+
 @contextlib.contextmanager
 def _in_flags() -> Iterator[None]:
     """Let the library name options by the current command's flags (``FLAGS``)."""
-    own = {
-        p.name: "/".join(p.opts[-1:] + p.secondary_opts[-1:])
-        for p in click.get_current_context().command.params
-        if isinstance(p, click.Option) and p.name
-    }
-    flags = {n: m.flags[-1] for n, m in META.items()}
-    token = FLAGS.set({"hull()": "geoalpha", **flags, **own})
+    token = FLAGS.set(_flags(click.get_current_context().command))
     try:
         yield
     finally:

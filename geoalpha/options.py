@@ -258,18 +258,16 @@ class Options:
         "alpha",
         choices=METHODS,
         doc='``"alpha"``: the optimal alpha shape; ``"convex"``: convex hulls;\n'
-        '``"concave"``: ``shapely.concave_hull(ratio=ratio)``; ``"knn"``:\n'
-        "the Moreira-Santos k-nearest-neighbour concave hull, starting\n"
-        "at ``k``. All give the same table.",
+        '``"concave"``: ``shapely.concave_hull(ratio=ratio)``; ``"knn"``: the\n'
+        "Moreira-Santos k-nearest-neighbour hull from ``k``. Same table for all.",
         help="Shape: optimal alpha shape, convex hull, shapely concave hull "
         "(see --ratio) or k-nearest-neighbour concave hull.",
     )
     search: str = option(
         "exact",
         choices=SEARCHES,
-        doc='How the optimum is searched; ``"ladder"`` and ``"bisect"``\n'
-        "reproduce the seed paper's and ``alphashape``'s searches, for\n"
-        "comparison (see :func:`geoalpha.alpha_shapes`).",
+        doc='How the optimum is searched; ``"ladder"`` and ``"bisect"`` reproduce\n'
+        "the seed paper's and alphashape's searches (:func:`geoalpha.alpha_shapes`).",
         help="How the optimal alpha is found: exactly, or (for comparison) with "
         "the integer ladder or float bisection.",
     )
@@ -322,9 +320,8 @@ class Options:
     )
     dropna: bool = option(
         True,
-        doc="Drop rows whose group key is missing (counted in a\n"
-        ":class:`DroppedRowsWarning`), as in ``dissolve``; False makes them a\n"
-        "group of their own.",
+        doc="Drop rows whose group key is missing (a :class:`DroppedRowsWarning`\n"
+        "counts them), as in ``dissolve``; False makes them a group of their own.",
         help="Leave out rows whose --by value is missing, or make them a group.",
     )
     sort: bool = option(
