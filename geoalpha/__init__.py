@@ -99,8 +99,7 @@ class _RegisterOnImport:
             self._finding = False
         if spec is None or spec.loader is None:  # pragma: no cover - no geopandas
             return None
-        loader = spec.loader
-        exec_module = loader.exec_module
+        exec_module = spec.loader.exec_module
 
         def exec_and_register(module):
             exec_module(module)
@@ -108,7 +107,7 @@ class _RegisterOnImport:
                 sys.meta_path.remove(self)
             importlib.import_module("geoalpha.accessor").register()
 
-        loader.exec_module = exec_and_register
+        spec.loader.exec_module = exec_and_register
         return spec
 
 

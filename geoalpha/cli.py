@@ -1,9 +1,7 @@
 """The ``geoalpha`` command: one tight polygon per group of points, file to file.
 
 A click group as rasterio's ``rio``; heavy imports inside the commands, so that
-``geoalpha --help`` stays fast. Bad input ends the command with exit status 1
-and one ``Error: ...`` line (``-v``: and the traceback); warnings are one
-``Warning: ...`` line each unless ``-q``.
+``geoalpha --help`` stays fast. Errors and warnings: see ``docs/cli.md``.
 """
 
 from __future__ import annotations
@@ -213,8 +211,9 @@ def _session(params: dict, size, points_layer=False) -> Iterator:
     from geoalpha.frame.progress import HULL_PHASES, hull_costs, phases
     from geoalpha.io.files import check_output
 
-    keys = ("output", "overwrite", "engine", "preview")
-    target = {k: params.pop(k) for k in keys} | {"layer": params.pop("output_layer")}
+    preview = params.pop("preview")
+    target = {k: params.pop(k) for k in ("overwrite", "engine")}
+    target |= {"path": params.pop("output"), "layer": params.pop("output_layer")}
     verbose, quiet = params.pop("verbose"), params.pop("quiet")  # after the command
     root = click.get_current_context().find_root()
     verbosity = (root.obj or {}).get("verbosity", 0) + verbose - quiet
@@ -234,7 +233,7 @@ def _session(params: dict, size, points_layer=False) -> Iterator:
         }
 
     names = ("read", *HULL_PHASES, "write")
-    names += ("preview",) if target["preview"] is not None else ()
+    names += ("preview",) if preview is not None else ()
     with (
         _reporting(verbosity),
         phases(names, params["progress"], costs=after_hull) as bar,
@@ -245,10 +244,10 @@ def _session(params: dict, size, points_layer=False) -> Iterator:
         bar.estimate(costs | after_hull(rows, rows / 100))
         bar.start("read")
         check_output(
-            target["output"], layer=target["layer"], overwrite=target["overwrite"]
+            target["path"], layer=target["layer"], overwrite=target["overwrite"]
         )
-        _check_preview(target["preview"])
-        yield functools.partial(_run, target=target, verbosity=verbosity, bar=bar)
+        _check_preview(preview)
+        yield functools.partial(_run, target, preview, verbosity, bar)
 
 
 def _plural(n: int, noun: str) -> str:
@@ -327,8 +326,10 @@ def _summary(points, hulls, source: str, by: list[str], options: dict, unit) -> 
     return lines
 
 
-def _run(points, target, verbosity, bar, *, source, by, extra_layers=None, **options):
-    """Compute the hulls (in the command's ``bar``), write them to ``target``."""
+def _run(
+    target, preview, verbosity, bar, points, *, source, by, extra_layers=None, **options
+):
+    """Compute the hulls (in the command's ``bar``), write them, draw ``preview``."""
     from geoalpha.frame.schema import planar_unit, with_area_unit
     from geoalpha.hulls import hull
     from geoalpha.io.files import write_hulls
@@ -342,15 +343,8 @@ def _run(points, target, verbosity, bar, *, source, by, extra_layers=None, **opt
     unit = planar_unit(points.crs, options.get("crs", "auto"))
     table = with_area_unit(hulls, unit)  # say the unit instead of a wrong "m2"
     bar.start("write")
-    output, layer, preview = target["output"], target["layer"], target["preview"]
-    mapping = write_hulls(
-        table,
-        output,
-        layer=layer,
-        overwrite=target["overwrite"],
-        engine=target["engine"],
-        extra_layers=extra_layers,
-    )
+    mapping = write_hulls(table, **target, extra_layers=extra_layers)
+    output, layer = target["path"], target["layer"]
     if preview is not None:
         bar.start("preview")
         _write_preview(hulls, points, preview, by)

@@ -1,9 +1,7 @@
 """Optimal alpha hulls of dask-geopandas frames: data larger than memory.
 
-:func:`hull` shuffles the rows by key, makes one CRS decision and the checks
-for the whole dataset, then runs :func:`geoalpha.frame.pipeline.run` on every
-partition. Importing this module imports dask-geopandas
-(``pip install geoalpha[dask]``) and registers ``.alpha`` on its frames.
+Importing this module imports dask-geopandas (``pip install geoalpha[dask]``)
+and registers ``.alpha`` on its frames.
 """
 
 from __future__ import annotations

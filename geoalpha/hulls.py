@@ -58,8 +58,7 @@ def hull(gdf, by=None, **options):
     InvalidInputError
         For non-point geometries (unless ``vertices=True``), a missing ``by``
         column, input without CRS (unless ``crs=None``), coordinates out of
-        range, bad or unknown options; the message names the rows, columns or
-        option.
+        range, bad or unknown options, naming the rows, columns or option.
 
     Warns
     -----

@@ -441,9 +441,8 @@ def write_hulls(
         Replace ``path`` if it exists (a GeoPackage as a whole, other layers
         included; a Shapefile with all its sidecar files).
     engine : {None, "pyogrio", "fiona"}
-        Library geopandas writes vector files with (None: geopandas chooses);
-        not used for GeoParquet. GeoPackages are written as version
-        :data:`GPKG_VERSION` with either.
+        Library geopandas writes vector files with (None: its choice; not for
+        GeoParquet). GeoPackages are version :data:`GPKG_VERSION` with either.
     extra_layers : dict of str to GeoDataFrame, optional
         More layers of a GeoPackage, by name (e.g. the points), in the same file.
 

@@ -1,9 +1,7 @@
 """Read points from PostGIS and write hulls back, safely (see ``docs/postgis.md``).
 
-:func:`read_postgis` reads a table or a ``SELECT``; :func:`write_postgis` writes
-a new table in one transaction, then renames it, so an interrupted run never
-damages the table it replaces. A database is named by a URL,
-``postgresql://user@host:port/dbname``; its password never appears in a message.
+A database is named by a URL, ``postgresql://user@host:port/dbname``; its
+password never appears in a message.
 """
 
 from __future__ import annotations
@@ -275,10 +273,9 @@ def read_postgis(
         ``postgresql://user@host:port/dbname``, or an open psycopg 3
         connection (left open: reading many times saves a login each time).
     table : str, optional
-        ``schema.table`` or ``table`` (found on the search path); names as
-        written, case included. Give ``table`` or ``sql``.
+        ``schema.table`` or ``table`` (on the search path), names as written.
     sql : str, optional
-        A ``SELECT`` query; it runs in a read-only transaction.
+        A ``SELECT`` query, instead of ``table``; it runs in a read-only transaction.
     geometry_column : str, optional
         The geometry column to use; needed only when there is more than one.
     crs : str, int, pyproj.CRS or None, default "EPSG:4326"
