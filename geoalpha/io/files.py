@@ -473,12 +473,12 @@ def write_hulls(
         raise InvalidInputError(
             f"write_hulls() needs a GeoDataFrame; got {type(gdf).__name__}"
         )
+    frame = _index_as_columns(gdf)
     if _database(path, engine):
         if extra_layers:
             raise InvalidInputError(
                 "extra layers apply to GeoPackage (.gpkg) output only, not PostGIS"
             )
-        frame = _index_as_columns(gdf)
         write_postgis(frame, os.fspath(path), layer, overwrite=overwrite)
         return {}
     if engine not in _ENGINES:
@@ -490,7 +490,6 @@ def write_hulls(
         raise InvalidInputError(
             f"extra layers apply to GeoPackage (.gpkg) output only, not {suffix}"
         )
-    frame = _index_as_columns(gdf)
     mapping = _shapefile_names(frame) if suffix == ".shp" else {}
     if mapping:
         frame = frame.rename(columns=mapping)
@@ -605,8 +604,7 @@ def _check_target(path, layer, overwrite) -> tuple[Path, str, list[Path]]:
     if suffix == ".shp" and target.suffix != ".shp":
         raise InvalidInputError(
             f"a Shapefile needs the lower-case extension .shp (GDAL writes "
-            f"{target.stem}.shp for {target.name}): use "
-            f"{target.with_suffix('.shp')}"
+            f"{target.stem}.shp for {target.name}): use {target.with_suffix('.shp')}"
         )
     if layer is not None and suffix != ".gpkg":
         raise InvalidInputError(
