@@ -1,8 +1,7 @@
 """Exception and warning classes raised by geoalpha, and their wording.
 
-Errors on bad input derive from :class:`GeoAlphaError` (a :class:`ValueError`),
-warnings from :class:`GeoAlphaWarning`. Messages name options with
-:func:`setting`: ``crs='auto'`` in Python, ``--crs auto`` in the command.
+Messages name options with :func:`setting`: ``crs='auto'`` in Python,
+``--crs auto`` in the command.
 """
 
 from __future__ import annotations

@@ -1,8 +1,7 @@
 """``hull()``: one tight polygon per group of points in a GeoDataFrame.
 
-:func:`hull` checks the options (:class:`geoalpha.options.Options`) and hands
-the frame to :mod:`geoalpha.frame.pipeline`, a dask-geopandas frame to
-:func:`geoalpha.dask.hull`.
+:func:`hull` checks the options and hands the frame to :mod:`geoalpha.frame.pipeline`,
+a dask-geopandas frame to :func:`geoalpha.dask.hull`.
 """
 
 from __future__ import annotations

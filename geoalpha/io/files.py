@@ -1,8 +1,7 @@
-"""Read point files and write hull files, safely.
+"""Read point files and write hull files, safely (``docs/user_guide/files.md``).
 
-:func:`read_points` reads points from any vector file GDAL reads, GeoParquet
-or a CSV table; :func:`write_hulls` writes hulls atomically in the format the
-extension names. The ``geoalpha`` command is a thin layer over them.
+The ``geoalpha`` command is a thin layer over :func:`read_points` and
+:func:`write_hulls`.
 """
 
 from __future__ import annotations
