@@ -18,7 +18,6 @@ import warnings
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from geoalpha.crs_parsing import crs_name, parse_crs
 from geoalpha.errors import FLAGS, CRSWarning, InvalidInputError, did_you_mean
 from geoalpha.io.postgis import (
     check_postgis_output,
@@ -144,6 +143,8 @@ def read_input_points(
     path, *, x, y, crs, layer, planar_if_missing=False, sql=None, geometry_column=None
 ):
     """:func:`read_points`, PostGIS ``sql=``; ``planar_if_missing``: no CRS is ok."""
+    from geoalpha.crs_parsing import crs_name, parse_crs
+
     source = os.fspath(path)
     shown = redact(source)
     auto = isinstance(crs, str) and crs.strip().lower() == "auto"
@@ -378,6 +379,8 @@ def _swap_hint(x: str, y: str) -> str:
 def _check_lonlat(xs, ys, crs, source: str, x: str, y: str) -> None:
     """Refuse lon/lat out of range; warn when projected values look like lon/lat."""
     import numpy as np
+
+    from geoalpha.crs_parsing import crs_name
 
     if crs is None:
         return
