@@ -83,11 +83,7 @@ def __dir__() -> list[str]:
 
 
 class _RegisterOnImport:
-    """Import hook: register the accessor once geopandas has been imported.
-
-    It wraps the loader of geopandas (found by the other finders), and leaves
-    ``sys.meta_path`` once geopandas has been executed (not on a mere find_spec).
-    """
+    """Import hook: wrap geopandas' loader to register the accessor once it has run."""
 
     _finding = False
 
@@ -103,8 +99,7 @@ class _RegisterOnImport:
             self._finding = False
         if spec is None or spec.loader is None:  # pragma: no cover - no geopandas
             return None
-        loader = spec.loader
-        exec_module = loader.exec_module
+        exec_module = spec.loader.exec_module
 
         def exec_and_register(module):
             exec_module(module)
@@ -112,7 +107,7 @@ class _RegisterOnImport:
                 sys.meta_path.remove(self)
             importlib.import_module("geoalpha.accessor").register()
 
-        loader.exec_module = exec_and_register
+        spec.loader.exec_module = exec_and_register
         return spec
 
 

@@ -1,23 +1,25 @@
 """The ``geoalpha`` command: one tight polygon per group of points, file to file.
 
 A click group as rasterio's ``rio``; heavy imports inside the commands, so that
-``geoalpha --help`` stays fast. Bad input ends the command with exit status 1
-and one ``Error: ...`` line (``-v``: and the traceback); warnings are one
-``Warning: ...`` line each unless ``-q``.
+``geoalpha --help`` stays fast. Errors and warnings: see ``docs/cli.md``.
 """
 
 from __future__ import annotations
 
 import contextlib
+import functools
 import logging
+import os
 import sys
 import traceback
 import warnings
 from collections.abc import Iterator
+from pathlib import Path
 
 import click
 
-from geoalpha.errors import FLAGS, GeoAlphaError, InvalidInputError
+from geoalpha.errors import FLAGS, GeoAlphaError, InvalidInputError, did_you_mean
+from geoalpha.frame.schema import RESULT_COLUMNS
 from geoalpha.io.datasets import DATASETS
 from geoalpha.io.postgis import is_postgres_url
 from geoalpha.io.redact import redact, secrets_in
@@ -92,10 +94,9 @@ def _reporting(verbosity: int) -> Iterator[None]:
         return redact(" ".join(str(text).split()), secrets)
 
     def show(message, category, filename, lineno, file=None, line=None):
-        if verbosity < 0:
+        # none with -q; library deprecations and numpy noise only with -v
+        if verbosity < 0 or (verbosity < 1 and not issubclass(category, UserWarning)):
             return
-        if not issubclass(category, UserWarning) and verbosity < 1:
-            return  # library deprecations and numpy noise only with -v
         text = clean(message)
         if (category, text) not in shown:
             shown.add((category, text))
@@ -119,15 +120,6 @@ def _reporting(verbosity: int) -> Iterator[None]:
                     "(rerun as 'geoalpha -v ...' for the traceback)"
                 )
             raise click.ClickException(message) from None
-
-
-def _verbosity(verbose: int = 0, quiet: int = 0) -> int:
-    """-v/-q of the group (before the command) plus those after it."""
-    ctx = click.get_current_context()
-    level = (ctx.find_root().obj or {}).get("verbosity", 0) + verbose - quiet
-    if verbose or quiet:
-        _configure_logging(level)
-    return level
 
 
 _verbose_option = click.option(
@@ -188,8 +180,6 @@ def _crs_option(value: str) -> str | None:
 
 def _group_columns(values: tuple[str, ...], columns, source: str) -> list[str]:
     """Resolve ``--by`` values (repeatable, comma-separated) to columns."""
-    from geoalpha.errors import did_you_mean
-
     by: list[str] = []
     for value in values:
         names = [value] if value in columns else value.split(",")
@@ -207,8 +197,6 @@ def _group_columns(values: tuple[str, ...], columns, source: str) -> list[str]:
 
 def _input_size(path) -> int | None:
     """Bytes of an input file (or of the files of a folder); None for a database."""
-    import os
-
     path = os.fspath(path)
     if os.path.isfile(path):
         return os.path.getsize(path)
@@ -219,24 +207,18 @@ def _input_size(path) -> int | None:
 
 @contextlib.contextmanager
 def _session(params: dict, size, points_layer=False) -> Iterator:
-    """Run a command: check OUTPUT, yield :func:`_run` bound to the output.
-
-    Takes the output's flags out of ``params``, the command's: ``output``,
-    ``output_layer``, ``overwrite``, ``engine``, ``preview``, ``verbose`` and
-    ``quiet`` (the others are left for the command). Messages as
-    :func:`_reporting` shows them; one progress bar over ``read``, the phases
-    of hull(), ``write`` and ``preview``, their shares estimated from the
-    input's bytes until it is read, then from its rows and groups. ``-q``
-    means no bar unless ``--progress``.
-    """
-    import functools
-
+    """Check OUTPUT (flags popped from ``params``); yield :func:`_run` bound to it."""
     from geoalpha.frame.progress import HULL_PHASES, hull_costs, phases
     from geoalpha.io.files import check_output
 
-    keys = ("output", "overwrite", "engine", "preview")
-    target = {k: params.pop(k) for k in keys} | {"layer": params.pop("output_layer")}
-    verbosity = _verbosity(params.pop("verbose"), params.pop("quiet"))
+    preview = params.pop("preview")
+    target = {k: params.pop(k) for k in ("overwrite", "engine")}
+    target |= {"path": params.pop("output"), "layer": params.pop("output_layer")}
+    verbose, quiet = params.pop("verbose"), params.pop("quiet")  # after the command
+    root = click.get_current_context().find_root()
+    verbosity = (root.obj or {}).get("verbosity", 0) + verbose - quiet
+    if verbose or quiet:
+        _configure_logging(verbosity)
     if params["progress"] is None and verbosity < 0:
         params["progress"] = False  # -q: no bar (in hull() too) unless --progress
 
@@ -251,7 +233,7 @@ def _session(params: dict, size, points_layer=False) -> Iterator:
         }
 
     names = ("read", *HULL_PHASES, "write")
-    names += ("preview",) if target["preview"] is not None else ()
+    names += ("preview",) if preview is not None else ()
     with (
         _reporting(verbosity),
         phases(names, params["progress"], costs=after_hull) as bar,
@@ -262,10 +244,10 @@ def _session(params: dict, size, points_layer=False) -> Iterator:
         bar.estimate(costs | after_hull(rows, rows / 100))
         bar.start("read")
         check_output(
-            target["output"], layer=target["layer"], overwrite=target["overwrite"]
+            target["path"], layer=target["layer"], overwrite=target["overwrite"]
         )
-        _check_preview(target["preview"])
-        yield functools.partial(_run, target=target, verbosity=verbosity, bar=bar)
+        _check_preview(preview)
+        yield functools.partial(_run, target, preview, verbosity, bar)
 
 
 def _plural(n: int, noun: str) -> str:
@@ -344,11 +326,10 @@ def _summary(points, hulls, source: str, by: list[str], options: dict, unit) -> 
     return lines
 
 
-def _run(points, target, verbosity, bar, *, source, by, extra_layers=None, **options):
-    """Compute the hulls (in the command's ``bar``), write them and report.
-
-    ``target``: ``output``, ``layer``, ``overwrite``, ``engine`` and ``preview``.
-    """
+def _run(
+    target, preview, verbosity, bar, points, *, source, by, extra_layers=None, **options
+):
+    """Compute the hulls (in the command's ``bar``), write them, draw ``preview``."""
     from geoalpha.frame.schema import planar_unit, with_area_unit
     from geoalpha.hulls import hull
     from geoalpha.io.files import write_hulls
@@ -362,15 +343,8 @@ def _run(points, target, verbosity, bar, *, source, by, extra_layers=None, **opt
     unit = planar_unit(points.crs, options.get("crs", "auto"))
     table = with_area_unit(hulls, unit)  # say the unit instead of a wrong "m2"
     bar.start("write")
-    output, layer, preview = target["output"], target["layer"], target["preview"]
-    mapping = write_hulls(
-        table,
-        output,
-        layer=layer,
-        overwrite=target["overwrite"],
-        engine=target["engine"],
-        extra_layers=extra_layers,
-    )
+    mapping = write_hulls(table, **target, extra_layers=extra_layers)
+    output, layer = target["path"], target["layer"]
     if preview is not None:
         bar.start("preview")
         _write_preview(hulls, points, preview, by)
@@ -385,8 +359,6 @@ def _run(points, target, verbosity, bar, *, source, by, extra_layers=None, **opt
     if is_postgres_url(output):
         where += f" (table {layer})"
     elif output.lower().endswith(".gpkg"):
-        from pathlib import Path
-
         where += f" (layer {layer or Path(output).stem or 'hulls'!r}"
         where += "".join(f", {name!r}" for name in extra_layers or ()) + ")"
     rows = int(hulls["n_points"].sum())  # the points in the hulls' groups
@@ -403,8 +375,6 @@ def _check_preview(path: str | None) -> None:
     """Check, before computing, that --preview can be written."""
     if path is None:
         return
-    from pathlib import Path
-
     target = Path(path)
     if target.suffix.lower() not in (".png", ".svg", ".pdf", ".jpg", ".jpeg"):
         raise InvalidInputError(
@@ -627,15 +597,10 @@ def hull(input_path: str, by: tuple[str, ...], crs_in: str, **options) -> None:
         )
 
 
-def _result_columns() -> str:
-    """Return the columns for --help (:data:`~geoalpha.frame.schema.RESULT_COLUMNS`)."""
-    from geoalpha.frame.schema import RESULT_COLUMNS
-
-    units = {"alpha": " (1/metre)", "radius": " (metres)"}
-    return ", ".join(name + units.get(name, "") for name in RESULT_COLUMNS)
-
-
-hull.help = hull.help.replace("RESULT_COLUMNS", _result_columns())
+_UNITS = {"alpha": " (1/metre)", "radius": " (metres)"}
+hull.help = hull.help.replace(
+    "RESULT_COLUMNS", ", ".join(c + _UNITS.get(c, "") for c in RESULT_COLUMNS)
+)
 
 
 @main.command(context_settings=_CONTEXT)

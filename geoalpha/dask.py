@@ -1,9 +1,7 @@
 """Optimal alpha hulls of dask-geopandas frames: data larger than memory.
 
-:func:`hull` shuffles the rows by key, makes one CRS decision and the checks
-for the whole dataset, then runs :func:`geoalpha.frame.pipeline.run` on every
-partition. Importing this module imports dask-geopandas
-(``pip install geoalpha[dask]``) and registers ``.alpha`` on its frames.
+Importing this module imports dask-geopandas (``pip install geoalpha[dask]``)
+and registers ``.alpha`` on its frames.
 """
 
 from __future__ import annotations
@@ -11,6 +9,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 
+import geopandas as gpd
 import numpy as np
 import pandas as pd
 import shapely
@@ -198,8 +197,6 @@ def _nan_y_zero(xy: np.ndarray) -> np.ndarray:
 def _hull_partition(
     part, by, crs, meta, geometry, source_crs, options: Options, checked=None
 ):
-    import geopandas as gpd
-
     if len(part) == 0:
         return meta
     if _ROW in part.columns:
@@ -263,9 +260,8 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
 
     Notes
     -----
-    Warnings about degenerate groups come where the partitions are computed
-    (with ``distributed``: in the worker logs); those about the set-up and
-    bad rows once, for the whole dataset. Each worker needs geoalpha.
+    Warnings about bad rows come once; about degenerate groups, where the
+    partitions are computed (see :doc:`/dask`).
 
     .. versionadded:: 0.1.0
 

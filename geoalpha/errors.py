@@ -1,8 +1,7 @@
 """Exception and warning classes raised by geoalpha, and their wording.
 
-Errors on bad input derive from :class:`GeoAlphaError` (a :class:`ValueError`),
-warnings from :class:`GeoAlphaWarning`. Messages name options with
-:func:`setting`: ``crs='auto'`` in Python, ``--crs auto`` in the command.
+Messages name options with :func:`setting`: ``crs='auto'`` in Python,
+``--crs auto`` in the command.
 """
 
 from __future__ import annotations
@@ -121,10 +120,9 @@ def did_you_mean(name: object, choices: Iterable) -> str:
     """
     names = [str(c) for c in choices]
     close = difflib.get_close_matches(str(name), names, n=1, cutoff=0.6)
-    if not close:
-        lower = {c.lower(): c for c in names}
-        if str(name).lower() in lower:
-            close = [lower[str(name).lower()]]
+    lower = {c.lower(): c for c in names}
+    if not close and str(name).lower() in lower:
+        close = [lower[str(name).lower()]]
     return f" (did you mean {close[0]!r}?)" if close else ""
 
 

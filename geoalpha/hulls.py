@@ -1,8 +1,7 @@
 """``hull()``: one tight polygon per group of points in a GeoDataFrame.
 
-:func:`hull` checks the options (:class:`geoalpha.options.Options`) and hands
-the frame to :mod:`geoalpha.frame.pipeline`, a dask-geopandas frame to
-:func:`geoalpha.dask.hull`.
+:func:`hull` checks the options and hands the frame to :mod:`geoalpha.frame.pipeline`,
+a dask-geopandas frame to :func:`geoalpha.dask.hull`.
 """
 
 from __future__ import annotations
@@ -48,36 +47,26 @@ def hull(gdf, by=None, **options):
     Returns
     -------
     GeoDataFrame
-        In the input CRS, one row per group: the group key column(s), then
-        ``alpha`` (1/metre in the computation CRS; nan for the methods
-        without one and for degenerate groups; 0 for the convex hull),
-        ``radius`` (1/alpha, metres), ``n_points`` (input rows of the group),
-        ``n_parts``, ``area_m2`` (on the WGS84 ellipsoid; with ``crs=None``,
-        planar, in the input's units), ``crs_used`` (the computation CRS),
-        ``method`` and ``geometry`` (a Polygon; a MultiPolygon with
-        ``components > 1``, at the antimeridian, or for a ``"concave"`` or
-        ``"knn"`` hull repaired in the input CRS). Polygon vertices are input
-        coordinates (except for degenerate buffers and antimeridian cuts).
+        In the input CRS, one row per group: the group key column(s),
+        :data:`RESULT_COLUMNS` (``alpha`` in 1/metre, ``area_m2`` on the WGS84
+        ellipsoid, ...) and ``geometry``, a Polygon whose vertices are input
+        points; see the output columns in :doc:`/user_guide/hulls`.
 
     Raises
     ------
     InvalidInputError
         For non-point geometries (unless ``vertices=True``), a missing ``by``
         column, input without CRS (unless ``crs=None``), coordinates out of
-        range, bad or unknown options; the message names the rows, columns or
-        option.
+        range, bad or unknown options, naming the rows, columns or option.
 
     Warns
     -----
     OutlierWarning, DroppedRowsWarning, DegenerateGroupWarning, AntimeridianWarning
         Points left out (``outliers``), rows dropped, groups without alpha
         shape, groups split at +-180 degrees.
-    GroupingWarning
-        ``by`` makes more groups than half the rows: a wrong column?
-        (:func:`geoalpha.frame.checks.check_grouping`)
-    CRSWarning
-        The computation CRS stretches areas by more than 2 % where the
-        points are (:func:`geoalpha.frame.checks.check_distortion`).
+    GroupingWarning, CRSWarning
+        ``by`` makes more groups than half the rows (a wrong column?); the
+        computation CRS stretches areas by more than 2 % where the points are.
 
     Notes
     -----

@@ -1,10 +1,7 @@
-"""The options of :func:`geoalpha.hull`, defined once.
+"""The options of :func:`geoalpha.hull`, defined once (``docs/architecture.md``).
 
-:class:`Options` declares each option's default, check, documentation and
-flag; from it come hull()'s signature and docstring (:func:`signature`,
-:func:`docstring`), the array API's checks (:func:`check`) and the command's
-click options (:mod:`geoalpha.cli`). Imports only the standard library, so that
-``geoalpha --help`` stays fast.
+:class:`Options` declares each option's default, check, documentation and flag.
+Imports only the standard library, so that ``geoalpha --help`` stays fast.
 """
 
 from __future__ import annotations
@@ -51,9 +48,8 @@ class OptionMeta:
         numpydoc text of the parameter: the type line (made from the field's
         type and default), then the description given to :func:`option`.
     kind : str
-        ``"bool"``, ``"int"``, ``"float"``, ``"number"`` (an int stays an
-        int, another real a float), ``"choice"`` or ``"crs"``; by default
-        from the field's annotation (``"choice"`` with ``choices``).
+        ``"bool"``, ``"int"``, ``"float"``, ``"number"`` (int or float),
+        ``"choice"`` or ``"crs"``; by default from the field's annotation.
     choices, low, high, low_open, optional
         Allowed values, bounds (``low_open`` excludes ``low``), None allowed.
     what : str, optional
@@ -62,8 +58,7 @@ class OptionMeta:
         Command-line spelling (by default ``--name``, ``--name/--no-name`` for
         a bool: ``("--holes/--no-holes",)``), metavar, help.
     validate : callable, optional
-        A check of its own (returns the value or raises
-        :class:`~geoalpha.errors.InvalidInputError`) instead of the generic one.
+        Its own check instead of the generic one (returns the value or raises).
     """
 
     doc: str
@@ -207,10 +202,8 @@ def _check_n_jobs(value):
 class Options:
     """Every option of :func:`geoalpha.hull`, checked.
 
-    ``Options(**kwargs)`` checks each value (an
-    :class:`~geoalpha.errors.InvalidInputError` names the option and what it
-    accepts) and fills in the defaults. :data:`FIELDS` lists the fields, in
-    hull()'s signature order, with their :class:`OptionMeta`.
+    ``Options(**kwargs)`` checks each value (an error names the option and what
+    it accepts) and fills in the defaults; :data:`FIELDS` lists the fields.
 
     Examples
     --------
@@ -249,13 +242,10 @@ class Options:
     crs: Any = option(
         "auto",
         kind="crs",
-        doc='Metric CRS of the computation. ``"auto"``: lon/lat (and Mercator)\n'
-        "input goes to one UTM zone when all points fit it, else to a UTM\n"
-        "zone or a local equal-area CRS per group; projected input is kept.\n"
-        "A projected CRS forces that CRS (feet are scaled to metres). None:\n"
-        "the coordinates as planar numbers (alpha in 1/degree for lon/lat).\n"
-        '``"sphere"``: no projection, on the sphere of WGS84\'s authalic\n'
-        "radius (continent-wide groups; see the sphere page of the guide).",
+        doc='Metric CRS of the computation: ``"auto"`` (a UTM zone, or a local\n'
+        "CRS per group, for lon/lat input; projected input is kept), a projected\n"
+        'CRS, None (the coordinates as planar numbers) or ``"sphere"`` (no\n'
+        "projection); see :doc:`/user_guide/crs` and :doc:`/user_guide/sphere`.",
         metavar="auto|sphere|CRS|none",
         help="Metric CRS the shapes are computed in; 'auto' picks a UTM zone "
         "(or a local CRS per group) for lon/lat input and keeps projected input "
@@ -268,18 +258,16 @@ class Options:
         "alpha",
         choices=METHODS,
         doc='``"alpha"``: the optimal alpha shape; ``"convex"``: convex hulls;\n'
-        '``"concave"``: ``shapely.concave_hull(ratio=ratio)``; ``"knn"``:\n'
-        "the Moreira-Santos k-nearest-neighbour concave hull, starting\n"
-        "at ``k``. All give the same table.",
+        '``"concave"``: ``shapely.concave_hull(ratio=ratio)``; ``"knn"``: the\n'
+        "Moreira-Santos k-nearest-neighbour hull from ``k``. Same table for all.",
         help="Shape: optimal alpha shape, convex hull, shapely concave hull "
         "(see --ratio) or k-nearest-neighbour concave hull.",
     )
     search: str = option(
         "exact",
         choices=SEARCHES,
-        doc='How the optimum is searched; ``"ladder"`` and ``"bisect"``\n'
-        "reproduce the seed paper's and ``alphashape``'s searches, for\n"
-        "comparison (see :func:`geoalpha.alpha_shapes`).",
+        doc='How the optimum is searched; ``"ladder"`` and ``"bisect"`` reproduce\n'
+        "the seed paper's and alphashape's searches (:func:`geoalpha.alpha_shapes`).",
         help="How the optimal alpha is found: exactly, or (for comparison) with "
         "the integer ladder or float bisection.",
     )
@@ -306,11 +294,9 @@ class Options:
     degenerate: str = option(
         "buffer",
         choices=DEGENERATE_POLICIES,
-        doc="Groups with fewer than 3 distinct points or all collinear have\n"
-        'no alpha shape: ``"buffer"`` gives them a polygon ``buffer``\n'
-        'metres around their points, ``"empty"`` an empty Polygon,\n'
-        '``"drop"`` no row. A :class:`DegenerateGroupWarning` names\n'
-        "the groups in every case.",
+        doc="Groups with fewer than 3 distinct points or all collinear have no\n"
+        'alpha shape: ``"buffer"`` gives them a polygon ``buffer`` metres around\n'
+        'their points, ``"empty"`` an empty Polygon, ``"drop"`` no row.',
         help="Groups with fewer than 3 distinct or only collinear points: a small "
         "buffer polygon, an empty geometry, or no row.",
     )
@@ -334,9 +320,8 @@ class Options:
     )
     dropna: bool = option(
         True,
-        doc="Drop rows whose group key is missing (counted in a\n"
-        ":class:`DroppedRowsWarning`), as in ``dissolve``; False makes them a\n"
-        "group of their own.",
+        doc="Drop rows whose group key is missing (a :class:`DroppedRowsWarning`\n"
+        "counts them), as in ``dissolve``; False makes them a group of their own.",
         help="Leave out rows whose --by value is missing, or make them a group.",
     )
     sort: bool = option(
@@ -366,10 +351,8 @@ class Options:
         0,
         validate=check_outliers,
         doc='Rows each group may leave out (``method="alpha"``, exact search):\n'
-        "a fraction in ``[0, 1)`` of its rows (``k = floor(outliers * rows)``)\n"
-        "or a count ``k``. The optimum is then the largest alpha at which at\n"
-        "most ``components`` pieces cover ``rows - k`` rows or more; only\n"
-        "they are kept. :func:`outlier_rows` tells which rows were left out.",
+        "a fraction in ``[0, 1)`` of its rows or a count; see\n"
+        ":doc:`/user_guide/outliers` and :func:`outlier_rows`.",
         metavar="FRACTION|COUNT",
         help="Rows each group may leave out: a fraction of its rows (0.02) or a "
         "count (3); the hull is then the tightest shape around the others. The "
@@ -437,12 +420,8 @@ def _completed(fields: tuple[dataclasses.Field, ...]) -> tuple[dataclasses.Field
         kind = {"number": "float or int", "crs": '"auto", "sphere", CRS or None'}
         if meta.choices:
             kind[meta.kind] = "{" + ", ".join(f'"{c}"' for c in meta.choices) + "}"
-        if f.default is None:
-            default = "optional"
-        elif isinstance(f.default, str):
-            default = f'default "{f.default}"'
-        else:
-            default = f"default {f.default!r}"
+        default = "optional" if f.default is None else f"default {f.default!r}"
+        default = default.replace("'", '"')  # numpydoc's quotes: default "auto"
         doc = f"{kind.get(meta.kind, meta.kind)}, {default}\n    "
         object.__setattr__(meta, "flags", meta.flags or (flag,))
         object.__setattr__(meta, "doc", doc + meta.doc.replace("\n", "\n    "))
@@ -458,10 +437,7 @@ META: dict[str, OptionMeta] = {f.name: f.metadata["meta"] for f in FIELDS}
 
 
 def check(**values: Any) -> dict[str, Any]:
-    """Check some options on their own, with hull()'s rules and messages.
-
-    For the array API (:func:`geoalpha.alpha_shapes`, ...), which takes a few
-    of the options.
+    """Check some options on their own (for the array API), as hull() does.
 
     Parameters
     ----------

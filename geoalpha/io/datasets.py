@@ -88,9 +88,8 @@ def load(name: str):
     import geopandas as gpd
     import pandas as pd
 
-    csv = path(name)  # raises KeyError naming the valid names
+    frame = pd.read_csv(path(name), low_memory=False)  # KeyError names the datasets
     _, lon, lat, _, _ = DATASETS[name]
-    frame = pd.read_csv(csv, low_memory=False)
     return gpd.GeoDataFrame(
         frame, geometry=gpd.points_from_xy(frame[lon], frame[lat]), crs="EPSG:4326"
     )

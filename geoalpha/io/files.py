@@ -1,8 +1,7 @@
-"""Read point files and write hull files, safely.
+"""Read point files and write hull files, safely (``docs/user_guide/files.md``).
 
-:func:`read_points` reads points from any vector file GDAL reads, GeoParquet
-or a CSV table; :func:`write_hulls` writes hulls atomically in the format the
-extension names. The ``geoalpha`` command is a thin layer over them.
+The ``geoalpha`` command is a thin layer over :func:`read_points` and
+:func:`write_hulls`.
 """
 
 from __future__ import annotations
@@ -95,19 +94,17 @@ def read_points(
     Parameters
     ----------
     path : str or os.PathLike
-        A vector file GDAL reads (GeoPackage, Shapefile, GeoJSON, ...), a
-        GeoParquet file, or a table of points given by two coordinate columns:
-        CSV (``.csv``, ``.tsv``, ``.txt``; the delimiter is detected) or a
-        ``.parquet`` file without geometry metadata. A ``postgresql://`` URL
-        reads the table ``layer`` with :func:`geoalpha.io.postgis.read_postgis`.
+        A vector file GDAL reads, GeoParquet, or a table with two coordinate
+        columns (CSV with any delimiter, Parquet without geometry metadata); a
+        ``postgresql://`` URL reads the table ``layer``
+        (:func:`~geoalpha.io.postgis.read_postgis`).
     x, y : str, optional
         The coordinate columns of a table (tables only); by default the first
         pair of :data:`COORDINATE_NAMES` found, in any letter case.
     crs : "auto", str, int, pyproj.CRS or None, default "auto"
-        CRS of a table's coordinates, or of a vector file that stores none.
-        ``"auto"`` never guesses: longitude/latitude column names mean
-        EPSG:4326, a file has its own, anything else is an error. None: planar
-        numbers without CRS. A file's own CRS always wins.
+        CRS of a table's coordinates, or of a vector file that stores none (a
+        file's own CRS wins). ``"auto"`` never guesses (see :doc:`/cli`); None:
+        planar numbers without CRS.
     layer : str or int, optional
         Layer of a multi-layer file such as a GeoPackage; the first by default.
 
@@ -145,10 +142,7 @@ def read_points(
 def read_input_points(
     path, *, x, y, crs, layer, planar_if_missing=False, sql=None, geometry_column=None
 ):
-    """:func:`read_points`; ``planar_if_missing``: no CRS means planar, no error.
-
-    ``sql`` and ``geometry_column``: as in :func:`~geoalpha.io.postgis.read_postgis`.
-    """
+    """:func:`read_points`, PostGIS ``sql=``; ``planar_if_missing``: no CRS is ok."""
     from geoalpha.crs_parsing import crs_name, parse_crs
 
     source = os.fspath(path)
@@ -433,9 +427,7 @@ def write_hulls(
 ) -> dict[str, str]:
     """Write hulls to a file, in the format its extension names, atomically.
 
-    Written to a hidden staging folder beside ``path``, then moved into place
-    (as ``docs/cli.md`` tells): never half-written, never replacing a file
-    without ``overwrite``.
+    Never half-written, never replacing a file without ``overwrite`` (see :doc:`/cli`).
 
     Parameters
     ----------
@@ -451,19 +443,16 @@ def write_hulls(
         Replace ``path`` if it exists (a GeoPackage as a whole, other layers
         included; a Shapefile with all its sidecar files).
     engine : {None, "pyogrio", "fiona"}
-        Library geopandas writes vector files with (None: geopandas chooses);
-        not used for GeoParquet. GeoPackages are written as version
-        :data:`GPKG_VERSION` with either.
+        Library geopandas writes vector files with (None: its choice; not for
+        GeoParquet). GeoPackages are version :data:`GPKG_VERSION` with either.
     extra_layers : dict of str to GeoDataFrame, optional
-        More layers of a GeoPackage, by name (e.g. the points next to their
-        hulls), written into the same file before it is moved into place.
+        More layers of a GeoPackage, by name (e.g. the points), in the same file.
 
     Returns
     -------
     dict of str to str
-        ``{old: new}`` for the columns renamed to fit the Shapefile limit of 10
-        bytes per field name (truncated, numbered where they would collide
-        ignoring case: ``Local_Au_1``); empty for the other formats.
+        ``{old: new}`` for the columns renamed to fit a Shapefile's 10-byte
+        field names (``Local_Au_1``: see :doc:`/cli`); empty for other formats.
 
     Raises
     ------
@@ -486,12 +475,12 @@ def write_hulls(
         raise InvalidInputError(
             f"write_hulls() needs a GeoDataFrame; got {type(gdf).__name__}"
         )
+    frame = _index_as_columns(gdf)
     if _database(path, engine):
         if extra_layers:
             raise InvalidInputError(
                 "extra layers apply to GeoPackage (.gpkg) output only, not PostGIS"
             )
-        frame = _index_as_columns(gdf)
         write_postgis(frame, os.fspath(path), layer, overwrite=overwrite)
         return {}
     if engine not in _ENGINES:
@@ -503,7 +492,6 @@ def write_hulls(
         raise InvalidInputError(
             f"extra layers apply to GeoPackage (.gpkg) output only, not {suffix}"
         )
-    frame = _index_as_columns(gdf)
     mapping = _shapefile_names(frame) if suffix == ".shp" else {}
     if mapping:
         frame = frame.rename(columns=mapping)
@@ -550,13 +538,12 @@ def _write_layers(layers, staged: Path, suffix: str, engine, target: Path) -> No
         text = one_line(err).replace(str(staged.parent), str(target.parent))
         raise OSError(f"cannot write {target}: {text}") from err
     crs = layers[0][0].crs
-    if suffix == ".shp" and crs is not None:
-        prj = staged.with_suffix(".prj")
-        if not prj.exists():
-            raise OSError(
-                f"the Shapefile writer did not write {prj.name} for CRS "
-                f"{crs.to_string()}; write another format instead"
-            )
+    prj = staged.with_suffix(".prj")
+    if suffix == ".shp" and crs is not None and not prj.exists():
+        raise OSError(
+            f"the Shapefile writer did not write {prj.name} for CRS "
+            f"{crs.to_string()}; write another format instead"
+        )
 
 
 def check_output(
@@ -573,8 +560,7 @@ def check_output(
     ------
     FileExistsError, FileNotFoundError, IsADirectoryError, PermissionError
         If ``path`` exists (without ``overwrite``), its directory does not, it
-        is a directory, or its folder is not writable (a staging folder is
-        created there and removed).
+        is a directory, or its folder is not writable.
     geoalpha.errors.InvalidInputError
         For an unknown extension (or an upper-case ``.SHP``), or ``layer``
         with a format without layers.
@@ -620,8 +606,7 @@ def _check_target(path, layer, overwrite) -> tuple[Path, str, list[Path]]:
     if suffix == ".shp" and target.suffix != ".shp":
         raise InvalidInputError(
             f"a Shapefile needs the lower-case extension .shp (GDAL writes "
-            f"{target.stem}.shp for {target.name}): use "
-            f"{target.with_suffix('.shp')}"
+            f"{target.stem}.shp for {target.name}): use {target.with_suffix('.shp')}"
         )
     if layer is not None and suffix != ".gpkg":
         raise InvalidInputError(
@@ -712,11 +697,7 @@ def remove_stale_staging(folder: PathLike) -> list[Path]:
 def _move_into_place(
     staging: Path, target: Path, targets: list[Path], overwrite: bool
 ) -> None:
-    """Move the staged files to the targets.
-
-    Without ``overwrite`` each file is linked to its name, the main file
-    first, so that of two runs racing for one output exactly one wins.
-    """
+    """Move the staged files into place; without ``overwrite``, one racing run wins."""
     written = {p.name for p in staging.iterdir() if p.is_file()}
     if target.name not in written:
         raise OSError(f"the writer did not create {target.name}")
@@ -768,10 +749,7 @@ def _index_as_columns(gdf):
 
 
 def _shapefile_names(frame) -> dict[str, str]:
-    """Map column names that do not fit a dBASE field to unique short names.
-
-    Names that fit are kept (and reserved first); see :func:`write_hulls`.
-    """
+    """Map column names too long for a dBASE field to unique short names."""
     columns = [c for c in frame.columns if c != frame.geometry.name]
     kept: dict[str, str] = {}  # lower case -> the first name that fits
     for name in map(str, columns):

@@ -1,9 +1,7 @@
 """Read points from PostGIS and write hulls back, safely (see ``docs/postgis.md``).
 
-:func:`read_postgis` reads a table or a ``SELECT``; :func:`write_postgis` writes
-a new table in one transaction, then renames it, so an interrupted run never
-damages the table it replaces. A database is named by a URL,
-``postgresql://user@host:port/dbname``; its password never appears in a message.
+A database is named by a URL, ``postgresql://user@host:port/dbname``; its
+password never appears in a message.
 """
 
 from __future__ import annotations
@@ -176,8 +174,7 @@ def _display(url) -> str:
 def _message(err: BaseException) -> str:
     """Return the database's own message, on one line, without a password."""
     orig = getattr(err, "orig", None) or err
-    diag = getattr(orig, "diag", None)
-    primary = getattr(diag, "message_primary", None) if diag is not None else None
+    primary = getattr(getattr(orig, "diag", None), "message_primary", None)
     line = one_line(primary or str(orig), sentences=True)
     # libpq: 'connection failed: connection to server at "h" (ip), port 5 failed:
     # FATAL:  password authentication failed for user "ga"' -> the last part
@@ -186,15 +183,10 @@ def _message(err: BaseException) -> str:
 
 @contextlib.contextmanager
 def _connection(url: str, *, write: bool) -> Iterator[Any]:
-    """Open a connection in one transaction (read only unless ``write``).
-
-    Writing runs on SQLAlchemy (``to_postgis`` needs it), reading on bare
-    psycopg (faster); database errors come out as one-line :class:`DatabaseError`.
-    """
+    """Open a transaction: read-only on psycopg, or for to_postgis on SQLAlchemy."""
     sqlalchemy = _import_drivers()
     import psycopg
 
-    errors = (sqlalchemy.exc.DBAPIError, psycopg.Error)
     engine = None
     if write:  # on the psycopg 3 driver
         parsed, args = _parse_url(url)
@@ -209,7 +201,7 @@ def _connection(url: str, *, write: bool) -> Iterator[Any]:
                 _execute(conn, "SET TRANSACTION READ WRITE; " + _LOCK_TIMEOUT)
             yield conn
     except BaseException as err:
-        cause = _database_cause(err, errors)
+        cause = _database_cause(err, (sqlalchemy.exc.DBAPIError, psycopg.Error))
         if cause is None:
             raise
         where = where if connected else f"cannot connect to {where}"
@@ -221,10 +213,7 @@ def _connection(url: str, *, write: bool) -> Iterator[Any]:
 
 @contextlib.contextmanager
 def _read_only(url) -> Iterator[Any]:
-    """Open a psycopg connection in a read-only transaction; close it at the end.
-
-    An open ``psycopg.Connection`` stays open (a savepoint if in a transaction).
-    """
+    """Open a read-only transaction; an open connection stays open (or a savepoint)."""
     import psycopg
 
     if isinstance(url, psycopg.Connection):
@@ -284,10 +273,9 @@ def read_postgis(
         ``postgresql://user@host:port/dbname``, or an open psycopg 3
         connection (left open: reading many times saves a login each time).
     table : str, optional
-        ``schema.table`` or ``table`` (found on the search path); names as
-        written, case included. Give ``table`` or ``sql``.
+        ``schema.table`` or ``table`` (on the search path), names as written.
     sql : str, optional
-        A ``SELECT`` query; it runs in a read-only transaction.
+        A ``SELECT`` query, instead of ``table``; it runs in a read-only transaction.
     geometry_column : str, optional
         The geometry column to use; needed only when there is more than one.
     crs : str, int, pyproj.CRS or None, default "EPSG:4326"
@@ -309,9 +297,8 @@ def read_postgis(
 
     Notes
     -----
-    2D points with number, boolean, text or date columns are read as arrays in
-    one aggregate row (twice as fast), anything else row by row, as
-    ``geopandas.read_postgis`` does; the result is the same. See ``docs/postgis.md``.
+    2D points are read as arrays (twice as fast), anything else row by row; the
+    result is the same. See ``docs/postgis.md``.
     """
     if (table is None) == (sql is None):
         raise InvalidInputError(
@@ -406,12 +393,7 @@ _ARRAY_ROWS = 2_000_000  # more rows come as rows (a bytea holds 1 GB at most)
 
 
 def _read_points(conn, query: str, description, column: str, typmod: int):
-    """Read a query of 2D points as arrays: (frame, points, SRID), else None.
-
-    One aggregate row: x and y as one ``bytea`` of doubles each, every other
-    column as one array. None (nothing read) for anything but non-empty 2D points
-    of one SRID with non-NULL numbers, up to :data:`_ARRAY_ROWS` rows.
-    """
+    """Read 2D points as arrays in one aggregate row: (frame, points, SRID), or None."""
     import numpy as np
     import pandas as pd
     import psycopg
@@ -487,9 +469,8 @@ def _read_points(conn, query: str, description, column: str, typmod: int):
 def _point_typmod_srid(typmod: int) -> int | None:
     """Return the SRID of a ``geometry(Point, srid)`` column type (2D), or None.
 
-    PostGIS keeps the type in the type modifier: bits 2-7 the geometry type
-    (1 for Point), bits 0-1 M and Z, bits 8-28 the SRID; -1 for plain
-    ``geometry``. Inserted rows are checked against it.
+    The type modifier holds the geometry type in bits 2-7 (Point: 1), M and Z in
+    bits 0-1, the SRID (which inserted rows are checked against) in bits 8-28.
     """
     if typmod is None or typmod < 0 or typmod & 0xFF != 1 << 2:
         return None
@@ -587,15 +568,13 @@ def write_postgis(
 ) -> str:
     """Write a GeoDataFrame to a PostGIS table in one transaction.
 
-    The rows go to a new table with a GiST index, which then replaces the old
-    one: readers see the old table or the whole new one.
+    Readers see the old table or the whole new one (see ``docs/postgis.md``).
 
     Parameters
     ----------
     gdf : geopandas.GeoDataFrame
-        What to write, usually the result of :func:`geoalpha.hull`; its SRID
-        is the EPSG code of ``gdf.crs`` (0 without), Polygons mixed with
-        MultiPolygons are written as MultiPolygons, the index is not written.
+        What to write, usually the result of :func:`geoalpha.hull`, without its
+        index; SRID and column type as ``docs/postgis.md`` tells.
     url : str
         ``postgresql://user@host:port/dbname``.
     table : str
@@ -690,8 +669,7 @@ def truncate_bytes(name: str, limit: int) -> str:
 
 def one_line(err: BaseException | str, *, sentences: bool = False) -> str:
     """Return the text of ``err`` on one line (``sentences``: lines end in ".")."""
-    lines = [" ".join(line.split()) for line in str(err).splitlines()]
-    lines = [line for line in lines if line]
+    lines = [" ".join(line.split()) for line in str(err).splitlines() if line.strip()]
     for i, line in enumerate(lines[:-1]):
         if sentences and line[-1] not in ".:;,!?":
             lines[i] = line + "."
