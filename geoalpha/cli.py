@@ -256,17 +256,13 @@ def _plural(n: int, noun: str) -> str:
 
 def _left_out(points, hulls, by: list[str], options: dict) -> str:
     """``"; 12 of 3,376 rows left out: 12 without a --by value ..."``, or ``""``."""
-    import numpy as np
-
-    from geoalpha.frame.pipeline import scan_rows
+    from geoalpha.frame.pipeline import row_report
 
     left = len(points) - int(hulls["n_points"].sum())
     if left <= 0:
         return ""
-    codes = np.zeros(len(points), dtype=np.int64)
-    if by and options.get("dropna", True):
-        codes[points[by].isna().any(axis=1).to_numpy()] = -1
-    counts = scan_rows(points, codes, bool(options.get("vertices")))[0].counts
+    dropna, vertices = options.get("dropna", True), bool(options.get("vertices"))
+    counts = row_report(points, by, dropna=dropna, vertices=vertices).counts
     dropped = left - counts["missing"] - counts["no_key"]
     reasons = [
         (counts["missing"], "without a point (a missing, empty or NaN geometry)"),

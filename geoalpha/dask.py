@@ -19,7 +19,7 @@ from geoalpha.crs_parsing import crs_name, parse_crs
 from geoalpha.errors import InvalidInputError, did_you_mean
 from geoalpha.frame import crs as gcrs
 from geoalpha.frame.checks import check_distortion, check_grouping, computation_crs
-from geoalpha.frame.pipeline import group, merge_reports, report_rows, run, scan_rows
+from geoalpha.frame.pipeline import group, merge_reports, report_rows, row_report, run
 from geoalpha.frame.schema import empty_result, result_geometry_name
 from geoalpha.options import Options
 from geoalpha.registration import attach
@@ -125,10 +125,7 @@ def _keys(part, names: list, dropna: bool) -> pd.DataFrame:
 
 def _rows(part, names: list, options: Options) -> pd.DataFrame:
     """Return the :class:`~geoalpha.frame.pipeline.RowReport` of a partition."""
-    codes = np.zeros(len(part), dtype=np.int64)
-    if names and options.dropna:  # as groupby(dropna=True) numbers them
-        codes[part[names].isna().any(axis=1).to_numpy()] = -1
-    report, _, _ = scan_rows(part, codes, options.vertices)
+    report = row_report(part, names, dropna=options.dropna, vertices=options.vertices)
     return pd.DataFrame({"report": pd.Series([report], dtype=object)})
 
 

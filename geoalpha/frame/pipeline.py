@@ -65,6 +65,7 @@ __all__ = [
     "project",
     "read_points",
     "report_rows",
+    "row_report",
     "run",
     "scan_rows",
     "split_at_antimeridian",
@@ -354,6 +355,27 @@ def scan_rows(frame, codes: np.ndarray, vertices: bool):
         types=dict(types),
     )
     return report, coords, which
+
+
+def row_report(frame, by, *, dropna: bool, vertices: bool) -> RowReport:
+    """Return the :class:`RowReport` of ``frame`` before grouping (:func:`scan_rows`).
+
+    Parameters
+    ----------
+    frame, by
+        A GeoDataFrame and its key columns (a list or None): with ``dropna``, a
+        row missing one has a missing key (as ``groupby(dropna=True)`` says).
+    dropna, vertices : bool
+        As for :func:`geoalpha.hull`.
+
+    Returns
+    -------
+    RowReport
+    """
+    codes = np.zeros(len(frame), dtype=np.int64)
+    if by and dropna:
+        codes[frame[by].isna().any(axis=1).to_numpy()] = -1
+    return scan_rows(frame, codes, vertices)[0]
 
 
 def _bad_rows(geoms: np.ndarray, codes: np.ndarray, vertices: bool):
