@@ -110,9 +110,7 @@ def check_points(points) -> np.ndarray:
     ValueError: points must have finite coordinates; got NaN or inf in 1 row(s) ...
     """
     raw = np.asarray(points)
-    if raw.size and not (
-        np.issubdtype(raw.dtype, np.integer) or np.issubdtype(raw.dtype, np.floating)
-    ):
+    if raw.size and raw.dtype.kind not in "iuf":  # integers or floats
         raise ValueError(
             f"points must be numbers (an (n, 2) array of x, y); got {raw.dtype} values"
         )

@@ -1,8 +1,6 @@
-"""Areas of polygons on the WGS84 ellipsoid, in one compiled call.
+"""Areas of polygons on the WGS84 ellipsoid (``area_m2``), in one compiled call.
 
-The polygons go to the kernel as flat vertex arrays with offsets
-(``src/geodesic.rs``: Karney's algorithm, GeographicLib's, on the kernel's
-threads). The frame calls it for ``area_m2``.
+Flat vertex arrays with offsets to ``src/geodesic.rs`` (Karney's algorithm).
 """
 
 from __future__ import annotations

@@ -174,13 +174,7 @@ def enforce(
 
 
 def _cover_points(geoms, out_xy, codes) -> np.ndarray:
-    """Grow each group's geometry to cover its points, taken in as vertices.
-
-    A point just outside (next to a long edge of a hull built in metres and
-    given lon/lat vertices, or merged by the kernel as a near-duplicate)
-    becomes a vertex of its nearest edge (a-b becomes a-p-b), which changes
-    areas by well under 1 %. A polygon GEOS cannot grow is left unchanged.
-    """
+    """Grow each group's geometry to take in its points outside (:func:`_take_in`)."""
     geoms = geoms.copy()
     outside = ~covered(geoms, out_xy, codes) & ~shapely.is_empty(geoms[codes])
     for g in np.unique(codes[outside]):  # only groups with a point outside
@@ -200,9 +194,8 @@ def covered(
 ) -> np.ndarray:
     """Whether each point is covered by its group's geometry (distance 0).
 
-    For a point, covering and intersecting are the same predicate, so this is
-    ``shapely.covers`` evaluated as :func:`shapely.intersects_xy` on prepared
-    geometries (prepared here, in place), without building Point objects.
+    ``shapely.covers`` as :func:`shapely.intersects_xy` (the same predicate for a
+    point) on geometries prepared here, in place, without building Points.
 
     Parameters
     ----------
@@ -248,10 +241,7 @@ def covered(
 
 
 def _take_in(poly, p):
-    """Insert ``p`` into the nearest ring edge of ``poly`` that gives a valid polygon.
-
-    Failing that, add the outline of the ear to the nearest edge, slightly widened.
-    """
+    """Make ``p`` a vertex of a nearest ring edge of ``poly``, else add its ear."""
     parts = list(shapely.get_parts(poly))
     i = int(np.argmin(shapely.distance(parts, p)))
     part = parts[i]

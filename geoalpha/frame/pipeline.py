@@ -1,10 +1,7 @@
 """``hull()`` on one in-memory GeoDataFrame, as a pipeline of named stages.
 
 :func:`run` calls one function per stage, each handing its result to the next
-by return value: ``group``, ``check_grouping``, ``read_points``,
-``check_distortion``, ``project``, ``compute``, ``grow``,
-``split_at_antimeridian``, ``guarantee``, ``degenerate_policy``,
-``warn_output_crs``, ``area_m2``, ``table`` (see docs/architecture.md).
+by return value (the stages, in order: docs/architecture.md).
 """
 
 from __future__ import annotations
@@ -77,8 +74,7 @@ __all__ = [
 class Groups(NamedTuple):
     """Output of :func:`group`: a code per row and the key columns, as arrays.
 
-    The DataFrame :attr:`keys` is built only when asked for (dask's ``meta``):
-    on small inputs building DataFrames is a large share of the run.
+    (:attr:`keys`, a DataFrame, is built only when asked for: dask's ``meta``.)
     """
 
     codes: np.ndarray  #: group code per row, -1 for a dropped missing key
@@ -129,10 +125,8 @@ def run(frame, by, options: Options, *, checks: bool = True, rows: bool = True):
     """``hull(frame, by, **options)`` on an in-memory GeoDataFrame: every stage.
 
     Returns the result table and the row mask of :func:`geoalpha.outlier_rows`.
-    The progress bar is the enclosing :func:`~geoalpha.frame.progress.phases`'s
-    or its own. ``checks=False`` leaves out the set-up warnings
-    (:mod:`~geoalpha.frame.checks`), ``rows=False`` the dropped rows'
-    (:func:`report_rows`): :func:`geoalpha.dask.hull` makes them once.
+    ``checks=False`` leaves out the set-up warnings (:mod:`~.checks`),
+    ``rows=False`` the dropped rows' (:func:`geoalpha.dask.hull` makes them once).
     """
     outer = progress.current()
     if outer is not None and options.progress is not False:
@@ -222,8 +216,7 @@ def as_frame(data):
 def group(frame, by, options: Options) -> Groups:
     """Group code per row (-1: dropped missing key) and the key table.
 
-    ``by`` is what :meth:`GeoDataFrame.dissolve` takes; None is one group of
-    all rows (none for an empty frame).
+    ``by`` as for :meth:`GeoDataFrame.dissolve`; None: one group of all rows.
     """
     if by is None:
         return Groups(np.zeros(len(frame), dtype=np.int64), (), (), min(len(frame), 1))
@@ -784,11 +777,7 @@ def guarantee(
     # Per point: certain to be covered, its group's polygon being the one made.
     certain = hulls.certain
     if geometry is not hulls.made and certain.any():
-        same = np.fromiter(
-            (a is b for a, b in zip(geometry, hulls.made, strict=True)),
-            dtype=bool,
-            count=len(hulls.made),
-        )
+        same = np.array([a is b for a, b in zip(geometry, hulls.made, strict=True)])
         certain = certain & same[codes]
     fixed = options.method == "alpha" and options.alpha is not None
     limit, unfaithful = None, np.zeros_like(check)
@@ -833,10 +822,7 @@ def guarantee(
 
 
 def _beyond_the_line(geometry, points: Points, crossing) -> np.ndarray:
-    """Points at exactly +-180 degrees that their group's hull holds only at -+180.
-
-    (-180 and +180 are one meridian but not one coordinate.)
-    """
+    """Points at exactly +-180 degrees that their group's hull holds only at -+180."""
     xy, codes = points.coords, points.codes
     beyond = np.zeros(len(codes), dtype=bool)
     if crossing.any():
@@ -926,8 +912,7 @@ def table(
         "crs_used": proj.names,
         "method": hulls.labels,
     }
-    columns = groups.columns
-    keep = hulls.keep
+    columns, keep = groups.columns, hulls.keep
     if keep is not None:
         values = {name: np.asarray(v)[keep] for name, v in values.items()}
         geometry, columns = geometry[keep], [c[keep] for c in columns]
