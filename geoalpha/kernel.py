@@ -181,14 +181,13 @@ def radius_of_alpha(alpha) -> np.ndarray:
 class Solved(NamedTuple):
     """What the kernel returns.
 
-    Per group: ``reason`` (0, or a key of :data:`REASONS`), ``alpha``,
-    ``n_distinct``, ``n_parts``, ``area``, ``n_outliers`` (rows), ``whole``
-    (every triangle is in the shape), ``capped`` (the outlier search hit its
-    node budget) and ``geometry``. Per point, sorted by group
-    (``order[i]`` is the input row of sorted point ``i``): ``codes``, ``rep``
-    (the sorted index of its representative), ``left_out``, ``on_ring`` (its
-    representative is a ring vertex), ``coords`` (the output coordinates).
-    ``curve``: the validity curves when asked, ``(values, valid, offsets)``.
+    Per group: ``reason`` (0, or a key of :data:`REASONS`), ``alpha``, ``n_distinct``,
+    ``n_parts``, ``area``, ``n_outliers`` (rows), ``whole`` (every triangle in the
+    shape), ``capped`` (the outlier search hit its node budget), ``geometry``. Per
+    point, sorted by group (``order[i]``: input row of sorted point ``i``): ``codes``,
+    ``rep`` (sorted index of its representative), ``left_out``, ``on_ring`` (its
+    representative is a ring vertex), ``coords`` (output coordinates). ``curve``:
+    the validity curves when asked, ``(values, valid, offsets)``.
     """
 
     order: np.ndarray

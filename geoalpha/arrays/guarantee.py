@@ -85,11 +85,9 @@ def enforce(
 ):
     """Verify the guarantee per group; repair where possible; report the rest.
 
-    Every group in ``check`` must get a valid, non-empty Polygon or
-    MultiPolygon (of at most ``components`` parts) that covers every one of
-    its points (``shapely.covers``, distance 0, in these coordinates).
-    Invalid geometries are repaired (:func:`repair_invalid`), uncovered
-    points taken in as vertices of their nearest edges.
+    Every group in ``check`` must get a valid, non-empty (Multi)Polygon of at most
+    ``components`` parts covering its points (:func:`covered`): invalid ones are
+    repaired (:func:`repair_invalid`), points outside made vertices of it.
 
     Parameters
     ----------

@@ -1,8 +1,7 @@
 """Warnings about a run's set-up: a ``by`` that looks wrong, a CRS that stretches areas.
 
-Stages of :func:`geoalpha.hull` (once for the whole dataset in
-:func:`geoalpha.dask.hull`); a stretching CRS makes ``radius`` and ``alpha``
-wrong without any error (Web Mercator: areas 2.6 times at London).
+A stretching CRS makes ``radius`` and ``alpha`` wrong without any error (Web
+Mercator: areas 2.6 times at London). :func:`geoalpha.dask.hull` checks once.
 """
 
 from __future__ import annotations

@@ -463,9 +463,9 @@ def report_rows(report: RowReport, *, warn: bool = True) -> None:
 def read_points(
     frame, groups: Groups, options: Options, *, warn: bool = True
 ) -> Points:
-    """Read the points that take part and their group codes (:func:`scan_rows`).
+    """Read the points that take part and their group codes, checking the rows once.
 
-    Bad rows are dropped with a warning (``warn=False``: none) or refused.
+    Bad rows (:func:`scan_rows`) are refused or dropped (:func:`report_rows`).
     """
     report, coords, which = scan_rows(frame, groups.codes, options.vertices)
     report_rows(report, warn=warn)
@@ -504,9 +504,8 @@ def compute(
 ) -> Hulls:
     """Compute the shape of every group, by ``method``, in the output coordinates.
 
-    ``"alpha"`` and ``"convex"``: one kernel call; ``"concave"`` and ``"knn"``:
-    :func:`geoalpha.arrays.comparison.comparison_hulls`. A shown progress bar
-    counts the groups done. ``names`` names groups (by code) in warnings.
+    ``"alpha"``, ``"convex"``: one kernel call, the others :mod:`~.arrays.comparison`
+    (a shown bar counts groups done); ``names`` names groups (by code) in warnings.
     """
     method = options.method
     bar = progress.current()
@@ -727,10 +726,7 @@ def _buffer_in_output(geometry, sel, codes, proj: gcrs.Projection) -> np.ndarray
 
 
 def split_at_antimeridian(hulls: Hulls, points: Points, proj: gcrs.Projection) -> Hulls:
-    """Split the hulls of groups across +-180 degrees there (RFC 7946).
-
-    The parts get their input points' exact longitudes back.
-    """
+    """Split the hulls across +-180 degrees there (RFC 7946), input longitudes back."""
     which = np.flatnonzero(proj.crossing & ~hulls.degenerate)
     if not len(which):
         return hulls
@@ -874,10 +870,9 @@ def area_m2(
 ) -> np.ndarray:
     """Return ``area_m2``: geodesic, on the WGS84 ellipsoid, whatever ``crs=``.
 
-    That of each returned geometry (:func:`geoalpha.frame.crs.geodesic_areas`);
-    for groups wider than 180 degrees of longitude, whose output polygon
-    cannot be faithful, that of their hull before the split (``before_split``).
-    With ``crs=None``, planar, in the input's units.
+    That of each geometry (:func:`~.crs.geodesic_areas`), or of the hull
+    ``before_split`` for groups wider than 180 degrees of longitude (whose output
+    polygon cannot be faithful). ``crs=None``: planar, in the input's units.
     """
     if options.crs is None:
         return hulls.area
@@ -923,10 +918,7 @@ def table(
 def grow(
     hulls: Hulls, points: Points, proj: gcrs.Projection, options: Options
 ) -> Hulls:
-    """Buffer the hulls (not the degenerate buffers) by ``grow`` metres.
-
-    Built from the hull vertices' metric coordinates, moved back to the output CRS.
-    """
+    """Buffer the hulls (not degenerate buffers) by ``grow`` metres, in metres."""
     distance = options.grow
     if not distance:
         return hulls
