@@ -1,8 +1,7 @@
 """The compiled kernel (:mod:`geoalpha._kernel`) and the polygons it returns.
 
-:func:`solve` hands every group to the Rust kernel in one call; it returns each
-shape's rings as indices of input points, so every vertex is an input point,
-bit for bit. The kernel's tolerances are exported here.
+:func:`solve` hands every group to the Rust kernel in one call; rings come back as
+indices of input points, so every vertex is an input point, bit for bit.
 """
 
 from __future__ import annotations

@@ -101,8 +101,7 @@ def enforce(
     components : int or ndarray of float, shape (G,), optional
         Largest number of parts allowed.
     test : ndarray of bool, shape (k,), optional
-        The points whose coverage must be tested (default: all, and always
-        all of a repaired geometry); a caller may leave out the certain ones.
+        The points to test (default: all; always all of a repaired geometry).
     exempt : ndarray of bool, shape (k,), optional
         Points left out on purpose (``outliers=``): never tested or taken in.
     n_jobs : int or None, default 1
@@ -111,9 +110,8 @@ def enforce(
     Returns
     -------
     geoms, failed : ndarray of shape (G,)
-        The geometries, repaired where needed, and the groups of ``check``
-        that could not hold the guarantee (for the caller to declare
-        degenerate).
+        The geometries, repaired where needed, and the groups of ``check`` that
+        could not hold the guarantee (for the caller to declare degenerate).
 
     Examples
     --------
@@ -200,8 +198,7 @@ def covered(
     geoms, xy, codes : ndarray of shape (G,), (k, 2), (k,)
         Geometry of each group; points in its coordinates; group of each.
     n_jobs : int or None, default 1
-        Threads (None or -1: every core) sharing the groups, from
-        :data:`THREAD_POINTS` points on.
+        Threads (None or -1: every core), from :data:`THREAD_POINTS` points on.
 
     Returns
     -------

@@ -115,9 +115,8 @@ def check_grouping(n_groups: int, n_rows: int, by: Any) -> None:
         From :data:`MANY_GROUPS_SHARE` groups per row and
         :data:`MANY_GROUPS_MIN_ROWS` rows on.
     """
-    if by is None or n_rows < MANY_GROUPS_MIN_ROWS:
-        return
-    if n_groups <= MANY_GROUPS_SHARE * n_rows:
+    few = n_groups <= MANY_GROUPS_SHARE * n_rows
+    if by is None or n_rows < MANY_GROUPS_MIN_ROWS or few:
         return
     names = by if isinstance(by, list) else [by]
     if not all(isinstance(n, str) for n in names):

@@ -72,10 +72,7 @@ __all__ = [
 
 
 class Groups(NamedTuple):
-    """Output of :func:`group`: a code per row and the key columns, as arrays.
-
-    (:attr:`keys`, a DataFrame, is built only when asked for: dask's ``meta``.)
-    """
+    """Output of :func:`group`: a code per row and the key columns, as arrays."""
 
     codes: np.ndarray  #: group code per row, -1 for a dropped missing key
     names: tuple  #: names of the key columns
@@ -84,7 +81,7 @@ class Groups(NamedTuple):
 
     @property
     def keys(self) -> pd.DataFrame:
-        """One row per group: the key column(s) (none for one group of all rows)."""
+        """One row per group: the key column(s), built when asked (dask's ``meta``)."""
         keys = pd.DataFrame(dict(enumerate(self.columns)), range(self.n_groups))
         keys.columns = list(self.names)
         return keys
@@ -313,9 +310,8 @@ _ROW_KINDS = ("non_point", "missing", "no_key", "infinite")
 def scan_rows(frame, codes: np.ndarray, vertices: bool):
     """Sort the rows of ``frame`` into usable and bad ones.
 
-    Dropped: a missing or empty geometry, a NaN coordinate (an empty WKB
-    point), a missing key (``codes`` -1). Errors: non-point geometries (unless
-    ``vertices``) and infinite coordinates.
+    Dropped: a missing or empty geometry, a NaN coordinate (an empty WKB point), a
+    missing key (``codes`` -1). Errors (:func:`report_rows`): the others.
 
     Returns
     -------
@@ -463,10 +459,7 @@ def report_rows(report: RowReport, *, warn: bool = True) -> None:
 def read_points(
     frame, groups: Groups, options: Options, *, warn: bool = True
 ) -> Points:
-    """Read the points that take part and their group codes, checking the rows once.
-
-    Bad rows (:func:`scan_rows`) are refused or dropped (:func:`report_rows`).
-    """
+    """Read the points that take part and their group codes; refuse or drop bad rows."""
     report, coords, which = scan_rows(frame, groups.codes, options.vertices)
     report_rows(report, warn=warn)
     first = np.ones(len(which), dtype=bool)  # a row's first point (which is sorted)
@@ -760,11 +753,9 @@ def guarantee(
 ) -> Hulls:
     """Check every group's polygon once, in the output CRS: repaired, or degenerate.
 
-    A valid (Multi)Polygon covering every point of its group
-    (:func:`geoalpha.arrays.guarantee.enforce`), or the group is degenerate
-    (:class:`DegenerateGroupWarning`). Not checked: rows left out, coverage at
-    a given ``alpha``, groups wider than 180 degrees of longitude, and a point
-    at -180 degrees held at +180 (or the reverse; :func:`warn_output_crs`).
+    See :func:`geoalpha.arrays.guarantee.enforce`. Not checked: rows left out,
+    coverage at a given ``alpha``, groups wider than 180 degrees of longitude, and
+    a point at -180 degrees held at +180 (or the reverse; :func:`warn_output_crs`).
     """
     xy, codes, geometry = points.coords, points.codes, hulls.geometry
     check = ~hulls.degenerate
