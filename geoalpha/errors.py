@@ -10,6 +10,7 @@ import contextvars
 import difflib
 import itertools
 import sys
+import warnings
 from collections.abc import Iterable, Mapping
 from typing import Any
 
@@ -30,6 +31,7 @@ __all__ = [
     "first_n",
     "setting",
     "spelled",
+    "warn_user",
 ]
 
 #: The ``geoalpha`` command's flag of each keyword while it runs
@@ -83,14 +85,12 @@ class SearchWarning(GeoAlphaWarning):
     """A non-exact alpha search (ladder or bisection) gave a weaker result."""
 
 
-def user_stacklevel() -> int:
-    """Return the ``stacklevel`` that points a warning at the user's own line."""
-    frame, level = sys._getframe(1), 1
-    while frame is not None and frame.f_globals.get("__name__", "").startswith(
-        "geoalpha."
-    ):
+def warn_user(message: str, category: type[Warning]) -> None:
+    """Warn with ``category``, pointing at the user's own line (outside geoalpha)."""
+    frame, level = sys._getframe(0), 1
+    while frame and frame.f_globals.get("__name__", "").startswith("geoalpha."):
         frame, level = frame.f_back, level + 1
-    return level
+    warnings.warn(message, category, stacklevel=level)
 
 
 def first_n(items: Iterable, limit: int = 10, sep: str = ", ") -> str:

@@ -15,8 +15,7 @@ class CachedAccessor:
     """Descriptor: the accessor class on the class, one bound to an instance on it."""
 
     def __init__(self, name: str, accessor: type):
-        self._name = name
-        self._accessor = accessor
+        self._accessor = accessor  # (``name``: as pandas's CachedAccessor)
 
     def __get__(self, obj, cls):
         if obj is None:

@@ -5,7 +5,6 @@
 
 from __future__ import annotations
 
-import warnings
 from typing import Literal, NamedTuple
 
 import numpy as np
@@ -30,7 +29,7 @@ from geoalpha.errors import (
     SearchWarning,
     first_n,
     setting,
-    user_stacklevel,
+    warn_user,
 )
 from geoalpha.options import check as check_options
 
@@ -220,25 +219,23 @@ def _named(which: np.ndarray, name_groups) -> str:
 def _warn_search(res: AlphaShapes, max_iterations, components, name_groups) -> None:
     """Warn about the groups the bisection gave up on or the outlier search capped."""
     if res.gave_up.any():
-        warnings.warn(
+        warn_user(
             f"{setting('search', 'bisect')} did not converge within "
             f"{setting('max_iterations', max_iterations)} for {res.gave_up.sum()} "
             f"group(s) ({_named(np.flatnonzero(res.gave_up), name_groups)}) and gave "
             f"them alpha 0, the convex hull, as alphashape does; use "
             f"{setting('search', 'exact')}",
             SearchWarning,
-            stacklevel=user_stacklevel(),
         )
     if res.capped.any():
         which = np.flatnonzero(res.capped)
-        warnings.warn(
+        warn_user(
             f"{setting('outliers')}: the search for the {components} pieces that "
             f"hold the most rows stopped after {kernel.MAX_UNION_NODES:,} steps "
             f"for {len(which)} group(s) ({_named(which, name_groups)}); their "
             "hulls keep the best pieces found, which may leave out more rows than "
             "the optimum",
             OutlierWarning,
-            stacklevel=user_stacklevel(),
         )
 
 
@@ -464,11 +461,10 @@ def _one_group(points, **kwargs) -> AlphaShapes:
             else "got no valid polygon holding all of them (float64 could not "
             "build one: near-duplicates or slivers where pieces touch)"
         )
-        warnings.warn(
+        warn_user(
             f"no alpha shape: the {res.n_distinct[0]} distinct point(s) {why}; "
             "alpha is nan and the shape empty",
             DegenerateGroupWarning,
-            stacklevel=user_stacklevel(),
         )
     return res
 

@@ -7,7 +7,6 @@ Mercator: areas 2.6 times at London). :func:`geoalpha.dask.hull` checks once.
 from __future__ import annotations
 
 import contextlib
-import warnings
 from functools import lru_cache
 from typing import Any
 
@@ -15,7 +14,7 @@ import numpy as np
 import pyproj
 
 from geoalpha.crs_parsing import crs_name, is_mercator, is_sphere, parse_crs
-from geoalpha.errors import CRSWarning, GroupingWarning, setting, user_stacklevel
+from geoalpha.errors import CRSWarning, GroupingWarning, setting, warn_user
 from geoalpha.frame.crs import auto_mode, metric_crs
 
 __all__ = [
@@ -125,11 +124,10 @@ def check_grouping(n_groups: int, n_rows: int, by: Any) -> None:
         text, question = setting("by", names), "are these the right columns?"
     else:
         text, question = setting("by", names[0]), "is this the right column?"
-    warnings.warn(
+    warn_user(
         f"{text} makes {n_groups:,} groups of {n_rows:,} rows; groups of 1-2 "
         f"points have no alpha shape, so {question}",
         GroupingWarning,
-        stacklevel=user_stacklevel(),
     )
 
 
@@ -220,12 +218,11 @@ def check_distortion(coords: np.ndarray, source: Any, crs: Any) -> None:
         how = "the input's CRS"
         advice = f"pass {setting('crs')} with a UTM zone or an equal-area CRS for "
         advice += f"these points{_suggestion(coords, src)}"
-    warnings.warn(
+    warn_user(
         f"the shapes are computed in {crs_name(target)} ({how}), which stretches "
         f"areas {float(np.median(scale)):.3g} times (median at the points; "
         f"{float(scale.min()):.3g}-{float(scale.max()):.3g}), so 'radius' and "
         "'alpha' are not in true metres ('area_m2' is: it is measured on the "
         f"WGS84 ellipsoid): {advice}",
         CRSWarning,
-        stacklevel=user_stacklevel(),
     )

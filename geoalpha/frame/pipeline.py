@@ -6,7 +6,6 @@ by return value (the stages, in order: docs/architecture.md).
 
 from __future__ import annotations
 
-import warnings
 from collections import Counter
 from collections.abc import Callable
 from functools import partial
@@ -39,7 +38,7 @@ from geoalpha.errors import (
     first_n,
     setting,
     spelled,
-    user_stacklevel,
+    warn_user,
 )
 from geoalpha.frame import crs as gcrs
 from geoalpha.frame import progress
@@ -185,11 +184,6 @@ def _names(groups: Groups, which: np.ndarray, counts=None, value=None) -> str:
             for n, c in zip(names, counts[shown], strict=True)
         ]
     return first_n(names, limit=10, sep="; ")
-
-
-def _warn(message: str, category: type[Warning]) -> None:
-    """Warn, pointing at the user's own line."""
-    warnings.warn(message, category, stacklevel=user_stacklevel())
 
 
 def as_frame(data):
@@ -444,7 +438,7 @@ def report_rows(report: RowReport, *, warn: bool = True) -> None:
                 f"{_shown_labels(labels['no_key'])}; {setting('dropna', False)} "
                 "keeps them)"
             )
-        _warn(
+        warn_user(
             f"{spelled('hull()')} dropped {dropped} of {report.n_rows} rows: "
             + "; ".join(parts),
             DroppedRowsWarning,
@@ -559,7 +553,7 @@ def _comparison(points, proj, n_groups: int, options: Options, names, bar) -> Hu
     if made.without_holes.any():
         which = np.flatnonzero(made.without_holes)
         named = names(which) if names is not None else first_n(map(str, which))
-        _warn(
+        warn_user(
             f"GEOS's concave hull with holes failed for {len(which)} "
             f"group(s): {named}; they got the concave hull without holes "
             "(the 'method' column says so)",
@@ -629,7 +623,7 @@ def degenerate_policy(
         done = "their rows hold an empty polygon"
     else:
         done = f"they were dropped ({n_points[which].sum()} rows)"
-    _warn(
+    warn_user(
         _why_degenerate(hulls.reason, which, groups, n_points, proj.wide)
         + f"; {done} ({setting('degenerate', policy)})",
         DegenerateGroupWarning,
@@ -790,7 +784,7 @@ def guarantee(
     outlier = left_outside(hulls.outlier, geometry, xy, codes)
     if failed.any():
         which = np.flatnonzero(failed)
-        _warn(
+        warn_user(
             f"{len(which)} group(s) got no valid polygon covering all their points "
             f"in the output CRS (float geometry is too coarse for them there): "
             f"{_names(groups, which, points.n_points)}; they are treated as "
@@ -841,10 +835,10 @@ def warn_output_crs(hulls: Hulls, groups: Groups, points: Points, proj) -> None:
                 "hull that reaches the line at +180, or the reverse): "
                 + _names(groups, np.unique(missed), counts)
             )
-        _warn(message, AntimeridianWarning)
+        warn_user(message, AntimeridianWarning)
     wide = proj.wide & ~hulls.degenerate
     if wide.any():
-        _warn(
+        warn_user(
             f"{wide.sum()} group(s) span more than 180 degrees of longitude: "
             f"{_names(groups, np.flatnonzero(wide))}; no longitude/latitude "
             "polygon can represent their hull faithfully (it may not contain all "
@@ -929,7 +923,7 @@ def grow(
         geometry[sel].copy(), proj.xy[np.flatnonzero(first)[np.maximum(loc, 0)]]
     )
     if not exact.all():  # pragma: no cover - hull vertices are input points
-        _warn(
+        warn_user(
             f"{(~exact).sum()} hull(s) were not grown: a vertex is not an input "
             "point (repaired geometry)",
             GeoAlphaWarning,
@@ -954,7 +948,7 @@ def report_outliers(
         )
         which = np.flatnonzero(n_outliers)
         each = _names(groups, which, n_outliers, value=repr)
-        _warn(
+        warn_user(
             f"{spelled('hull()')} left {n_outliers.sum()} row(s) of {len(which)} "
             f"group(s) outside their hulls ({setting('outliers', options.outliers)}): "
             f"{each}; geoalpha.outlier_rows() marks them",
