@@ -86,7 +86,16 @@ class SearchWarning(GeoAlphaWarning):
 
 
 def warn_user(message: str, category: type[Warning]) -> None:
-    """Warn with ``category``, pointing at the user's own line (outside geoalpha)."""
+    """Warn with ``category``, pointing at the user's own line (outside geoalpha).
+
+    Examples
+    --------
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     warn_user("2 rows dropped", DroppedRowsWarning)
+    >>> caught[0].category.__name__, str(caught[0].message)
+    ('DroppedRowsWarning', '2 rows dropped')
+    """
     frame, level = sys._getframe(0), 1
     while frame and frame.f_globals.get("__name__", "").startswith("geoalpha."):
         frame, level = frame.f_back, level + 1

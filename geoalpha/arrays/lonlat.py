@@ -168,7 +168,14 @@ def unwrap_lon(lon: Any, codes: Any, crossing: Any) -> np.ndarray:
 
 
 def snap_meridian(coords: np.ndarray, x: float, west: float = 0.0) -> np.ndarray:
-    """Shift ``coords`` ``west`` degrees west; snap x near ``x`` onto ``x``."""
+    """Shift ``coords`` ``west`` degrees west; snap x near ``x`` onto ``x``.
+
+    Examples
+    --------
+    >>> snap_meridian(np.array([[540.0 - 1e-12, 5.0], [400.0, 6.0]]), 180.0, 360.0)
+    array([[180.,   5.],
+           [ 40.,   6.]])
+    """
     coords = coords - (west, 0.0)
     coords[np.abs(coords[:, 0] - x) <= ANTIMERIDIAN_SNAP, 0] = x
     return coords

@@ -94,6 +94,13 @@ def sphere_output(lonlat: np.ndarray, codes: np.ndarray, n_groups: int):
     Returns ``(out, crossing, wide, polar)``: as
     :func:`~geoalpha.arrays.lonlat.output_lonlat`, but the groups around a pole
     (:func:`polar_groups`) keep their input longitudes and neither cross nor are wide.
+
+    Examples
+    --------
+    >>> lonlat = np.array([[179.0, 0.0], [-179.0, 1.0], [179.0, 2.0]])
+    >>> out, crossing, wide, polar = sphere_output(lonlat, np.zeros(3, int), 1)
+    >>> out[:, 0].tolist(), crossing.tolist(), polar.tolist()
+    ([179.0, 181.0, 179.0], [True], [False])
     """
     out, crossing, wide = output_lonlat(lonlat, codes, n_groups)
     maybe = np.flatnonzero(crossing | wide)

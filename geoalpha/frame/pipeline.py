@@ -354,6 +354,14 @@ def row_report(frame, by, *, dropna: bool, vertices: bool) -> RowReport:
     Returns
     -------
     RowReport
+
+    Examples
+    --------
+    >>> import geopandas as gpd
+    >>> points = gpd.points_from_xy([0, 1], [0, 1])
+    >>> frame = gpd.GeoDataFrame({"k": [1, None]}, geometry=points)
+    >>> row_report(frame, ["k"], dropna=True, vertices=False).counts["no_key"]
+    1
     """
     codes = np.zeros(len(frame), dtype=np.int64)
     if by and dropna:
