@@ -303,12 +303,8 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
         run(ddf._meta, by, opts, checks=False)
     checked = _checks(ddf, names, by, opts)
     crs, source = opts.crs, ddf.crs
-    if (
-        isinstance(crs, str)
-        and crs.strip().lower() == "auto"
-        and source is not None
-        and parse_crs(source).is_geographic
-    ):
+    geographic = source is not None and parse_crs(source).is_geographic
+    if gcrs.auto_mode(crs) == "auto" and geographic:
         extents = ddf.map_partitions(
             _extent, names, opts.dropna, meta=pd.DataFrame(columns=_EXTENT, dtype=float)
         )

@@ -284,10 +284,6 @@ def _read_table(source: str, suffix: str):
             f"cannot read {redact(source)}: it is not UTF-8 text ({err.reason} at byte "
             f"{err.start}); save it as UTF-8 CSV"
         ) from err
-    except PermissionError as err:
-        raise PermissionError(
-            f"cannot read input file {redact(source)}: permission denied"
-        ) from err
     except (OSError, ValueError, pd.errors.ParserError) as err:
         raise _cannot_read(source, err) from err
 
