@@ -221,9 +221,8 @@ def _finish(part, keys: list, checked=None):
 def hull(ddf, by=None, *, npartitions: int | None = None, **options):
     """Optimal alpha hulls of the groups of a dask-geopandas frame (lazy).
 
-    The rows are shuffled by ``by`` so that every group is whole in one
-    partition, then :func:`geoalpha.hull` runs on each partition (see
-    :doc:`/dask`). Also available as ``ddf.alpha.hull(by=...)``.
+    :func:`geoalpha.hull` on each partition of a shuffle by ``by`` (see
+    :doc:`/dask`); also ``ddf.alpha.hull(by=...)``.
 
     Parameters
     ----------
@@ -239,8 +238,7 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
 
         - ``crs="auto"``: one UTM zone or not is decided for the whole dataset;
         - ``sort=True`` gathers the result into one partition (``sort=False``
-          leaves it in the shuffle's partitions);
-        - ``progress`` must not be True, ``n_jobs`` must be None or 1.
+          leaves it in the shuffle's partitions).
 
     Returns
     -------
@@ -252,13 +250,7 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
     ------
     InvalidInputError
         For ``by`` that is not a column, ``n_jobs`` other than None or 1,
-        ``progress=True`` or bad options. Errors on the data themselves are
-        raised by ``.compute()``.
-
-    Notes
-    -----
-    Warnings about bad rows come once; about degenerate groups, where the
-    partitions are computed (see :doc:`/dask`).
+        ``progress=True`` or bad options; on the data, by ``.compute()``.
 
     .. versionadded:: 0.1.0
 

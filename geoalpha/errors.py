@@ -159,9 +159,8 @@ def setting(name: str, *value: Any) -> str:
     Returns
     -------
     str
-        ``name=value`` in Python, ``"crs='auto'"``; the flag of :data:`FLAGS`
-        in the command, ``"--crs auto"`` (None is ``none``, a list is
-        comma-separated, False the ``--no-`` flag).
+        ``"crs='auto'"`` in Python; in the command the flag of :data:`FLAGS`,
+        ``"--crs auto"`` (None: ``none``, a list comma-separated, False ``--no-``).
 
     Examples
     --------

@@ -40,7 +40,7 @@ Search = Literal["exact", "ladder", "bisect"]
 
 
 class AlphaShapes(NamedTuple):
-    """Result of :func:`alpha_shapes`, one entry per group.
+    """Result of :func:`alpha_shapes`, one entry per group (:doc:`/user_guide/arrays`).
 
     Attributes
     ----------
@@ -61,14 +61,11 @@ class AlphaShapes(NamedTuple):
         Rows of the group left out of the shape (``outliers=``), else 0.
     outlier : ndarray of bool, shape (n,)
         Per input point: left out (duplicates of a left-out point too).
-    gave_up : ndarray of bool
-        ``search="bisect"`` stopped at ``max_iterations`` with alpha 0
-        (named in a :class:`SearchWarning`).
-    capped : ndarray of bool
-        With ``outliers=`` and several ``components``: the piece search stopped at
-        :data:`geoalpha.kernel.MAX_UNION_NODES` (named in an :class:`OutlierWarning`).
+    gave_up, capped : ndarray of bool
+        ``search="bisect"`` stopped at ``max_iterations`` with alpha 0; the piece
+        search of ``outliers=`` stopped at :data:`geoalpha.kernel.MAX_UNION_NODES`.
     reason : ndarray of int
-        Why a group is degenerate, 0 if not (:doc:`/user_guide/arrays`).
+        Why a group is degenerate, 0 if not.
     """
 
     alpha: np.ndarray
@@ -117,8 +114,7 @@ def alpha_shapes(
         As for :func:`geoalpha.hull`; the rows left out are reported in
         ``n_outliers`` and ``outlier`` (:doc:`/user_guide/outliers`).
     coords : array_like of shape (n, 2), optional
-        Coordinates to build the output geometries from, one row per point
-        (default: ``points``), e.g. the input longitude/latitude.
+        Coordinates of the output geometries, one row per point (``points``).
     n_groups : int, optional
         Number of groups (default: largest code + 1).
     progress : object with an ``update(n)`` method, optional
@@ -129,8 +125,8 @@ def alpha_shapes(
         ``points`` are longitudes and latitudes, computed on the sphere: alpha
         in 1/metre, areas in square metres (:doc:`/user_guide/sphere`).
     polar : array_like of bool, shape (n_groups,), optional
-        With ``sphere``: the groups around a pole. Default: found from
-        ``points`` without ``coords`` (:func:`~geoalpha.arrays.sphere.sphere_output`).
+        With ``sphere``: the groups around a pole (default: without ``coords``,
+        as :func:`~geoalpha.arrays.sphere.sphere_output` finds them).
 
     Returns
     -------
@@ -140,8 +136,8 @@ def alpha_shapes(
     Raises
     ------
     InvalidInputError
-        On NaN/inf coordinates (naming the rows), bad shapes or options, and
-        with ``sphere`` on groups too wide for it (naming them).
+        On NaN/inf coordinates, bad shapes or options, groups too wide for
+        ``sphere`` (naming the rows or groups).
 
     Examples
     --------

@@ -206,10 +206,8 @@ def metric_crs(
     -------
     xy : numpy.ndarray of float64, shape (n, 2)
         Coordinates in the CRS of each point's group, in metres (feet scaled).
-    crs_list : list of pyproj.CRS
-        The distinct CRSs used.
-    crs_index : numpy.ndarray of int, shape (n_groups,)
-        Position in ``crs_list`` of the CRS of each group.
+    crs_list, crs_index : list of pyproj.CRS, numpy.ndarray of int (n_groups,)
+        The distinct CRSs used, and the position in it of each group's CRS.
 
     Raises
     ------
@@ -397,8 +395,7 @@ class Projection:
         crs: Any,
         labels: Any = None,
     ) -> None:
-        src = parse_crs(source)
-        self.source = src
+        self.source = src = parse_crs(source)
         self.out = coords
         self.crossing, self.wide = np.zeros((2, n_groups), dtype=bool)
         self._crs_list: list[pyproj.CRS] = []

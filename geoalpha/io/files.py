@@ -94,10 +94,9 @@ def read_points(
     Parameters
     ----------
     path : str or os.PathLike
-        A vector file GDAL reads, GeoParquet, or a table with two coordinate
-        columns (CSV with any delimiter, Parquet without geometry metadata); a
-        ``postgresql://`` URL reads the table ``layer``
-        (:func:`~geoalpha.io.postgis.read_postgis`).
+        A vector file GDAL reads, GeoParquet, a table with two coordinate columns
+        (CSV, Parquet without geometry metadata), or a ``postgresql://`` URL
+        (:func:`~geoalpha.io.postgis.read_postgis` of the table ``layer``).
     x, y : str, optional
         The coordinate columns of a table (tables only); by default the first
         pair of :data:`COORDINATE_NAMES` found, in any letter case.
@@ -111,8 +110,7 @@ def read_points(
     Returns
     -------
     geopandas.GeoDataFrame
-        Every row; for a table, its columns plus point geometries (missing
-        where a coordinate is missing).
+        Every row; a table's columns plus points (missing where a coordinate is).
 
     Raises
     ------
@@ -421,9 +419,7 @@ def write_hulls(
     engine: str | None = None,
     extra_layers: dict[str, gpd.GeoDataFrame] | None = None,
 ) -> dict[str, str]:
-    """Write hulls to a file, in the format its extension names, atomically.
-
-    Never half-written, never replacing a file without ``overwrite`` (see :doc:`/cli`).
+    """Write hulls atomically to a file in the format of its extension (:doc:`/cli`).
 
     Parameters
     ----------

@@ -294,11 +294,6 @@ def read_postgis(
     geoalpha.errors.InvalidInputError
         For a malformed URL or table name, both or neither of ``table`` and
         ``sql``, or a missing or ambiguous geometry column.
-
-    Notes
-    -----
-    2D points are read as arrays (twice as fast), anything else row by row; the
-    result is the same. See ``docs/postgis.md``.
     """
     if (table is None) == (sql is None):
         raise InvalidInputError(
@@ -573,8 +568,7 @@ def write_postgis(
     Parameters
     ----------
     gdf : geopandas.GeoDataFrame
-        What to write, usually the result of :func:`geoalpha.hull`, without its
-        index; SRID and column type as ``docs/postgis.md`` tells.
+        What to write (without its index), usually a :func:`geoalpha.hull` result.
     url : str
         ``postgresql://user@host:port/dbname``.
     table : str
