@@ -83,11 +83,7 @@ def _extent(part, names: list, dropna: bool) -> pd.DataFrame:
 
 
 def _decide_crs(extents: pd.DataFrame, source_crs):
-    """Choose the ``crs`` of the partitions: the dataset's UTM zone or "auto-group".
-
-    The extreme points decide as the whole dataset would: a longitude arc
-    narrow enough for a UTM zone is the one covering them.
-    """
+    """Choose the partitions' ``crs``: the extreme points' UTM zone or "auto-group"."""
     e = extents.dropna()
     if e.empty:
         return "auto-group"
@@ -169,10 +165,9 @@ def _for_shuffle(part, geometry: str, partition_info=None) -> pd.DataFrame:
 
 
 def _nan_kept(array) -> np.ndarray:
-    """Geometries that keep their NaN coordinates through WKB.
+    """Keep NaN points of multi-geometries through WKB: ``(NaN, NaN)`` as ``(NaN, 0)``.
 
-    WKB reads a ``(NaN, NaN)`` member of a multi-geometry back as empty and
-    drops it; ``(NaN, 0)`` survives, and hull() drops it alike.
+    WKB drops the first and keeps the second, which hull() drops alike.
     """
     geoms = np.asarray(array, dtype=object)
     kind = shapely.get_type_id(geoms)

@@ -1,8 +1,4 @@
-"""``hull()``: one tight polygon per group of points in a GeoDataFrame.
-
-:func:`hull` checks the options and hands the frame to :mod:`geoalpha.frame.pipeline`,
-a dask-geopandas frame to :func:`geoalpha.dask.hull`.
-"""
+"""``hull()``: one tight polygon per group of points (``docs/architecture.md``)."""
 
 from __future__ import annotations
 

@@ -1,7 +1,4 @@
-"""Optimal alpha shapes of point arrays: the array-level public API.
-
-:func:`alpha_shapes` for many groups in one call, the others for one group.
-"""
+"""The array-level public API: optimal alpha shapes of one or many groups of points."""
 
 from __future__ import annotations
 
@@ -346,13 +343,11 @@ def _on_the_sphere(res: kernel.Solved, polar, name_groups) -> kernel.Solved:
 
 
 def _shapes(res: kernel.Solved, rows, gave_up, elsewhere: bool):
-    """Return the kernel's result per group and, per point, whether it is certain.
-
-    A group without rings (reason 4) whose shape is every triangle gets its convex hull.
-    """
+    """Return the kernel's result per group and, per point, whether it is certain."""
     geometry = res.geometry.copy()
     reason = res.reason.astype(np.int64)
     n_parts = res.n_parts.astype(np.int64)
+    # A group without rings (reason 4) whose shape is every triangle: its convex hull.
     whole = np.flatnonzero((res.reason == 4) & res.whole)
     if len(whole):
         take = np.isin(res.codes, whole)

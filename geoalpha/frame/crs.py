@@ -362,12 +362,9 @@ class Projection:
     xy : numpy.ndarray, shape (n, 2)
         Coordinates to compute in: metres (the input units with ``crs=None``).
     out, crossing, wide : numpy.ndarray
-        The output vertices (the input coordinates) and groups, as
-        :func:`~geoalpha.arrays.lonlat.output_lonlat` (lon/lat input).
-    names : numpy.ndarray of str, shape (n_groups,)
-        The computation CRS of each group, for the output table.
-    unit : str
-        Unit of :attr:`xy`, for messages ("m" unless ``crs=None``).
+        As :func:`~geoalpha.arrays.lonlat.output_lonlat` (for lon/lat input).
+    names, unit : numpy.ndarray of str (n_groups,), str
+        Each group's computation CRS (output table); unit of :attr:`xy` ("m").
 
     Raises
     ------
