@@ -224,8 +224,7 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
     ddf : dask_geopandas.GeoDataFrame or dask_geopandas.GeoSeries
         Point geometries.
     by : str or list of str, optional
-        Column name(s) to group by (not values: assign them as a column).
-        None: one hull of all the points, in one partition.
+        Column name(s), not values (assign them as a column); None: one hull.
     npartitions : int, optional
         Partitions of the shuffle (default: as many as ``ddf`` has).
     **options

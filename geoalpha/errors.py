@@ -1,8 +1,4 @@
-"""Exception and warning classes raised by geoalpha, and their wording.
-
-Messages name options with :func:`setting`: ``crs='auto'`` in Python,
-``--crs auto`` in the command.
-"""
+"""Exception and warning classes of geoalpha, and their wording (:func:`setting`)."""
 
 from __future__ import annotations
 

@@ -49,9 +49,8 @@ def hull(gdf, by=None, **options):
     Raises
     ------
     InvalidInputError
-        For non-point geometries (unless ``vertices=True``), a missing ``by``
-        column, input without CRS (unless ``crs=None``), coordinates out of
-        range, bad or unknown options, naming the rows, columns or option.
+        Non-point geometries (without ``vertices=True``), a missing ``by`` column,
+        no CRS (without ``crs=None``), coordinates out of range, bad options.
 
     Warns
     -----

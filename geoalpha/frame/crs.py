@@ -411,9 +411,8 @@ class Projection:
             )
         auto = auto_mode(crs) is not None
         if src.is_geographic:
-            lon, lat = coords[:, 0], coords[:, 1]
             self.xy, self._crs_list, self._crs_index = metric_crs(
-                lon, lat, codes, n_groups, crs=crs, source_crs=src, labels=labels
+                *coords.T, codes, n_groups, crs=crs, source_crs=src, labels=labels
             )
             self.out, self.crossing, self.wide = output_lonlat(coords, codes, n_groups)
         elif auto and is_mercator(src):

@@ -1,8 +1,4 @@
-"""One progress bar over every phase of a run: read, group, ..., check, write.
-
-:func:`geoalpha.hull` goes through :data:`HULL_PHASES`; the ``geoalpha``
-command adds ``read`` and ``write`` on the same bar (:func:`phases`).
-"""
+"""One progress bar over every phase of a run: read, :data:`HULL_PHASES`, write."""
 
 from __future__ import annotations
 

@@ -1,8 +1,4 @@
-"""Read point files and write hull files, safely (``docs/user_guide/files.md``).
-
-The ``geoalpha`` command is a thin layer over :func:`read_points` and
-:func:`write_hulls`.
-"""
+"""Read point files and write hull files, safely (``docs/user_guide/files.md``)."""
 
 from __future__ import annotations
 

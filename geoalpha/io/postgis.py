@@ -1,8 +1,4 @@
-"""Read points from PostGIS and write hulls back, safely (see ``docs/postgis.md``).
-
-A database is named by a URL, ``postgresql://user@host:port/dbname``; its
-password never appears in a message.
-"""
+"""Read points from PostGIS and write hulls back, safely (see ``docs/postgis.md``)."""
 
 from __future__ import annotations
 
