@@ -1,8 +1,4 @@
-"""The ``.alpha`` accessor on GeoDataFrame and GeoSeries (``import geoalpha``).
-
-``gdf.alpha.hull(...)`` is :func:`geoalpha.hull` with ``gdf`` first; on
-dask-geopandas frames ``.alpha`` is :class:`geoalpha.dask.DaskAlphaAccessor`.
-"""
+"""The ``.alpha`` accessor on GeoDataFrame and GeoSeries (``import geoalpha``)."""
 
 from __future__ import annotations
 

@@ -67,8 +67,7 @@ def crs_name(crs: Any) -> str:
     Returns
     -------
     str
-        ``"AUTHORITY:CODE"`` when the CRS is exactly a registered one, else
-        its PROJ string, else its name.
+        ``"AUTHORITY:CODE"`` if exactly a registered CRS, else PROJ string or name.
 
     Examples
     --------

@@ -83,11 +83,7 @@ def _extent(part, names: list, dropna: bool) -> pd.DataFrame:
 
 
 def _decide_crs(extents: pd.DataFrame, source_crs):
-    """Choose the ``crs`` of the partitions: the dataset's UTM zone or "auto-group".
-
-    The extreme points decide as the whole dataset would: a longitude arc
-    narrow enough for a UTM zone is the one covering them.
-    """
+    """Choose the partitions' ``crs``: the extreme points' UTM zone or "auto-group"."""
     e = extents.dropna()
     if e.empty:
         return "auto-group"
@@ -169,10 +165,9 @@ def _for_shuffle(part, geometry: str, partition_info=None) -> pd.DataFrame:
 
 
 def _nan_kept(array) -> np.ndarray:
-    """Geometries that keep their NaN coordinates through WKB.
+    """Keep NaN points of multi-geometries through WKB: ``(NaN, NaN)`` as ``(NaN, 0)``.
 
-    WKB reads a ``(NaN, NaN)`` member of a multi-geometry back as empty and
-    drops it; ``(NaN, 0)`` survives, and hull() drops it alike.
+    WKB drops the first and keeps the second, which hull() drops alike.
     """
     geoms = np.asarray(array, dtype=object)
     kind = shapely.get_type_id(geoms)
@@ -221,17 +216,15 @@ def _finish(part, keys: list, checked=None):
 def hull(ddf, by=None, *, npartitions: int | None = None, **options):
     """Optimal alpha hulls of the groups of a dask-geopandas frame (lazy).
 
-    The rows are shuffled by ``by`` so that every group is whole in one
-    partition, then :func:`geoalpha.hull` runs on each partition (see
-    :doc:`/dask`). Also available as ``ddf.alpha.hull(by=...)``.
+    :func:`geoalpha.hull` on each partition of a shuffle by ``by`` (see
+    :doc:`/dask`); also ``ddf.alpha.hull(by=...)``.
 
     Parameters
     ----------
     ddf : dask_geopandas.GeoDataFrame or dask_geopandas.GeoSeries
         Point geometries.
     by : str or list of str, optional
-        Column name(s) to group by (not values: assign them as a column).
-        None: one hull of all the points, in one partition.
+        Column name(s), not values (assign them as a column); None: one hull.
     npartitions : int, optional
         Partitions of the shuffle (default: as many as ``ddf`` has).
     **options
@@ -239,8 +232,7 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
 
         - ``crs="auto"``: one UTM zone or not is decided for the whole dataset;
         - ``sort=True`` gathers the result into one partition (``sort=False``
-          leaves it in the shuffle's partitions);
-        - ``progress`` must not be True, ``n_jobs`` must be None or 1.
+          leaves it in the shuffle's partitions).
 
     Returns
     -------
@@ -252,13 +244,7 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
     ------
     InvalidInputError
         For ``by`` that is not a column, ``n_jobs`` other than None or 1,
-        ``progress=True`` or bad options. Errors on the data themselves are
-        raised by ``.compute()``.
-
-    Notes
-    -----
-    Warnings about bad rows come once; about degenerate groups, where the
-    partitions are computed (see :doc:`/dask`).
+        ``progress=True`` or bad options; on the data, by ``.compute()``.
 
     .. versionadded:: 0.1.0
 
@@ -303,12 +289,8 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
         run(ddf._meta, by, opts, checks=False)
     checked = _checks(ddf, names, by, opts)
     crs, source = opts.crs, ddf.crs
-    if (
-        isinstance(crs, str)
-        and crs.strip().lower() == "auto"
-        and source is not None
-        and parse_crs(source).is_geographic
-    ):
+    geographic = source is not None and parse_crs(source).is_geographic
+    if gcrs.auto_mode(crs) == "auto" and geographic:
         extents = ddf.map_partitions(
             _extent, names, opts.dropna, meta=pd.DataFrame(columns=_EXTENT, dtype=float)
         )

@@ -1,8 +1,4 @@
-"""Exception and warning classes raised by geoalpha, and their wording.
-
-Messages name options with :func:`setting`: ``crs='auto'`` in Python,
-``--crs auto`` in the command.
-"""
+"""Exception and warning classes of geoalpha, and their wording (:func:`setting`)."""
 
 from __future__ import annotations
 
@@ -159,9 +155,8 @@ def setting(name: str, *value: Any) -> str:
     Returns
     -------
     str
-        ``name=value`` in Python, ``"crs='auto'"``; the flag of :data:`FLAGS`
-        in the command, ``"--crs auto"`` (None is ``none``, a list is
-        comma-separated, False the ``--no-`` flag).
+        ``"crs='auto'"`` in Python; in the command the flag of :data:`FLAGS`,
+        ``"--crs auto"`` (None: ``none``, a list comma-separated, False ``--no-``).
 
     Examples
     --------

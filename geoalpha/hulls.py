@@ -1,8 +1,4 @@
-"""``hull()``: one tight polygon per group of points in a GeoDataFrame.
-
-:func:`hull` checks the options and hands the frame to :mod:`geoalpha.frame.pipeline`,
-a dask-geopandas frame to :func:`geoalpha.dask.hull`.
-"""
+"""``hull()``: one tight polygon per group of points (``docs/architecture.md``)."""
 
 from __future__ import annotations
 
@@ -29,9 +25,8 @@ def _is_dask(data) -> bool:
 def hull(gdf, by=None, **options):
     """Tightest single polygon around each group of points.
 
-    For every group, finds the optimal alpha exactly (the largest alpha whose
-    alpha shape is one polygon containing every point of the group); one row
-    per group, in the input CRS. Also available as ``gdf.alpha.hull(...)``.
+    The alpha shape at each group's exact optimal alpha: the largest alpha whose
+    shape is one polygon holding every point. Also ``gdf.alpha.hull(...)``.
 
     Parameters
     ----------
@@ -47,17 +42,15 @@ def hull(gdf, by=None, **options):
     Returns
     -------
     GeoDataFrame
-        In the input CRS, one row per group: the group key column(s),
-        :data:`RESULT_COLUMNS` (``alpha`` in 1/metre, ``area_m2`` on the WGS84
-        ellipsoid, ...) and ``geometry``, a Polygon whose vertices are input
-        points; see the output columns in :doc:`/user_guide/hulls`.
+        In the input CRS, one row per group: the key column(s),
+        :data:`RESULT_COLUMNS` and ``geometry``, a Polygon whose vertices are
+        input points (:doc:`/user_guide/hulls`).
 
     Raises
     ------
     InvalidInputError
-        For non-point geometries (unless ``vertices=True``), a missing ``by``
-        column, input without CRS (unless ``crs=None``), coordinates out of
-        range, bad or unknown options, naming the rows, columns or option.
+        Non-point geometries (without ``vertices=True``), a missing ``by`` column,
+        no CRS (without ``crs=None``), coordinates out of range, bad options.
 
     Warns
     -----
@@ -111,9 +104,8 @@ def outlier_rows(gdf, by=None, **options):
     Returns
     -------
     pandas.Series of bool
-        Aligned with ``gdf`` (same index): True for the rows left out of
-        their group's hull (a MultiPoint row: when one of its points is);
-        False for the others, dropped rows included.
+        On ``gdf``'s index: True for the rows left out of their group's hull
+        (a MultiPoint: if one of its points is), False for the others.
 
     Raises
     ------

@@ -45,8 +45,7 @@ class OptionMeta:
     Attributes
     ----------
     doc : str
-        numpydoc text of the parameter: the type line (made from the field's
-        type and default), then the description given to :func:`option`.
+        numpydoc text of the parameter: a type line (from the field), then ``doc``.
     kind : str
         ``"bool"``, ``"int"``, ``"float"``, ``"number"`` (int or float),
         ``"choice"`` or ``"crs"``; by default from the field's annotation.
@@ -55,8 +54,8 @@ class OptionMeta:
     what : str, optional
         The allowed values in words, when the fields above do not say it.
     flags, metavar, help
-        Command-line spelling (by default ``--name``, ``--name/--no-name`` for
-        a bool: ``("--holes/--no-holes",)``), metavar, help.
+        Command-line spelling (default ``--name``; ``--name/--no-name`` for a
+        bool), metavar, help.
     validate : callable, optional
         Its own check instead of the generic one (returns the value or raises).
     """
@@ -200,10 +199,9 @@ def _check_n_jobs(value):
 
 @dataclasses.dataclass(frozen=True)
 class Options:
-    """Every option of :func:`geoalpha.hull`, checked.
+    """Every option of :func:`geoalpha.hull`, checked, with their defaults.
 
-    ``Options(**kwargs)`` checks each value (an error names the option and what
-    it accepts) and fills in the defaults; :data:`FIELDS` lists the fields.
+    An error names the option and what it accepts; :data:`FIELDS` lists them.
 
     Examples
     --------

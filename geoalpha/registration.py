@@ -1,7 +1,6 @@
 """Attach an accessor class to frame classes, as pandas registers its accessors.
 
-Shared by :mod:`geoalpha.accessor` and :mod:`geoalpha.dask`, so that neither
-imports the other.
+Shared by ``accessor`` and ``dask``, so that neither imports the other.
 """
 
 from __future__ import annotations

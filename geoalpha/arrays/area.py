@@ -35,8 +35,7 @@ def geodesic_areas(
         Polygons in longitude/latitude (degrees; longitudes may run past
         +-180), or in the coordinates ``to_lonlat`` takes.
     to_lonlat : callable, optional
-        ``to_lonlat(x, y) -> (lon, lat)`` for all the vertices at once (a
-        vectorised pyproj transform); None: they are longitude/latitude.
+        Vectorised ``to_lonlat(x, y) -> (lon, lat)``; None: they are lon/lat.
     n_jobs : int, optional
         Threads (None or -1: every core).
 

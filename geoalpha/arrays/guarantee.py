@@ -83,11 +83,10 @@ def enforce(
     exempt=None,
     n_jobs=1,
 ):
-    """Verify the guarantee per group; repair where possible; report the rest.
+    """Verify the guarantee per group (:doc:`/user_guide/guarantee`); repair or report.
 
-    Every group in ``check`` must get a valid, non-empty (Multi)Polygon of at most
-    ``components`` parts covering its points (:func:`covered`): invalid ones are
-    repaired (:func:`repair_invalid`), points outside made vertices of it.
+    Invalid geometries are repaired (:func:`repair_invalid`), points outside
+    made vertices.
 
     Parameters
     ----------
@@ -110,8 +109,8 @@ def enforce(
     Returns
     -------
     geoms, failed : ndarray of shape (G,)
-        The geometries, repaired where needed, and the groups of ``check`` that
-        could not hold the guarantee (for the caller to declare degenerate).
+        The geometries, repaired where needed; the groups of ``check`` that
+        could not hold the guarantee (the caller declares them degenerate).
 
     Examples
     --------

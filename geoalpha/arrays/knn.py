@@ -38,10 +38,9 @@ def knn_hull(
 
     Returns
     -------
-    polygon : shapely.Polygon
-        Valid, counter-clockwise, covering every input point, input vertices.
-    k : int
-        The ``k`` that gave it; ``n`` if every ``k`` failed (the convex hull).
+    polygon, k : shapely.Polygon, int
+        Valid, counter-clockwise, covering every point, with input vertices; the
+        ``k`` that gave it, ``n`` if every ``k`` failed (the convex hull).
 
     Raises
     ------

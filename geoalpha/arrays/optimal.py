@@ -1,7 +1,4 @@
-"""Optimal alpha shapes of point arrays: the array-level public API.
-
-:func:`alpha_shapes` for many groups in one call, the others for one group.
-"""
+"""The array-level public API: optimal alpha shapes of one or many groups of points."""
 
 from __future__ import annotations
 
@@ -40,7 +37,7 @@ Search = Literal["exact", "ladder", "bisect"]
 
 
 class AlphaShapes(NamedTuple):
-    """Result of :func:`alpha_shapes`, one entry per group.
+    """Result of :func:`alpha_shapes`, one entry per group (:doc:`/user_guide/arrays`).
 
     Attributes
     ----------
@@ -61,14 +58,11 @@ class AlphaShapes(NamedTuple):
         Rows of the group left out of the shape (``outliers=``), else 0.
     outlier : ndarray of bool, shape (n,)
         Per input point: left out (duplicates of a left-out point too).
-    gave_up : ndarray of bool
-        ``search="bisect"`` stopped at ``max_iterations`` with alpha 0
-        (named in a :class:`SearchWarning`).
-    capped : ndarray of bool
-        With ``outliers=`` and several ``components``: the piece search stopped at
-        :data:`geoalpha.kernel.MAX_UNION_NODES` (named in an :class:`OutlierWarning`).
+    gave_up, capped : ndarray of bool
+        ``search="bisect"`` stopped at ``max_iterations`` with alpha 0; the piece
+        search of ``outliers=`` stopped at :data:`geoalpha.kernel.MAX_UNION_NODES`.
     reason : ndarray of int
-        Why a group is degenerate, 0 if not (:doc:`/user_guide/arrays`).
+        Why a group is degenerate, 0 if not.
     """
 
     alpha: np.ndarray
@@ -117,8 +111,7 @@ def alpha_shapes(
         As for :func:`geoalpha.hull`; the rows left out are reported in
         ``n_outliers`` and ``outlier`` (:doc:`/user_guide/outliers`).
     coords : array_like of shape (n, 2), optional
-        Coordinates to build the output geometries from, one row per point
-        (default: ``points``), e.g. the input longitude/latitude.
+        Coordinates of the output geometries, one row per point (``points``).
     n_groups : int, optional
         Number of groups (default: largest code + 1).
     progress : object with an ``update(n)`` method, optional
@@ -129,8 +122,8 @@ def alpha_shapes(
         ``points`` are longitudes and latitudes, computed on the sphere: alpha
         in 1/metre, areas in square metres (:doc:`/user_guide/sphere`).
     polar : array_like of bool, shape (n_groups,), optional
-        With ``sphere``: the groups around a pole. Default: found from
-        ``points`` without ``coords`` (:func:`~geoalpha.arrays.sphere.sphere_output`).
+        With ``sphere``: the groups around a pole (default: without ``coords``,
+        as :func:`~geoalpha.arrays.sphere.sphere_output` finds them).
 
     Returns
     -------
@@ -140,8 +133,8 @@ def alpha_shapes(
     Raises
     ------
     InvalidInputError
-        On NaN/inf coordinates (naming the rows), bad shapes or options, and
-        with ``sphere`` on groups too wide for it (naming them).
+        On NaN/inf coordinates, bad shapes or options, groups too wide for
+        ``sphere`` (naming the rows or groups).
 
     Examples
     --------
@@ -350,13 +343,11 @@ def _on_the_sphere(res: kernel.Solved, polar, name_groups) -> kernel.Solved:
 
 
 def _shapes(res: kernel.Solved, rows, gave_up, elsewhere: bool):
-    """Return the kernel's result per group and, per point, whether it is certain.
-
-    A group without rings (reason 4) whose shape is every triangle gets its convex hull.
-    """
+    """Return the kernel's result per group and, per point, whether it is certain."""
     geometry = res.geometry.copy()
     reason = res.reason.astype(np.int64)
     n_parts = res.n_parts.astype(np.int64)
+    # A group without rings (reason 4) whose shape is every triangle: its convex hull.
     whole = np.flatnonzero((res.reason == 4) & res.whole)
     if len(whole):
         take = np.isin(res.codes, whole)

@@ -1,7 +1,4 @@
-"""The seed paper's integer ladder and ``alphashape``'s float bisection.
-
-Vectorised over groups, for comparison (:doc:`/user_guide/optimal`).
-"""
+"""The seed paper's ladder and ``alphashape``'s bisection, vectorised (comparison)."""
 
 from __future__ import annotations
 

@@ -1,8 +1,4 @@
-"""Warnings about a run's set-up: a ``by`` that looks wrong, a CRS that stretches areas.
-
-A stretching CRS makes ``radius`` and ``alpha`` wrong without any error (Web
-Mercator: areas 2.6 times at London). :func:`geoalpha.dask.hull` checks once.
-"""
+"""Warnings about the set-up: a ``by`` that looks wrong, a CRS that stretches areas."""
 
 from __future__ import annotations
 

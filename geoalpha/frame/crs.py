@@ -206,10 +206,8 @@ def metric_crs(
     -------
     xy : numpy.ndarray of float64, shape (n, 2)
         Coordinates in the CRS of each point's group, in metres (feet scaled).
-    crs_list : list of pyproj.CRS
-        The distinct CRSs used.
-    crs_index : numpy.ndarray of int, shape (n_groups,)
-        Position in ``crs_list`` of the CRS of each group.
+    crs_list, crs_index : list of pyproj.CRS, numpy.ndarray of int (n_groups,)
+        The distinct CRSs used, and the position in it of each group's CRS.
 
     Raises
     ------
@@ -364,12 +362,9 @@ class Projection:
     xy : numpy.ndarray, shape (n, 2)
         Coordinates to compute in: metres (the input units with ``crs=None``).
     out, crossing, wide : numpy.ndarray
-        The output vertices (the input coordinates) and groups, as
-        :func:`~geoalpha.arrays.lonlat.output_lonlat` (lon/lat input).
-    names : numpy.ndarray of str, shape (n_groups,)
-        The computation CRS of each group, for the output table.
-    unit : str
-        Unit of :attr:`xy`, for messages ("m" unless ``crs=None``).
+        As :func:`~geoalpha.arrays.lonlat.output_lonlat` (for lon/lat input).
+    names, unit : numpy.ndarray of str (n_groups,), str
+        Each group's computation CRS (output table); unit of :attr:`xy` ("m").
 
     Raises
     ------
@@ -397,8 +392,7 @@ class Projection:
         crs: Any,
         labels: Any = None,
     ) -> None:
-        src = parse_crs(source)
-        self.source = src
+        self.source = src = parse_crs(source)
         self.out = coords
         self.crossing, self.wide = np.zeros((2, n_groups), dtype=bool)
         self._crs_list: list[pyproj.CRS] = []
@@ -417,9 +411,8 @@ class Projection:
             )
         auto = auto_mode(crs) is not None
         if src.is_geographic:
-            lon, lat = coords[:, 0], coords[:, 1]
             self.xy, self._crs_list, self._crs_index = metric_crs(
-                lon, lat, codes, n_groups, crs=crs, source_crs=src, labels=labels
+                *coords.T, codes, n_groups, crs=crs, source_crs=src, labels=labels
             )
             self.out, self.crossing, self.wide = output_lonlat(coords, codes, n_groups)
         elif auto and is_mercator(src):

@@ -1,8 +1,4 @@
-"""One progress bar over every phase of a run: read, group, ..., check, write.
-
-:func:`geoalpha.hull` goes through :data:`HULL_PHASES`; the ``geoalpha``
-command adds ``read`` and ``write`` on the same bar (:func:`phases`).
-"""
+"""One progress bar over every phase of a run: read, :data:`HULL_PHASES`, write."""
 
 from __future__ import annotations
 
@@ -73,11 +69,10 @@ class Phases:
         True: show the bar from the start (needs tqdm); False: never; None:
         from :data:`PROGRESS_MIN_GROUPS` groups on a terminal (:meth:`sized`).
     desc, file : str and file-like, optional
-        Start of the bar's description (the phase follows), and where the bar is
-        drawn (default: ``sys.stderr``).
+        Start of the bar's description, and where it is drawn (``sys.stderr``).
     costs : callable, optional
-        ``costs(n_rows, n_groups)`` -> estimated costs of the phases other
-        than :func:`geoalpha.hull`'s (the command's ``write``).
+        ``costs(n_rows, n_groups)`` -> estimated costs of the phases not
+        :func:`geoalpha.hull`'s (the command's ``write``).
 
     Raises
     ------

@@ -1,7 +1,6 @@
 """The I/O wing, which serves the faces: files, PostGIS, redaction, bundled data.
 
-``read_points`` and ``write_hulls`` of :mod:`~geoalpha.io.files` are importable
-from here, loaded on first use (so a light module of the wing does not import pandas).
+``read_points`` and ``write_hulls`` import :mod:`~geoalpha.io.files` on first use.
 """
 
 from __future__ import annotations

@@ -1,7 +1,4 @@
-"""Real point datasets bundled with geoalpha, loaded as GeoDataFrames.
-
-See ``geoalpha/data/README.md`` for the provenance and licence of each file.
-"""
+"""Bundled real point datasets (provenance, licences: ``geoalpha/data/README.md``)."""
 
 from __future__ import annotations
 
@@ -75,8 +72,7 @@ def load(name: str):
     Returns
     -------
     geopandas.GeoDataFrame
-        Every row of the CSV file, with points from its longitude/latitude
-        columns. ``DATASETS[name][3]`` names the column to group by.
+        Every row, with points from its lon/lat; group by ``DATASETS[name][3]``.
 
     Examples
     --------

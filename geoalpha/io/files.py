@@ -1,8 +1,4 @@
-"""Read point files and write hull files, safely (``docs/user_guide/files.md``).
-
-The ``geoalpha`` command is a thin layer over :func:`read_points` and
-:func:`write_hulls`.
-"""
+"""Read point files and write hull files, safely (``docs/user_guide/files.md``)."""
 
 from __future__ import annotations
 
@@ -94,10 +90,9 @@ def read_points(
     Parameters
     ----------
     path : str or os.PathLike
-        A vector file GDAL reads, GeoParquet, or a table with two coordinate
-        columns (CSV with any delimiter, Parquet without geometry metadata); a
-        ``postgresql://`` URL reads the table ``layer``
-        (:func:`~geoalpha.io.postgis.read_postgis`).
+        A vector file GDAL reads, GeoParquet, a table with two coordinate columns
+        (CSV, Parquet without geometry metadata), or a ``postgresql://`` URL
+        (:func:`~geoalpha.io.postgis.read_postgis` of the table ``layer``).
     x, y : str, optional
         The coordinate columns of a table (tables only); by default the first
         pair of :data:`COORDINATE_NAMES` found, in any letter case.
@@ -111,8 +106,7 @@ def read_points(
     Returns
     -------
     geopandas.GeoDataFrame
-        Every row; for a table, its columns plus point geometries (missing
-        where a coordinate is missing).
+        Every row; a table's columns plus points (missing where a coordinate is).
 
     Raises
     ------
@@ -284,10 +278,6 @@ def _read_table(source: str, suffix: str):
             f"cannot read {redact(source)}: it is not UTF-8 text ({err.reason} at byte "
             f"{err.start}); save it as UTF-8 CSV"
         ) from err
-    except PermissionError as err:
-        raise PermissionError(
-            f"cannot read input file {redact(source)}: permission denied"
-        ) from err
     except (OSError, ValueError, pd.errors.ParserError) as err:
         raise _cannot_read(source, err) from err
 
@@ -425,9 +415,7 @@ def write_hulls(
     engine: str | None = None,
     extra_layers: dict[str, gpd.GeoDataFrame] | None = None,
 ) -> dict[str, str]:
-    """Write hulls to a file, in the format its extension names, atomically.
-
-    Never half-written, never replacing a file without ``overwrite`` (see :doc:`/cli`).
+    """Write hulls atomically to a file in the format of its extension (:doc:`/cli`).
 
     Parameters
     ----------

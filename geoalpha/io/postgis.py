@@ -1,8 +1,4 @@
-"""Read points from PostGIS and write hulls back, safely (see ``docs/postgis.md``).
-
-A database is named by a URL, ``postgresql://user@host:port/dbname``; its
-password never appears in a message.
-"""
+"""Read points from PostGIS and write hulls back, safely (see ``docs/postgis.md``)."""
 
 from __future__ import annotations
 
@@ -294,11 +290,6 @@ def read_postgis(
     geoalpha.errors.InvalidInputError
         For a malformed URL or table name, both or neither of ``table`` and
         ``sql``, or a missing or ambiguous geometry column.
-
-    Notes
-    -----
-    2D points are read as arrays (twice as fast), anything else row by row; the
-    result is the same. See ``docs/postgis.md``.
     """
     if (table is None) == (sql is None):
         raise InvalidInputError(
@@ -573,8 +564,7 @@ def write_postgis(
     Parameters
     ----------
     gdf : geopandas.GeoDataFrame
-        What to write, usually the result of :func:`geoalpha.hull`, without its
-        index; SRID and column type as ``docs/postgis.md`` tells.
+        What to write (without its index), usually a :func:`geoalpha.hull` result.
     url : str
         ``postgresql://user@host:port/dbname``.
     table : str

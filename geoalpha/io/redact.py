@@ -58,7 +58,7 @@ def secrets_in(text: str) -> list[str]:
     Returns
     -------
     list of str
-        The values of password-like keys and URL passwords, longest first.
+        Values of password-like keys and URL passwords, longest first.
 
     Examples
     --------
@@ -88,7 +88,6 @@ def redact(text: object, secrets: Iterable[str] = ()) -> str:
     Returns
     -------
     str
-        The text with every secret value replaced by ``***``.
 
     Examples
     --------
