@@ -9,7 +9,10 @@ each rule below says which layer never imports which.
 from __future__ import annotations
 
 import ast
+import os
 import re
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -353,3 +356,30 @@ def test_public_paths_keep_working():
     assert callable(datasets.load) and callable(geoalpha.dask.hull)
     assert callable(read_postgis) and callable(write_postgis)
     assert all(hasattr(geoalpha, name) for name in geoalpha.__all__)
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="glibc's static TLS block")
+def test_the_kernel_loads_when_static_tls_is_used_up(tmp_path):
+    # A library built for static TLS takes a share of a small block that glibc
+    # reserves when the process starts; once other libraries have used it up,
+    # importing one more fails ("cannot allocate memory in static TLS block").
+    # Twenty copies of the kernel, with glibc's reserve at its smallest: a
+    # kernel that needs static TLS fails at the fifth.
+    from geoalpha import _kernel
+
+    script = (
+        "import ctypes, shutil, sys\n"
+        "for i in range(20):\n"
+        f"    path = shutil.copy(sys.argv[1], {str(tmp_path)!r} + f'/k{{i}}.so')\n"
+        "    ctypes.CDLL(path)\n"
+        "print('loaded 20')\n"
+    )
+    env = dict(os.environ, GLIBC_TUNABLES="glibc.rtld.optional_static_tls=0")
+    done = subprocess.run(
+        [sys.executable, "-c", script, _kernel.__file__],
+        capture_output=True,
+        text=True,
+        env=env,
+        check=False,
+    )
+    assert done.stderr == "" and done.stdout == "loaded 20\n", done.stderr
