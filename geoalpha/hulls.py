@@ -130,7 +130,7 @@ def outlier_rows(gdf, by=None, **options):
             "outlier_rows() needs an eager GeoDataFrame; call .compute() first "
             "(the lazy hull() has the n_outliers column)"
         )
-    opts = Options.from_kwargs(options)
+    opts = Options.from_kwargs(options, caller="outlier_rows()")
     frame = as_frame(gdf)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", OutlierWarning)
