@@ -120,8 +120,9 @@ def sort_groups(
 ]:
     """Sort the points stably by group, as :func:`alpha_shapes` takes them.
 
-    A counting sort, then the rows gathered on ``threads`` threads (0: every
-    core) with the GIL released: the same order as numpy's stable argsort.
+    Counting sorts (the order beside the points on a second of ``threads``
+    threads, 0: every core) with the GIL released: the same order as numpy's
+    stable argsort.
 
     Parameters
     ----------

@@ -109,7 +109,7 @@ fn check(input: &Input) -> Result<usize, String> {
 }
 
 /// `xy` and `out` stably sorted by group (`codes`: each row's group, below
-/// `groups`) and the rows in that order, gathered on the current rayon pool.
+/// `groups`) and the rows in that order: counting sorts, the rows' on a second thread.
 pub fn sort(codes: &[i64], groups: usize, xy: &[Xy], out: Option<&[Xy]>) -> Result<Sorted, String> {
     if codes.len() != xy.len() || out.is_some_and(|o| o.len() != xy.len()) {
         return Err("codes, xy and out_xy must have one row per point".into());
@@ -117,9 +117,13 @@ pub fn sort(codes: &[i64], groups: usize, xy: &[Xy], out: Option<&[Xy]>) -> Resu
     if codes.iter().any(|&c| !(0..groups as i64).contains(&c)) {
         return Err(format!("codes must be in 0..{groups}"));
     }
-    let order = counting_sort(codes.iter().map(|&c| c as usize).zip(0..), groups);
-    let gather = |p: &[Xy]| order.par_iter().map(|&i| p[i as usize]).collect();
-    Ok((gather(xy), out.map(gather), order))
+    let keys = codes.iter().map(|&c| c as usize);
+    let sorted = |p: &[Xy]| counting_sort(keys.clone().zip(p.iter().copied()), groups);
+    let ((sxy, sout), order) = rayon::join(
+        || (sorted(xy), out.map(sorted)),
+        || counting_sort(keys.clone().zip(0..), groups),
+    );
+    Ok((sxy, sout, order))
 }
 
 /// What [`sort`] returns: `xy` and `out` sorted, and the rows in that order.
