@@ -46,8 +46,8 @@ pub fn ring_area(geod: &Geodesic, lon: &[f64], lat: &[f64]) -> f64 {
     ring.compute(true).1.abs()
 }
 
-/// The area (m²) of every geometry: exteriors minus holes, polygons summed; an
-/// error for input `geodesic_areas` refuses (`geoalpha/_kernel.pyi`).
+/// The area (m²) of every geometry: exteriors minus holes, polygons summed;
+/// the errors are those of `geodesic_areas` (`geoalpha/_kernel.pyi`).
 pub fn polygon_areas(
     lon: &[f64],
     lat: &[f64],
