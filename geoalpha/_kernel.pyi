@@ -1,7 +1,8 @@
 """Type stub of geoalpha's compiled kernel (the Rust crate at the repository root).
 
 Call it through :func:`geoalpha.kernel.solve`, which checks the input once,
-sorts the points by group and builds the polygons from the rings.
+has the points sorted by group (:func:`sort_groups`, unless they are already)
+and builds the polygons from the rings.
 """
 
 from typing import Final
@@ -105,6 +106,47 @@ def alpha_shapes(
         degrees with ``sphere``).
     RuntimeError
         If the kernel failed unexpectedly (a bug; no panic crosses over).
+    """
+
+def sort_groups(
+    xy: npt.NDArray[np.float64],
+    codes: npt.NDArray[np.int64],
+    groups: int,
+    *,
+    out_xy: npt.NDArray[np.float64] | None = None,
+    threads: int = 0,
+) -> tuple[
+    npt.NDArray[np.float64], npt.NDArray[np.float64] | None, npt.NDArray[np.int64]
+]:
+    """Sort the points stably by group, as :func:`alpha_shapes` takes them.
+
+    Counting sorts (the order beside the points on a second of ``threads``
+    threads, 0: every core) with the GIL released: the same order as numpy's
+    stable argsort.
+
+    Parameters
+    ----------
+    xy : ndarray of float64, shape (n, 2), C-contiguous
+        The points.
+    codes : ndarray of int64, shape (n,), C-contiguous
+        Each point's group, ``0 <= code < groups``.
+    groups : int
+        The number of groups.
+    out_xy : ndarray of float64, shape (n, 2), optional
+        The same points in the output coordinates, sorted alike.
+    threads : int
+        Threads (0: every core).
+
+    Returns
+    -------
+    tuple of ndarray
+        ``xy`` and ``out_xy`` (or None) sorted, and ``order`` (int64, shape
+        (n,)): the input row of each sorted point.
+
+    Raises
+    ------
+    ValueError
+        On arrays of different lengths or shapes, or a code out of range.
     """
 
 def geodesic_areas(

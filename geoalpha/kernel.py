@@ -315,16 +315,15 @@ def solve(
     ([0], [5], 'Polygon')
     """
     n, sizes = len(xy), np.bincount(codes, minlength=n_groups)
-    if n > 1 and (codes[1:] < codes[:-1]).any():
-        # numpy sorts 16-bit keys by radix (linear), wider ones by timsort.
-        keys = codes.astype(np.uint16) if n_groups <= 1 << 16 else codes
-        order = np.argsort(keys, kind="stable")
-    else:
-        order = np.arange(n)
     offsets = np.zeros(n_groups + 1, dtype=np.int64)
     np.cumsum(sizes, out=offsets[1:])
-    sxy = np.ascontiguousarray(np.take(xy, order, axis=0), dtype=float)
-    sout = None if out is None else np.ascontiguousarray(np.take(out, order, axis=0))
+    sxy, order = np.ascontiguousarray(xy, dtype=float), np.arange(n)
+    sout = None if out is None else np.ascontiguousarray(out)
+    if n > 1 and (codes[1:] < codes[:-1]).any():  # (sorted input is not copied)
+        codes = np.ascontiguousarray(codes, dtype=np.int64)
+        sxy, sout, order = _kernel.sort_groups(
+            sxy, codes, n_groups, out_xy=sout, threads=threads(n_jobs)
+        )
     res = _run(
         sxy,
         sout,

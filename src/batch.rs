@@ -5,6 +5,7 @@ use rayon::prelude::*;
 
 use crate::frame::Xy;
 use crate::group::{solve, Options, Solved};
+use crate::mesh::counting_sort;
 
 /// Coordinates beyond this magnitude are refused (their squares overflow).
 pub const MAX_COORDINATE: f64 = 1e100;
@@ -25,9 +26,8 @@ pub struct Input<'a> {
     pub options: Options,
 }
 
-/// The results as flat arrays with offsets, named and described as the dict
-/// `alpha_shapes` returns (`geoalpha/_kernel.pyi`); point indices are into
-/// `xy` (sorted by group).
+/// The results as flat arrays with offsets: the dict `alpha_shapes` returns
+/// (`geoalpha/_kernel.pyi`); point indices are into `xy` (sorted by group).
 #[derive(Clone, Debug, Default)]
 pub struct Output {
     pub(crate) reason: Vec<u8>,
@@ -65,8 +65,7 @@ fn check(input: &Input) -> Result<usize, String> {
         return Err("offsets must not decrease".into());
     }
     let groups = off.len() - 1;
-    if let Some(o) = input.out.filter(|o| o.len() != n) {
-        let got = o.len();
+    if let Some(got) = input.out.map(<[Xy]>::len).filter(|&len| len != n) {
         return Err(format!(
             "out_xy must have one row per point ({n}); got {got}"
         ));
@@ -81,10 +80,8 @@ fn check(input: &Input) -> Result<usize, String> {
             ));
         }
     }
-    if input
-        .alpha
-        .is_some_and(|a| a.iter().any(|x| !(x.is_finite() && *x >= 0.0)))
-    {
+    let bad_alpha = |x: &f64| !(x.is_finite() && *x >= 0.0);
+    if input.alpha.is_some_and(|a| a.iter().any(bad_alpha)) {
         return Err("alpha must be finite and >= 0".into());
     }
     if input.options.components < 1 {
@@ -110,6 +107,27 @@ fn check(input: &Input) -> Result<usize, String> {
     }
     Ok(groups)
 }
+
+/// `xy` and `out` stably sorted by group (`codes`: each row's group, below
+/// `groups`) and the rows in that order: counting sorts, the rows' on a second thread.
+pub fn sort(codes: &[i64], groups: usize, xy: &[Xy], out: Option<&[Xy]>) -> Result<Sorted, String> {
+    if codes.len() != xy.len() || out.is_some_and(|o| o.len() != xy.len()) {
+        return Err("codes, xy and out_xy must have one row per point".into());
+    }
+    if codes.iter().any(|&c| !(0..groups as i64).contains(&c)) {
+        return Err(format!("codes must be in 0..{groups}"));
+    }
+    let keys = codes.iter().map(|&c| c as usize);
+    let sorted = |p: &[Xy]| counting_sort(keys.clone().zip(p.iter().copied()), groups);
+    let ((sxy, sout), order) = rayon::join(
+        || (sorted(xy), out.map(sorted)),
+        || counting_sort(keys.clone().zip(0..), groups),
+    );
+    Ok((sxy, sout, order))
+}
+
+/// What [`sort`] returns: `xy` and `out` sorted, and the rows in that order.
+pub type Sorted = (Vec<Xy>, Option<Vec<Xy>>, Vec<i64>);
 
 /// Solve every group, spread over the threads of the current rayon pool.
 pub fn run(input: &Input) -> Result<Output, String> {
@@ -169,4 +187,21 @@ fn flatten(solved: &[Solved], offsets: &[i64], n: usize) -> Output {
         o.curve_offsets.push(o.curve_value.len() as i64);
     }
     o
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sort_is_stable_and_refuses_bad_codes() {
+        let xy = [[0.0, 0.0], [1.0, 0.0], [2.0, 0.0], [3.0, 0.0]];
+        let (sxy, out, order) = sort(&[1, 0, 1, 0], 2, &xy, Some(&xy)).unwrap();
+        assert_eq!(order, vec![1, 3, 0, 2]);
+        assert_eq!(sxy, vec![xy[1], xy[3], xy[0], xy[2]]);
+        assert_eq!(out, Some(sxy));
+        assert!(sort(&[2, 0, 1, 0], 2, &xy, None).is_err());
+        assert!(sort(&[-1, 0, 1, 0], 2, &xy, None).is_err());
+        assert!(sort(&[0, 0, 1], 2, &xy, None).is_err());
+    }
 }

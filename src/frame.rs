@@ -63,10 +63,7 @@ impl Frame {
             }
         }
         let extent = (hi[0] - lo[0]).max(hi[1] - lo[1]);
-        let big = [lo, hi]
-            .as_flattened()
-            .iter()
-            .fold(0.0f64, |m, v| m.max(v.abs()));
+        let big = lo.iter().chain(&hi).fold(0.0f64, |m, v| m.max(v.abs()));
         Frame {
             scale: power_of_two_scale(extent),
             tol: (NEAR_RTOL * extent).max(PRECISION_ULPS * ulp(big)),
@@ -86,10 +83,8 @@ pub fn collinear(points: &[Xy], frame: &Frame) -> bool {
     let o = points[0];
     let n = points.len() as f64;
     let local = |p: &Xy| [(p[0] - o[0]) * s, (p[1] - o[1]) * s];
-    let sum = points
-        .iter()
-        .map(local)
-        .fold([0.0; 2], |s, [x, y]| [s[0] + x, s[1] + y]);
+    let add = |s: Xy, [x, y]: Xy| [s[0] + x, s[1] + y];
+    let sum = points.iter().map(local).fold([0.0; 2], add);
     let (cx, cy) = (sum[0] / n, sum[1] / n);
     let (mut sxx, mut syy, mut sxy) = (0.0, 0.0, 0.0);
     for p in points {
@@ -99,22 +94,21 @@ pub fn collinear(points: &[Xy], frame: &Frame) -> bool {
         syy += dy * dy;
         sxy += dx * dy;
     }
-    let theta = 0.5 * (2.0 * sxy).atan2(sxx - syy);
-    let (ux, uy) = (theta.cos(), theta.sin());
-    let mut width: f64 = 0.0;
-    for p in points {
-        let [x, y] = local(p);
-        width = width.max(((x - cx) * uy - (y - cy) * ux).abs());
-    }
-    width <= frame.tol * s
+    let (uy, ux) = (0.5 * (2.0 * sxy).atan2(sxx - syy)).sin_cos();
+    let width = |[x, y]: Xy| ((x - cx) * uy - (y - cy) * ux).abs();
+    let widest = points.iter().map(local).map(width).fold(0.0, f64::max);
+    widest <= frame.tol * s
+}
+
+/// `p` as a point of the exact predicates (crate `robust`).
+pub fn coord(p: Xy) -> robust::Coord<f64> {
+    robust::Coord { x: p[0], y: p[1] }
 }
 
 /// Twice the signed area of the triangle `a, b, c`, with the exact sign
 /// (positive counter-clockwise) and a magnitude accurate to a few ulps.
 pub fn orient(a: Xy, b: Xy, c: Xy) -> f64 {
-    use robust::{orient2d, Coord};
-    let k = |p: Xy| Coord { x: p[0], y: p[1] };
-    orient2d(k(a), k(b), k(c))
+    robust::orient2d(coord(a), coord(b), coord(c))
 }
 
 /// Circumradius of the triangle `a, b, c` (scaled coordinates), in scaled

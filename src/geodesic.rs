@@ -1,9 +1,6 @@
-//! Areas of polygons on the WGS84 ellipsoid, many geometries in one call, in
-//! shapely's `to_ragged_array` layout (described in `geoalpha/_kernel.pyi`).
-//!
-//! A ring's edges are geodesics; its area is Karney's (GeographicLib's
-//! `PolygonArea`, crate `geographiclib-rs`), which counts the crossings of the
-//! antimeridian, so a ring around a pole gives the cap, not its complement.
+//! Areas of polygons on the WGS84 ellipsoid (Karney's, crate `geographiclib-rs`),
+//! many geometries in one call, in shapely's `to_ragged_array` layout
+//! (`geodesic_areas` in `geoalpha/_kernel.pyi`).
 
 use geographiclib_rs::{Geodesic, PolygonArea, Winding};
 use rayon::prelude::*;
@@ -32,9 +29,8 @@ fn check_offsets(name: &str, offsets: &[i64], n: usize) -> Result<(), String> {
     }
 }
 
-/// The area (m²) of one ring, the side smaller than half the ellipsoid
-/// whichever way it turns; a repeated closing vertex is dropped, fewer than
-/// three vertices give 0.
+/// The area (m²) of one ring (the side smaller than half the ellipsoid); a
+/// repeated closing vertex is dropped, fewer than three vertices give 0.
 pub fn ring_area(geod: &Geodesic, lon: &[f64], lat: &[f64]) -> f64 {
     let mut n = lon.len();
     if n > 1 && lon[0] == lon[n - 1] && lat[0] == lat[n - 1] {
@@ -50,11 +46,8 @@ pub fn ring_area(geod: &Geodesic, lon: &[f64], lat: &[f64]) -> f64 {
     ring.compute(true).1.abs()
 }
 
-/// The area (m²) of every geometry: exteriors minus holes, polygons summed.
-///
-/// # Errors
-/// Arrays of different lengths, offsets that do not index what follows
-/// them, or a vertex that is no longitude/latitude.
+/// The area (m²) of every geometry: exteriors minus holes, polygons summed;
+/// the errors are those of `geodesic_areas` (`geoalpha/_kernel.pyi`).
 pub fn polygon_areas(
     lon: &[f64],
     lat: &[f64],

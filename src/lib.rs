@@ -15,10 +15,10 @@ pub mod sphere;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::{Arc, Mutex};
 
-use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
+use numpy::{prelude::*, PyArray1, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
+use pyo3::types::{PyDict, PyTuple};
 
 use crate::batch::Input;
 use crate::frame::Xy;
@@ -111,6 +111,26 @@ fn py_alpha_shapes<'py>(
         curve_value, curve_valid, curve_offsets))
 }
 
+/// The points stably sorted by group and the rows in that order
+/// ([`batch::sort`]; arguments in `geoalpha/_kernel.pyi`).
+#[pyfunction(name = "sort_groups")]
+#[pyo3(signature = (xy, codes, groups, *, out_xy=None, threads=0))]
+fn py_sort_groups<'py>(
+    py: Python<'py>,
+    xy: PyReadonlyArray2<'py, f64>,
+    codes: PyReadonlyArray1<'py, i64>,
+    groups: usize,
+    out_xy: Option<PyReadonlyArray2<'py, f64>>,
+    threads: usize,
+) -> PyResult<Bound<'py, PyTuple>> {
+    let (xy, codes) = (points("xy", &xy)?, codes.as_slice()?);
+    let out = out_xy.as_ref().map(|o| points("out_xy", o)).transpose()?;
+    let (sxy, sout, order) = detached(py, threads, || batch::sort(codes, groups, xy, out))?;
+    let array = |p: Vec<Xy>| p.into_flattened().into_pyarray(py).reshape([xy.len(), 2]);
+    let sout = sout.map(array).transpose()?;
+    (array(sxy)?, sout, order.into_pyarray(py)).into_pyobject(py)
+}
+
 /// Areas (m²) on the WGS84 ellipsoid of (multi)polygons in longitude/latitude
 /// ([`geodesic::polygon_areas`]; arguments in `geoalpha/_kernel.pyi`).
 #[pyfunction(name = "geodesic_areas")]
@@ -165,6 +185,7 @@ fn pool(threads: usize) -> PyResult<Arc<rayon::ThreadPool>> {
 fn _kernel(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(py_alpha_shapes, m)?)?;
     m.add_function(wrap_pyfunction!(py_geodesic_areas, m)?)?;
+    m.add_function(wrap_pyfunction!(py_sort_groups, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add("SPADE_VERSION", env!("GEOALPHA_SPADE_VERSION"))?;
     m.add("NEAR_RTOL", frame::NEAR_RTOL)?;

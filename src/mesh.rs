@@ -102,15 +102,8 @@ fn morton(x: u32, y: u32) -> u64 {
 fn along_curve(points: &[Xy], frame: &Frame) -> Vec<(u64, [u64; 2], u32)> {
     let [lo, hi] = frame.bounds;
     // Grid cells of the bounding box; the cast saturates, so rounding at the
-    // top edge stays on the grid.
-    let cell = |a: usize, v: f64| {
-        let span = hi[a] - lo[a];
-        if span > 0.0 {
-            ((v - lo[a]) / span * 4_294_967_295.0) as u32
-        } else {
-            0
-        }
-    };
+    // top edge stays on the grid, and takes NaN (0 / 0: no extent) to 0.
+    let cell = |a: usize, v: f64| ((v - lo[a]) / (hi[a] - lo[a]) * 4_294_967_295.0) as u32;
     let mut along: Vec<(u64, [u64; 2], u32)> = points
         .iter()
         .enumerate()

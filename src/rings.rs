@@ -35,18 +35,15 @@ fn next_edge(mesh: &Mesh, label: &[u32], t: usize, j: usize) -> Option<(usize, u
         if cur == NONE {
             // Across the outside of the hull: to the clockwise end of v's fan.
             let mut x = t;
-            let mut steps = 0;
-            loop {
-                let c = corner(&tri[x], v);
-                let cw = nb[x][c];
+            for steps in 0.. {
+                let cw = nb[x][corner(&tri[x], v)];
                 if cw == NONE {
                     break;
                 }
-                x = cw as usize;
-                steps += 1;
-                if steps > tri.len() {
+                if steps == tri.len() {
                     return None;
                 }
+                x = cw as usize;
             }
             if inside(x) {
                 return Some((x, corner(&tri[x], v)));

@@ -1,11 +1,8 @@
 //! The radius spectrum of a triangulation and the sweeps over it: tied radii,
-//! fill radii, the exact optimum, the outlier optimum.
-//!
-//! A triangle `t` with circumradius `r(t)` is solid at `alpha` when
-//! `alpha * r(t) <= 1`, i.e. `r(t) <= R` with `R = 1 / alpha`. Everything
-//! here works on the threshold `R` and on a weight `w(t)` per triangle: the
-//! (merged) radius itself with holes kept, the fill radius with holes filled.
-//! The shape at `R` is `{t : w(t) <= R}`.
+//! fill radii, the exact optimum, the outlier optimum. All work on a threshold
+//! `R = 1 / alpha` and a weight `w(t)` per triangle (its merged radius with
+//! holes kept, its fill radius with holes filled): the shape at `R` is
+//! `{t : w(t) <= R}` (solid: `alpha * r(t) <= 1`, `DESIGN.md`).
 
 use rayon::prelude::*;
 
@@ -33,11 +30,7 @@ pub const PARALLEL_TRIANGLES: usize = 1 << 16;
 /// (1 + TIE_RTOL)` (runs do not chain). Radii are positive (or infinite), so
 /// their bit patterns sort as they do.
 pub fn merge_ties(radius: &[f64]) -> (Vec<f64>, Vec<u32>) {
-    let mut keyed: Vec<(u64, u32)> = radius
-        .iter()
-        .enumerate()
-        .map(|(t, r)| (r.to_bits(), t as u32))
-        .collect();
+    let mut keyed: Vec<(u64, u32)> = radius.iter().map(|r| r.to_bits()).zip(0..).collect();
     if keyed.len() > PARALLEL_TRIANGLES {
         keyed.par_sort_unstable();
     } else {

@@ -36,10 +36,10 @@
 //!    the mesh is completed by gift-wrapping across its boundary edges
 //!    ([`complete`]) and the group is solved again.
 
-use robust::{incircle, orient2d, orient3d, Coord, Coord3D};
+use robust::{incircle, orient3d, Coord3D};
 use std::collections::HashMap;
 
-use crate::frame::{collinear, Frame, Xy};
+use crate::frame::{collinear, coord, orient, Frame, Xy};
 use crate::group::{finish, triangulated, Options, Reason, Solved};
 use crate::mesh::{triangulate, Mesh, NONE};
 
@@ -107,9 +107,8 @@ pub fn local(points: &[Xy]) -> Option<Local> {
         [cp * cl, cp * sl, sp]
     };
     let world: Vec<V3> = points.iter().map(unit_vector).collect();
-    let mean = world
-        .iter()
-        .fold([0.0; 3], |m, u| [m[0] + u[0], m[1] + u[1], m[2] + u[2]]);
+    let add = |m: V3, u: &V3| [m[0] + u[0], m[1] + u[1], m[2] + u[2]];
+    let mean = world.iter().fold([0.0; 3], add);
     let m = norm(mean);
     if !(m > 0.0 && m.is_finite()) {
         return None;
@@ -145,10 +144,6 @@ pub fn local(points: &[Xy]) -> Option<Local> {
     Some(out)
 }
 
-fn coord(p: Xy) -> Coord<f64> {
-    Coord { x: p[0], y: p[1] }
-}
-
 /// Angular radius (radians) of the circle on the sphere whose stereographic
 /// image passes through `a, b, c` (coordinates scaled by `s`), the radius of
 /// the cap smaller than a hemisphere: with `rho` the planar circumradius and
@@ -157,7 +152,7 @@ fn coord(p: Xy) -> Coord<f64> {
 /// its nearest and farthest points' half distances), then `min(theta, pi -
 /// theta)`.
 pub fn cap_radius(a: Xy, b: Xy, c: Xy, s: f64) -> f64 {
-    let o = orient2d(coord(a), coord(b), coord(c));
+    let o = orient(a, b, c);
     let rho = crate::frame::circumradius(a, b, c) / s;
     // incircle(a, b, c, d) = orient(a, b, c) * (rho^2 - |d - q|^2)
     let pow = -incircle(coord(a), coord(b), coord(c), coord([0.0, 0.0])) / o / (s * s);
@@ -322,7 +317,7 @@ mod tests {
     fn the_incircle_identity_gives_the_power_of_the_origin() {
         // circle centre (3, 0), radius 1: the origin's power is 9 - 1 = 8
         let (a, b, c) = ([4.0, 0.0], [3.0, 1.0], [2.0, 0.0]);
-        let o = orient2d(coord(a), coord(b), coord(c));
+        let o = orient(a, b, c);
         let pow = -incircle(coord(a), coord(b), coord(c), coord([0.0, 0.0])) / o;
         assert!((pow - 8.0).abs() < 1e-12, "{pow}");
     }

@@ -667,6 +667,26 @@ def test_enforce_takes_in_points_a_repair_left_out_even_when_not_asked_to_test()
     assert shapely.covers(fixed[0], shapely.points(pts)).all()
 
 
+def test_the_kernel_sorts_groups_as_a_stable_argsort():
+    # kernel.solve hands unsorted groups to _kernel.sort_groups: the same rows,
+    # in numpy's stable order, whatever the threads; bad codes are refused.
+    rng = np.random.default_rng(3)
+    codes = rng.integers(0, 70_000, 20_000)
+    xy, out = rng.random((20_000, 2)), rng.random((20_000, 2))
+    order = np.argsort(codes, kind="stable")
+    for threads in (1, 2):
+        sxy, sout, got = geoalpha._kernel.sort_groups(
+            xy, codes, 70_000, out_xy=out, threads=threads
+        )
+        assert np.array_equal(got, order)
+        assert np.array_equal(sxy, xy[order]) and np.array_equal(sout, out[order])
+    assert geoalpha._kernel.sort_groups(xy, codes, 70_000)[1] is None
+    with pytest.raises(ValueError, match=r"^codes must be in 0\.\.5$"):
+        geoalpha._kernel.sort_groups(xy, codes, 5)
+    with pytest.raises(ValueError, match="one row per point"):
+        geoalpha._kernel.sort_groups(xy, codes[1:], 70_000)
+
+
 def test_the_kernel_refuses_coordinates_not_in_row_order():
     # A Fortran-ordered (n, 2) array is contiguous too, but its flat order is
     # x0 x1 ... y0 y1 ...: read as pairs it would be other points.
