@@ -364,7 +364,7 @@ def test_the_kernel_loads_when_static_tls_is_used_up(tmp_path):
     # reserves when the process starts; once other libraries have used it up,
     # importing one more fails ("cannot allocate memory in static TLS block").
     # Twenty copies of the kernel, with glibc's reserve at its smallest: a
-    # kernel that needs static TLS fails at the fifth.
+    # kernel that needs static TLS fails at the sixth.
     from geoalpha import _kernel
 
     script = (
