@@ -205,3 +205,29 @@ def test_command_works_in_a_new_venv(lines, tmp_path, cargo_target):
             assert (clone / html / "index.html").is_file(), f"`{line}`: no index.html"
         for written in re.findall(r"\bgeoalpha demo (\S+)", line):
             assert (clone / written).is_file(), f"`{line}` wrote no {written}"
+
+
+#: The README's test command, and the extras it must pass without.
+README_TESTS = 'pip install -e ".[test]" && python -m pytest'
+EXTRA_MODULES = ("tqdm", "matplotlib", "pyarrow", "dask_geopandas", "sqlalchemy")
+
+
+@pytest.mark.install
+def test_readme_test_command_passes_without_the_extras(tmp_path, cargo_target):
+    # Run, not collected: the README's command in a venv with only [test]; the
+    # tests of the missing extras skip with their reason (none fails).
+    assert any(README_TESTS in lines for _, lines in COMMANDS)
+    clone = copy_of_the_clone(tmp_path / "geoalpha")
+    env = new_venv(tmp_path / "venv")
+    env["CARGO_TARGET_DIR"] = str(cargo_target)
+    out = run(f"{README_TESTS} -p no:cacheprovider", clone, env)
+    assert re.search(r"\d+ passed", out) and " failed" not in out, out[-3000:]
+    assert re.search(r"SKIPPED \[\d+\] .*needs geoalpha\[dask\]", out), out[-3000:]
+    assert "needs geoalpha[progress]" in out, out[-3000:]
+    absent = run(
+        'python -c "import importlib.util as u; print([m for m in '
+        f'{list(EXTRA_MODULES)!r} if u.find_spec(m)])"',
+        clone,
+        env,
+    )
+    assert absent.strip() == "[]", absent  # the extras really were missing
