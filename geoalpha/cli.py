@@ -206,10 +206,13 @@ def _input_size(path) -> int | None:
 
 
 @contextlib.contextmanager
-def _session(params: dict, size, points_layer=False) -> Iterator:
-    """Check OUTPUT (flags popped from ``params``); yield :func:`_run` bound to it."""
+def _session(params: dict, size, points_layer=False, source=None) -> Iterator:
+    """Check OUTPUT (flags popped from ``params``); yield :func:`_run` bound to it.
+
+    ``source``: ``(INPUT, its --layer)``, which OUTPUT must not overwrite.
+    """
     from geoalpha.frame.progress import HULL_PHASES, hull_costs, phases
-    from geoalpha.io.files import check_output
+    from geoalpha.io.files import check_not_input, check_output
 
     preview = params.pop("preview")
     target = {k: params.pop(k) for k in ("overwrite", "engine")}
@@ -242,10 +245,12 @@ def _session(params: dict, size, points_layer=False) -> Iterator:
         costs = hull_costs(rows, rows / 100, per_group_crs=False)
         costs["read"] = load["geopandas"] + (0.04 * size if size else 2 * rows)
         bar.estimate(costs | after_hull(rows, rows / 100))
-        bar.start("read")
+        if source is not None:
+            check_not_input(target["path"], target["layer"], *source)
         check_output(
             target["path"], layer=target["layer"], overwrite=target["overwrite"]
         )
+        bar.start("read")
         _check_preview(preview)
         yield functools.partial(_run, target, preview, verbosity, bar)
 
@@ -573,7 +578,8 @@ def hull(input_path: str, by: tuple[str, ...], crs_in: str, **options) -> None:
     """  # noqa: D301
     from geoalpha.io.files import read_input_points
 
-    with _session(options, _input_size(input_path)) as run:  # size None: a database
+    source = (input_path, options["layer"])
+    with _session(options, _input_size(input_path), source=source) as run:
         work_crs = options["crs"]  # checked at the flag: none is None
         reading = {
             k: options.pop(k) for k in ("x", "y", "layer", "sql", "geometry_column")

@@ -33,7 +33,9 @@ __all__ = [
     "COORDINATE_NAMES",
     "GPKG_VERSION",
     "WRITE_FORMATS",
+    "check_not_input",
     "check_output",
+    "geopackage_layers",
     "read_points",
     "remove_stale_staging",
     "write_hulls",
@@ -426,10 +428,12 @@ def write_hulls(
         a ``postgresql://`` URL (:func:`geoalpha.io.postgis.write_postgis`).
     layer : str, optional
         GeoPackage layer name (``.gpkg`` only); default the file name without
-        extension, or ``"hulls"``. Required for a URL: ``schema.table``.
+        extension, or ``"hulls"``. Required for a URL: ``schema.table``. An
+        existing GeoPackage keeps its other layers: the layer is added to it.
     overwrite : bool, default False
-        Replace ``path`` if it exists (a GeoPackage as a whole, other layers
-        included; a Shapefile with all its sidecar files).
+        Replace what is written if it exists: in a GeoPackage only the layers
+        written (the others are kept), otherwise the file (a Shapefile with all
+        its sidecar files), or the PostGIS table.
     engine : {None, "pyogrio", "fiona"}
         Library geopandas writes vector files with (None: its choice; not for
         GeoParquet). GeoPackages are version :data:`GPKG_VERSION` with either.
@@ -446,6 +450,9 @@ def write_hulls(
     ------
     FileExistsError, FileNotFoundError, PermissionError
         As :func:`check_output`; also when ``path`` appeared while writing.
+    OSError
+        When a GeoPackage ``path`` changed while its copy was written (it is
+        then left as it was), or is open in another program (a ``-wal`` file).
     geoalpha.errors.InvalidInputError
         As :func:`check_output`, and for an unknown engine.
 
@@ -454,8 +461,18 @@ def write_hulls(
     >>> import os, tempfile, geopandas as gpd, shapely
     >>> hulls = gpd.GeoDataFrame({"Local_Authority_(Highway)": ["E09000020"]},
     ...                          geometry=[shapely.box(0, 51, 1, 52)], crs=4326)
-    >>> write_hulls(hulls, os.path.join(tempfile.mkdtemp(), "hulls.shp"))
+    >>> folder = tempfile.mkdtemp()
+    >>> write_hulls(hulls, os.path.join(folder, "hulls.shp"))
     {'Local_Authority_(Highway)': 'Local_Auth'}
+
+    A GeoPackage gains a layer; the layers it had are kept:
+
+    >>> write_hulls(hulls, os.path.join(folder, "both.gpkg"), layer="points")
+    {}
+    >>> write_hulls(hulls, os.path.join(folder, "both.gpkg"), layer="state_hulls")
+    {}
+    >>> geopackage_layers(os.path.join(folder, "both.gpkg"))
+    ['points', 'state_hulls']
     """
     import geopandas as gpd
 
@@ -475,7 +492,8 @@ def write_hulls(
         raise InvalidInputError(
             f"unknown engine {engine!r}; expected 'pyogrio', 'fiona' or None"
         )
-    target, suffix, targets = _check_target(path, layer, overwrite)
+    names = [layer or Path(path).stem or "hulls", *(extra_layers or {})]
+    target, suffix, targets, merge = _check_target(path, layer, overwrite, names[1:])
     if extra_layers and suffix != ".gpkg":
         raise InvalidInputError(
             f"extra layers apply to GeoPackage (.gpkg) output only, not {suffix}"
@@ -489,8 +507,15 @@ def write_hulls(
     ]
     staging = _make_staging(target)
     try:
-        _write_layers(layers, staging / target.name, suffix, engine, target)
-        _move_into_place(staging, target, targets, overwrite)
+        staged = staging / target.name
+        # An existing GeoPackage: its layers are kept, in a staged copy that
+        # replaces it in one rename (the old file or the new one, never neither).
+        before = _copy_geopackage(target, staged) if merge else None
+        _write_layers(layers, staged, suffix, engine, target)
+        if before is not None:
+            _replace_geopackage(staged, target, before)
+        else:
+            _move_into_place(staging, target, targets, overwrite)
     finally:
         shutil.rmtree(staging, ignore_errors=True)
     return mapping
@@ -547,8 +572,9 @@ def check_output(
     Raises
     ------
     FileExistsError, FileNotFoundError, IsADirectoryError, PermissionError
-        If ``path`` exists (without ``overwrite``), its directory does not, it
-        is a directory, or its folder is not writable.
+        If ``path`` exists (without ``overwrite``; for a GeoPackage: if its
+        ``layer`` exists), its directory does not, it is a directory, or its
+        folder is not writable.
     geoalpha.errors.InvalidInputError
         For an unknown extension (or an upper-case ``.SHP``), or ``layer``
         with a format without layers.
@@ -563,8 +589,65 @@ def check_output(
     if _database(path, None):
         check_postgis_output(os.fspath(path), layer, overwrite=overwrite)
         return
-    target, _, _ = _check_target(path, layer, overwrite)
-    shutil.rmtree(_make_staging(target), ignore_errors=True)  # it can be created
+    target, _, _, _ = _check_target(path, layer, overwrite)
+    _probe_folder(target.parent)  # it can be written
+
+
+def check_not_input(
+    output: PathLike, layer: str | None, source: PathLike, source_layer
+) -> None:
+    """Refuse to write over the layer being read (OUTPUT is INPUT, same layer).
+
+    Parameters
+    ----------
+    output, layer
+        The output file and layer (None: the file name without extension).
+    source, source_layer
+        The input file and the layer read (None: its first layer).
+
+    Raises
+    ------
+    geoalpha.errors.InvalidInputError
+        If ``output`` is the GeoPackage ``source`` and ``layer`` the layer read.
+
+    Examples
+    --------
+    >>> check_not_input("hulls.gpkg", None, "points.csv", None)  # other files
+    """
+    target, source = Path(output), Path(source)
+    if target.suffix.lower() != ".gpkg" or _database(source, None):
+        return
+    try:
+        same = os.path.samefile(target, source)
+    except OSError:  # one of them does not exist (or is a URL)
+        return
+    if not same:
+        return
+    read = source_layer if source_layer is not None else _first_layer(source)
+    written = layer or target.stem or "hulls"
+    if read is not None and str(read).lower() == written.lower():
+        other = f"{written}_hulls"
+        raise InvalidInputError(
+            f"OUTPUT {target} is INPUT and its layer {written!r} is the layer "
+            "read: geoalpha does not write over its input; give another "
+            f"{_term('layer=', '--output-layer')}, e.g. "
+            f"{_term(f'layer={other!r}', f'--output-layer {other}')}, to add the "
+            "hulls beside the points"
+        )
+
+
+def _first_layer(path: Path) -> str | None:
+    """Return the layer GDAL reads first from ``path`` (None if unknown)."""
+    try:
+        import pyogrio
+
+        return str(pyogrio.list_layers(path)[0][0])
+    except ImportError:
+        import fiona
+
+        return str(fiona.listlayers(path)[0])
+    except Exception:  # not readable: reading it reports the error
+        return None
 
 
 def _database(path, engine) -> bool:
@@ -583,7 +666,10 @@ def _database(path, engine) -> bool:
     return True
 
 
-def _check_target(path, layer, overwrite) -> tuple[Path, str, list[Path]]:
+def _check_target(
+    path, layer, overwrite, extra_layers=()
+) -> tuple[Path, str, list[Path], bool]:
+    """Check the output; the last value: add layers to an existing GeoPackage."""
     target = Path(path)
     suffix = target.suffix.lower()
     if suffix not in WRITE_FORMATS:
@@ -605,6 +691,10 @@ def _check_target(path, layer, overwrite) -> tuple[Path, str, list[Path]]:
         raise FileNotFoundError(f"output directory {parent} does not exist")
     if target.is_dir():
         raise IsADirectoryError(f"output {target} is a directory")
+    if suffix == ".gpkg" and _is_sqlite(target):
+        names = [layer or target.stem or "hulls", *extra_layers]
+        _check_layers(target, names, overwrite)
+        return target, suffix, [target], True
     targets = [target]  # with a Shapefile's sidecars
     if suffix == ".shp":
         targets += [target.with_suffix(ext) for ext in _SHAPEFILE_SIDECARS]
@@ -614,13 +704,150 @@ def _check_target(path, layer, overwrite) -> tuple[Path, str, list[Path]]:
             f"output {existing[0]} already exists; use "
             f"{_term('overwrite=True', '--overwrite')} to replace it"
         )
-    return target, suffix, targets
+    return target, suffix, targets, False
 
 
-# Staging folders are named ".<output name>.geoalpha-<host>-<pid>-<random>", so
-# that a later run can tell a folder left by a killed process (same host, pid
-# gone) from one another run is still writing.
-_STAGING = re.compile(r"\..+\.geoalpha-(?P<host>[0-9a-f]{8})-(?P<pid>\d+)-[^/]+")
+_SQLITE_HEADER = b"SQLite format 3\x00"
+#: Files beside a GeoPackage that SQLite still needs: a write-ahead log or a
+#: rollback journal (another program has it open, or did not close it).
+_SQLITE_SIDECARS = ("-wal", "-journal")
+
+
+def _is_sqlite(path: Path) -> bool:
+    """Tell whether ``path`` is an SQLite database (a GeoPackage is one)."""
+    try:
+        with open(path, "rb") as handle:
+            return handle.read(len(_SQLITE_HEADER)) == _SQLITE_HEADER
+    except OSError:
+        return False
+
+
+def _connect_read_only(path: Path):
+    import sqlite3
+
+    return sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True)
+
+
+def geopackage_layers(path: PathLike) -> list[str]:
+    """Return the layers (tables) of a GeoPackage, read without changing it.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A GeoPackage file.
+
+    Returns
+    -------
+    list of str
+        Its layer names, as ``gpkg_contents`` lists them.
+
+    Raises
+    ------
+    geoalpha.errors.InvalidInputError
+        If ``path`` is not a GeoPackage that SQLite can read.
+
+    Examples
+    --------
+    >>> import os, tempfile, geopandas as gpd, shapely
+    >>> path = os.path.join(tempfile.mkdtemp(), "both.gpkg")
+    >>> points = gpd.GeoDataFrame(geometry=[shapely.Point(0, 0)], crs=4326)
+    >>> points.to_file(path, layer="zips")
+    >>> geopackage_layers(path)
+    ['zips']
+    """
+    import sqlite3
+
+    path = Path(path)
+    try:
+        connection = _connect_read_only(path)
+        try:
+            rows = connection.execute(
+                "SELECT table_name FROM gpkg_contents ORDER BY rowid"
+            ).fetchall()
+        finally:
+            connection.close()
+    except sqlite3.Error as err:
+        raise InvalidInputError(
+            f"cannot read the layers of {path}: {err}; it is not a GeoPackage "
+            "geoalpha can add a layer to (choose another OUTPUT)"
+        ) from err
+    return [str(name) for (name,) in rows]
+
+
+def _check_layers(target: Path, names: list[str], overwrite: bool) -> None:
+    """Refuse to add ``names`` to the GeoPackage ``target`` when it is not safe."""
+    for ending in _SQLITE_SIDECARS:
+        sidecar = Path(f"{target}{ending}")
+        if sidecar.exists():
+            raise OSError(
+                f"output {target} is open in another program or was not closed "
+                f"({sidecar.name} exists beside it); close it (e.g. in QGIS) "
+                "and run again"
+            )
+    present = {name.lower(): name for name in geopackage_layers(target)}
+    taken = [present[n.lower()] for n in names if n.lower() in present]
+    if taken and not overwrite:
+        raise FileExistsError(
+            f"layer {taken[0]!r} of output {target} already exists; use "
+            f"{_term('overwrite=True', '--overwrite')} to replace that layer "
+            f"(its other layers are kept), or another "
+            f"{_term('layer=', '--output-layer')}"
+        )
+
+
+def _signature(path: Path) -> tuple[int, int, int, int]:
+    stat = os.stat(path)
+    return (stat.st_dev, stat.st_ino, stat.st_size, stat.st_mtime_ns)
+
+
+def _copy_geopackage(target: Path, staged: Path) -> tuple[int, int, int, int]:
+    """Copy the GeoPackage ``target`` to ``staged`` (SQLite's backup: consistent).
+
+    Returns the signature of ``target`` before the copy, which
+    :func:`_replace_geopackage` compares.
+    """
+    import sqlite3
+
+    before = _signature(target)
+    try:
+        source = _connect_read_only(target)
+        try:
+            copy = sqlite3.connect(staged)
+            try:
+                source.backup(copy)
+            finally:
+                copy.close()
+        finally:
+            source.close()
+    except sqlite3.Error as err:
+        raise OSError(f"cannot copy {target} to add a layer: {err}") from err
+    shutil.copymode(target, staged)
+    return before
+
+
+def _replace_geopackage(staged: Path, target: Path, before) -> None:
+    """Move the staged copy over ``target`` unless ``target`` changed meanwhile."""
+    left = {p.name for p in staged.parent.iterdir()} - {staged.name}
+    if left:  # e.g. a -wal the writer left open: the copy is not complete
+        raise OSError(f"the writer left {sorted(left)[0]} beside {target.name}")
+    try:
+        now = _signature(target)
+    except FileNotFoundError:
+        now = None
+    if now != before:
+        raise OSError(
+            f"output {target} changed while geoalpha was writing it (another "
+            "program or run writing the same file?); it was not replaced: run again"
+        )
+    os.replace(staged, target)
+
+
+# Staging folders are named "geoalpha-<host>-<pid>-<random>" in the temporary
+# folder (".<output name>.geoalpha-..." beside the output when the temporary
+# folder is on another file system, as the final rename must not cross one),
+# so that a later run can tell a folder left by a killed process (same host,
+# pid gone) from one another run is still writing.
+_STAGING = re.compile(r"(?:\..+\.)?geoalpha-(?P<host>[0-9a-f]{8})-(?P<pid>\d+)-[^/]+")
 
 
 def _host_tag() -> str:
@@ -629,18 +856,48 @@ def _host_tag() -> str:
     ).hexdigest()[:8]
 
 
-def _make_staging(target: Path) -> Path:
-    """Create the staging folder beside ``target``, cleaning stale ones first."""
+def _staging_folder(target: Path) -> tuple[Path, str]:
+    """Where to stage ``target``: the temporary folder if on its file system."""
     parent = target.parent
-    remove_stale_staging(parent)
-    prefix = f".{target.name}.geoalpha-{_host_tag()}-{os.getpid()}-"
+    prefix = f"geoalpha-{_host_tag()}-{os.getpid()}-"
     try:
-        return Path(tempfile.mkdtemp(prefix=prefix, dir=parent))
+        temporary = Path(tempfile.gettempdir())
+        if os.stat(temporary).st_dev == os.stat(parent).st_dev and os.access(
+            temporary, os.W_OK | os.X_OK
+        ):
+            return temporary, prefix
+    except OSError:
+        pass
+    return parent, f".{target.name}.{prefix}"
+
+
+def _make_staging(target: Path) -> Path:
+    """Create the staging folder for ``target``, cleaning stale ones first."""
+    folder, prefix = _staging_folder(target)
+    remove_stale_staging(target.parent)  # (left beside it by older versions)
+    if folder != target.parent:
+        remove_stale_staging(folder)
+    try:
+        return Path(tempfile.mkdtemp(prefix=prefix, dir=folder))
     except OSError as err:
-        denied = isinstance(err, PermissionError)
-        why = "permission denied" if denied else err.strerror or err
-        kind = PermissionError if denied else OSError
-        raise kind(f"cannot write to the output folder {parent}: {why}") from err
+        raise _unwritable(target.parent, err) from err
+
+
+def _unwritable(parent: Path, err: OSError) -> OSError:
+    denied = isinstance(err, PermissionError)
+    why = "permission denied" if denied else err.strerror or err
+    kind = PermissionError if denied else OSError
+    return kind(f"cannot write to the output folder {parent}: {why}")
+
+
+def _probe_folder(parent: Path) -> None:
+    """Check that files can be created in ``parent`` (a probe, removed at once)."""
+    remove_stale_staging(parent)
+    prefix = f".probe.geoalpha-{_host_tag()}-{os.getpid()}-"
+    try:
+        os.rmdir(tempfile.mkdtemp(prefix=prefix, dir=parent))
+    except OSError as err:
+        raise _unwritable(parent, err) from err
 
 
 def _pid_alive(pid: int) -> bool:
