@@ -195,6 +195,14 @@ def _group_columns(values: tuple[str, ...], columns, source: str) -> list[str]:
     return by
 
 
+def _key_names(values: tuple[str, ...]) -> list[str]:
+    """Every column name ``--by`` may mean (``a,b`` is a column or two)."""
+    names = []
+    for value in values:
+        names += [value, *(name.strip() for name in value.split(","))]
+    return names
+
+
 def _input_size(path) -> int | None:
     """Bytes of an input file (or of the files of a folder); None for a database."""
     path = os.fspath(path)
@@ -472,7 +480,10 @@ _engine_option = click.option(
     help="Library that writes the file [default: geopandas' choice].",
 )
 _overwrite_option = click.option(
-    "--overwrite", is_flag=True, help="Replace OUTPUT if it exists."
+    "--overwrite",
+    is_flag=True,
+    help="Replace OUTPUT if it exists; in a GeoPackage, only the layer written "
+    "(its other layers are kept).",
 )
 _preview_option = click.option(
     "--preview",
@@ -539,8 +550,9 @@ _preview_option = click.option(
 @click.option(
     "--output-layer",
     metavar="NAME",
-    help="Layer name in a GeoPackage OUTPUT [default: OUTPUT's file name]; "
-    "the schema.table to create for a postgresql:// OUTPUT.",
+    help="Layer name in a GeoPackage OUTPUT [default: OUTPUT's file name], "
+    "added beside the layers an existing GeoPackage has; the schema.table to "
+    "create for a postgresql:// OUTPUT.",
 )
 @_options()
 @_overwrite_option
@@ -585,10 +597,12 @@ def hull(input_path: str, by: tuple[str, ...], crs_in: str, **options) -> None:
             k: options.pop(k) for k in ("x", "y", "layer", "sql", "geometry_column")
         }
         # --crs none on input without CRS: planar, as --crs-in none would be.
+        # A --by column of a CSV is text: a key is a label (zip 00501 stays).
         points = read_input_points(
             input_path,
             crs=_crs_option(crs_in),
             planar_if_missing=work_crs is None,
+            text=_key_names(by),
             **reading,
         )
         if points.crs is None:

@@ -11,6 +11,7 @@ import shutil
 import socket
 import tempfile
 import warnings
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -86,6 +87,7 @@ def read_points(
     y: str | None = None,
     crs: Any = "auto",
     layer: str | int | None = None,
+    text: Sequence[str] = (),
 ) -> gpd.GeoDataFrame:
     """Read a file of points into a GeoDataFrame.
 
@@ -104,6 +106,10 @@ def read_points(
         planar numbers without CRS.
     layer : str or int, optional
         Layer of a multi-layer file such as a GeoPackage; the first by default.
+    text : sequence of str, optional
+        Columns of a CSV read as text, as written: keys such as zip codes
+        (``00501`` stays ``'00501'``, not the number 501); a blank cell is
+        missing. The ``geoalpha`` command reads its ``--by`` columns so.
 
     Returns
     -------
@@ -131,12 +137,24 @@ def read_points(
     >>> gdf = read_points(datasets.path("stats19"))  # Longitude/Latitude found
     >>> gdf.crs.to_epsg(), gdf.geom_type.unique().tolist()
     (4326, ['Point'])
+    >>> codes = read_points(datasets.path("stats19"), text=["Accident_Index"])
+    >>> codes["Accident_Index"].iloc[0]
+    '201401BS70001'
     """
-    return read_input_points(path, x=x, y=y, crs=crs, layer=layer)
+    return read_input_points(path, x=x, y=y, crs=crs, layer=layer, text=text)
 
 
 def read_input_points(
-    path, *, x, y, crs, layer, planar_if_missing=False, sql=None, geometry_column=None
+    path,
+    *,
+    x,
+    y,
+    crs,
+    layer,
+    planar_if_missing=False,
+    sql=None,
+    geometry_column=None,
+    text=(),
 ):
     """:func:`read_points`, PostGIS ``sql=``; ``planar_if_missing``: no CRS is ok."""
     from geoalpha.crs_parsing import crs_name, parse_crs
@@ -177,7 +195,7 @@ def read_input_points(
                 f"{shown} is a table; {_term('layer=', '--layer')} applies to "
                 "multi-layer files"
             )
-        frame = _read_table(source, suffix)
+        frame = _read_table(source, suffix, text)
         x, y = _find_coordinate_columns(list(frame.columns), x, y, shown)
         if auto and _looks_lonlat(x, y):
             crs = parse_crs(4326)
@@ -261,8 +279,11 @@ def _read_vector(source: str, shown: str, suffix: str, layer: str | int | None):
         raise error from err
 
 
-def _read_table(source: str, suffix: str):
-    """Read a CSV table (its delimiter detected) or a Parquet table."""
+def _read_table(source: str, suffix: str, text=()):
+    """Read a CSV table (its delimiter detected) or a Parquet table.
+
+    The columns ``text`` of a CSV are read as text (str), as written.
+    """
     import pandas as pd
 
     try:
@@ -274,7 +295,10 @@ def _read_table(source: str, suffix: str):
             sep = csv.Sniffer().sniff(sample, delimiters=",;\t|").delimiter
         except csv.Error:
             sep = ","
-        return pd.read_csv(source, sep=sep, encoding="utf-8-sig", low_memory=False)
+        dtype = {str(name): str for name in text}  # (names not in it are ignored)
+        return pd.read_csv(
+            source, sep=sep, encoding="utf-8-sig", low_memory=False, dtype=dtype
+        )
     except UnicodeDecodeError as err:
         raise InvalidInputError(
             f"cannot read {redact(source)}: it is not UTF-8 text ({err.reason} at byte "
