@@ -660,3 +660,24 @@ def test_100k_points_round_trip(db, cluster):
         "WHERE ST_Covers(h.geom, p.geom)",
     )
     assert covered == str(n)
+
+
+def test_zip_codes_keep_their_leading_zeros_in_postgis(db, cluster, tmp_path):
+    # A --by column of a CSV is text (issue #36): 00501 stays '00501'.
+    csv = tmp_path / "zips.csv"
+    csv.write_text(
+        "zip,lon,lat\n00501,-73.0,40.8\n00501,-73.1,40.81\n00501,-73.05,40.9\n"
+        ",-72.0,42.0\n01002,-72.5,42.3\n01002,-72.6,42.4\n01002,-72.55,42.5\n",
+        encoding="utf-8",
+    )
+    result = run("hull", csv, db, "--by", "zip", "--output-layer", "public.zip_hulls")
+    assert result.exit_code == 0, result.stderr
+    assert "1 with a missing group key (index 3;" in result.stderr
+    assert _query(cluster, "SELECT string_agg(zip, ',' ORDER BY zip) FROM "
+                  "zip_hulls") == "00501,01002"  # fmt: skip
+    column_type = _query(
+        cluster,
+        "SELECT data_type FROM information_schema.columns "
+        "WHERE table_name = 'zip_hulls' AND column_name = 'zip'",
+    )
+    assert column_type == "text"
