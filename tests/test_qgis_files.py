@@ -158,3 +158,25 @@ def test_qgis_counts_boundary_points_only_with_grow(tmp_path):
     counts = count_in_qgis(grown, "grown")
     assert counts["count"] >= 3364  # every grouped airport, strictly inside
     assert counts["within"] == counts["intersect"] == 3370
+
+
+def test_hulls_added_to_the_points_geopackage_open_beside_the_points(tmp_path):
+    # The newcomer's command (#36): the hulls become a layer of the points'
+    # own GeoPackage, the points layer keeps every row, QGIS opens both.
+    both = tmp_path / "both.gpkg"
+    from geoalpha import datasets
+
+    datasets.load("us_airports").to_file(
+        both, layer="zips", engine="pyogrio", dataset_options={"VERSION": "1.2"}
+    )
+    result = run(
+        "-q", "hull", both, both, "--layer", "zips", "--by", "state",
+        "--output-layer", "state_hulls",
+    )  # fmt: skip
+    assert result.exit_code == 0, result.stderr
+    layers, messages = open_in_qgis(both)
+    assert set(layers) == {"zips", "state_hulls"}
+    assert layers["zips"]["valid"] and layers["state_hulls"]["valid"]
+    assert layers["zips"]["features"] == 3376
+    assert layers["state_hulls"]["features"] == 56
+    assert "may only be partially supported" not in messages
