@@ -295,6 +295,8 @@ def _summary(points, hulls, source: str, by: list[str], options: dict, unit) -> 
 
     columns = points.attrs.get("geoalpha_coordinates")
     where = f"columns {columns[0]}/{columns[1]}" if columns else "geometries"
+    if points.attrs.get("geoalpha_layer") is not None:  # chosen: the point layer
+        where = f"layer {points.attrs['geoalpha_layer']!r}, the only point layer"
     in_crs = crs_name(points.crs) if points.crs is not None else "no CRS"
     used = hulls["crs_used"].astype(str).unique().tolist()
     shown = used[0] if len(used) == 1 else f"{len(used)} CRSs (one chosen per group)"
@@ -532,8 +534,9 @@ _preview_option = click.option(
 @click.option(
     "--layer",
     metavar="NAME",
-    help="Layer of INPUT to read (GeoPackage etc.) [default: the first]; "
-    "the schema.table of a postgresql:// INPUT.",
+    help="Layer of INPUT to read (GeoPackage etc.) [default: the only layer, "
+    "or the only point layer; else an error names the layers]; the "
+    "schema.table of a postgresql:// INPUT.",
 )
 @click.option(
     "--sql",

@@ -109,12 +109,12 @@ def test_an_existing_layer_is_refused_then_only_it_is_replaced(both):
 
 
 @pytest.mark.parametrize("flags", [[], ["--overwrite"]], ids=["plain", "--overwrite"])
-@pytest.mark.parametrize("layer", [["--layer", "zips"], []], ids=["named", "first"])
-def test_the_layer_being_read_is_never_the_target(both, flags, layer):
+def test_the_layer_being_read_is_never_the_target(both, flags):
     before = both.read_bytes()
     result = run(
-        "hull", both, both, *layer, "--by", GROUP, "--output-layer", "zips", *flags
-    )
+        "hull", both, both, "--layer", "zips", "--by", GROUP, "--output-layer", "zips",
+        *flags,
+    )  # fmt: skip
     assert result.exit_code == 1
     assert result.stderr == (
         f"Error: OUTPUT {both} is INPUT and its layer 'zips' is the layer read: "
@@ -259,3 +259,25 @@ def test_sigkill_mid_write_leaves_the_old_file_and_nothing_beside_it(both, layer
     assert not staged.parent.exists()  # the next run removed the dead run's folder
     assert sorted(p.name for p in tmp.iterdir()) == ["written.txt"]
     assert set(layer_counts(both)) == {"zips", "notes", "more"}
+
+
+def test_the_point_layer_chosen_without_layer_is_not_the_target(points_first, tmp_path):
+    before = points_first.read_bytes()
+    result = run(
+        "hull", points_first, points_first, "--by", GROUP, "--output-layer", "zips",
+        "--overwrite",
+    )  # fmt: skip
+    assert result.exit_code == 1
+    assert "is INPUT and its layer 'zips' is the layer read" in result.stderr
+    assert points_first.read_bytes() == before
+
+
+@pytest.fixture
+def points_first(both) -> Path:
+    """``both.gpkg`` with a polygon layer first and one point layer, ``zips``."""
+    path = both.parent / "poly_first.gpkg"
+    pyogrio.write_dataframe(small_hulls(1), path, layer="areas")
+    pyogrio.write_dataframe(
+        pyogrio.read_dataframe(both, layer="zips"), path, layer="zips"
+    )
+    return path

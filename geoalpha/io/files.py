@@ -105,7 +105,10 @@ def read_points(
         file's own CRS wins). ``"auto"`` never guesses (see :doc:`/cli`); None:
         planar numbers without CRS.
     layer : str or int, optional
-        Layer of a multi-layer file such as a GeoPackage; the first by default.
+        Layer of a multi-layer file such as a GeoPackage. By default the only
+        layer, or the only point layer of a file with several layers (as a
+        GeoPackage with the points and their hulls); with more than one point
+        layer, or none, an error names the layers and their geometry types.
     text : sequence of str, optional
         Columns of a CSV read as text, as written: keys such as zip codes
         (``00501`` stays ``'00501'``, not the number 501); a blank cell is
@@ -268,8 +271,12 @@ def _read_vector(source: str, shown: str, suffix: str, layer: str | int | None):
     try:
         if suffix in _PARQUET_SUFFIXES:
             return gpd.read_parquet(source)
-        return gpd.read_file(source, layer=layer)
-    except ImportError:
+        chosen = _only_point_layer(source, shown) if layer is None else None
+        gdf = gpd.read_file(source, layer=layer if chosen is None else chosen)
+        if chosen is not None:  # the summary says which layer was read
+            gdf.attrs["geoalpha_layer"] = chosen
+        return gdf
+    except (ImportError, InvalidInputError):
         raise
     except Exception as err:  # GDAL/pyogrio/fiona/pyarrow errors vary
         error = _cannot_read(source, err)
@@ -277,6 +284,50 @@ def _read_vector(source: str, shown: str, suffix: str, layer: str | int | None):
         if safe != str(error):  # the library's own message showed a secret
             raise InvalidInputError(safe) from None
         raise error from err
+
+
+_POINT_TYPES = ("Point", "MultiPoint")  # with Z/M: "Point Z", "3D Point"
+
+
+def _layers_and_types(source: str) -> list[tuple[str, str]]:
+    """``(name, geometry type)`` of every layer of ``source`` (GDAL's order)."""
+    try:
+        import pyogrio
+    except ImportError:
+        import fiona
+
+        found = []
+        for name in fiona.listlayers(source):
+            with fiona.open(source, layer=name) as layer:
+                found.append((name, str(layer.schema.get("geometry"))))
+        return found
+    return [(str(n), str(t)) for n, t in pyogrio.list_layers(source)]
+
+
+def _only_point_layer(source: str, shown: str) -> str | None:
+    """Without a layer: the only layer, or the only point layer, else an error."""
+    layers = _layers_and_types(source)
+    if len(layers) <= 1:
+        return None  # the only one (or none: the reader says so)
+    points = [
+        name
+        for name, kind in layers
+        if (kind.replace("3D ", "").split() or [""])[0] in _POINT_TYPES
+    ]
+    if len(points) == 1:
+        return points[0]
+    listed = ", ".join(f"{name} ({kind or 'no geometry'})" for name, kind in layers)
+    which = "more than one point layer" if points else "no point layer"
+    flag = _term("layer=", "--layer ")
+    raise InvalidInputError(
+        f"{shown} has {len(layers)} layers and {which}: {listed}; choose one "
+        f"with {flag}{(points or [layers[0][0]])[0]!r}"
+        + (
+            ""
+            if points
+            else f" (with {_term('vertices=True', '--vertices')} for lines or polygons)"
+        )
+    )
 
 
 def _read_table(source: str, suffix: str, text=()):
@@ -627,7 +678,8 @@ def check_not_input(
     output, layer
         The output file and layer (None: the file name without extension).
     source, source_layer
-        The input file and the layer read (None: its first layer).
+        The input file and the layer read (None: the one :func:`read_points`
+        reads without a layer).
 
     Raises
     ------
@@ -647,7 +699,7 @@ def check_not_input(
         return
     if not same:
         return
-    read = source_layer if source_layer is not None else _first_layer(source)
+    read = source_layer if source_layer is not None else _layer_read(source)
     written = layer or target.stem or "hulls"
     if read is not None and str(read).lower() == written.lower():
         other = f"{written}_hulls"
@@ -660,17 +712,12 @@ def check_not_input(
         )
 
 
-def _first_layer(path: Path) -> str | None:
-    """Return the layer GDAL reads first from ``path`` (None if unknown)."""
+def _layer_read(path: Path) -> str | None:
+    """Return the layer :func:`read_points` reads from ``path`` without a layer."""
     try:
-        import pyogrio
-
-        return str(pyogrio.list_layers(path)[0][0])
-    except ImportError:
-        import fiona
-
-        return str(fiona.listlayers(path)[0])
-    except Exception:  # not readable: reading it reports the error
+        chosen = _only_point_layer(str(path), str(path))
+        return chosen if chosen is not None else _layers_and_types(str(path))[0][0]
+    except Exception:  # no layer to choose: reading it reports the error
         return None
 
 

@@ -1,0 +1,90 @@
+"""The newcomer's small trips with files and the command (issue #36, item 4)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import geopandas as gpd
+import pytest
+import shapely
+from cli_runner import run
+
+from geoalpha import datasets
+from geoalpha.errors import InvalidInputError
+from geoalpha.io.files import read_points
+
+GROUP = "Local_Authority_(Highway)"
+
+
+@pytest.fixture
+def points() -> gpd.GeoDataFrame:
+    pts = datasets.load("stats19")
+    return pts[pts[GROUP].isin(["E09000033", "E09000013"])].reset_index(drop=True)
+
+
+def polygons() -> gpd.GeoDataFrame:
+    return gpd.GeoDataFrame(
+        {"name": ["a"]}, geometry=[shapely.box(-0.2, 51.4, 0.0, 51.6)], crs=4326
+    )
+
+
+# --------------------------------------------------------------------------
+# a multi-layer INPUT without --layer
+
+
+def test_the_only_point_layer_is_read_and_named(points, tmp_path):
+    path = tmp_path / "both.gpkg"
+    polygons().to_file(path, layer="state_hulls")  # first: not the points
+    points.to_file(path, layer="zips")
+    out = tmp_path / "h.gpkg"
+    result = run("hull", path, out, "--by", GROUP)
+    assert result.exit_code == 0, result.stderr
+    assert (
+        f"Read {len(points)} points of {path} (layer 'zips', the only point "
+        "layer, EPSG:4326)"
+    ) in result.stderr
+    assert len(gpd.read_file(out)) == 2
+    assert len(read_points(path)) == len(points)  # Python reads the same layer
+
+
+@pytest.mark.parametrize(
+    ("layers", "which", "hint"),
+    [
+        (["zips", "more"], "more than one point layer", "--layer 'zips'"),
+        ([], "no point layer", "--layer 'a' (with --vertices"),
+    ],
+)
+def test_an_ambiguous_input_names_its_layers(points, tmp_path, layers, which, hint):
+    path = tmp_path / "many.gpkg"
+    polygons().to_file(path, layer="a")
+    polygons().to_file(path, layer="b")
+    for name in layers:
+        points.to_file(path, layer=name)
+    result = run("hull", path, tmp_path / "h.gpkg", "--by", GROUP)
+    assert result.exit_code == 1
+    listed = ", ".join(
+        [f"{n} (Polygon)" for n in ("a", "b")] + [f"{n} (Point)" for n in layers]
+    )
+    assert result.stderr == (
+        f"Error: {path} has {2 + len(layers)} layers and {which}: {listed}; "
+        f"choose one with {hint}"
+        + (" for lines or polygons)" if not layers else "")
+        + "\n"
+    )
+    assert "needs point geometries" not in result.stderr
+    assert not (tmp_path / "h.gpkg").exists()
+
+
+def test_python_names_the_layers_with_its_own_words(points, tmp_path):
+    path = tmp_path / "many.gpkg"
+    points.to_file(path, layer="p1")
+    points.to_file(path, layer="p2")
+    with pytest.raises(InvalidInputError, match=r"choose one with layer='p1'$"):
+        read_points(path)
+    assert len(read_points(path, layer="p2")) == len(points)
+
+
+def test_a_single_layer_file_is_read_as_before(points, tmp_path):
+    path = Path(tmp_path / "one.gpkg")
+    polygons().to_file(path, layer="only")
+    assert read_points(path).geom_type.tolist() == ["Polygon"]  # hull() says so
