@@ -363,9 +363,9 @@ def _run(
     if verbosity < 0:
         return
     for line in _summary(points, hulls, source, by, options, unit):
-        click.echo(line, err=True)
+        click.echo(line)  # the summary on stdout; warnings and errors on stderr
     for old, new in mapping.items():
-        click.echo(f"Shapefile field {old!r} written as {new!r}", err=True)
+        click.echo(f"Shapefile field {old!r} written as {new!r}")
     where = redact(output)
     if is_postgres_url(output):
         where += f" (table {layer})"
@@ -375,11 +375,10 @@ def _run(
     rows = int(hulls["n_points"].sum())  # the points in the hulls' groups
     click.echo(
         f"Wrote {_plural(len(hulls), 'hull')} of {_plural(rows, 'point')} to "
-        f"{redact(where)}",
-        err=True,
+        f"{redact(where)}"
     )
     if preview is not None:
-        click.echo(f"Wrote a preview to {preview}", err=True)
+        click.echo(f"Wrote a preview to {preview}")
 
 
 def _check_preview(path: str | None) -> None:

@@ -8,6 +8,7 @@ import geopandas as gpd
 import pytest
 import shapely
 from cli_runner import run
+from compat import requires_tqdm
 
 from geoalpha import datasets
 from geoalpha.errors import InvalidInputError
@@ -42,7 +43,7 @@ def test_the_only_point_layer_is_read_and_named(points, tmp_path):
     assert (
         f"Read {len(points)} points of {path} (layer 'zips', the only point "
         "layer, EPSG:4326)"
-    ) in result.stderr
+    ) in result.stdout
     assert len(gpd.read_file(out)) == 2
     assert len(read_points(path)) == len(points)  # Python reads the same layer
 
@@ -88,3 +89,39 @@ def test_a_single_layer_file_is_read_as_before(points, tmp_path):
     path = Path(tmp_path / "one.gpkg")
     polygons().to_file(path, layer="only")
     assert read_points(path).geom_type.tolist() == ["Polygon"]  # hull() says so
+
+
+# --------------------------------------------------------------------------
+# the summary on stdout; nothing drawn before an output error
+
+
+@requires_tqdm
+def test_no_progress_bar_before_an_already_exists_error(points, tmp_path):
+    csv = tmp_path / "p.csv"
+    points[["Longitude", "Latitude", GROUP]].to_csv(csv, index=False)
+    out = tmp_path / "h.fgb"
+    out.write_bytes(b"precious")
+    result = run("hull", csv, out, "--by", GROUP, "--progress")
+    assert result.exit_code == 1
+    assert result.stderr == (
+        f"Error: output {out} already exists; use --overwrite to replace it\n"
+    )
+    assert result.stdout == ""
+    assert out.read_bytes() == b"precious"
+
+
+def test_summary_on_stdout_warnings_on_stderr(points, tmp_path):
+    csv = tmp_path / "p.csv"
+    points[["Longitude", "Latitude", GROUP]].to_csv(csv, index=False)
+    with_blank = csv.read_text().replace(",E09000013\n", ",\n", 1)
+    csv.write_text(with_blank)
+    result = run("hull", csv, tmp_path / "h.gpkg", "--by", GROUP)
+    assert result.exit_code == 0, result.stderr
+    assert [line.split(" ")[0] for line in result.stdout.splitlines()] == [
+        "Read",
+        "Computed",
+        "Median",
+        "Wrote",
+    ]
+    assert result.stderr.startswith("Warning: geoalpha dropped 1 of ")
+    assert all(line.startswith("Warning: ") for line in result.stderr.splitlines())

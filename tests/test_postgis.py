@@ -303,7 +303,7 @@ def test_command_database_to_database(db, cluster, uk_points):
         "--output-layer", "public.cluster_hulls",
     )  # fmt: skip
     assert result.exit_code == 0, result.stderr
-    assert result.stderr.strip().endswith(
+    assert result.stdout.strip().endswith(
         f"Wrote 691 hulls of 15,255 points to {db} (table public.cluster_hulls)"
     )
     assert _srid(cluster, "public.cluster_hulls") == "4326"
