@@ -125,3 +125,32 @@ def test_summary_on_stdout_warnings_on_stderr(points, tmp_path):
     ]
     assert result.stderr.startswith("Warning: geoalpha dropped 1 of ")
     assert all(line.startswith("Warning: ") for line in result.stderr.splitlines())
+
+
+# --------------------------------------------------------------------------
+# PG: strings are answered with the URL to give
+
+
+@pytest.mark.parametrize(
+    ("dsn", "answer"),
+    [
+        (
+            "PG:host=127.0.0.1 port=5433 user=ga password='s3cr3t pw' dbname=gis",
+            "postgresql://ga@127.0.0.1:5433/gis",
+        ),
+        (
+            "PG:dbname=gis host=db.example tables=public.zips sslmode=require",
+            "postgresql://db.example/gis?sslmode=require and --layer public.zips",
+        ),
+    ],
+)
+def test_pg_strings_are_answered_with_the_url(tmp_path, dsn, answer):
+    result = run("hull", dsn, tmp_path / "h.gpkg", "--by", "zip")
+    assert result.exit_code == 1
+    assert result.stderr == (
+        "Error: PG:... connection strings are not supported (the GDAL in the "
+        f"Python wheels has no PostgreSQL driver); give the URL {answer} instead, "
+        "with the password in PGPASSWORD or ~/.pgpass\n"
+    )
+    assert "s3cr3t" not in result.stderr
+    assert list(tmp_path.iterdir()) == []

@@ -37,6 +37,7 @@ __all__ = [
     "check_not_input",
     "check_output",
     "geopackage_layers",
+    "pg_url",
     "read_points",
     "remove_stale_staging",
     "write_hulls",
@@ -721,14 +722,73 @@ def _layer_read(path: Path) -> str | None:
         return None
 
 
+_CONNINFO = re.compile(r"(\w+)\s*=\s*('(?:[^'\\]|\\.)*'|[^\s']+)")
+#: GDAL's own PG: keys, not libpq's: the table to read is --layer.
+_GDAL_PG_KEYS = ("tables", "schemas", "active_schema", "list_all_tables")
+
+
+def pg_url(dsn: str) -> tuple[str, str | None]:
+    """Convert a GDAL ``PG:`` string to a ``postgresql://`` URL, without password.
+
+    Parameters
+    ----------
+    dsn : str
+        ``PG:host=... port=... dbname=... user=... password=...`` (libpq's
+        keywords; values may be quoted).
+
+    Returns
+    -------
+    url : str
+        ``postgresql://user@host:port/dbname``, with libpq's other keywords
+        (``sslmode``, ...) as query parameters; never the password.
+    table : str or None
+        GDAL's ``tables=`` (the first), which geoalpha reads as ``--layer``.
+
+    Examples
+    --------
+    >>> pg_url("PG:host=db.example port=5433 dbname=gis user=ga password=s3cr3t")
+    ('postgresql://ga@db.example:5433/gis', None)
+    >>> pg_url("PG:dbname='my gis' tables=public.zips sslmode=require")
+    ('postgresql:///my%20gis?sslmode=require', 'public.zips')
+    """
+    from urllib.parse import quote, urlencode
+
+    pairs = {
+        key.lower(): _unquote_conninfo(value)
+        for key, value in _CONNINFO.findall(dsn.strip()[3:])
+    }
+    pairs.pop("password", None)
+    table = (pairs.pop("tables", "") or "").split(",")[0].strip() or None
+    for key in _GDAL_PG_KEYS:
+        pairs.pop(key, None)
+    host = pairs.pop("host", "") or pairs.pop("hostaddr", "")
+    if ":" in host:  # IPv6
+        host = f"[{host}]"
+    user = pairs.pop("user", "")
+    port = pairs.pop("port", "")
+    dbname = pairs.pop("dbname", "")
+    url = "postgresql://" + (f"{quote(user, safe='')}@" if user else "") + host
+    url += (f":{port}" if port else "") + f"/{quote(dbname, safe='')}"
+    if pairs:
+        url += "?" + urlencode(pairs)
+    return url, table
+
+
+def _unquote_conninfo(value: str) -> str:
+    if len(value) >= 2 and value[0] == value[-1] == "'":
+        return re.sub(r"\\(.)", r"\1", value[1:-1])
+    return value
+
+
 def _database(path, engine) -> bool:
     """Tell whether ``path`` is a ``postgresql://`` URL; refuse ``PG:`` strings."""
     if isinstance(path, str) and path.strip()[:3].upper() == "PG:":
+        url, table = pg_url(path)
+        layer = f" and {_term('layer=', '--layer ')}{table}" if table else ""
         raise InvalidInputError(
             "PG:... connection strings are not supported (the GDAL in the Python "
-            "wheels has no PostgreSQL driver); give a URL instead, "
-            "postgresql://user@host:port/dbname, with the password in PGPASSWORD "
-            "or ~/.pgpass"
+            f"wheels has no PostgreSQL driver); give the URL {url}{layer} "
+            "instead, with the password in PGPASSWORD or ~/.pgpass"
         )
     if not is_postgres_url(path):
         return False
