@@ -409,14 +409,21 @@ def _write_preview(hulls, points, path: str, by: list[str]) -> None:
 
     fig, ax = plt.subplots(figsize=(8, 8), dpi=100)
     try:
-        hulls.plot(
+        # Readable from a few points to many (42k): the points shrink and fade
+        # as they grow in number, under the hulls' fill; the outlines on top.
+        n = max(len(points), 1)
+        colours = [plt.get_cmap("tab20")(i % 20) for i in range(len(hulls))]
+        points.plot(
             ax=ax,
-            color=[plt.get_cmap("tab20")(i % 20) for i in range(len(hulls))],
-            alpha=0.5,
-            edgecolor="black",
-            linewidth=0.4,
+            color="0.15",
+            markersize=min(2.0, max(0.1, 2000 / n)),
+            alpha=0.7 if n <= 5000 else 0.5,
+            linewidth=0,
+            zorder=1,
+            rasterized=True,
         )
-        points.plot(ax=ax, color="black", markersize=0.2, alpha=0.6)
+        hulls.plot(ax=ax, color=colours, alpha=0.45, linewidth=0, zorder=2)
+        hulls.boundary.plot(ax=ax, color=colours, linewidth=0.9, zorder=3)
         ax.set_title(
             f"{len(hulls):,} hulls of {len(points):,} points"
             + (f" by {', '.join(by)}" if by else "")

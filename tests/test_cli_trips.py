@@ -8,7 +8,7 @@ import geopandas as gpd
 import pytest
 import shapely
 from cli_runner import run
-from compat import requires_tqdm
+from compat import requires_matplotlib, requires_tqdm
 
 from geoalpha import datasets
 from geoalpha.errors import InvalidInputError
@@ -154,3 +154,66 @@ def test_pg_strings_are_answered_with_the_url(tmp_path, dsn, answer):
     )
     assert "s3cr3t" not in result.stderr
     assert list(tmp_path.iterdir()) == []
+
+
+# --------------------------------------------------------------------------
+# --preview at 42k points
+
+
+@requires_matplotlib
+def test_preview_of_42k_points_shows_the_hulls(tmp_path):
+    import matplotlib.image
+    import numpy as np
+    import pandas as pd
+
+    rng = np.random.default_rng(36)
+    n = 42_000
+    group = rng.integers(0, 50, n)
+    lon = -100 + (group % 10) + rng.normal(0, 0.25, n)
+    lat = 35 + (group // 10) + rng.normal(0, 0.25, n)
+    csv = tmp_path / "zips.csv"
+    zips = [f"{g:05d}" for g in group]
+    pd.DataFrame({"lon": lon, "lat": lat, "zip": zips}).to_csv(csv, index=False)
+    picture = tmp_path / "preview.png"
+    result = run("-q", "hull", csv, tmp_path / "h.gpkg", "--by", "zip",
+                 "--preview", picture)  # fmt: skip
+    assert result.exit_code == 0, result.stderr
+    image = matplotlib.image.imread(picture)[..., :3]
+    # The points no longer paint the map black (12 % of the picture was dark,
+    # hiding the hulls' colours); the hulls' colours are what one sees.
+    dark = (image.max(axis=2) < 0.35).mean()
+    assert dark < 0.04, dark
+    colours = pd.DataFrame(image.reshape(-1, 3).round(1)).drop_duplicates()
+    assert len(colours) > 20
+
+
+# --------------------------------------------------------------------------
+# CSV errors: the row, and the flags to give, in one message
+
+
+def test_csv_without_known_columns_suggests_its_own(tmp_path):
+    csv = tmp_path / "km.csv"
+    csv.write_text("id,x_km,y_km\n1,0.5,0.5\n2,2,0\n3,1,3\n")
+    result = run("hull", csv, tmp_path / "h.gpkg")
+    assert result.exit_code == 1
+    assert result.stderr == (
+        f"Error: no coordinate columns found in {csv} (looked for "
+        "longitude/latitude, lon/lat, lng/lat, long/lat, x/y, easting/northing); "
+        "its columns are: id, x_km, y_km; name them, e.g. --x x_km --y y_km, "
+        "with their CRS (--crs-in EPSG:...) or --crs-in none for planar numbers\n"
+    )
+    # ... and that command works
+    again = run("-q", "hull", csv, tmp_path / "h.gpkg", "--x", "x_km", "--y",
+                "y_km", "--crs-in", "none")  # fmt: skip
+    assert again.exit_code == 0, again.stderr
+
+
+def test_non_numeric_coordinates_are_named_by_row(tmp_path):
+    csv = tmp_path / "bad.csv"
+    csv.write_text("x,y\n0.5,0.5\nabc,0\n1,3\n2,n/a?\n")
+    result = run("hull", csv, tmp_path / "h.gpkg", "--crs-in", "none")
+    assert result.exit_code == 1
+    assert result.stderr == (
+        f"Error: coordinate column 'x' of {csv} has 1 non-numeric values (e.g. "
+        "'abc' at index 1; the index counts data rows from 0)\n"
+    )

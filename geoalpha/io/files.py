@@ -403,10 +403,36 @@ def _find_coordinate_columns(
         if x_name in lower and y_name in lower:
             return lower[x_name], lower[y_name]
     pairs = ", ".join(f"{a}/{b}" for a, b in COORDINATE_NAMES)
+    guess = _guess_pair(columns)
+    if guess is None:
+        how = f"name them with {names}"
+    else:
+        gx, gy = guess
+        how = f"name them, e.g. {_term(f'x={gx!r}, y={gy!r}', f'--x {gx} --y {gy}')}"
+        if not _looks_lonlat(gx, gy):
+            how += (
+                f", with their CRS ({_term('crs=', '--crs-in ')}EPSG:...) or "
+                f"{_term('crs=None', '--crs-in none')} for planar numbers"
+            )
     raise InvalidInputError(
         f"no coordinate columns found in {source} (looked for {pairs}); its "
-        f"columns are: {found}; name them with {names}"
+        f"columns are: {found}; {how}"
     )
+
+
+def _guess_pair(columns: list) -> tuple[str, str] | None:
+    """Two columns that look like x and y (``x_km``/``y_km``, ``X1``/``Y1``)."""
+    names = [str(c) for c in columns]
+    for starts in (("x", "y"), ("lon", "lat"), ("e", "n")):
+        for name in names:
+            low = name.lower()
+            if not low.startswith(starts[0]):
+                continue
+            tail = low[len(starts[0]) :]
+            for other in names:
+                if other != name and other.lower() == starts[1] + tail:
+                    return name, other
+    return None
 
 
 def _points_from_table(frame: pd.DataFrame, source, x, y, crs) -> gpd.GeoDataFrame:
@@ -420,10 +446,12 @@ def _points_from_table(frame: pd.DataFrame, source, x, y, crs) -> gpd.GeoDataFra
         numeric = pd.to_numeric(raw, errors="coerce")
         bad = numeric.isna() & raw.notna()
         if bad.any():
-            examples = ", ".join(repr(v) for v in raw[bad].unique()[:3])
+            first = raw[bad].head(3)
+            examples = ", ".join(f"{v!r} at index {i}" for i, v in first.items())
             raise InvalidInputError(
                 f"coordinate column {name!r} of {source} has {int(bad.sum())} "
-                f"non-numeric values (e.g. {examples})"
+                f"non-numeric values (e.g. {examples}; the index counts data "
+                "rows from 0)"
             )
         values[name] = numeric.to_numpy(dtype=float)
     xs, ys = values[x], values[y]
