@@ -217,3 +217,32 @@ def test_non_numeric_coordinates_are_named_by_row(tmp_path):
         f"Error: coordinate column 'x' of {csv} has 1 non-numeric values (e.g. "
         "'abc' at index 1; the index counts data rows from 0)\n"
     )
+
+
+# --------------------------------------------------------------------------
+# Shapefile fields declared so that their values fit
+
+
+def dbf_fields(path: Path) -> dict[str, tuple[str, int, int]]:
+    raw = path.read_bytes()
+    fields, offset = {}, 32
+    while raw[offset] != 0x0D:
+        field = raw[offset : offset + 32]
+        name = field[:11].split(b"\0")[0].decode()
+        fields[name] = (chr(field[11]), field[16], field[17])
+        offset += 32
+    return fields
+
+
+@pytest.mark.parametrize("engine", ["pyogrio", "fiona"])
+def test_shapefile_decimals_leave_room_for_the_largest_value(tmp_path, engine):
+    out = tmp_path / "us.shp"
+    assert run("-q", "demo", out, "--engine", engine).exit_code == 0
+    fields = dbf_fields(out.with_suffix(".dbf"))
+    back = gpd.read_file(out)
+    for name in ("alpha", "radius", "area_m2"):
+        kind, width, decimals = fields[name]
+        digits = len(str(int(back[name].abs().max())))
+        assert kind == "N" and digits + 1 + decimals <= width, (name, fields[name])
+    assert fields["area_m2"][2] == 24 - 1 - 13  # Alaska: 2.4e12 m², 13 digits
+    assert back["area_m2"].max() == pytest.approx(2.3685e12, rel=1e-4)

@@ -654,6 +654,8 @@ def _write_layers(layers, staged: Path, suffix: str, engine, target: Path) -> No
     except Exception as err:
         text = one_line(err).replace(str(staged.parent), str(target.parent))
         raise OSError(f"cannot write {target}: {text}") from err
+    if suffix == ".shp":
+        _fit_decimals(staged.with_suffix(".dbf"), layers[0][0])
     crs = layers[0][0].crs
     prj = staged.with_suffix(".prj")
     if suffix == ".shp" and crs is not None and not prj.exists():
@@ -661,6 +663,43 @@ def _write_layers(layers, staged: Path, suffix: str, engine, target: Path) -> No
             f"the Shapefile writer did not write {prj.name} for CRS "
             f"{crs.to_string()}; write another format instead"
         )
+
+
+def _fit_decimals(dbf: Path, frame) -> None:
+    """Declare, for each decimal field of a Shapefile, decimals its values fit.
+
+    GDAL declares every float column ``N(24, 15)`` and stores each value in the
+    24 characters (fewer decimals for large values). Programs that copy the
+    field as declared (QGIS's "Save Features As", processing outputs) then
+    format 2.4e12 m² with 15 decimals, which does not fit: "Value ... not
+    successfully written". The declared decimals are lowered so that the
+    column's largest value fits the width with them; the stored text is the
+    same.
+    """
+    import numpy as np
+
+    with open(dbf, "r+b") as handle:
+        header = handle.read(32)
+        header_size = int.from_bytes(header[8:10], "little")
+        offset = 32
+        while offset + 32 <= header_size:
+            handle.seek(offset)
+            field = handle.read(32)
+            if not field or field[0] == 0x0D:
+                break
+            name = field[:11].split(b"\0")[0].decode("utf-8", "replace")
+            kind, width, decimals = chr(field[11]), field[16], field[17]
+            if kind in "NF" and decimals > 0 and name in frame.columns:
+                values = np.asarray(frame[name], dtype=float)
+                values = values[np.isfinite(values)]
+                if values.size:
+                    digits = len(str(int(np.abs(values).max())))
+                    digits += int((values < 0).any())  # the minus sign
+                    fitting = max(0, min(decimals, width - digits - 1))
+                    if fitting != decimals:
+                        handle.seek(offset + 17)
+                        handle.write(bytes([fitting]))
+            offset += 32
 
 
 def check_output(
