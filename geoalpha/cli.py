@@ -203,6 +203,23 @@ def _key_names(values: tuple[str, ...]) -> list[str]:
     return names
 
 
+#: ``--unit``: metres in one unit of planar coordinates without CRS.
+METRES_PER_UNIT = {"m": 1.0, "km": 1000.0, "mi": 1609.344, "ft": 0.3048}
+
+
+def _in_metres(hulls, factor: float):
+    """Return ``hulls`` of planar coordinates with ``factor`` metres a unit, in m."""
+    table = hulls.copy()
+    area = "area" if "area" in table.columns else "area_m2"  # (m² or unit²)
+    table[area] = table[area] * factor**2
+    table = table.rename(columns={area: "area_m2"}).drop(
+        columns="unit", errors="ignore"
+    )
+    table["radius"] = table["radius"] * factor
+    table["alpha"] = table["alpha"] / factor
+    return table
+
+
 def _input_size(path) -> int | None:
     """Bytes of an input file (or of the files of a folder); None for a database."""
     path = os.fspath(path)
@@ -286,7 +303,9 @@ def _left_out(points, hulls, by: list[str], options: dict) -> str:
     return f"; {left:,} of {len(points):,} rows left out: {shown}"
 
 
-def _summary(points, hulls, source: str, by: list[str], options: dict, unit) -> list:
+def _summary(
+    points, hulls, source: str, by: list[str], options: dict, unit, metres=None
+) -> list:
     """Return a few lines that say what was read, computed and found."""
     import numpy as np
     import shapely
@@ -302,7 +321,12 @@ def _summary(points, hulls, source: str, by: list[str], options: dict, unit) -> 
     shown = used[0] if len(used) == 1 else f"{len(used)} CRSs (one chosen per group)"
     if len(used) == 2:
         shown += f" ({used[0]}, {used[1]})"
-    if options.get("crs", "auto") is None:
+    if metres is not None:
+        shown = (
+            f"the input coordinates, in {metres} (--unit {metres}), written in "
+            "metres (alpha in 1/metre, radius in metres, area_m2)"
+        )
+    elif options.get("crs", "auto") is None:
         u = unit or "metre"
         shown = (
             f"the input coordinates as they are (alpha in 1/{u}, radius in {u}, "
@@ -338,7 +362,17 @@ def _summary(points, hulls, source: str, by: list[str], options: dict, unit) -> 
 
 
 def _run(
-    target, preview, verbosity, bar, points, *, source, by, extra_layers=None, **options
+    target,
+    preview,
+    verbosity,
+    bar,
+    points,
+    *,
+    source,
+    by,
+    extra_layers=None,
+    metres=None,
+    **options,
 ):
     """Compute the hulls (in the command's ``bar``), write them, draw ``preview``."""
     from geoalpha.frame.schema import planar_unit, with_area_unit
@@ -352,6 +386,9 @@ def _run(
             f"no hull to write: every group of {source} was dropped"
         )
     unit = planar_unit(points.crs, options.get("crs", "auto"))
+    if metres is not None:  # --unit: planar numbers in a known unit
+        hulls = _in_metres(hulls, METRES_PER_UNIT[metres])
+        unit = None
     table = with_area_unit(hulls, unit)  # say the unit instead of a wrong "m2"
     bar.start("write")
     mapping = write_hulls(table, **target, extra_layers=extra_layers)
@@ -362,7 +399,7 @@ def _run(
     bar.close()  # full, before the summary
     if verbosity < 0:
         return
-    for line in _summary(points, hulls, source, by, options, unit):
+    for line in _summary(points, hulls, source, by, options, unit, metres):
         click.echo(line)  # the summary on stdout; warnings and errors on stderr
     for old, new in mapping.items():
         click.echo(f"Shapefile field {old!r} written as {new!r}")
@@ -538,6 +575,13 @@ _preview_option = click.option(
     "coordinates without CRS (alpha, radius and area are then in their unit).",
 )
 @click.option(
+    "--unit",
+    type=click.Choice(sorted(METRES_PER_UNIT)),
+    help="Unit of planar coordinates without CRS (--crs-in none), e.g. km: "
+    "the output then has area_m2, radius in metres and alpha in 1/metre, and "
+    "--grow, --buffer and --alpha are in metres too.",
+)
+@click.option(
     "--layer",
     metavar="NAME",
     help="Layer of INPUT to read (GeoPackage etc.) [default: the only layer, "
@@ -569,7 +613,9 @@ _preview_option = click.option(
 @_preview_option
 @_verbose_option
 @_quiet_option
-def hull(input_path: str, by: tuple[str, ...], crs_in: str, **options) -> None:
+def hull(
+    input_path: str, by: tuple[str, ...], crs_in: str, unit: str | None, **options
+) -> None:
     """Write one hull per group of the points in INPUT to OUTPUT.
 
     INPUT is a GeoPackage, Shapefile, GeoJSON, FlatGeobuf, GeoParquet or
@@ -616,9 +662,26 @@ def hull(input_path: str, by: tuple[str, ...], crs_in: str, **options) -> None:
         )
         if points.crs is None:
             work_crs = None  # planar input: compute in its own units
+        if unit is not None and points.crs is not None:
+            raise InvalidInputError(
+                f"--unit {unit} applies to planar coordinates without CRS "
+                f"(--crs-in none); {redact(input_path)} has a CRS, whose unit is "
+                "used"
+            )
+        if unit is not None:  # metres (--grow, --buffer, --alpha) in the unit
+            factor = METRES_PER_UNIT[unit]
+            for name in ("grow", "buffer"):
+                if options.get(name) is not None:
+                    options[name] = options[name] / factor
+            if options.get("alpha") is not None:
+                options["alpha"] = options["alpha"] * factor
         columns = _group_columns(by, list(points.columns), redact(input_path))
         run(
-            points, source=redact(input_path), by=columns, **options | {"crs": work_crs}
+            points,
+            source=redact(input_path),
+            by=columns,
+            metres=unit,
+            **options | {"crs": work_crs},
         )
 
 

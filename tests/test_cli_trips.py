@@ -246,3 +246,56 @@ def test_shapefile_decimals_leave_room_for_the_largest_value(tmp_path, engine):
         assert kind == "N" and digits + 1 + decimals <= width, (name, fields[name])
     assert fields["area_m2"][2] == 24 - 1 - 13  # Alaska: 2.4e12 m², 13 digits
     assert back["area_m2"].max() == pytest.approx(2.3685e12, rel=1e-4)
+
+
+# --------------------------------------------------------------------------
+# --unit km: planar km input gets area_m2
+
+KM_CSV = "id,x_km,y_km,g\n1,0.5,0.5,a\n2,2,0,a\n3,1,3,a\n4,1.2,1.1,a\n"
+
+
+def test_unit_km_writes_metres_and_area_m2(tmp_path):
+    csv = tmp_path / "km.csv"
+    csv.write_text(KM_CSV)
+    plain, metres = tmp_path / "plain.gpkg", tmp_path / "metres.gpkg"
+    flags = ["--x", "x_km", "--y", "y_km", "--crs-in", "none", "--by", "g"]
+    assert run("-q", "hull", csv, plain, *flags).exit_code == 0
+    result = run("hull", csv, metres, *flags, "--unit", "km")
+    assert result.exit_code == 0, result.stderr
+    assert (
+        "Computed in the input coordinates, in km (--unit km), written in metres "
+        "(alpha in 1/metre, radius in metres, area_m2): 1 group"
+    ) in result.stdout
+    km, m = gpd.read_file(plain).iloc[0], gpd.read_file(metres).iloc[0]
+    assert "unit" not in gpd.read_file(metres).columns
+    # the polygon (1.35 km² by the shoelace formula) in square metres
+    assert km["area"] == pytest.approx(1.35) and km["unit"] == "coordinate unit"
+    assert m["area_m2"] == pytest.approx(1.35e6)
+    assert m["radius"] == pytest.approx(km["radius"] * 1000)
+    assert m["alpha"] == pytest.approx(km["alpha"] / 1000)
+    assert shapely.equals(m.geometry, km.geometry)  # the coordinates stay in km
+
+
+def test_unit_km_takes_grow_in_metres(tmp_path):
+    csv = tmp_path / "km.csv"
+    csv.write_text(KM_CSV)
+    flags = ["--x", "x_km", "--y", "y_km", "--crs-in", "none", "--by", "g"]
+    out = tmp_path / "grown.gpkg"
+    assert (
+        run("-q", "hull", csv, out, *flags, "--unit", "km", "--grow", "100").exit_code
+        == 0
+    )
+    exact = tmp_path / "exact.gpkg"
+    assert run("-q", "hull", csv, exact, *flags, "--unit", "km").exit_code == 0
+    grown, plain = gpd.read_file(out).geometry[0], gpd.read_file(exact).geometry[0]
+    # 100 m is 0.1 km: the hull grows by about 0.1 on every side, not 100
+    assert grown.bounds[2] - plain.bounds[2] == pytest.approx(0.1, rel=0.05)
+
+
+def test_unit_is_refused_for_input_with_a_crs(tmp_path):
+    result = run("hull", datasets.path("stats19"), tmp_path / "h.gpkg", "--unit", "km")
+    assert result.exit_code == 1
+    assert result.stderr == (
+        f"Error: --unit km applies to planar coordinates without CRS (--crs-in "
+        f"none); {datasets.path('stats19')} has a CRS, whose unit is used\n"
+    )
