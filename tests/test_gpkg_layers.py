@@ -211,7 +211,9 @@ from geoalpha.io.files import write_hulls
 to_file = gpd.GeoDataFrame.to_file
 def slow(self, filename, *args, **kwargs):
     to_file(self, filename, *args, **kwargs)
-    pathlib.Path(sys.argv[2]).write_text(str(filename))  # written, not yet moved
+    marker = pathlib.Path(sys.argv[2])  # written, not yet moved (said atomically)
+    marker.with_suffix(".part").write_text(str(filename))
+    marker.with_suffix(".part").replace(marker)
     time.sleep(120)
 gpd.GeoDataFrame.to_file = slow
 hulls = gpd.GeoDataFrame({"k": ["a"]}, geometry=[shapely.box(0, 0, 1, 1)], crs=4326)
@@ -281,3 +283,24 @@ def points_first(both) -> Path:
         pyogrio.read_dataframe(both, layer="zips"), path, layer="zips"
     )
     return path
+
+
+def test_a_rename_across_mount_points_goes_through_a_copy(both, monkeypatch):
+    # The temporary folder on the same file system but another mount: EXDEV.
+    import errno
+
+    replace = os.replace
+    calls = []
+
+    def cross_device(source, destination):
+        calls.append(Path(source).parent)
+        if Path(source).parent.parent != Path(destination).parent:
+            raise OSError(errno.EXDEV, "Invalid cross-device link")
+        replace(source, destination)
+
+    monkeypatch.setattr(os, "replace", cross_device)
+    write_hulls(small_hulls(2), both, layer="state_hulls")
+    monkeypatch.undo()
+    assert len(calls) == 2  # refused, then from beside the output
+    assert layer_counts(both)["state_hulls"] == 2
+    assert sorted(p.name for p in both.parent.iterdir()) == ["both.gpkg"]

@@ -1037,7 +1037,7 @@ def _replace_geopackage(staged: Path, target: Path, before) -> None:
             f"output {target} changed while geoalpha was writing it (another "
             "program or run writing the same file?); it was not replaced: run again"
         )
-    os.replace(staged, target)
+    _replace(staged, target)
 
 
 # Staging folders are named "geoalpha-<host>-<pid>-<random>" in the temporary
@@ -1147,7 +1147,7 @@ def _move_into_place(
     sidecars = sorted(written - {target.name})
     if overwrite:
         for name in [*sidecars, target.name]:
-            os.replace(staging / name, target.parent / name)
+            _replace(staging / name, target.parent / name)
         for stale in targets:  # e.g. an old .cpg the new Shapefile does not have
             if stale.name not in written and (stale.exists() or stale.is_symlink()):
                 stale.unlink()
@@ -1167,6 +1167,29 @@ def _move_into_place(
         ) from None
 
 
+def _replace(source: Path, destination: Path) -> None:
+    """``os.replace``; across mount points, through a copy beside ``destination``.
+
+    The temporary folder can be on the output's file system but another mount
+    (a container's bind mount), where a rename fails with EXDEV: the file is
+    then copied into a staging folder beside ``destination`` first (which the
+    next run removes, should this one be killed), and renamed from there.
+    """
+    try:
+        os.replace(source, destination)
+        return
+    except OSError as err:
+        if err.errno != errno.EXDEV:
+            raise
+    prefix = f".{destination.name}.geoalpha-{_host_tag()}-{os.getpid()}-"
+    beside = Path(tempfile.mkdtemp(prefix=prefix, dir=destination.parent))
+    try:
+        shutil.copy2(source, beside / destination.name)
+        os.replace(beside / destination.name, destination)
+    finally:
+        shutil.rmtree(beside, ignore_errors=True)
+
+
 def _place_new(source: Path, destination: Path) -> None:
     """Move ``source`` to ``destination``; FileExistsError if that name is taken."""
     try:
@@ -1177,7 +1200,7 @@ def _place_new(source: Path, destination: Path) -> None:
         # No hard links here (some network or FAT file systems): claim the
         # name with an exclusive create, then replace that placeholder.
         os.close(os.open(destination, os.O_CREAT | os.O_EXCL | os.O_WRONLY))
-        os.replace(source, destination)
+        _replace(source, destination)
         return
     source.unlink()
 
