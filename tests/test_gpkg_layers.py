@@ -304,3 +304,25 @@ def test_a_rename_across_mount_points_goes_through_a_copy(both, monkeypatch):
     assert len(calls) == 2  # refused, then from beside the output
     assert layer_counts(both)["state_hulls"] == 2
     assert sorted(p.name for p in both.parent.iterdir()) == ["both.gpkg"]
+
+
+def test_a_layer_that_appears_while_computing_is_not_replaced(both, monkeypatch):
+    import geoalpha.io.files as files
+
+    check = files._check_target
+
+    def racing_check(*args, **kwargs):
+        checked = check(*args, **kwargs)  # the layer is free here ...
+        pyogrio.write_dataframe(small_hulls(1), both, layer="state_hulls")
+        return checked  # ... and taken by another run before the copy
+
+    monkeypatch.setattr(files, "_check_target", racing_check)
+    with pytest.raises(FileExistsError) as err:
+        write_hulls(small_hulls(3), both, layer="state_hulls")
+    assert str(err.value) == (
+        f"layer 'state_hulls' of output {both} appeared while geoalpha was "
+        "computing (another run writing the same layer?) and was not replaced; "
+        "use overwrite=True to replace it"
+    )
+    monkeypatch.undo()
+    assert layer_counts(both)["state_hulls"] == 1  # the other run's

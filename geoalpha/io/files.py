@@ -615,6 +615,8 @@ def write_hulls(
         # An existing GeoPackage: its layers are kept, in a staged copy that
         # replaces it in one rename (the old file or the new one, never neither).
         before = _copy_geopackage(target, staged) if merge else None
+        if before is not None and not overwrite:  # a layer that came meanwhile
+            _check_layers(staged, names, overwrite, shown=target)
         _write_layers(layers, staged, suffix, engine, target)
         if before is not None:
             _replace_geopackage(staged, target, before)
@@ -972,8 +974,24 @@ def geopackage_layers(path: PathLike) -> list[str]:
     return [str(name) for (name,) in rows]
 
 
-def _check_layers(target: Path, names: list[str], overwrite: bool) -> None:
-    """Refuse to add ``names`` to the GeoPackage ``target`` when it is not safe."""
+def _check_layers(
+    target: Path, names: list[str], overwrite: bool, shown: Path | None = None
+) -> None:
+    """Refuse to add ``names`` to the GeoPackage ``target`` when it is not safe.
+
+    ``shown``: the output, when ``target`` is its staged copy.
+    """
+    if shown is not None:  # the staged copy: only the layers
+        present = {name.lower() for name in geopackage_layers(target)}
+        taken = [n for n in names if n.lower() in present]
+        if taken:
+            raise FileExistsError(
+                f"layer {taken[0]!r} of output {shown} appeared while geoalpha was "
+                "computing (another run writing the same layer?) and was not "
+                f"replaced; use {_term('overwrite=True', '--overwrite')} to "
+                "replace it"
+            )
+        return
     for ending in _SQLITE_SIDECARS:
         sidecar = Path(f"{target}{ending}")
         if sidecar.exists():
