@@ -96,3 +96,4 @@ def test_other_columns_are_read_as_before(zips_csv):
     assert points["lon"].dtype == float  # coordinates stay numbers
     # Without text=, pandas reads the numbers it sees (as documented).
     assert read_points(zips_csv)["zip"].tolist()[0] == 501
+    assert read_points(zips_csv, text="zip")["zip"].tolist()[0] == "00501"

@@ -88,7 +88,7 @@ def read_points(
     y: str | None = None,
     crs: Any = "auto",
     layer: str | int | None = None,
-    text: Sequence[str] = (),
+    text: str | Sequence[str] = (),
 ) -> gpd.GeoDataFrame:
     """Read a file of points into a GeoDataFrame.
 
@@ -110,7 +110,7 @@ def read_points(
         layer, or the only point layer of a file with several layers (as a
         GeoPackage with the points and their hulls); with more than one point
         layer, or none, an error names the layers and their geometry types.
-    text : sequence of str, optional
+    text : str or sequence of str, optional
         Columns of a CSV read as text, as written: keys such as zip codes
         (``00501`` stays ``'00501'``, not the number 501); a blank cell is
         missing. The ``geoalpha`` command reads its ``--by`` columns so.
@@ -145,6 +145,7 @@ def read_points(
     >>> codes["Accident_Index"].iloc[0]
     '201401BS70001'
     """
+    text = [text] if isinstance(text, str) else list(text)  # one name, or several
     return read_input_points(path, x=x, y=y, crs=crs, layer=layer, text=text)
 
 
