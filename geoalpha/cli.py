@@ -195,6 +195,31 @@ def _group_columns(values: tuple[str, ...], columns, source: str) -> list[str]:
     return by
 
 
+def _key_names(values: tuple[str, ...]) -> list[str]:
+    """Every column name ``--by`` may mean (``a,b`` is a column or two)."""
+    names = []
+    for value in values:
+        names += [value, *(name.strip() for name in value.split(","))]
+    return names
+
+
+#: ``--unit``: metres in one unit of planar coordinates without CRS.
+METRES_PER_UNIT = {"m": 1.0, "km": 1000.0, "mi": 1609.344, "ft": 0.3048}
+
+
+def _in_metres(hulls, factor: float):
+    """Return ``hulls`` of planar coordinates with ``factor`` metres a unit, in m."""
+    table = hulls.copy()
+    area = "area" if "area" in table.columns else "area_m2"  # (m² or unit²)
+    table[area] = table[area] * factor**2
+    table = table.rename(columns={area: "area_m2"}).drop(
+        columns="unit", errors="ignore"
+    )
+    table["radius"] = table["radius"] * factor
+    table["alpha"] = table["alpha"] / factor
+    return table
+
+
 def _input_size(path) -> int | None:
     """Bytes of an input file (or of the files of a folder); None for a database."""
     path = os.fspath(path)
@@ -206,10 +231,13 @@ def _input_size(path) -> int | None:
 
 
 @contextlib.contextmanager
-def _session(params: dict, size, points_layer=False) -> Iterator:
-    """Check OUTPUT (flags popped from ``params``); yield :func:`_run` bound to it."""
+def _session(params: dict, size, points_layer=False, source=None) -> Iterator:
+    """Check OUTPUT (flags popped from ``params``); yield :func:`_run` bound to it.
+
+    ``source``: ``(INPUT, its --layer)``, which OUTPUT must not overwrite.
+    """
     from geoalpha.frame.progress import HULL_PHASES, hull_costs, phases
-    from geoalpha.io.files import check_output
+    from geoalpha.io.files import check_not_input, check_output
 
     preview = params.pop("preview")
     target = {k: params.pop(k) for k in ("overwrite", "engine")}
@@ -242,10 +270,12 @@ def _session(params: dict, size, points_layer=False) -> Iterator:
         costs = hull_costs(rows, rows / 100, per_group_crs=False)
         costs["read"] = load["geopandas"] + (0.04 * size if size else 2 * rows)
         bar.estimate(costs | after_hull(rows, rows / 100))
-        bar.start("read")
+        if source is not None:
+            check_not_input(target["path"], target["layer"], *source)
         check_output(
             target["path"], layer=target["layer"], overwrite=target["overwrite"]
         )
+        bar.start("read")
         _check_preview(preview)
         yield functools.partial(_run, target, preview, verbosity, bar)
 
@@ -273,7 +303,9 @@ def _left_out(points, hulls, by: list[str], options: dict) -> str:
     return f"; {left:,} of {len(points):,} rows left out: {shown}"
 
 
-def _summary(points, hulls, source: str, by: list[str], options: dict, unit) -> list:
+def _summary(
+    points, hulls, source: str, by: list[str], options: dict, unit, metres=None
+) -> list:
     """Return a few lines that say what was read, computed and found."""
     import numpy as np
     import shapely
@@ -282,12 +314,19 @@ def _summary(points, hulls, source: str, by: list[str], options: dict, unit) -> 
 
     columns = points.attrs.get("geoalpha_coordinates")
     where = f"columns {columns[0]}/{columns[1]}" if columns else "geometries"
+    if points.attrs.get("geoalpha_layer") is not None:  # chosen: the point layer
+        where = f"layer {points.attrs['geoalpha_layer']!r}, the only point layer"
     in_crs = crs_name(points.crs) if points.crs is not None else "no CRS"
     used = hulls["crs_used"].astype(str).unique().tolist()
     shown = used[0] if len(used) == 1 else f"{len(used)} CRSs (one chosen per group)"
     if len(used) == 2:
         shown += f" ({used[0]}, {used[1]})"
-    if options.get("crs", "auto") is None:
+    if metres is not None:
+        shown = (
+            f"the input coordinates, in {metres} (--unit {metres}), written in "
+            "metres (alpha in 1/metre, radius in metres, area_m2)"
+        )
+    elif options.get("crs", "auto") is None:
         u = unit or "metre"
         shown = (
             f"the input coordinates as they are (alpha in 1/{u}, radius in {u}, "
@@ -323,7 +362,17 @@ def _summary(points, hulls, source: str, by: list[str], options: dict, unit) -> 
 
 
 def _run(
-    target, preview, verbosity, bar, points, *, source, by, extra_layers=None, **options
+    target,
+    preview,
+    verbosity,
+    bar,
+    points,
+    *,
+    source,
+    by,
+    extra_layers=None,
+    metres=None,
+    **options,
 ):
     """Compute the hulls (in the command's ``bar``), write them, draw ``preview``."""
     from geoalpha.frame.schema import planar_unit, with_area_unit
@@ -337,6 +386,9 @@ def _run(
             f"no hull to write: every group of {source} was dropped"
         )
     unit = planar_unit(points.crs, options.get("crs", "auto"))
+    if metres is not None:  # --unit: planar numbers in a known unit
+        hulls = _in_metres(hulls, METRES_PER_UNIT[metres])
+        unit = None
     table = with_area_unit(hulls, unit)  # say the unit instead of a wrong "m2"
     bar.start("write")
     mapping = write_hulls(table, **target, extra_layers=extra_layers)
@@ -347,10 +399,10 @@ def _run(
     bar.close()  # full, before the summary
     if verbosity < 0:
         return
-    for line in _summary(points, hulls, source, by, options, unit):
-        click.echo(line, err=True)
+    for line in _summary(points, hulls, source, by, options, unit, metres):
+        click.echo(line)  # the summary on stdout; warnings and errors on stderr
     for old, new in mapping.items():
-        click.echo(f"Shapefile field {old!r} written as {new!r}", err=True)
+        click.echo(f"Shapefile field {old!r} written as {new!r}")
     where = redact(output)
     if is_postgres_url(output):
         where += f" (table {layer})"
@@ -360,11 +412,10 @@ def _run(
     rows = int(hulls["n_points"].sum())  # the points in the hulls' groups
     click.echo(
         f"Wrote {_plural(len(hulls), 'hull')} of {_plural(rows, 'point')} to "
-        f"{redact(where)}",
-        err=True,
+        f"{redact(where)}"
     )
     if preview is not None:
-        click.echo(f"Wrote a preview to {preview}", err=True)
+        click.echo(f"Wrote a preview to {preview}")
 
 
 def _check_preview(path: str | None) -> None:
@@ -395,14 +446,21 @@ def _write_preview(hulls, points, path: str, by: list[str]) -> None:
 
     fig, ax = plt.subplots(figsize=(8, 8), dpi=100)
     try:
-        hulls.plot(
+        # Readable from a few points to many (42k): the points shrink and fade
+        # as they grow in number, under the hulls' fill; the outlines on top.
+        n = max(len(points), 1)
+        colours = [plt.get_cmap("tab20")(i % 20) for i in range(len(hulls))]
+        points.plot(
             ax=ax,
-            color=[plt.get_cmap("tab20")(i % 20) for i in range(len(hulls))],
-            alpha=0.5,
-            edgecolor="black",
-            linewidth=0.4,
+            color="0.15",
+            markersize=min(2.0, max(0.1, 2000 / n)),
+            alpha=0.7 if n <= 5000 else 0.5,
+            linewidth=0,
+            zorder=1,
+            rasterized=True,
         )
-        points.plot(ax=ax, color="black", markersize=0.2, alpha=0.6)
+        hulls.plot(ax=ax, color=colours, alpha=0.45, linewidth=0, zorder=2)
+        hulls.boundary.plot(ax=ax, color=colours, linewidth=0.9, zorder=3)
         ax.set_title(
             f"{len(hulls):,} hulls of {len(points):,} points"
             + (f" by {', '.join(by)}" if by else "")
@@ -467,7 +525,10 @@ _engine_option = click.option(
     help="Library that writes the file [default: geopandas' choice].",
 )
 _overwrite_option = click.option(
-    "--overwrite", is_flag=True, help="Replace OUTPUT if it exists."
+    "--overwrite",
+    is_flag=True,
+    help="Replace OUTPUT if it exists; in a GeoPackage, only the layer written "
+    "(its other layers are kept).",
 )
 _preview_option = click.option(
     "--preview",
@@ -514,10 +575,18 @@ _preview_option = click.option(
     "coordinates without CRS (alpha, radius and area are then in their unit).",
 )
 @click.option(
+    "--unit",
+    type=click.Choice(sorted(METRES_PER_UNIT)),
+    help="Unit of planar coordinates without CRS (--crs-in none), e.g. km: "
+    "the output then has area_m2, radius in metres and alpha in 1/metre, and "
+    "--grow, --buffer and --alpha are in metres too.",
+)
+@click.option(
     "--layer",
     metavar="NAME",
-    help="Layer of INPUT to read (GeoPackage etc.) [default: the first]; "
-    "the schema.table of a postgresql:// INPUT.",
+    help="Layer of INPUT to read (GeoPackage etc.) [default: the only layer, "
+    "or the only point layer; else an error names the layers]; the "
+    "schema.table of a postgresql:// INPUT.",
 )
 @click.option(
     "--sql",
@@ -534,8 +603,9 @@ _preview_option = click.option(
 @click.option(
     "--output-layer",
     metavar="NAME",
-    help="Layer name in a GeoPackage OUTPUT [default: OUTPUT's file name]; "
-    "the schema.table to create for a postgresql:// OUTPUT.",
+    help="Layer name in a GeoPackage OUTPUT [default: OUTPUT's file name], "
+    "added beside the layers an existing GeoPackage has; the schema.table to "
+    "create for a postgresql:// OUTPUT.",
 )
 @_options()
 @_overwrite_option
@@ -543,7 +613,9 @@ _preview_option = click.option(
 @_preview_option
 @_verbose_option
 @_quiet_option
-def hull(input_path: str, by: tuple[str, ...], crs_in: str, **options) -> None:
+def hull(
+    input_path: str, by: tuple[str, ...], crs_in: str, unit: str | None, **options
+) -> None:
     """Write one hull per group of the points in INPUT to OUTPUT.
 
     INPUT is a GeoPackage, Shapefile, GeoJSON, FlatGeobuf, GeoParquet or
@@ -573,23 +645,43 @@ def hull(input_path: str, by: tuple[str, ...], crs_in: str, **options) -> None:
     """  # noqa: D301
     from geoalpha.io.files import read_input_points
 
-    with _session(options, _input_size(input_path)) as run:  # size None: a database
+    source = (input_path, options["layer"])
+    with _session(options, _input_size(input_path), source=source) as run:
         work_crs = options["crs"]  # checked at the flag: none is None
         reading = {
             k: options.pop(k) for k in ("x", "y", "layer", "sql", "geometry_column")
         }
         # --crs none on input without CRS: planar, as --crs-in none would be.
+        # A --by column of a CSV is text: a key is a label (zip 00501 stays).
         points = read_input_points(
             input_path,
             crs=_crs_option(crs_in),
             planar_if_missing=work_crs is None,
+            text=_key_names(by),
             **reading,
         )
         if points.crs is None:
             work_crs = None  # planar input: compute in its own units
+        if unit is not None and points.crs is not None:
+            raise InvalidInputError(
+                f"--unit {unit} applies to planar coordinates without CRS "
+                f"(--crs-in none); {redact(input_path)} has a CRS, whose unit is "
+                "used"
+            )
+        if unit is not None:  # metres (--grow, --buffer, --alpha) in the unit
+            factor = METRES_PER_UNIT[unit]
+            for name in ("grow", "buffer"):
+                if options.get(name) is not None:
+                    options[name] = options[name] / factor
+            if options.get("alpha") is not None:
+                options["alpha"] = options["alpha"] * factor
         columns = _group_columns(by, list(points.columns), redact(input_path))
         run(
-            points, source=redact(input_path), by=columns, **options | {"crs": work_crs}
+            points,
+            source=redact(input_path),
+            by=columns,
+            metres=unit,
+            **options | {"crs": work_crs},
         )
 
 

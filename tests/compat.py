@@ -17,12 +17,14 @@ import pytest
 __all__ = [
     "HAS_DASK",
     "HAS_FIONA",
+    "HAS_MATPLOTLIB",
     "HAS_PYARROW",
     "HAS_PYOGRIO",
     "HAS_TQDM",
     "require_for_module",
     "requires_dask",
     "requires_fiona",
+    "requires_matplotlib",
     "requires_pyarrow",
     "requires_pyogrio",
     "requires_tqdm",
@@ -35,6 +37,7 @@ def _has(*modules: str) -> bool:
 
 HAS_DASK = _has("dask_geopandas", "distributed")
 HAS_FIONA = _has("fiona")
+HAS_MATPLOTLIB = _has("matplotlib")
 HAS_PYARROW = _has("pyarrow")
 HAS_PYOGRIO = _has("pyogrio")
 HAS_TQDM = _has("tqdm")
@@ -48,6 +51,7 @@ def _requires(present: bool, install: str) -> pytest.MarkDecorator:
 
 requires_dask = _requires(HAS_DASK, "geoalpha[dask] (dask-geopandas, distributed)")
 requires_fiona = _requires(HAS_FIONA, "fiona")
+requires_matplotlib = _requires(HAS_MATPLOTLIB, "geoalpha[plot] (matplotlib)")
 requires_pyarrow = _requires(HAS_PYARROW, "geoalpha[parquet] (pyarrow)")
 requires_pyogrio = _requires(HAS_PYOGRIO, "pyogrio")
 requires_tqdm = _requires(HAS_TQDM, "geoalpha[progress] (tqdm)")

@@ -195,9 +195,11 @@ def test_summary_warnings_and_shapefile_fields(fake_hull, points_csv, tmp_path):
     out = tmp_path / "h.shp"
     result = run("hull", points_csv, out, "--by", GROUP)
     assert result.exit_code == 0, result.stderr
-    assert result.stdout == ""
+    # the summary on stdout, warnings on stderr
     assert result.stderr.splitlines() == [
         "Warning: 1 group has fewer than 3 distinct points (buffered)",
+    ]
+    assert result.stdout.splitlines() == [
         f"Read 55 points of {points_csv} (columns Longitude/Latitude, EPSG:4326)",
         "Computed in EPSG:32630: 4 groups",
         "Median area 100% of the convex hull",
@@ -223,7 +225,7 @@ def test_geopackage_layer_in_summary(fake_hull, points_csv, tmp_path):
     out = tmp_path / "h.gpkg"
     result = run("hull", points_csv, out, "--by", GROUP, "--output-layer", "la")
     assert (
-        result.stderr.splitlines()[-1]
+        result.stdout.splitlines()[-1]
         == f"Wrote 4 hulls of 55 points to {out} (layer 'la')"
     )
     assert gpd.read_file(out, layer="la").crs == "EPSG:4326"
@@ -423,7 +425,7 @@ def test_hull_end_to_end(points_csv, tmp_path, suffix, engine, group):
     out = tmp_path / f"hulls{suffix}"
     result = run("hull", points_csv, out, "--by", GROUP, "--engine", engine)
     assert result.exit_code == 0, result.stderr
-    assert result.stderr.splitlines()[-1].startswith(
+    assert result.stdout.splitlines()[-1].startswith(
         f"Wrote 4 hulls of 55 points to {out}"
     )
     with pytest.warns(DegenerateGroupWarning, match="E08000020"):
@@ -535,7 +537,7 @@ def test_demo_default_dataset_is_visible_at_once(tmp_path):
     out = tmp_path / "demo.gpkg"
     result = run("demo", out)
     assert result.exit_code == 0, result.stderr
-    assert result.stderr.splitlines()[-1] == (
+    assert result.stdout.splitlines()[-1] == (
         f"Wrote 56 hulls of 3,364 points to {out} (layer 'demo', 'points')"
     )
     hulls = gpd.read_file(out, layer="demo")
@@ -555,8 +557,8 @@ def test_demo_stats19_warns_about_degenerate_groups(tmp_path):
     out = tmp_path / "la.shp"
     result = run("demo", out, "--dataset", "stats19")
     assert result.exit_code == 0, result.stderr
-    lines = result.stderr.splitlines()
-    assert any(line.startswith("Warning: ") for line in lines)
+    assert any(line.startswith("Warning: ") for line in result.stderr.splitlines())
+    lines = result.stdout.splitlines()
     assert f"Shapefile field '{GROUP}' written as 'Local_Auth'" in lines
     assert lines[-1] == f"Wrote 13 hulls of 1,017 points to {out}"
     assert len(gpd.read_file(out)) == 13

@@ -147,37 +147,43 @@ def test_two_concurrent_runs_one_wins_the_other_fails(small_csv, tmp_path):
 
 
 def test_staging_folder_of_a_killed_run_is_removed_by_the_next_run(tmp_path):
-    out = tmp_path / "uk.gpkg"
+    # Staged in the temporary folder (same file system), never beside OUTPUT.
+    folder, temporary = tmp_path / "out", tmp_path / "tmp"
+    folder.mkdir()
+    temporary.mkdir()
+    out = folder / "uk.gpkg"
     args = geoalpha_command("-q", "demo", out, "--dataset", "uk_clusters")
+    killed_env = env() | {"TMPDIR": str(temporary)}
     left = []
     for _ in range(6):  # bounded: kill while the file is being staged
         process = subprocess.Popen(
-            args, env=env(), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
+            args, env=killed_env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
         )
         deadline = time.monotonic() + 120
         while process.poll() is None and time.monotonic() < deadline:
-            if staging_dirs(tmp_path):
+            if list(temporary.glob("geoalpha-*/uk.gpkg")):
                 process.send_signal(signal.SIGKILL)
                 break
             time.sleep(0.002)
         process.wait(timeout=60)
-        left = staging_dirs(tmp_path)
+        left = sorted(p.name for p in temporary.iterdir())
         if left and process.returncode == -signal.SIGKILL:
             break
         out.unlink(missing_ok=True)
     assert left, "no run was killed while staging its output"
-    assert not out.exists()
-    # The next run into the folder removes the dead run's staging folder.
+    assert list(folder.iterdir()) == []  # nothing beside the output
+    # The next run removes the dead run's staging folder.
     done = subprocess.run(
         geoalpha_command("-q", "demo", out, "--dataset", "stats19"),
-        env=env(),
+        env=killed_env,
         capture_output=True,
         text=True,
         timeout=120,
         check=False,
     )
     assert done.returncode == 0, done.stderr
-    assert staging_dirs(tmp_path) == []
+    assert list(temporary.iterdir()) == []
+    assert sorted(p.name for p in folder.iterdir()) == ["uk.gpkg"]
     assert len(gpd.read_file(out, layer="uk")) == 13
     assert len(gpd.read_file(out, layer="points")) == 1017
 

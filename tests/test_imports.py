@@ -16,6 +16,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from compat import requires_dask
 
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "geoalpha"
@@ -345,7 +346,6 @@ def test_geoalpha_help_and_version_import_nothing_heavy():
 def test_public_paths_keep_working():
     """The names users import from the documented paths, after the moves of #25."""
     import geoalpha
-    import geoalpha.dask
     import geoalpha.hulls
     import geoalpha.io
     from geoalpha import datasets
@@ -353,9 +353,18 @@ def test_public_paths_keep_working():
 
     assert callable(geoalpha.hull) and geoalpha.hull is geoalpha.hulls.hull
     assert callable(geoalpha.io.read_points) and callable(geoalpha.io.write_hulls)
-    assert callable(datasets.load) and callable(geoalpha.dask.hull)
+    assert callable(datasets.load)
     assert callable(read_postgis) and callable(write_postgis)
     assert all(hasattr(geoalpha, name) for name in geoalpha.__all__)
+
+
+@requires_dask
+def test_public_dask_path_keeps_working():
+    """``geoalpha.dask`` (the ``dask`` extra) imports, as documented."""
+    import geoalpha
+    import geoalpha.dask
+
+    assert callable(geoalpha.dask.hull)
 
 
 @pytest.mark.skipif(sys.platform != "linux", reason="glibc's static TLS block")

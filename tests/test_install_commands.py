@@ -33,6 +33,7 @@ import os
 import re
 import shutil
 import subprocess
+import tempfile
 from pathlib import Path
 
 import pytest
@@ -205,3 +206,36 @@ def test_command_works_in_a_new_venv(lines, tmp_path, cargo_target):
             assert (clone / html / "index.html").is_file(), f"`{line}`: no index.html"
         for written in re.findall(r"\bgeoalpha demo (\S+)", line):
             assert (clone / written).is_file(), f"`{line}` wrote no {written}"
+
+
+#: The README's test command, and the extras it must pass without.
+README_TESTS = 'pip install -e ".[test]" && python -m pytest'
+EXTRA_MODULES = ("tqdm", "matplotlib", "pyarrow", "dask_geopandas", "sqlalchemy")
+
+
+@pytest.mark.install
+def test_readme_test_command_passes_without_the_extras(cargo_target):
+    # Run, not collected: the README's command in a venv with only [test]; the
+    # tests of the missing extras skip with their reason (none fails).
+    assert any(README_TESTS in lines for _, lines in COMMANDS)
+    # Readable by all, as .ci/run's: some tests run the command as an
+    # unprivileged user (pytest's tmp_path is private to its user).
+    shared = Path(tempfile.mkdtemp(prefix="geoalpha-readme-"))
+    try:
+        shared.chmod(0o755)
+        clone = copy_of_the_clone(shared / "geoalpha")
+        env = new_venv(shared / "venv")
+        env["CARGO_TARGET_DIR"] = str(cargo_target)
+        out = run(README_TESTS, clone, env)
+        absent = run(
+            'python -c "import importlib.util as u; print([m for m in '
+            f'{list(EXTRA_MODULES)!r} if u.find_spec(m)])"',
+            clone,
+            env,
+        )
+    finally:
+        shutil.rmtree(shared, ignore_errors=True)
+    assert re.search(r"\d+ passed", out) and " failed" not in out, out[-3000:]
+    assert re.search(r"SKIPPED \[\d+\] .*needs geoalpha\[dask\]", out), out[-3000:]
+    assert "needs geoalpha[progress]" in out, out[-3000:]
+    assert absent.strip() == "[]", absent  # the extras really were missing

@@ -135,7 +135,7 @@ def test_demo_summary_counts_agree(tmp_path):
     out = tmp_path / "demo.gpkg"
     result = run("demo", out)
     assert result.exit_code == 0, result.stderr
-    lines = result.stderr.splitlines()
+    lines = result.stdout.splitlines()
     assert lines[-3] == (
         "Computed in 30 CRSs (one chosen per group): 56 groups, 2 without alpha "
         "shape; 12 of 3,376 rows left out: 12 without a --by value (--no-dropna "
@@ -156,7 +156,7 @@ def test_summary_names_every_reason_rows_were_left_out(tmp_path):
         "--degenerate", "drop",
     )  # fmt: skip
     assert result.exit_code == 0, result.stderr
-    lines = result.stderr.splitlines()
+    lines = result.stdout.splitlines()
     assert lines[-3].endswith(
         "1 group; 3 of 7 rows left out: 1 without a point (a missing, empty or NaN "
         "geometry), 1 without a --by value (--no-dropna keeps them), 1 in groups "

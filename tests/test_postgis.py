@@ -119,7 +119,7 @@ def test_gdal_pg_string_is_refused_with_the_url_to_give(tmp_path):
     result = run("hull", "PG:host=127.0.0.1 dbname=gadb", tmp_path / "out.gpkg")
     assert result.exit_code == 1
     assert "PG:... connection strings are not supported" in result.stderr
-    assert "postgresql://user@host:port/dbname" in result.stderr
+    assert "give the URL postgresql://127.0.0.1/gadb instead" in result.stderr
     result = run("hull", datasets.path("stats19"), "PG:dbname=gadb")
     assert result.exit_code == 1
     assert "not supported" in result.stderr
@@ -303,7 +303,7 @@ def test_command_database_to_database(db, cluster, uk_points):
         "--output-layer", "public.cluster_hulls",
     )  # fmt: skip
     assert result.exit_code == 0, result.stderr
-    assert result.stderr.strip().endswith(
+    assert result.stdout.strip().endswith(
         f"Wrote 691 hulls of 15,255 points to {db} (table public.cluster_hulls)"
     )
     assert _srid(cluster, "public.cluster_hulls") == "4326"
@@ -435,7 +435,7 @@ def test_planar_hulls_are_written_without_a_geopandas_warning(db, cluster, tmp_p
     )  # fmt: skip
     assert result.exit_code == 0, result.stderr
     assert "Warning" not in result.stderr, result.stderr
-    assert "(columns x/y, no CRS)" in result.stderr
+    assert "(columns x/y, no CRS)" in result.stdout
     assert _srid(cluster, "public.planar_hulls", "geometry") == "0"
 
 
@@ -547,7 +547,7 @@ def test_password_in_the_url_is_never_printed(db, cluster, tmp_path, monkeypatch
     ok = run("hull", url, url, "--sql", 'SELECT * FROM uk_clusters WHERE "Cluster" = 7',
              "--by", "Cluster", "--output-layer", "url_hulls")  # fmt: skip
     assert ok.exit_code == 0, ok.stderr
-    assert "to postgresql://geoalpha:***@127.0.0.1:" in ok.stderr
+    assert "to postgresql://geoalpha:***@127.0.0.1:" in ok.stdout
     assert pgcluster.PASSWORD not in ok.stderr + ok.stdout
 
 
@@ -660,3 +660,24 @@ def test_100k_points_round_trip(db, cluster):
         "WHERE ST_Covers(h.geom, p.geom)",
     )
     assert covered == str(n)
+
+
+def test_zip_codes_keep_their_leading_zeros_in_postgis(db, cluster, tmp_path):
+    # A --by column of a CSV is text (issue #36): 00501 stays '00501'.
+    csv = tmp_path / "zips.csv"
+    csv.write_text(
+        "zip,lon,lat\n00501,-73.0,40.8\n00501,-73.1,40.81\n00501,-73.05,40.9\n"
+        ",-72.0,42.0\n01002,-72.5,42.3\n01002,-72.6,42.4\n01002,-72.55,42.5\n",
+        encoding="utf-8",
+    )
+    result = run("hull", csv, db, "--by", "zip", "--output-layer", "public.zip_hulls")
+    assert result.exit_code == 0, result.stderr
+    assert "1 with a missing group key (index 3;" in result.stderr
+    assert _query(cluster, "SELECT string_agg(zip, ',' ORDER BY zip) FROM "
+                  "zip_hulls") == "00501,01002"  # fmt: skip
+    column_type = _query(
+        cluster,
+        "SELECT data_type FROM information_schema.columns "
+        "WHERE table_name = 'zip_hulls' AND column_name = 'zip'",
+    )
+    assert column_type == "text"

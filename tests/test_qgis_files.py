@@ -158,3 +158,54 @@ def test_qgis_counts_boundary_points_only_with_grow(tmp_path):
     counts = count_in_qgis(grown, "grown")
     assert counts["count"] >= 3364  # every grouped airport, strictly inside
     assert counts["within"] == counts["intersect"] == 3370
+
+
+def test_hulls_added_to_the_points_geopackage_open_beside_the_points(tmp_path):
+    # The newcomer's command (#36): the hulls become a layer of the points'
+    # own GeoPackage, the points layer keeps every row, QGIS opens both.
+    both = tmp_path / "both.gpkg"
+    from geoalpha import datasets
+
+    datasets.load("us_airports").to_file(
+        both, layer="zips", engine="pyogrio", dataset_options={"VERSION": "1.2"}
+    )
+    result = run(
+        "-q", "hull", both, both, "--layer", "zips", "--by", "state",
+        "--output-layer", "state_hulls",
+    )  # fmt: skip
+    assert result.exit_code == 0, result.stderr
+    layers, messages = open_in_qgis(both)
+    assert set(layers) == {"zips", "state_hulls"}
+    assert layers["zips"]["valid"] and layers["state_hulls"]["valid"]
+    assert layers["zips"]["features"] == 3376
+    assert layers["state_hulls"]["features"] == 56
+    assert "may only be partially supported" not in messages
+
+
+def test_qgis_copies_a_shapefile_without_value_not_written_warnings(tmp_path):
+    # QGIS's "Save Features As" copies the fields as declared; GDAL's default
+    # N(24, 15) for area_m2 made it warn "Value 2368535149646.89844 of field
+    # area_m2 ... not successfully written" for Alaska (and write nothing).
+    import shutil
+
+    out = tmp_path / "us.shp"
+    assert run("-q", "demo", out).exit_code == 0
+    # (Debian 12's qgis_process wrapper passes a flag its 3.22 binary refuses)
+    qgis_process = shutil.which("qgis_process.bin") or shutil.which("qgis_process")
+    assert qgis_process, "QGIS is installed but not qgis_process"
+    env = {
+        "PATH": "/usr/bin:/bin",
+        "HOME": str(tmp_path),
+        "QT_QPA_PLATFORM": "offscreen",
+    }
+    copy = tmp_path / "copy.shp"
+    done = subprocess.run(
+        [qgis_process, "run", "native:savefeatures", f"--INPUT={out}",
+         f"--OUTPUT={copy}"],
+        capture_output=True, text=True, env=env, timeout=300, check=False,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert "not successfully written" not in done.stdout + done.stderr
+    ours, theirs = gpd.read_file(out), gpd.read_file(copy)
+    assert theirs["area_m2"].max() == pytest.approx(ours["area_m2"].max(), rel=1e-9)
+    assert ours["area_m2"].max() > 1e12  # Alaska: the value that did not fit

@@ -116,7 +116,9 @@ def test_demo_output_is_what_the_readme_shows(tmp_path, monkeypatch):
         runner = CliRunner()
     result = runner.invoke(main, ["demo", "hulls.gpkg"])
     assert result.exit_code == 0, result.stderr
-    assert result.stderr.splitlines() == shown
+    # As a terminal shows them: the warnings (stderr), then the summary (stdout).
+    assert result.stderr.splitlines() + result.stdout.splitlines() == shown
+    assert all(line.startswith("Warning: ") for line in result.stderr.splitlines())
 
 
 def test_cli_table_lists_every_option_of_hull():

@@ -11,6 +11,7 @@ import shutil
 import socket
 import tempfile
 import warnings
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -33,7 +34,10 @@ __all__ = [
     "COORDINATE_NAMES",
     "GPKG_VERSION",
     "WRITE_FORMATS",
+    "check_not_input",
     "check_output",
+    "geopackage_layers",
+    "pg_url",
     "read_points",
     "remove_stale_staging",
     "write_hulls",
@@ -84,6 +88,7 @@ def read_points(
     y: str | None = None,
     crs: Any = "auto",
     layer: str | int | None = None,
+    text: str | Sequence[str] = (),
 ) -> gpd.GeoDataFrame:
     """Read a file of points into a GeoDataFrame.
 
@@ -101,7 +106,14 @@ def read_points(
         file's own CRS wins). ``"auto"`` never guesses (see :doc:`/cli`); None:
         planar numbers without CRS.
     layer : str or int, optional
-        Layer of a multi-layer file such as a GeoPackage; the first by default.
+        Layer of a multi-layer file such as a GeoPackage. By default the only
+        layer, or the only point layer of a file with several layers (as a
+        GeoPackage with the points and their hulls); with more than one point
+        layer, or none, an error names the layers and their geometry types.
+    text : str or sequence of str, optional
+        Columns of a CSV read as text, as written: keys such as zip codes
+        (``00501`` stays ``'00501'``, not the number 501); a blank cell is
+        missing. The ``geoalpha`` command reads its ``--by`` columns so.
 
     Returns
     -------
@@ -129,12 +141,25 @@ def read_points(
     >>> gdf = read_points(datasets.path("stats19"))  # Longitude/Latitude found
     >>> gdf.crs.to_epsg(), gdf.geom_type.unique().tolist()
     (4326, ['Point'])
+    >>> codes = read_points(datasets.path("stats19"), text=["Accident_Index"])
+    >>> codes["Accident_Index"].iloc[0]
+    '201401BS70001'
     """
-    return read_input_points(path, x=x, y=y, crs=crs, layer=layer)
+    text = [text] if isinstance(text, str) else list(text)  # one name, or several
+    return read_input_points(path, x=x, y=y, crs=crs, layer=layer, text=text)
 
 
 def read_input_points(
-    path, *, x, y, crs, layer, planar_if_missing=False, sql=None, geometry_column=None
+    path,
+    *,
+    x,
+    y,
+    crs,
+    layer,
+    planar_if_missing=False,
+    sql=None,
+    geometry_column=None,
+    text=(),
 ):
     """:func:`read_points`, PostGIS ``sql=``; ``planar_if_missing``: no CRS is ok."""
     from geoalpha.crs_parsing import crs_name, parse_crs
@@ -175,7 +200,7 @@ def read_input_points(
                 f"{shown} is a table; {_term('layer=', '--layer')} applies to "
                 "multi-layer files"
             )
-        frame = _read_table(source, suffix)
+        frame = _read_table(source, suffix, text)
         x, y = _find_coordinate_columns(list(frame.columns), x, y, shown)
         if auto and _looks_lonlat(x, y):
             crs = parse_crs(4326)
@@ -248,8 +273,12 @@ def _read_vector(source: str, shown: str, suffix: str, layer: str | int | None):
     try:
         if suffix in _PARQUET_SUFFIXES:
             return gpd.read_parquet(source)
-        return gpd.read_file(source, layer=layer)
-    except ImportError:
+        chosen = _only_point_layer(source, shown) if layer is None else None
+        gdf = gpd.read_file(source, layer=layer if chosen is None else chosen)
+        if chosen is not None:  # the summary says which layer was read
+            gdf.attrs["geoalpha_layer"] = chosen
+        return gdf
+    except (ImportError, InvalidInputError):
         raise
     except Exception as err:  # GDAL/pyogrio/fiona/pyarrow errors vary
         error = _cannot_read(source, err)
@@ -259,8 +288,55 @@ def _read_vector(source: str, shown: str, suffix: str, layer: str | int | None):
         raise error from err
 
 
-def _read_table(source: str, suffix: str):
-    """Read a CSV table (its delimiter detected) or a Parquet table."""
+_POINT_TYPES = ("Point", "MultiPoint")  # with Z/M: "Point Z", "3D Point"
+
+
+def _layers_and_types(source: str) -> list[tuple[str, str]]:
+    """``(name, geometry type)`` of every layer of ``source`` (GDAL's order)."""
+    try:
+        import pyogrio
+    except ImportError:
+        import fiona
+
+        found = []
+        for name in fiona.listlayers(source):
+            with fiona.open(source, layer=name) as layer:
+                found.append((name, str(layer.schema.get("geometry"))))
+        return found
+    return [(str(n), str(t)) for n, t in pyogrio.list_layers(source)]
+
+
+def _only_point_layer(source: str, shown: str) -> str | None:
+    """Without a layer: the only layer, or the only point layer, else an error."""
+    layers = _layers_and_types(source)
+    if len(layers) <= 1:
+        return None  # the only one (or none: the reader says so)
+    points = [
+        name
+        for name, kind in layers
+        if (kind.replace("3D ", "").split() or [""])[0] in _POINT_TYPES
+    ]
+    if len(points) == 1:
+        return points[0]
+    listed = ", ".join(f"{name} ({kind or 'no geometry'})" for name, kind in layers)
+    which = "more than one point layer" if points else "no point layer"
+    flag = _term("layer=", "--layer ")
+    raise InvalidInputError(
+        f"{shown} has {len(layers)} layers and {which}: {listed}; choose one "
+        f"with {flag}{(points or [layers[0][0]])[0]!r}"
+        + (
+            ""
+            if points
+            else f" (with {_term('vertices=True', '--vertices')} for lines or polygons)"
+        )
+    )
+
+
+def _read_table(source: str, suffix: str, text=()):
+    """Read a CSV table (its delimiter detected) or a Parquet table.
+
+    The columns ``text`` of a CSV are read as text (str), as written.
+    """
     import pandas as pd
 
     try:
@@ -272,7 +348,10 @@ def _read_table(source: str, suffix: str):
             sep = csv.Sniffer().sniff(sample, delimiters=",;\t|").delimiter
         except csv.Error:
             sep = ","
-        return pd.read_csv(source, sep=sep, encoding="utf-8-sig", low_memory=False)
+        dtype = {str(name): str for name in text}  # (names not in it are ignored)
+        return pd.read_csv(
+            source, sep=sep, encoding="utf-8-sig", low_memory=False, dtype=dtype
+        )
     except UnicodeDecodeError as err:
         raise InvalidInputError(
             f"cannot read {redact(source)}: it is not UTF-8 text ({err.reason} at byte "
@@ -325,10 +404,36 @@ def _find_coordinate_columns(
         if x_name in lower and y_name in lower:
             return lower[x_name], lower[y_name]
     pairs = ", ".join(f"{a}/{b}" for a, b in COORDINATE_NAMES)
+    guess = _guess_pair(columns)
+    if guess is None:
+        how = f"name them with {names}"
+    else:
+        gx, gy = guess
+        how = f"name them, e.g. {_term(f'x={gx!r}, y={gy!r}', f'--x {gx} --y {gy}')}"
+        if not _looks_lonlat(gx, gy):
+            how += (
+                f", with their CRS ({_term('crs=', '--crs-in ')}EPSG:...) or "
+                f"{_term('crs=None', '--crs-in none')} for planar numbers"
+            )
     raise InvalidInputError(
         f"no coordinate columns found in {source} (looked for {pairs}); its "
-        f"columns are: {found}; name them with {names}"
+        f"columns are: {found}; {how}"
     )
+
+
+def _guess_pair(columns: list) -> tuple[str, str] | None:
+    """Two columns that look like x and y (``x_km``/``y_km``, ``X1``/``Y1``)."""
+    names = [str(c) for c in columns]
+    for starts in (("x", "y"), ("lon", "lat"), ("e", "n")):
+        for name in names:
+            low = name.lower()
+            if not low.startswith(starts[0]):
+                continue
+            tail = low[len(starts[0]) :]
+            for other in names:
+                if other != name and other.lower() == starts[1] + tail:
+                    return name, other
+    return None
 
 
 def _points_from_table(frame: pd.DataFrame, source, x, y, crs) -> gpd.GeoDataFrame:
@@ -342,10 +447,12 @@ def _points_from_table(frame: pd.DataFrame, source, x, y, crs) -> gpd.GeoDataFra
         numeric = pd.to_numeric(raw, errors="coerce")
         bad = numeric.isna() & raw.notna()
         if bad.any():
-            examples = ", ".join(repr(v) for v in raw[bad].unique()[:3])
+            first = raw[bad].head(3)
+            examples = ", ".join(f"{v!r} at index {i}" for i, v in first.items())
             raise InvalidInputError(
                 f"coordinate column {name!r} of {source} has {int(bad.sum())} "
-                f"non-numeric values (e.g. {examples})"
+                f"non-numeric values (e.g. {examples}; the index counts data "
+                "rows from 0)"
             )
         values[name] = numeric.to_numpy(dtype=float)
     xs, ys = values[x], values[y]
@@ -426,10 +533,12 @@ def write_hulls(
         a ``postgresql://`` URL (:func:`geoalpha.io.postgis.write_postgis`).
     layer : str, optional
         GeoPackage layer name (``.gpkg`` only); default the file name without
-        extension, or ``"hulls"``. Required for a URL: ``schema.table``.
+        extension, or ``"hulls"``. Required for a URL: ``schema.table``. An
+        existing GeoPackage keeps its other layers: the layer is added to it.
     overwrite : bool, default False
-        Replace ``path`` if it exists (a GeoPackage as a whole, other layers
-        included; a Shapefile with all its sidecar files).
+        Replace what is written if it exists: in a GeoPackage only the layers
+        written (the others are kept), otherwise the file (a Shapefile with all
+        its sidecar files), or the PostGIS table.
     engine : {None, "pyogrio", "fiona"}
         Library geopandas writes vector files with (None: its choice; not for
         GeoParquet). GeoPackages are version :data:`GPKG_VERSION` with either.
@@ -446,6 +555,9 @@ def write_hulls(
     ------
     FileExistsError, FileNotFoundError, PermissionError
         As :func:`check_output`; also when ``path`` appeared while writing.
+    OSError
+        When a GeoPackage ``path`` changed while its copy was written (it is
+        then left as it was), or is open in another program (a ``-wal`` file).
     geoalpha.errors.InvalidInputError
         As :func:`check_output`, and for an unknown engine.
 
@@ -454,8 +566,18 @@ def write_hulls(
     >>> import os, tempfile, geopandas as gpd, shapely
     >>> hulls = gpd.GeoDataFrame({"Local_Authority_(Highway)": ["E09000020"]},
     ...                          geometry=[shapely.box(0, 51, 1, 52)], crs=4326)
-    >>> write_hulls(hulls, os.path.join(tempfile.mkdtemp(), "hulls.shp"))
+    >>> folder = tempfile.mkdtemp()
+    >>> write_hulls(hulls, os.path.join(folder, "hulls.shp"))
     {'Local_Authority_(Highway)': 'Local_Auth'}
+
+    A GeoPackage gains a layer; the layers it had are kept:
+
+    >>> write_hulls(hulls, os.path.join(folder, "both.gpkg"), layer="points")
+    {}
+    >>> write_hulls(hulls, os.path.join(folder, "both.gpkg"), layer="state_hulls")
+    {}
+    >>> geopackage_layers(os.path.join(folder, "both.gpkg"))
+    ['points', 'state_hulls']
     """
     import geopandas as gpd
 
@@ -475,7 +597,8 @@ def write_hulls(
         raise InvalidInputError(
             f"unknown engine {engine!r}; expected 'pyogrio', 'fiona' or None"
         )
-    target, suffix, targets = _check_target(path, layer, overwrite)
+    names = [layer or Path(path).stem or "hulls", *(extra_layers or {})]
+    target, suffix, targets, merge = _check_target(path, layer, overwrite, names[1:])
     if extra_layers and suffix != ".gpkg":
         raise InvalidInputError(
             f"extra layers apply to GeoPackage (.gpkg) output only, not {suffix}"
@@ -489,8 +612,17 @@ def write_hulls(
     ]
     staging = _make_staging(target)
     try:
-        _write_layers(layers, staging / target.name, suffix, engine, target)
-        _move_into_place(staging, target, targets, overwrite)
+        staged = staging / target.name
+        # An existing GeoPackage: its layers are kept, in a staged copy that
+        # replaces it in one rename (the old file or the new one, never neither).
+        before = _copy_geopackage(target, staged) if merge else None
+        if before is not None and not overwrite:  # a layer that came meanwhile
+            _check_layers(staged, names, overwrite, shown=target)
+        _write_layers(layers, staged, suffix, engine, target)
+        if before is not None:
+            _replace_geopackage(staged, target, before)
+        else:
+            _move_into_place(staging, target, targets, overwrite)
     finally:
         shutil.rmtree(staging, ignore_errors=True)
     return mapping
@@ -525,6 +657,8 @@ def _write_layers(layers, staged: Path, suffix: str, engine, target: Path) -> No
     except Exception as err:
         text = one_line(err).replace(str(staged.parent), str(target.parent))
         raise OSError(f"cannot write {target}: {text}") from err
+    if suffix == ".shp":
+        _fit_decimals(staged.with_suffix(".dbf"), layers[0][0])
     crs = layers[0][0].crs
     prj = staged.with_suffix(".prj")
     if suffix == ".shp" and crs is not None and not prj.exists():
@@ -532,6 +666,43 @@ def _write_layers(layers, staged: Path, suffix: str, engine, target: Path) -> No
             f"the Shapefile writer did not write {prj.name} for CRS "
             f"{crs.to_string()}; write another format instead"
         )
+
+
+def _fit_decimals(dbf: Path, frame) -> None:
+    """Declare, for each decimal field of a Shapefile, decimals its values fit.
+
+    GDAL declares every float column ``N(24, 15)`` and stores each value in the
+    24 characters (fewer decimals for large values). Programs that copy the
+    field as declared (QGIS's "Save Features As", processing outputs) then
+    format 2.4e12 m² with 15 decimals, which does not fit: "Value ... not
+    successfully written". The declared decimals are lowered so that the
+    column's largest value fits the width with them; the stored text is the
+    same.
+    """
+    import numpy as np
+
+    with open(dbf, "r+b") as handle:
+        header = handle.read(32)
+        header_size = int.from_bytes(header[8:10], "little")
+        offset = 32
+        while offset + 32 <= header_size:
+            handle.seek(offset)
+            field = handle.read(32)
+            if not field or field[0] == 0x0D:
+                break
+            name = field[:11].split(b"\0")[0].decode("utf-8", "replace")
+            kind, width, decimals = chr(field[11]), field[16], field[17]
+            if kind in "NF" and decimals > 0 and name in frame.columns:
+                values = np.asarray(frame[name], dtype=float)
+                values = values[np.isfinite(values)]
+                if values.size:
+                    digits = len(str(int(np.abs(values).max())))
+                    digits += int((values < 0).any())  # the minus sign
+                    fitting = max(0, min(decimals, width - digits - 1))
+                    if fitting != decimals:
+                        handle.seek(offset + 17)
+                        handle.write(bytes([fitting]))
+            offset += 32
 
 
 def check_output(
@@ -547,8 +718,9 @@ def check_output(
     Raises
     ------
     FileExistsError, FileNotFoundError, IsADirectoryError, PermissionError
-        If ``path`` exists (without ``overwrite``), its directory does not, it
-        is a directory, or its folder is not writable.
+        If ``path`` exists (without ``overwrite``; for a GeoPackage: if its
+        ``layer`` exists), its directory does not, it is a directory, or its
+        folder is not writable.
     geoalpha.errors.InvalidInputError
         For an unknown extension (or an upper-case ``.SHP``), or ``layer``
         with a format without layers.
@@ -563,18 +735,130 @@ def check_output(
     if _database(path, None):
         check_postgis_output(os.fspath(path), layer, overwrite=overwrite)
         return
-    target, _, _ = _check_target(path, layer, overwrite)
-    shutil.rmtree(_make_staging(target), ignore_errors=True)  # it can be created
+    target, _, _, _ = _check_target(path, layer, overwrite)
+    _probe_folder(target.parent)  # it can be written
+
+
+def check_not_input(
+    output: PathLike, layer: str | None, source: PathLike, source_layer
+) -> None:
+    """Refuse to write over the layer being read (OUTPUT is INPUT, same layer).
+
+    Parameters
+    ----------
+    output, layer
+        The output file and layer (None: the file name without extension).
+    source, source_layer
+        The input file and the layer read (None: the one :func:`read_points`
+        reads without a layer).
+
+    Raises
+    ------
+    geoalpha.errors.InvalidInputError
+        If ``output`` is the GeoPackage ``source`` and ``layer`` the layer read.
+
+    Examples
+    --------
+    >>> check_not_input("hulls.gpkg", None, "points.csv", None)  # other files
+    """
+    target, source = Path(output), Path(source)
+    if target.suffix.lower() != ".gpkg" or _database(source, None):
+        return
+    try:
+        same = os.path.samefile(target, source)
+    except OSError:  # one of them does not exist (or is a URL)
+        return
+    if not same:
+        return
+    read = source_layer if source_layer is not None else _layer_read(source)
+    written = layer or target.stem or "hulls"
+    if read is not None and str(read).lower() == written.lower():
+        other = f"{written}_hulls"
+        raise InvalidInputError(
+            f"OUTPUT {target} is INPUT and its layer {written!r} is the layer "
+            "read: geoalpha does not write over its input; give another "
+            f"{_term('layer=', '--output-layer')}, e.g. "
+            f"{_term(f'layer={other!r}', f'--output-layer {other}')}, to add the "
+            "hulls beside the points"
+        )
+
+
+def _layer_read(path: Path) -> str | None:
+    """Return the layer :func:`read_points` reads from ``path`` without a layer."""
+    try:
+        chosen = _only_point_layer(str(path), str(path))
+        return chosen if chosen is not None else _layers_and_types(str(path))[0][0]
+    except Exception:  # no layer to choose: reading it reports the error
+        return None
+
+
+_CONNINFO = re.compile(r"(\w+)\s*=\s*('(?:[^'\\]|\\.)*'|[^\s']+)")
+#: GDAL's own PG: keys, not libpq's: the table to read is --layer.
+_GDAL_PG_KEYS = ("tables", "schemas", "active_schema", "list_all_tables")
+
+
+def pg_url(dsn: str) -> tuple[str, str | None]:
+    """Convert a GDAL ``PG:`` string to a ``postgresql://`` URL, without password.
+
+    Parameters
+    ----------
+    dsn : str
+        ``PG:host=... port=... dbname=... user=... password=...`` (libpq's
+        keywords; values may be quoted).
+
+    Returns
+    -------
+    url : str
+        ``postgresql://user@host:port/dbname``, with libpq's other keywords
+        (``sslmode``, ...) as query parameters; never the password.
+    table : str or None
+        GDAL's ``tables=`` (the first), which geoalpha reads as ``--layer``.
+
+    Examples
+    --------
+    >>> pg_url("PG:host=db.example port=5433 dbname=gis user=ga password=s3cr3t")
+    ('postgresql://ga@db.example:5433/gis', None)
+    >>> pg_url("PG:dbname='my gis' tables=public.zips sslmode=require")
+    ('postgresql:///my%20gis?sslmode=require', 'public.zips')
+    """
+    from urllib.parse import quote, urlencode
+
+    pairs = {
+        key.lower(): _unquote_conninfo(value)
+        for key, value in _CONNINFO.findall(dsn.strip()[3:])
+    }
+    pairs.pop("password", None)
+    table = (pairs.pop("tables", "") or "").split(",")[0].strip() or None
+    for key in _GDAL_PG_KEYS:
+        pairs.pop(key, None)
+    host = pairs.pop("host", "") or pairs.pop("hostaddr", "")
+    if ":" in host:  # IPv6
+        host = f"[{host}]"
+    user = pairs.pop("user", "")
+    port = pairs.pop("port", "")
+    dbname = pairs.pop("dbname", "")
+    url = "postgresql://" + (f"{quote(user, safe='')}@" if user else "") + host
+    url += (f":{port}" if port else "") + f"/{quote(dbname, safe='')}"
+    if pairs:
+        url += "?" + urlencode(pairs)
+    return url, table
+
+
+def _unquote_conninfo(value: str) -> str:
+    if len(value) >= 2 and value[0] == value[-1] == "'":
+        return re.sub(r"\\(.)", r"\1", value[1:-1])
+    return value
 
 
 def _database(path, engine) -> bool:
     """Tell whether ``path`` is a ``postgresql://`` URL; refuse ``PG:`` strings."""
     if isinstance(path, str) and path.strip()[:3].upper() == "PG:":
+        url, table = pg_url(path)
+        layer = f" and {_term('layer=', '--layer ')}{table}" if table else ""
         raise InvalidInputError(
             "PG:... connection strings are not supported (the GDAL in the Python "
-            "wheels has no PostgreSQL driver); give a URL instead, "
-            "postgresql://user@host:port/dbname, with the password in PGPASSWORD "
-            "or ~/.pgpass"
+            f"wheels has no PostgreSQL driver); give the URL {url}{layer} "
+            "instead, with the password in PGPASSWORD or ~/.pgpass"
         )
     if not is_postgres_url(path):
         return False
@@ -583,7 +867,10 @@ def _database(path, engine) -> bool:
     return True
 
 
-def _check_target(path, layer, overwrite) -> tuple[Path, str, list[Path]]:
+def _check_target(
+    path, layer, overwrite, extra_layers=()
+) -> tuple[Path, str, list[Path], bool]:
+    """Check the output; the last value: add layers to an existing GeoPackage."""
     target = Path(path)
     suffix = target.suffix.lower()
     if suffix not in WRITE_FORMATS:
@@ -605,6 +892,10 @@ def _check_target(path, layer, overwrite) -> tuple[Path, str, list[Path]]:
         raise FileNotFoundError(f"output directory {parent} does not exist")
     if target.is_dir():
         raise IsADirectoryError(f"output {target} is a directory")
+    if suffix == ".gpkg" and _is_sqlite(target):
+        names = [layer or target.stem or "hulls", *extra_layers]
+        _check_layers(target, names, overwrite)
+        return target, suffix, [target], True
     targets = [target]  # with a Shapefile's sidecars
     if suffix == ".shp":
         targets += [target.with_suffix(ext) for ext in _SHAPEFILE_SIDECARS]
@@ -614,13 +905,166 @@ def _check_target(path, layer, overwrite) -> tuple[Path, str, list[Path]]:
             f"output {existing[0]} already exists; use "
             f"{_term('overwrite=True', '--overwrite')} to replace it"
         )
-    return target, suffix, targets
+    return target, suffix, targets, False
 
 
-# Staging folders are named ".<output name>.geoalpha-<host>-<pid>-<random>", so
-# that a later run can tell a folder left by a killed process (same host, pid
-# gone) from one another run is still writing.
-_STAGING = re.compile(r"\..+\.geoalpha-(?P<host>[0-9a-f]{8})-(?P<pid>\d+)-[^/]+")
+_SQLITE_HEADER = b"SQLite format 3\x00"
+#: Files beside a GeoPackage that SQLite still needs: a write-ahead log or a
+#: rollback journal (another program has it open, or did not close it).
+_SQLITE_SIDECARS = ("-wal", "-journal")
+
+
+def _is_sqlite(path: Path) -> bool:
+    """Tell whether ``path`` is an SQLite database (a GeoPackage is one)."""
+    try:
+        with open(path, "rb") as handle:
+            return handle.read(len(_SQLITE_HEADER)) == _SQLITE_HEADER
+    except OSError:
+        return False
+
+
+def _connect_read_only(path: Path):
+    import sqlite3
+
+    return sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True)
+
+
+def geopackage_layers(path: PathLike) -> list[str]:
+    """Return the layers (tables) of a GeoPackage, read without changing it.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A GeoPackage file.
+
+    Returns
+    -------
+    list of str
+        Its layer names, as ``gpkg_contents`` lists them.
+
+    Raises
+    ------
+    geoalpha.errors.InvalidInputError
+        If ``path`` is not a GeoPackage that SQLite can read.
+
+    Examples
+    --------
+    >>> import os, tempfile, geopandas as gpd, shapely
+    >>> path = os.path.join(tempfile.mkdtemp(), "both.gpkg")
+    >>> points = gpd.GeoDataFrame(geometry=[shapely.Point(0, 0)], crs=4326)
+    >>> points.to_file(path, layer="zips")
+    >>> geopackage_layers(path)
+    ['zips']
+    """
+    import sqlite3
+
+    path = Path(path)
+    try:
+        connection = _connect_read_only(path)
+        try:
+            rows = connection.execute(
+                "SELECT table_name FROM gpkg_contents ORDER BY rowid"
+            ).fetchall()
+        finally:
+            connection.close()
+    except sqlite3.Error as err:
+        raise InvalidInputError(
+            f"cannot read the layers of {path}: {err}; it is not a GeoPackage "
+            "geoalpha can add a layer to (choose another OUTPUT)"
+        ) from err
+    return [str(name) for (name,) in rows]
+
+
+def _check_layers(
+    target: Path, names: list[str], overwrite: bool, shown: Path | None = None
+) -> None:
+    """Refuse to add ``names`` to the GeoPackage ``target`` when it is not safe.
+
+    ``shown``: the output, when ``target`` is its staged copy.
+    """
+    if shown is not None:  # the staged copy: only the layers
+        present = {name.lower() for name in geopackage_layers(target)}
+        taken = [n for n in names if n.lower() in present]
+        if taken:
+            raise FileExistsError(
+                f"layer {taken[0]!r} of output {shown} appeared while geoalpha was "
+                "computing (another run writing the same layer?) and was not "
+                f"replaced; use {_term('overwrite=True', '--overwrite')} to "
+                "replace it"
+            )
+        return
+    for ending in _SQLITE_SIDECARS:
+        sidecar = Path(f"{target}{ending}")
+        if sidecar.exists():
+            raise OSError(
+                f"output {target} is open in another program or was not closed "
+                f"({sidecar.name} exists beside it); close it (e.g. in QGIS) "
+                "and run again"
+            )
+    present = {name.lower(): name for name in geopackage_layers(target)}
+    taken = [present[n.lower()] for n in names if n.lower() in present]
+    if taken and not overwrite:
+        raise FileExistsError(
+            f"layer {taken[0]!r} of output {target} already exists; use "
+            f"{_term('overwrite=True', '--overwrite')} to replace that layer "
+            f"(its other layers are kept), or another "
+            f"{_term('layer=', '--output-layer')}"
+        )
+
+
+def _signature(path: Path) -> tuple[int, int, int, int]:
+    stat = os.stat(path)
+    return (stat.st_dev, stat.st_ino, stat.st_size, stat.st_mtime_ns)
+
+
+def _copy_geopackage(target: Path, staged: Path) -> tuple[int, int, int, int]:
+    """Copy the GeoPackage ``target`` to ``staged`` (SQLite's backup: consistent).
+
+    Returns the signature of ``target`` before the copy, which
+    :func:`_replace_geopackage` compares.
+    """
+    import sqlite3
+
+    before = _signature(target)
+    try:
+        source = _connect_read_only(target)
+        try:
+            copy = sqlite3.connect(staged)
+            try:
+                source.backup(copy)
+            finally:
+                copy.close()
+        finally:
+            source.close()
+    except sqlite3.Error as err:
+        raise OSError(f"cannot copy {target} to add a layer: {err}") from err
+    shutil.copymode(target, staged)
+    return before
+
+
+def _replace_geopackage(staged: Path, target: Path, before) -> None:
+    """Move the staged copy over ``target`` unless ``target`` changed meanwhile."""
+    left = {p.name for p in staged.parent.iterdir()} - {staged.name}
+    if left:  # e.g. a -wal the writer left open: the copy is not complete
+        raise OSError(f"the writer left {sorted(left)[0]} beside {target.name}")
+    try:
+        now = _signature(target)
+    except FileNotFoundError:
+        now = None
+    if now != before:
+        raise OSError(
+            f"output {target} changed while geoalpha was writing it (another "
+            "program or run writing the same file?); it was not replaced: run again"
+        )
+    _replace(staged, target)
+
+
+# Staging folders are named "geoalpha-<host>-<pid>-<random>" in the temporary
+# folder (".<output name>.geoalpha-..." beside the output when the temporary
+# folder is on another file system, as the final rename must not cross one),
+# so that a later run can tell a folder left by a killed process (same host,
+# pid gone) from one another run is still writing.
+_STAGING = re.compile(r"(?:\..+\.)?geoalpha-(?P<host>[0-9a-f]{8})-(?P<pid>\d+)-[^/]+")
 
 
 def _host_tag() -> str:
@@ -629,18 +1073,48 @@ def _host_tag() -> str:
     ).hexdigest()[:8]
 
 
-def _make_staging(target: Path) -> Path:
-    """Create the staging folder beside ``target``, cleaning stale ones first."""
+def _staging_folder(target: Path) -> tuple[Path, str]:
+    """Where to stage ``target``: the temporary folder if on its file system."""
     parent = target.parent
-    remove_stale_staging(parent)
-    prefix = f".{target.name}.geoalpha-{_host_tag()}-{os.getpid()}-"
+    prefix = f"geoalpha-{_host_tag()}-{os.getpid()}-"
     try:
-        return Path(tempfile.mkdtemp(prefix=prefix, dir=parent))
+        temporary = Path(tempfile.gettempdir())
+        if os.stat(temporary).st_dev == os.stat(parent).st_dev and os.access(
+            temporary, os.W_OK | os.X_OK
+        ):
+            return temporary, prefix
+    except OSError:
+        pass
+    return parent, f".{target.name}.{prefix}"
+
+
+def _make_staging(target: Path) -> Path:
+    """Create the staging folder for ``target``, cleaning stale ones first."""
+    folder, prefix = _staging_folder(target)
+    remove_stale_staging(target.parent)  # (left beside it by older versions)
+    if folder != target.parent:
+        remove_stale_staging(folder)
+    try:
+        return Path(tempfile.mkdtemp(prefix=prefix, dir=folder))
     except OSError as err:
-        denied = isinstance(err, PermissionError)
-        why = "permission denied" if denied else err.strerror or err
-        kind = PermissionError if denied else OSError
-        raise kind(f"cannot write to the output folder {parent}: {why}") from err
+        raise _unwritable(target.parent, err) from err
+
+
+def _unwritable(parent: Path, err: OSError) -> OSError:
+    denied = isinstance(err, PermissionError)
+    why = "permission denied" if denied else err.strerror or err
+    kind = PermissionError if denied else OSError
+    return kind(f"cannot write to the output folder {parent}: {why}")
+
+
+def _probe_folder(parent: Path) -> None:
+    """Check that files can be created in ``parent`` (a probe, removed at once)."""
+    remove_stale_staging(parent)
+    prefix = f".probe.geoalpha-{_host_tag()}-{os.getpid()}-"
+    try:
+        os.rmdir(tempfile.mkdtemp(prefix=prefix, dir=parent))
+    except OSError as err:
+        raise _unwritable(parent, err) from err
 
 
 def _pid_alive(pid: int) -> bool:
@@ -692,7 +1166,7 @@ def _move_into_place(
     sidecars = sorted(written - {target.name})
     if overwrite:
         for name in [*sidecars, target.name]:
-            os.replace(staging / name, target.parent / name)
+            _replace(staging / name, target.parent / name)
         for stale in targets:  # e.g. an old .cpg the new Shapefile does not have
             if stale.name not in written and (stale.exists() or stale.is_symlink()):
                 stale.unlink()
@@ -712,6 +1186,29 @@ def _move_into_place(
         ) from None
 
 
+def _replace(source: Path, destination: Path) -> None:
+    """``os.replace``; across mount points, through a copy beside ``destination``.
+
+    The temporary folder can be on the output's file system but another mount
+    (a container's bind mount), where a rename fails with EXDEV: the file is
+    then copied into a staging folder beside ``destination`` first (which the
+    next run removes, should this one be killed), and renamed from there.
+    """
+    try:
+        os.replace(source, destination)
+        return
+    except OSError as err:
+        if err.errno != errno.EXDEV:
+            raise
+    prefix = f".{destination.name}.geoalpha-{_host_tag()}-{os.getpid()}-"
+    beside = Path(tempfile.mkdtemp(prefix=prefix, dir=destination.parent))
+    try:
+        shutil.copy2(source, beside / destination.name)
+        os.replace(beside / destination.name, destination)
+    finally:
+        shutil.rmtree(beside, ignore_errors=True)
+
+
 def _place_new(source: Path, destination: Path) -> None:
     """Move ``source`` to ``destination``; FileExistsError if that name is taken."""
     try:
@@ -722,7 +1219,7 @@ def _place_new(source: Path, destination: Path) -> None:
         # No hard links here (some network or FAT file systems): claim the
         # name with an exclusive create, then replace that placeholder.
         os.close(os.open(destination, os.O_CREAT | os.O_EXCL | os.O_WRONLY))
-        os.replace(source, destination)
+        _replace(source, destination)
         return
     source.unlink()
 
