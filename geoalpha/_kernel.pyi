@@ -89,7 +89,8 @@ def alpha_shapes(
         Per group (G): ``reason`` (uint8: 0 a shape, 1 fewer than 3 distinct
         points, 2 collinear (on a great circle with ``sphere``), 3 collinear in
         ``out_xy``, 4 no rings, 6 a point beyond ``MAX_SPHERE_DEGREES`` of
-        the group's centre),
+        the group's centre, 7 the kernel failed on this group: a panic inside
+        it, caught, the other groups unaffected),
         ``alpha``, ``n_distinct``, ``n_parts``, ``area``,
         ``n_outliers`` (rows), ``whole``, ``capped``. Per point (n):
         ``rep`` (index of the point that represents it), ``left_out``.
@@ -105,7 +106,8 @@ def alpha_shapes(
         not finite or beyond ``MAX_COORDINATE`` (a latitude beyond 90
         degrees with ``sphere``).
     RuntimeError
-        If the kernel failed unexpectedly (a bug; no panic crosses over).
+        If the kernel failed unexpectedly outside any group (a bug; no panic
+        crosses over; one inside a group is that group's reason 7).
     """
 
 def sort_groups(

@@ -19,6 +19,7 @@ from geoalpha.errors import first_n
 __all__ = [
     "ALPHA_RTOL",
     "ANTIMERIDIAN_SNAP",
+    "FAILED",
     "MAX_COORDINATE",
     "MAX_UNION_NODES",
     "NEAR_RTOL",
@@ -67,7 +68,11 @@ REASONS: dict[int, str] = {
     2: "all points on a line",
     3: "all points on a line in the output coordinates",
     4: "no rings could be traced",
+    7: "the kernel failed on this group (a bug: please report it with its points)",
 }
+
+#: Reason code of a group the kernel failed on (the other groups are unaffected).
+FAILED = 7
 
 #: The geometry of a group with no shape.
 EMPTY_POLYGON = shapely.Polygon()

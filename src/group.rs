@@ -3,7 +3,7 @@
 use rayon::prelude::*;
 
 use crate::frame::{circumradius, collinear, orient, Frame, Xy};
-use crate::mesh::{triangulate, Mesh, NONE};
+use crate::mesh::{placed, triangulate, Mesh, NONE};
 use crate::rings::{trace, Polygons};
 use crate::spectrum::{
     fill_rank, merge_ties, outlier_optimum, pieces, sweep, Curve, ALPHA_RTOL, PARALLEL_TRIANGLES,
@@ -27,6 +27,9 @@ pub enum Reason {
     /// On the sphere: a point beyond `crate::sphere::MAX_ANGLE_DEGREES` of
     /// the group's centre.
     Hemisphere = 6,
+    /// The kernel failed on this group (an error or a panic, caught: a bug);
+    /// the other groups of the call are unaffected.
+    Failed = 7,
 }
 
 /// What to compute, the same for every group.
@@ -147,7 +150,8 @@ pub fn triangulated(
         return None;
     }
     let s = frame.scale;
-    let scaled: Vec<Xy> = plane.iter().map(|p| [p[0] * s, p[1] * s]).collect();
+    // Where spade put them, so every triangle is counter-clockwise in them.
+    let scaled: Vec<Xy> = plane.iter().map(|&p| placed(p, s).into()).collect();
     let radius = |t: &[u32; 3]| radius_of(t.map(|v| scaled[v as usize]));
     let radius = if mesh.tri.len() > PARALLEL_TRIANGLES {
         mesh.tri.par_iter().map(radius).collect()
