@@ -24,6 +24,8 @@ TIE_RTOL: Final[float]
 ALPHA_RTOL: Final[float]
 #: Coordinates beyond this magnitude are refused.
 MAX_COORDINATE: Final[float]
+#: Groups beyond the number of points a call may have (a larger count is refused).
+MAX_EMPTY_GROUPS: Final[int]
 #: Branch-and-bound nodes the best union of several pieces may visit.
 MAX_UNION_NODES: Final[int]
 #: The sphere's radius with ``sphere=True`` (metres): WGS84's authalic radius.
@@ -69,8 +71,9 @@ def alpha_shapes(
     curve : bool
         Also return every group's validity curve.
     threads : int
-        Threads to spread the groups over (0: every core). The GIL is
-        released for the whole computation.
+        Threads to spread the groups over (0, or more than the cores the
+        process may run on: every core). The GIL is released for the whole
+        computation.
     max_union_nodes : int
         Node budget of the exact best union of several pieces (outliers);
         a group that reaches it is flagged ``capped``. Default
@@ -133,11 +136,11 @@ def sort_groups(
     codes : ndarray of int64, shape (n,), C-contiguous
         Each point's group, ``0 <= code < groups``.
     groups : int
-        The number of groups.
+        The number of groups, at most ``n + MAX_EMPTY_GROUPS``.
     out_xy : ndarray of float64, shape (n, 2), optional
         The same points in the output coordinates, sorted alike.
     threads : int
-        Threads (0: every core).
+        Threads (0, or more than the cores the process may run on: every core).
 
     Returns
     -------
@@ -148,7 +151,8 @@ def sort_groups(
     Raises
     ------
     ValueError
-        On arrays of different lengths or shapes, or a code out of range.
+        On arrays of different lengths or shapes, a code out of range, or
+        more groups than ``n + MAX_EMPTY_GROUPS``.
     """
 
 def geodesic_areas(
@@ -184,7 +188,7 @@ def geodesic_areas(
     geometry_offsets : ndarray of int64, shape (G + 1,)
         Geometry ``g`` is polygons ``geometry_offsets[g]:geometry_offsets[g + 1]``.
     threads : int
-        Threads (0: every core).
+        Threads (0, or more than the cores: every core).
 
     Returns
     -------

@@ -12,6 +12,10 @@ use crate::mesh::counting_sort;
 /// Coordinates beyond this magnitude are refused (their squares overflow).
 pub const MAX_COORDINATE: f64 = 1e100;
 
+/// Groups beyond the number of points a call may have (empty groups): each
+/// costs memory, so a larger count is refused rather than allocated.
+pub const MAX_EMPTY_GROUPS: usize = 1 << 20;
+
 /// Everything one call takes.
 pub struct Input<'a> {
     /// Points sorted by group.
@@ -115,6 +119,12 @@ fn check(input: &Input) -> Result<usize, String> {
 pub fn sort(codes: &[i64], groups: usize, xy: &[Xy], out: Option<&[Xy]>) -> Result<Sorted, String> {
     if codes.len() != xy.len() || out.is_some_and(|o| o.len() != xy.len()) {
         return Err("codes, xy and out_xy must have one row per point".into());
+    }
+    if groups > xy.len().saturating_add(MAX_EMPTY_GROUPS) {
+        return Err(format!(
+            "groups must be at most the number of points ({}) + {MAX_EMPTY_GROUPS}; got {groups}",
+            xy.len()
+        ));
     }
     if codes.iter().any(|&c| !(0..groups as i64).contains(&c)) {
         return Err(format!("codes must be in 0..{groups}"));
@@ -264,5 +274,8 @@ mod tests {
         assert!(sort(&[2, 0, 1, 0], 2, &xy, None).is_err());
         assert!(sort(&[-1, 0, 1, 0], 2, &xy, None).is_err());
         assert!(sort(&[0, 0, 1], 2, &xy, None).is_err());
+        // A huge group count is refused, not allocated.
+        assert!(sort(&[0, 0, 1, 0], usize::MAX, &xy, None).is_err());
+        assert!(sort(&[0, 0, 1, 0], 4 + MAX_EMPTY_GROUPS, &xy, None).is_ok());
     }
 }

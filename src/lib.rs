@@ -154,13 +154,16 @@ fn py_geodesic_areas<'py>(
     Ok(areas.into_pyarray(py))
 }
 
-/// The pool of `threads` threads (0: one per core), built once per process
-/// and count (building one costs more than a small call). A child made by
+/// The pool of `threads` threads (0: one per core; more than the cores the
+/// process may run on: that many), built once per process and count
+/// (building one costs more than a small call). A child made by
 /// `fork` has none of its parent's threads, so it forgets (never drops) the
 /// parent's pools; the lock is only taken with the GIL held, so no thread
 /// holds it when Python forks.
 fn pool(threads: usize) -> PyResult<Arc<rayon::ThreadPool>> {
     static POOLS: Mutex<Vec<(u32, usize, Arc<rayon::ThreadPool>)>> = Mutex::new(Vec::new());
+    let cores = std::thread::available_parallelism().map_or(1, usize::from);
+    let threads = threads.min(cores);
     let pid = std::process::id();
     let mut pools = POOLS
         .lock()
@@ -193,6 +196,7 @@ fn _kernel(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("TIE_RTOL", spectrum::TIE_RTOL)?;
     m.add("ALPHA_RTOL", spectrum::ALPHA_RTOL)?;
     m.add("MAX_COORDINATE", batch::MAX_COORDINATE)?;
+    m.add("MAX_EMPTY_GROUPS", batch::MAX_EMPTY_GROUPS)?;
     m.add("MAX_UNION_NODES", spectrum::MAX_UNION_NODES)?;
     m.add("EARTH_RADIUS", sphere::EARTH_RADIUS)?;
     m.add("MAX_SPHERE_DEGREES", sphere::MAX_ANGLE_DEGREES)?;

@@ -6,6 +6,10 @@ Each test is made from a reproducer of the issue and failed before its fix.
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+import time
 import warnings
 
 import geopandas as gpd
@@ -116,3 +120,137 @@ def test_hull_names_the_group_the_kernel_failed_on(monkeypatch):
     for key, g in (("a", 0), ("c", 2)):
         shape = out.loc[key, "geometry"]
         assert shape.equals(geoalpha.alpha_shape(GOOD + 100 * g))
+
+
+# --- Limits at the edge (items 6, 7 of the issue) ---------------------------
+
+SQUARE = np.array([[0, 0], [4, 0], [4, 4], [0, 4], [2, 3.5]], float)
+
+
+def test_n_jobs_above_the_cores_is_capped_to_them():
+    # Repro 04: n_jobs=2000 built 2,000 threads (4 s for 5 points) and
+    # n_jobs=100000 ran past 40 s.
+    assert kernel.threads(100_000) == kernel.cores()
+    assert kernel.threads(None) == kernel.threads(-1) == kernel.cores()
+    expected = geoalpha.alpha_shapes(SQUARE, n_jobs=1)
+    geoalpha.alpha_shapes(SQUARE, n_jobs=kernel.cores() + 1)  # (the pool exists)
+    start = time.perf_counter()
+    for n_jobs in (2_000, 100_000):
+        res = geoalpha.alpha_shapes(SQUARE, n_jobs=n_jobs)
+        assert res.alpha.tolist() == expected.alpha.tolist()
+    assert time.perf_counter() - start < 1.0
+
+
+@pytest.mark.parametrize(
+    "code",
+    [
+        np.int64(2**31),
+        np.int64(2**40),
+        np.int64(np.iinfo(np.int64).max),
+        np.uint64(np.iinfo(np.uint64).max),
+        np.uint32(2**31),
+        np.int32(np.iinfo(np.int32).max),
+    ],
+    ids=["2^31", "2^40", "int64-max", "uint64-max", "uint32-2^31", "int32-max"],
+)
+def test_a_group_code_of_any_size_is_refused_clearly(code):
+    # Issue #37 item 7: codes >= 2^31 raised MemoryError, ValueError or
+    # OverflowError from numpy's bincount.
+    groups = np.array([0, code, 1, 0, 0], dtype=np.asarray(code).dtype)
+    with pytest.raises(geoalpha.InvalidInputError, match=f"got code {int(code)}"):
+        geoalpha.alpha_shapes(SQUARE, groups)
+
+
+def test_a_huge_n_groups_is_refused_and_empty_groups_within_the_bound_work():
+    with pytest.raises(geoalpha.InvalidInputError, match="n_groups must be"):
+        geoalpha.alpha_shapes(SQUARE, [0, 0, 0, 0, 0], n_groups=2**40)
+    res = geoalpha.alpha_shapes(SQUARE, [0, 0, 0, 0, 2], n_groups=5)
+    assert res.n_points.tolist() == [4, 0, 1, 0, 0]
+    assert res.degenerate.tolist() == [False, True, True, True, True]
+
+
+# Every compiled entry point on hostile arguments: each call must raise a
+# Python exception or return; the process must not abort (it ran in this
+# process before, so a subprocess takes the blow).
+_HOSTILE = r"""
+import numpy as np
+from geoalpha import _kernel as k
+
+xy = np.array([[0, 0], [4, 0], [4, 4], [0, 4], [2, 3.5]], float)
+z = np.zeros(5, np.int64)
+lon, lat = np.ascontiguousarray(xy[:, 0]), np.ascontiguousarray(xy[:, 1])
+calls = [
+    lambda: k.sort_groups(xy, z, 2**62),
+    lambda: k.sort_groups(xy, z, 2**64 - 1),
+    lambda: k.sort_groups(xy, z, 2**70),
+    lambda: k.sort_groups(xy, z, -1),
+    lambda: k.sort_groups(xy, z[:3], 1),
+    lambda: k.sort_groups(xy, z, 1, out_xy=xy[:2]),
+    lambda: k.sort_groups(xy, z + 7, 2),
+    lambda: k.sort_groups(xy, z - 1, 2),
+    lambda: k.sort_groups(xy, z, 1, threads=10**6),
+    lambda: k.sort_groups(xy, z, 1, threads=-1),
+    lambda: k.sort_groups(np.asfortranarray(xy), z, 1),
+    lambda: k.sort_groups(np.zeros((5, 3)), z, 1),
+    lambda: k.sort_groups(np.zeros((0, 2)), np.zeros(0, np.int64), 0),
+    lambda: k.sort_groups(xy, z.astype(np.int32), 1),
+    lambda: k.alpha_shapes(xy, np.array([0, 5]), threads=10**6),
+    lambda: k.alpha_shapes(xy, np.array([], np.int64)),
+    lambda: k.alpha_shapes(xy, np.array([1, 5])),
+    lambda: k.alpha_shapes(xy, np.array([0, 6])),
+    lambda: k.alpha_shapes(xy, np.array([0, 4, 2, 5])),
+    lambda: k.alpha_shapes(xy, np.array([0, -1, 5])),
+    lambda: k.alpha_shapes(xy, np.array([0, 2**62, 5])),
+    lambda: k.alpha_shapes(xy, np.array([0, 5]), alpha=np.array([1.0, 2.0])),
+    lambda: k.alpha_shapes(xy, np.array([0, 5]), alpha=np.array([np.nan])),
+    lambda: k.alpha_shapes(xy, np.array([0, 5]), budget=np.array([-1])),
+    lambda: k.alpha_shapes(xy, np.array([0, 5]), budget=np.array([2**62])),
+    lambda: k.alpha_shapes(xy, np.array([0, 5]), components=0),
+    lambda: k.alpha_shapes(xy, np.array([0, 5]), components=2**62),
+    lambda: k.alpha_shapes(xy, np.array([0, 5]), max_union_nodes=0, components=2,
+                           budget=np.array([2])),
+    lambda: k.alpha_shapes(xy, np.array([0, 5]), out_xy=xy[:3]),
+    lambda: k.alpha_shapes(xy * np.nan, np.array([0, 5])),
+    lambda: k.alpha_shapes(xy * 1e300, np.array([0, 5])),
+    lambda: k.alpha_shapes(xy * 100, np.array([0, 5]), sphere=True),
+    lambda: k.alpha_shapes(np.zeros((0, 2)), np.array([0])),
+    lambda: k.alpha_shapes(np.zeros((0, 2)), np.array([0, 0, 0])),
+    lambda: k.geodesic_areas(lon, lat[:3], z[:1], z[:1], z[:1]),
+    lambda: k.geodesic_areas(lon, lat, z[:0], z[:0], z[:0]),
+    lambda: k.geodesic_areas(lon, lat, np.array([0, 9]), np.array([0, 1]),
+                             np.array([0, 1])),
+    lambda: k.geodesic_areas(lon, lat, np.array([0, 5]), np.array([0, 3]),
+                             np.array([0, 1])),
+    lambda: k.geodesic_areas(lon, lat * 100, np.array([0, 5]),
+                             np.array([0, 1]), np.array([0, 1]), threads=10**6),
+]
+for i, call in enumerate(calls):
+    try:
+        call()
+    except Exception as err:  # a Python exception is the point
+        print(i, type(err).__name__, str(err)[:80], flush=True)
+    else:
+        print(i, "ok", flush=True)
+print("survived", len(calls))
+"""
+
+
+def test_no_kernel_entry_point_aborts_the_process_on_hostile_arguments():
+    run = subprocess.run(
+        [sys.executable, "-c", _HOSTILE],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env={**os.environ, "RUST_BACKTRACE": "0"},
+    )
+    assert run.returncode == 0, run.stdout + run.stderr
+    lines = run.stdout.splitlines()
+    assert lines[-1] == "survived 39", run.stdout + run.stderr
+    assert "panicked" not in run.stderr, run.stderr
+    outcome = dict(line.split(" ", 1) for line in lines[:-1])
+    # Huge group counts are refused clearly, never allocated.
+    assert outcome["0"].startswith("ValueError groups must be at most"), outcome["0"]
+    assert outcome["1"].startswith("ValueError groups must be at most"), outcome["1"]
+    # Only calls with sound arguments return.
+    sound = {"8", "12", "14", "24", "26", "27", "32", "33"}
+    assert {i for i, o in outcome.items() if o == "ok"} == sound, outcome
