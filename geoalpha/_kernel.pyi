@@ -111,6 +111,9 @@ def alpha_shapes(
     RuntimeError
         If the kernel failed unexpectedly outside any group (a bug; no panic
         crosses over; one inside a group is that group's reason 7).
+    KeyboardInterrupt
+        On Ctrl-C (SIGINT) during the call: the kernel stops within about
+        half a second (it checks between groups and inside large ones).
     """
 
 def sort_groups(

@@ -147,6 +147,9 @@ pub fn run(input: &Input) -> Result<Output, String> {
     let solved: Vec<Solved> = (0..groups)
         .into_par_iter()
         .map(|g| {
+            if crate::stop::requested() {
+                return failed(); // (Ctrl-C: the call is dropped below)
+            }
             let (a, b) = (input.offsets[g] as usize, input.offsets[g + 1] as usize);
             // A panic in one group fails that group alone (reason 7).
             catch_unwind(AssertUnwindSafe(|| {
@@ -165,6 +168,7 @@ pub fn run(input: &Input) -> Result<Output, String> {
             .unwrap_or_else(|_| failed())
         })
         .collect();
+    crate::stop::check()?;
     Ok(flatten(&solved, input.offsets, input.xy.len()))
 }
 

@@ -109,6 +109,9 @@ pub fn solve(
     else {
         return res;
     };
+    if crate::stop::requested() {
+        return res; // (Ctrl-C: the call is dropped)
+    }
     // Orientations in the scaled coordinates: exact, and never underflowing
     // for groups whose coordinates are tiny (1e-300 across).
     let area_of = |t: &[u32; 3]| {
@@ -182,6 +185,9 @@ pub fn finish(
     } else {
         fill_rank(&rank, k, &mesh.nb)
     };
+    if crate::stop::requested() {
+        return res; // (Ctrl-C: the call is dropped)
+    }
     let value = |rank: u32| values[rank as usize];
     let sweep = |curve| sweep(&w, k, mesh, options.components, curve);
     let (label, n_pieces) = if let Some(a) = alpha {
@@ -236,6 +242,9 @@ pub fn finish(
     }
     res.whole = label.iter().all(|&l| l != NONE);
     res.area = shape().fold(0.0, |area, (_, t)| area + area_of(t));
+    if crate::stop::requested() {
+        return res;
+    }
     match trace(ring_points, mesh, &label, n_pieces) {
         Some(polygons) => res.polygons = polygons,
         None => res.reason = Reason::Rings as u8,

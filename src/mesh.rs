@@ -199,7 +199,10 @@ fn delaunay(points: &[Xy], along: &[(u64, [u64; 2], u32)], rep: &[u32], s: f64) 
     }
     let mut dt = DelaunayTriangulation::<Vertex>::with_capacity(n, 3 * n, 2 * n);
     let mut hint = None;
-    for (id, rank) in order {
+    for (i, (id, rank)) in order.into_iter().enumerate() {
+        if i % 4096 == 0 && crate::stop::requested() {
+            return Mesh::default(); // (Ctrl-C: the call is dropped)
+        }
         let vertex = Vertex {
             pos: placed(points[id as usize], s),
             id,
@@ -242,6 +245,9 @@ pub fn triangulate(points: &[Xy], frame: &Frame, build: bool) -> Mesh {
     let s = frame.scale;
     let mut union = Union::new(points.len());
     let along = along_curve(points, frame);
+    if crate::stop::requested() {
+        return Mesh::default(); // (Ctrl-C: the call is dropped)
+    }
     for w in along.windows(2).filter(|w| w[0].1 == w[1].1) {
         union.union(w[0].2, w[1].2);
     }
@@ -253,7 +259,7 @@ pub fn triangulate(points: &[Xy], frame: &Frame, build: bool) -> Mesh {
         for (a, b) in close_pairs(points, &mesh, s * frame.tol, s) {
             merged |= union.union(a, b);
         }
-        if merged {
+        if merged && !crate::stop::requested() {
             rep = reps(&mut union);
             mesh = delaunay(points, &along, &rep, s);
         }
@@ -304,16 +310,20 @@ fn fill_arrays(t: &DelaunayTriangulation<Vertex>) -> Mesh {
     let around = |&v: &u32| {
         let v = t.vertex(FixedVertexHandle::from_index(v as usize));
         let rank = v.data().rank;
-        v.out_edges().filter_map(move |e| {
-            let f = face(e.face());
-            let (next, prev) = (e.next(), e.prev());
-            let lowest = next.from().data().rank > rank && prev.from().data().rank > rank;
-            (f != NONE && lowest).then(|| {
-                let tri = [v.data().id, next.from().data().id, prev.from().data().id];
-                let nb = [e, next, prev].map(|d| face(d.rev().face()));
-                (f, (tri, nb))
+        // Ctrl-C: no more triangles (the call is dropped).
+        let stopped = crate::stop::requested();
+        v.out_edges()
+            .take_while(move |_| !stopped)
+            .filter_map(move |e| {
+                let f = face(e.face());
+                let (next, prev) = (e.next(), e.prev());
+                let lowest = next.from().data().rank > rank && prev.from().data().rank > rank;
+                (f != NONE && lowest).then(|| {
+                    let tri = [v.data().id, next.from().data().id, prev.from().data().id];
+                    let nb = [e, next, prev].map(|d| face(d.rev().face()));
+                    (f, (tri, nb))
+                })
             })
-        })
     };
     let (faces, (tri, mut nb)): (Vec<u32>, (Vec<_>, Vec<_>)) =
         if by_rank.len() > PARALLEL_POINTS / 8 {

@@ -7,6 +7,7 @@ Each test is made from a reproducer of the issue and failed before its fix.
 from __future__ import annotations
 
 import os
+import signal
 import subprocess
 import sys
 import time
@@ -254,3 +255,67 @@ def test_no_kernel_entry_point_aborts_the_process_on_hostile_arguments():
     # Only calls with sound arguments return.
     sound = {"8", "12", "14", "24", "26", "27", "32", "33"}
     assert {i for i, o in outcome.items() if o == "ok"} == sound, outcome
+
+
+# --- Ctrl-C (item 8) ---------------------------------------------------------
+
+_LONG_CALL = r"""
+import time
+import numpy as np
+from geoalpha import _kernel
+
+xy = np.random.default_rng(1).uniform(0, 1000, (3_000_000, 2))
+print("start", flush=True)
+start = time.perf_counter()
+try:
+    _kernel.alpha_shapes(xy, np.array([0, len(xy)]), threads=2)
+    print("finished", flush=True)
+except KeyboardInterrupt:
+    print("KeyboardInterrupt", flush=True)
+"""
+
+
+@pytest.mark.skipif(not hasattr(signal, "SIGINT") or os.name != "posix", reason="POSIX")
+def test_ctrl_c_stops_a_long_kernel_call_within_a_second():
+    # Issue #37 item 8: 3M points in one group could not be interrupted for
+    # 5 s (signals were honoured only when the kernel returned).
+    child = subprocess.Popen(
+        [sys.executable, "-c", _LONG_CALL], stdout=subprocess.PIPE, text=True
+    )
+    try:
+        assert child.stdout.readline().strip() == "start"
+        time.sleep(2.5)  # inside the triangulation of the one group
+        sent = time.perf_counter()
+        child.send_signal(signal.SIGINT)
+        line = child.stdout.readline().strip()
+        waited = time.perf_counter() - sent
+        assert child.wait(timeout=30) == 0
+    finally:
+        child.kill()
+    assert line == "KeyboardInterrupt"
+    assert waited < 1.0
+
+
+def test_a_call_after_an_interrupted_one_is_whole():
+    # The flag is lowered once the interrupted call is done.
+    code = _LONG_CALL.replace('print("start", flush=True)', "")
+    code += r"""
+import os, signal, threading
+threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT)).start()
+try:
+    _kernel.alpha_shapes(xy, np.array([0, len(xy)]), threads=2)
+except KeyboardInterrupt:
+    print("again interrupted", flush=True)
+square = np.array([[0, 0], [4, 0], [4, 4], [0, 4], [2, 3.5]], float)
+res = _kernel.alpha_shapes(np.r_[square, square], np.array([0, 5, 10]), threads=2)
+print(res["reason"].tolist(), res["n_parts"].tolist(), flush=True)
+"""
+    run = subprocess.run(
+        [sys.executable, "-c", code.replace("(3_000_000, 2)", "(1_000_000, 2)")],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert run.stdout.splitlines()[-2:] == ["again interrupted", "[0, 0] [1, 1]"], (
+        run.stdout + run.stderr
+    )
