@@ -24,6 +24,8 @@ TIE_RTOL: Final[float]
 ALPHA_RTOL: Final[float]
 #: Coordinates beyond this magnitude are refused.
 MAX_COORDINATE: Final[float]
+#: Groups beyond the number of points a call may have (a larger count is refused).
+MAX_EMPTY_GROUPS: Final[int]
 #: Branch-and-bound nodes the best union of several pieces may visit.
 MAX_UNION_NODES: Final[int]
 #: The sphere's radius with ``sphere=True`` (metres): WGS84's authalic radius.
@@ -69,8 +71,9 @@ def alpha_shapes(
     curve : bool
         Also return every group's validity curve.
     threads : int
-        Threads to spread the groups over (0: every core). The GIL is
-        released for the whole computation.
+        Threads to spread the groups over (0, or more than the cores the
+        process may run on: every core). The GIL is released for the whole
+        computation.
     max_union_nodes : int
         Node budget of the exact best union of several pieces (outliers);
         a group that reaches it is flagged ``capped``. Default
@@ -89,7 +92,8 @@ def alpha_shapes(
         Per group (G): ``reason`` (uint8: 0 a shape, 1 fewer than 3 distinct
         points, 2 collinear (on a great circle with ``sphere``), 3 collinear in
         ``out_xy``, 4 no rings, 6 a point beyond ``MAX_SPHERE_DEGREES`` of
-        the group's centre),
+        the group's centre, 7 the kernel failed on this group: a panic inside
+        it, caught, the other groups unaffected),
         ``alpha``, ``n_distinct``, ``n_parts``, ``area``,
         ``n_outliers`` (rows), ``whole``, ``capped``. Per point (n):
         ``rep`` (index of the point that represents it), ``left_out``.
@@ -105,7 +109,11 @@ def alpha_shapes(
         not finite or beyond ``MAX_COORDINATE`` (a latitude beyond 90
         degrees with ``sphere``).
     RuntimeError
-        If the kernel failed unexpectedly (a bug; no panic crosses over).
+        If the kernel failed unexpectedly outside any group (a bug; no panic
+        crosses over; one inside a group is that group's reason 7).
+    KeyboardInterrupt
+        On Ctrl-C (SIGINT) during the call: the kernel stops within about
+        half a second (it checks between groups and inside large ones).
     """
 
 def sort_groups(
@@ -131,11 +139,11 @@ def sort_groups(
     codes : ndarray of int64, shape (n,), C-contiguous
         Each point's group, ``0 <= code < groups``.
     groups : int
-        The number of groups.
+        The number of groups, at most ``n + MAX_EMPTY_GROUPS``.
     out_xy : ndarray of float64, shape (n, 2), optional
         The same points in the output coordinates, sorted alike.
     threads : int
-        Threads (0: every core).
+        Threads (0, or more than the cores the process may run on: every core).
 
     Returns
     -------
@@ -146,7 +154,8 @@ def sort_groups(
     Raises
     ------
     ValueError
-        On arrays of different lengths or shapes, or a code out of range.
+        On arrays of different lengths or shapes, a code out of range, or
+        more groups than ``n + MAX_EMPTY_GROUPS``.
     """
 
 def geodesic_areas(
@@ -182,7 +191,7 @@ def geodesic_areas(
     geometry_offsets : ndarray of int64, shape (G + 1,)
         Geometry ``g`` is polygons ``geometry_offsets[g]:geometry_offsets[g + 1]``.
     threads : int
-        Threads (0: every core).
+        Threads (0, or more than the cores: every core).
 
     Returns
     -------

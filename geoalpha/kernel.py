@@ -7,6 +7,7 @@ indices of input points, so every vertex is an input point, bit for bit.
 from __future__ import annotations
 
 import itertools
+import numbers
 import os
 from typing import NamedTuple
 
@@ -19,7 +20,9 @@ from geoalpha.errors import first_n
 __all__ = [
     "ALPHA_RTOL",
     "ANTIMERIDIAN_SNAP",
+    "FAILED",
     "MAX_COORDINATE",
+    "MAX_EMPTY_GROUPS",
     "MAX_UNION_NODES",
     "NEAR_RTOL",
     "OUTPUT_BUFFER_RTOL",
@@ -29,6 +32,7 @@ __all__ = [
     "TIE_RTOL",
     "Solved",
     "check_points",
+    "cores",
     "group_codes",
     "radius_of_alpha",
     "solve",
@@ -47,6 +51,9 @@ TIE_RTOL: float = _kernel.TIE_RTOL
 ALPHA_RTOL: float = _kernel.ALPHA_RTOL
 #: Coordinates beyond this magnitude are refused (their squares overflow).
 MAX_COORDINATE: float = _kernel.MAX_COORDINATE
+#: Groups beyond the number of points a call may have (empty ones): a larger
+#: count is refused (:func:`group_codes`), as each group costs memory.
+MAX_EMPTY_GROUPS: int = _kernel.MAX_EMPTY_GROUPS
 
 # The tolerances of the Python side, here with the kernel's so that every
 # tolerance of geoalpha is in this module (docs/user_guide/guarantee.md).
@@ -67,7 +74,11 @@ REASONS: dict[int, str] = {
     2: "all points on a line",
     3: "all points on a line in the output coordinates",
     4: "no rings could be traced",
+    7: "the kernel failed on this group (a bug: please report it with its points)",
 }
+
+#: Reason code of a group the kernel failed on (the other groups are unaffected).
+FAILED = 7
 
 #: The geometry of a group with no shape.
 EMPTY_POLYGON = shapely.Polygon()
@@ -80,22 +91,36 @@ MAX_UNION_NODES: int = _kernel.MAX_UNION_NODES
 PROGRESS_CHUNKS = 20
 
 
-def threads(n_jobs: int | None) -> int:
-    """Return the kernel's thread count for ``n_jobs`` (None or -1: every core).
+def cores() -> int:
+    """Return the number of cores this process may run on.
 
     Examples
     --------
-    >>> threads(1), threads(3)
-    (1, 3)
-    >>> threads(None) == threads(-1) >= 1
+    >>> cores() >= 1
+    True
+    """
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover - not Linux
+        return os.cpu_count() or 1
+
+
+def threads(n_jobs: int | None) -> int:
+    """Return the kernel's thread count for ``n_jobs``: at most :func:`cores`.
+
+    None or -1 is every core; more than the cores is capped to them (more
+    threads than cores only cost time: the result is the same).
+
+    Examples
+    --------
+    >>> threads(1), threads(10**6) == cores()
+    (1, True)
+    >>> threads(None) == threads(-1) == cores()
     True
     """
     if n_jobs is None or n_jobs == -1:
-        try:
-            return len(os.sched_getaffinity(0))
-        except AttributeError:  # pragma: no cover - not Linux
-            return os.cpu_count() or 1
-    return int(n_jobs)
+        return cores()
+    return min(int(n_jobs), cores())
 
 
 def check_points(points) -> np.ndarray:
@@ -139,24 +164,49 @@ def check_points(points) -> np.ndarray:
 def group_codes(groups, n: int, n_groups: int | None) -> tuple[np.ndarray, int]:
     """Return the group codes (int64) and the number of groups; ValueError if bad.
 
+    Codes of any integer type and size are checked before they are converted:
+    at most ``n + MAX_EMPTY_GROUPS`` groups (each costs memory, even empty).
+
     Examples
     --------
     >>> codes, n = group_codes([1, 0, 1], 3, None)
     >>> codes.tolist(), n
     ([1, 0, 1], 2)
+    >>> group_codes([0, 2**40, 1], 3, None)
+    Traceback (most recent call last):
+    ...
+    ValueError: groups must be codes 0 .. G - 1 (as from pandas.factorize) ...
     """
+    limit = n + MAX_EMPTY_GROUPS
+    if n_groups is not None and (
+        isinstance(n_groups, bool)
+        or not isinstance(n_groups, numbers.Integral)
+        or not 0 <= n_groups <= limit
+    ):
+        raise ValueError(
+            f"n_groups must be an integer from 0 to the number of points + "
+            f"{MAX_EMPTY_GROUPS} ({limit}); got {n_groups!r}"
+        )
     if groups is None:
-        return np.zeros(n, dtype=np.int64), 1 if n_groups is None else n_groups
+        return np.zeros(n, dtype=np.int64), 1 if n_groups is None else int(n_groups)
     codes = np.asarray(groups)
     if codes.shape != (n,) or not np.issubdtype(codes.dtype, np.integer):
         raise ValueError(
             f"groups must be {n} integer group codes (one per point); got "
             f"{codes.dtype} array of shape {codes.shape}"
         )
-    codes = codes.astype(np.int64, copy=False)
-    if n and codes.min() < 0:
+    # As Python integers: exact for every integer type (uint64 too).
+    low, top = (int(codes.min()), int(codes.max())) if n else (0, -1)
+    if low < 0:
         raise ValueError("groups must be codes >= 0 (as from pandas.factorize)")
-    size = int(codes.max()) + 1 if n else 0
+    if top >= limit:
+        raise ValueError(
+            "groups must be codes 0 .. G - 1 (as from pandas.factorize) with G at "
+            f"most the number of points + {MAX_EMPTY_GROUPS} ({limit}); got code "
+            f"{top}: factorize the keys first"
+        )
+    codes = codes.astype(np.int64, copy=False)
+    size = top + 1
     if n_groups is None:
         n_groups = size
     elif n_groups < size:

@@ -338,7 +338,8 @@ class Options:
     n_jobs: int | None = option(
         None,
         doc="Threads of the compiled kernel, which spreads the groups over them.\n"
-        "None or -1: every core. The result is the same for every value.",
+        "None or -1: every core; more than the cores the process may run on is\n"
+        "capped to them. The result is the same for every value.",
         flags=("-j", "--jobs"),
         metavar="N",
         validate=_check_n_jobs,

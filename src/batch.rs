@@ -1,14 +1,20 @@
 //! Every group in one call: checked input, groups spread over threads, the
 //! results as flat arrays with offsets (geoarrow's layout).
 
+use std::panic::{catch_unwind, AssertUnwindSafe};
+
 use rayon::prelude::*;
 
 use crate::frame::Xy;
-use crate::group::{solve, Options, Solved};
+use crate::group::{solve, Options, Reason, Solved};
 use crate::mesh::counting_sort;
 
 /// Coordinates beyond this magnitude are refused (their squares overflow).
 pub const MAX_COORDINATE: f64 = 1e100;
+
+/// Groups beyond the number of points a call may have (empty groups): each
+/// costs memory, so a larger count is refused rather than allocated.
+pub const MAX_EMPTY_GROUPS: usize = 1 << 20;
 
 /// Everything one call takes.
 pub struct Input<'a> {
@@ -114,6 +120,12 @@ pub fn sort(codes: &[i64], groups: usize, xy: &[Xy], out: Option<&[Xy]>) -> Resu
     if codes.len() != xy.len() || out.is_some_and(|o| o.len() != xy.len()) {
         return Err("codes, xy and out_xy must have one row per point".into());
     }
+    if groups > xy.len().saturating_add(MAX_EMPTY_GROUPS) {
+        return Err(format!(
+            "groups must be at most the number of points ({}) + {MAX_EMPTY_GROUPS}; got {groups}",
+            xy.len()
+        ));
+    }
     if codes.iter().any(|&c| !(0..groups as i64).contains(&c)) {
         return Err(format!("codes must be in 0..{groups}"));
     }
@@ -135,17 +147,39 @@ pub fn run(input: &Input) -> Result<Output, String> {
     let solved: Vec<Solved> = (0..groups)
         .into_par_iter()
         .map(|g| {
+            if crate::stop::requested() {
+                return failed(); // (Ctrl-C: the call is dropped below)
+            }
             let (a, b) = (input.offsets[g] as usize, input.offsets[g + 1] as usize);
-            solve(
-                &input.xy[a..b],
-                input.out.map(|o| &o[a..b]),
-                input.alpha.map(|x| x[g]),
-                input.budget.map_or(0, |x| x[g] as u64),
-                &input.options,
-            )
+            // A panic in one group fails that group alone (reason 7).
+            catch_unwind(AssertUnwindSafe(|| {
+                #[cfg(test)]
+                if tests::FAIL_GROUP.load(std::sync::atomic::Ordering::Relaxed) == g {
+                    panic!("a failure injected in group {g}");
+                }
+                solve(
+                    &input.xy[a..b],
+                    input.out.map(|o| &o[a..b]),
+                    input.alpha.map(|x| x[g]),
+                    input.budget.map_or(0, |x| x[g] as u64),
+                    &input.options,
+                )
+            }))
+            .unwrap_or_else(|_| failed())
         })
         .collect();
+    crate::stop::check()?;
     Ok(flatten(&solved, input.offsets, input.xy.len()))
+}
+
+/// The result of a group the kernel failed on: no shape, reason 7.
+fn failed() -> Solved {
+    Solved {
+        reason: Reason::Failed as u8,
+        alpha: f64::NAN,
+        radius: f64::NAN,
+        ..Solved::default()
+    }
 }
 
 fn flatten(solved: &[Solved], offsets: &[i64], n: usize) -> Output {
@@ -192,6 +226,47 @@ fn flatten(solved: &[Solved], offsets: &[i64], n: usize) -> Output {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::sync::atomic::{AtomicUsize, Ordering};
+
+    /// The group [`run`] panics in (none: `usize::MAX`); one test sets it.
+    pub static FAIL_GROUP: AtomicUsize = AtomicUsize::new(usize::MAX);
+
+    #[test]
+    fn a_panic_in_one_group_fails_it_alone() {
+        let square = [[0.0, 0.0], [4.0, 0.0], [4.0, 4.0], [0.0, 4.0], [2.0, 3.5]];
+        let xy: Vec<Xy> = square
+            .iter()
+            .chain(&square)
+            .chain(&square)
+            .copied()
+            .collect();
+        let options = Options {
+            holes: false,
+            components: 1,
+            curve: false,
+            max_union_nodes: crate::spectrum::MAX_UNION_NODES,
+            sphere: false,
+        };
+        let input = Input {
+            xy: &xy,
+            out: None,
+            offsets: &[0, 5, 10, 15],
+            alpha: None,
+            budget: None,
+            options,
+        };
+        FAIL_GROUP.store(1, Ordering::Relaxed);
+        let o = run(&input);
+        FAIL_GROUP.store(usize::MAX, Ordering::Relaxed);
+        let o = o.unwrap();
+        assert_eq!(o.reason, vec![0, Reason::Failed as u8, 0]);
+        assert_eq!(o.n_parts, vec![1, 0, 1]);
+        assert!(o.alpha[1].is_nan() && (o.alpha[0] - o.alpha[2]).abs() == 0.0);
+        assert!(o.alpha[0] > 0.4 && o.alpha[0] < 0.5);
+        // The failed group's points represent themselves; the rings index the others.
+        assert_eq!(&o.rep[5..10], &[5, 6, 7, 8, 9]);
+        assert!(o.ring_vertex.iter().all(|&v| !(5..10).contains(&v)));
+    }
 
     #[test]
     fn sort_is_stable_and_refuses_bad_codes() {
@@ -203,5 +278,8 @@ mod tests {
         assert!(sort(&[2, 0, 1, 0], 2, &xy, None).is_err());
         assert!(sort(&[-1, 0, 1, 0], 2, &xy, None).is_err());
         assert!(sort(&[0, 0, 1], 2, &xy, None).is_err());
+        // A huge group count is refused, not allocated.
+        assert!(sort(&[0, 0, 1, 0], usize::MAX, &xy, None).is_err());
+        assert!(sort(&[0, 0, 1, 0], 4 + MAX_EMPTY_GROUPS, &xy, None).is_ok());
     }
 }

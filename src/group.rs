@@ -3,7 +3,7 @@
 use rayon::prelude::*;
 
 use crate::frame::{circumradius, collinear, orient, Frame, Xy};
-use crate::mesh::{triangulate, Mesh, NONE};
+use crate::mesh::{placed, triangulate, Mesh, NONE};
 use crate::rings::{trace, Polygons};
 use crate::spectrum::{
     fill_rank, merge_ties, outlier_optimum, pieces, sweep, Curve, ALPHA_RTOL, PARALLEL_TRIANGLES,
@@ -27,6 +27,9 @@ pub enum Reason {
     /// On the sphere: a point beyond `crate::sphere::MAX_ANGLE_DEGREES` of
     /// the group's centre.
     Hemisphere = 6,
+    /// The kernel failed on this group (an error or a panic, caught: a bug);
+    /// the other groups of the call are unaffected.
+    Failed = 7,
 }
 
 /// What to compute, the same for every group.
@@ -106,6 +109,9 @@ pub fn solve(
     else {
         return res;
     };
+    if crate::stop::requested() {
+        return res; // (Ctrl-C: the call is dropped)
+    }
     // Orientations in the scaled coordinates: exact, and never underflowing
     // for groups whose coordinates are tiny (1e-300 across).
     let area_of = |t: &[u32; 3]| {
@@ -147,7 +153,8 @@ pub fn triangulated(
         return None;
     }
     let s = frame.scale;
-    let scaled: Vec<Xy> = plane.iter().map(|p| [p[0] * s, p[1] * s]).collect();
+    // Where spade put them, so every triangle is counter-clockwise in them.
+    let scaled: Vec<Xy> = plane.iter().map(|&p| placed(p, s).into()).collect();
     let radius = |t: &[u32; 3]| radius_of(t.map(|v| scaled[v as usize]));
     let radius = if mesh.tri.len() > PARALLEL_TRIANGLES {
         mesh.tri.par_iter().map(radius).collect()
@@ -178,6 +185,9 @@ pub fn finish(
     } else {
         fill_rank(&rank, k, &mesh.nb)
     };
+    if crate::stop::requested() {
+        return res; // (Ctrl-C: the call is dropped)
+    }
     let value = |rank: u32| values[rank as usize];
     let sweep = |curve| sweep(&w, k, mesh, options.components, curve);
     let (label, n_pieces) = if let Some(a) = alpha {
@@ -232,6 +242,9 @@ pub fn finish(
     }
     res.whole = label.iter().all(|&l| l != NONE);
     res.area = shape().fold(0.0, |area, (_, t)| area + area_of(t));
+    if crate::stop::requested() {
+        return res;
+    }
     match trace(ring_points, mesh, &label, n_pieces) {
         Some(polygons) => res.polygons = polygons,
         None => res.reason = Reason::Rings as u8,

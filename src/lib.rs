@@ -11,12 +11,13 @@ pub mod mesh;
 pub mod rings;
 pub mod spectrum;
 pub mod sphere;
+pub mod stop;
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::{Arc, Mutex};
 
 use numpy::{prelude::*, PyArray1, PyReadonlyArray1, PyReadonlyArray2};
-use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use pyo3::exceptions::{PyKeyboardInterrupt, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
 
@@ -43,16 +44,54 @@ fn points<'a>(name: &str, array: &'a PyReadonlyArray2<'_, f64>) -> PyResult<&'a 
 }
 
 /// Run `work` on [`pool`]`(threads)` with the GIL released; its error
-/// becomes `ValueError`, a panic `RuntimeError`.
+/// becomes `ValueError`, a panic `RuntimeError`, Ctrl-C `KeyboardInterrupt`.
+///
+/// The calling thread waits for the work on a channel and checks Python's
+/// signals every [`stop::POLL`] (with the GIL, briefly); on SIGINT it raises
+/// [`stop::request`]'s flag, waits for the work to stop and raises.
 fn detached<T: Send, E: std::fmt::Display + Send>(
     py: Python<'_>,
     threads: usize,
     work: impl FnOnce() -> Result<T, E> + Send,
 ) -> PyResult<T> {
     let pool = pool(threads)?;
-    match py.detach(|| catch_unwind(AssertUnwindSafe(|| pool.install(work)))) {
-        Ok(result) => result.map_err(|err| PyValueError::new_err(err.to_string())),
-        Err(_) => Err(PyRuntimeError::new_err(
+    let (tx, mut rx) = std::sync::mpsc::channel();
+    let mut interrupt: Option<(PyErr, stop::Request)> = None;
+    let outcome = pool.in_place_scope(|scope| {
+        scope.spawn(move |_| {
+            // (The receiver is alive until the answer: this send succeeds.)
+            let _ = tx.send(catch_unwind(AssertUnwindSafe(work)));
+        });
+        loop {
+            let (back, got) = py.detach(move || {
+                let got = rx.recv_timeout(stop::POLL);
+                (rx, got)
+            });
+            rx = back;
+            match got {
+                Ok(outcome) => return Some(outcome),
+                Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => return None,
+                Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {}
+            }
+            if interrupt.is_none() {
+                if let Err(err) = py.check_signals() {
+                    interrupt = Some((err, stop::request()));
+                }
+            }
+        }
+    });
+    if let Some((err, request)) = interrupt {
+        drop(request);
+        return Err(err);
+    }
+    match outcome {
+        Some(Ok(Ok(value))) => Ok(value),
+        Some(Ok(Err(err))) if err.to_string() == stop::INTERRUPTED => {
+            // Another call's Ctrl-C stopped this one too.
+            Err(PyKeyboardInterrupt::new_err(stop::INTERRUPTED))
+        }
+        Some(Ok(Err(err))) => Err(PyValueError::new_err(err.to_string())),
+        Some(Err(_)) | None => Err(PyRuntimeError::new_err(
             "geoalpha's kernel failed unexpectedly (a bug: please report it with the input)",
         )),
     }
@@ -154,13 +193,16 @@ fn py_geodesic_areas<'py>(
     Ok(areas.into_pyarray(py))
 }
 
-/// The pool of `threads` threads (0: one per core), built once per process
-/// and count (building one costs more than a small call). A child made by
+/// The pool of `threads` threads (0: one per core; more than the cores the
+/// process may run on: that many), built once per process and count
+/// (building one costs more than a small call). A child made by
 /// `fork` has none of its parent's threads, so it forgets (never drops) the
 /// parent's pools; the lock is only taken with the GIL held, so no thread
 /// holds it when Python forks.
 fn pool(threads: usize) -> PyResult<Arc<rayon::ThreadPool>> {
     static POOLS: Mutex<Vec<(u32, usize, Arc<rayon::ThreadPool>)>> = Mutex::new(Vec::new());
+    let cores = std::thread::available_parallelism().map_or(1, usize::from);
+    let threads = threads.min(cores);
     let pid = std::process::id();
     let mut pools = POOLS
         .lock()
@@ -193,6 +235,7 @@ fn _kernel(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("TIE_RTOL", spectrum::TIE_RTOL)?;
     m.add("ALPHA_RTOL", spectrum::ALPHA_RTOL)?;
     m.add("MAX_COORDINATE", batch::MAX_COORDINATE)?;
+    m.add("MAX_EMPTY_GROUPS", batch::MAX_EMPTY_GROUPS)?;
     m.add("MAX_UNION_NODES", spectrum::MAX_UNION_NODES)?;
     m.add("EARTH_RADIUS", sphere::EARTH_RADIUS)?;
     m.add("MAX_SPHERE_DEGREES", sphere::MAX_ANGLE_DEGREES)?;

@@ -95,10 +95,20 @@ fn morton(x: u32, y: u32) -> u64 {
     spread(x) | (spread(y) << 1)
 }
 
+/// Where spade puts point `p` of a group scaled by `s`: scaled (exactly but
+/// for subnormal results), coordinates below spade's smallest magnitude
+/// (2^-142, far below the tolerance) set to zero, -0 as 0. Two points at the
+/// same place are one vertex of spade's, so they are exact duplicates here.
+pub fn placed(p: Xy, s: f64) -> Point2<f64> {
+    let q = spade::mitigate_underflow(Point2::new(p[0] * s + 0.0, p[1] * s + 0.0));
+    Point2::new(q.x + 0.0, q.y + 0.0)
+}
+
 /// The points along a Z-order curve through their bounding box, sorted
-/// `(place on the curve, coordinate bits, index)`: exact duplicates end up
-/// next to each other, and the order (with it spade's triangulation) depends
-/// on the points alone, not on the order of the rows.
+/// `(place on the curve, bits of the place spade gives it, index)`: exact
+/// duplicates (at spade's places: [`placed`]) end up next to each other, and
+/// the order (with it spade's triangulation) depends on the points alone, not
+/// on the order of the rows.
 fn along_curve(points: &[Xy], frame: &Frame) -> Vec<(u64, [u64; 2], u32)> {
     let [lo, hi] = frame.bounds;
     // Grid cells of the bounding box; the cast saturates, so rounding at the
@@ -108,9 +118,12 @@ fn along_curve(points: &[Xy], frame: &Frame) -> Vec<(u64, [u64; 2], u32)> {
         .iter()
         .enumerate()
         .map(|(i, p)| {
-            // -0 and 0 are one coordinate.
-            let bits = [(p[0] + 0.0).to_bits(), (p[1] + 0.0).to_bits()];
-            (morton(cell(0, p[0]), cell(1, p[1])), bits, i as u32)
+            let at = placed(*p, frame.scale);
+            let bits = [at.x.to_bits(), at.y.to_bits()];
+            // The cell of the place too (unscaled exactly), so points at one
+            // place are in one cell.
+            let cell = morton(cell(0, at.x / frame.scale), cell(1, at.y / frame.scale));
+            (cell, bits, i as u32)
         })
         .collect();
     if along.len() > PARALLEL_POINTS {
@@ -131,12 +144,16 @@ fn along_curve(points: &[Xy], frame: &Frame) -> Vec<(u64, [u64; 2], u32)> {
 /// (spade's `bulk_load` slows to quadratic time on nearly collinear chains);
 /// the curve keeps each insertion next to the one before, where its walk
 /// starts.
-fn insertion_order(along: &[(u64, [u64; 2], u32)], rep: &[u32]) -> Vec<(u32, u32)> {
-    let round = |bits: [u64; 2]| 64 - mix(bits[0] ^ mix(bits[1])).trailing_zeros() as usize;
+fn insertion_order(points: &[Xy], along: &[(u64, [u64; 2], u32)], rep: &[u32]) -> Vec<(u32, u32)> {
+    // From the input coordinates (-0 and 0 are one).
+    let round = |p: Xy| {
+        let bits = [(p[0] + 0.0).to_bits(), (p[1] + 0.0).to_bits()];
+        64 - mix(bits[0] ^ mix(bits[1])).trailing_zeros() as usize
+    };
     let kept = along.iter().filter(|e| rep[e.2 as usize] == e.2);
     let rounds = kept
         .enumerate()
-        .map(|(rank, &(_, bits, id))| (round(bits), (id, rank as u32)));
+        .map(|(rank, &(_, _, id))| (round(points[id as usize]), (id, rank as u32)));
     counting_sort(rounds, 65)
 }
 
@@ -175,19 +192,19 @@ const PARALLEL_POINTS: usize = 1 << 16;
 
 /// The Delaunay triangulation of the points with `rep[i] == i` (no `rep`).
 fn delaunay(points: &[Xy], along: &[(u64, [u64; 2], u32)], rep: &[u32], s: f64) -> Mesh {
-    let order = insertion_order(along, rep);
+    let order = insertion_order(points, along, rep);
     let n = order.len();
     if n < 3 {
         return Mesh::default();
     }
     let mut dt = DelaunayTriangulation::<Vertex>::with_capacity(n, 3 * n, 2 * n);
     let mut hint = None;
-    for (id, rank) in order {
-        let [x, y] = points[id as usize];
+    for (i, (id, rank)) in order.into_iter().enumerate() {
+        if i % 4096 == 0 && crate::stop::requested() {
+            return Mesh::default(); // (Ctrl-C: the call is dropped)
+        }
         let vertex = Vertex {
-            // Scaled exactly; coordinates below spade's smallest magnitude
-            // (2^-142, far below the tolerance) set to zero.
-            pos: spade::mitigate_underflow(Point2::new(x * s + 0.0, y * s + 0.0)),
+            pos: placed(points[id as usize], s),
             id,
             rank,
         };
@@ -200,6 +217,8 @@ fn delaunay(points: &[Xy], along: &[(u64, [u64; 2], u32)], rep: &[u32], s: f64) 
         };
         hint = Some(inserted);
     }
+    // Distinct places are distinct vertices (spade merges only equal ones).
+    assert_eq!(dt.num_vertices(), n, "spade merged two distinct places");
     fill_arrays(&dt)
 }
 
@@ -226,6 +245,9 @@ pub fn triangulate(points: &[Xy], frame: &Frame, build: bool) -> Mesh {
     let s = frame.scale;
     let mut union = Union::new(points.len());
     let along = along_curve(points, frame);
+    if crate::stop::requested() {
+        return Mesh::default(); // (Ctrl-C: the call is dropped)
+    }
     for w in along.windows(2).filter(|w| w[0].1 == w[1].1) {
         union.union(w[0].2, w[1].2);
     }
@@ -237,7 +259,7 @@ pub fn triangulate(points: &[Xy], frame: &Frame, build: bool) -> Mesh {
         for (a, b) in close_pairs(points, &mesh, s * frame.tol, s) {
             merged |= union.union(a, b);
         }
-        if merged {
+        if merged && !crate::stop::requested() {
             rep = reps(&mut union);
             mesh = delaunay(points, &along, &rep, s);
         }
@@ -288,16 +310,20 @@ fn fill_arrays(t: &DelaunayTriangulation<Vertex>) -> Mesh {
     let around = |&v: &u32| {
         let v = t.vertex(FixedVertexHandle::from_index(v as usize));
         let rank = v.data().rank;
-        v.out_edges().filter_map(move |e| {
-            let f = face(e.face());
-            let (next, prev) = (e.next(), e.prev());
-            let lowest = next.from().data().rank > rank && prev.from().data().rank > rank;
-            (f != NONE && lowest).then(|| {
-                let tri = [v.data().id, next.from().data().id, prev.from().data().id];
-                let nb = [e, next, prev].map(|d| face(d.rev().face()));
-                (f, (tri, nb))
+        // Ctrl-C: no more triangles (the call is dropped).
+        let stopped = crate::stop::requested();
+        v.out_edges()
+            .take_while(move |_| !stopped)
+            .filter_map(move |e| {
+                let f = face(e.face());
+                let (next, prev) = (e.next(), e.prev());
+                let lowest = next.from().data().rank > rank && prev.from().data().rank > rank;
+                (f != NONE && lowest).then(|| {
+                    let tri = [v.data().id, next.from().data().id, prev.from().data().id];
+                    let nb = [e, next, prev].map(|d| face(d.rev().face()));
+                    (f, (tri, nb))
+                })
             })
-        })
     };
     let (faces, (tri, mut nb)): (Vec<u32>, (Vec<_>, Vec<_>)) =
         if by_rank.len() > PARALLEL_POINTS / 8 {

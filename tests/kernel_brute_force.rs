@@ -404,3 +404,78 @@ proptest! {
         prop_assert_eq!(hull.polygons.len(), 1);
     }
 }
+
+/// A tiny magnitude: 0, or `m * 2^-e` with `e` from spade's smallest
+/// (2^-142) down into the subnormals (2^-1074), either sign.
+fn tiny() -> impl Strategy<Value = f64> {
+    prop_oneof![
+        Just(0.0),
+        Just(5e-324),
+        Just(-5e-324),
+        Just(1e-60),
+        (1.0f64..2.0, 142i32..1075, any::<bool>())
+            .prop_map(|(m, e, neg)| if neg { -m } else { m } * 2f64.powi(-e)),
+    ]
+}
+
+/// Well-separated points with one at exactly (0, 0), all times `2^k` (mixed
+/// scales, exactly), and tiny points beside the one at (0, 0) (`extras`).
+fn tiny_beside_zero() -> impl Strategy<Value = (Vec<Xy>, Vec<Xy>, i32)> {
+    let moved = points()
+        .prop_map(|p| {
+            p.iter()
+                .map(|q| [q[0] - p[0][0], q[1] - p[0][1]])
+                .collect::<Vec<Xy>>()
+        })
+        .prop_filter("well separated", |p| spread(p));
+    let extras = prop::collection::vec((tiny(), tiny()).prop_map(|(x, y)| [x, y]), 1..4);
+    (moved, extras, -900i32..900)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(300))]
+
+    /// Issue #37: a coordinate below 2^-142 of the extent beside a 0 made
+    /// spade merge two points and the kernel panic. The tiny points are one
+    /// point with (0, 0) (far below the tolerance), the optimum is that of the
+    /// other points, at every scale.
+    #[test]
+    fn tiny_and_subnormal_coordinates_beside_zero_are_near_duplicates(
+        (p, extras, k) in tiny_beside_zero(),
+        holes in any::<bool>(),
+    ) {
+        let scale = 2f64.powi(k);
+        let mut all: Vec<Xy> = p.iter().map(|q| [q[0] * scale, q[1] * scale]).collect();
+        all.extend(extras.iter().map(|q| [q[0] * scale, q[1] * scale]));
+        let options = Options { holes, components: 1, curve: false, max_union_nodes: MAX_UNION_NODES, sphere: false };
+        let res = solve(&all, None, None, 0, &options);
+        prop_assert_eq!(res.reason, 0);
+        prop_assert_eq!(res.n_distinct as usize, p.len());
+        for (i, q) in all.iter().enumerate().skip(p.len()) {
+            prop_assert_eq!(res.rep[i], 0, "extra {:?} is not one with (0, 0)", q);
+        }
+        let rows = vec![1u64; p.len()];
+        let (alpha, _) = brute_optimum(&p, &rows, holes, 1, 0);
+        let got = res.alpha * scale;
+        prop_assert!((got - alpha).abs() <= 1e-9 * alpha, "{} vs {}", got, alpha);
+        prop_assert_eq!(res.polygons.len(), 1);
+    }
+
+    /// Any mix of zeros, subnormals, tiny and large coordinates: no panic, a
+    /// reason code of the plane, and a shape when the reason is 0.
+    #[test]
+    fn mixed_scale_hostile_groups_never_panic(
+        p in prop::collection::vec(
+            (prop_oneof![tiny(), -1e100f64..1e100, -1.0f64..1.0], prop_oneof![tiny(), -1e100f64..1e100, -1.0f64..1.0])
+                .prop_map(|(x, y)| [x, y]),
+            1..12,
+        ),
+        holes in any::<bool>(),
+    ) {
+        let options = Options { holes, components: 1, curve: false, max_union_nodes: MAX_UNION_NODES, sphere: false };
+        let res = solve(&p, None, None, 0, &options);
+        prop_assert!(res.reason <= 3, "reason {}", res.reason);
+        prop_assert_eq!(res.reason == 0, !res.polygons.is_empty());
+        prop_assert_eq!(res.rep.len(), p.len());
+    }
+}

@@ -137,3 +137,25 @@ def test_planar_input_and_auto_chosen_crs_do_not_warn(stats19):
     assert caught(lambda: geoalpha.hull(planar, by=LA, crs=None)) == []
     # Web Mercator input with crs="auto" is computed in a UTM zone: no stretch
     assert caught(lambda: geoalpha.hull(stats19.to_crs(3857), by=LA)) == []
+
+
+def test_the_suggested_crs_is_cheap_at_a_million_points():
+    # Issue #37 item 10: it was computed from every point (0.3 s of a 0.9 s
+    # hull() on 1M points); now from the extremes and a sample of 256.
+    import time
+
+    import pyproj
+
+    from geoalpha.frame.checks import _suggestion
+
+    rng = np.random.default_rng(37)
+    lon, lat = rng.uniform(-7.5, 1.5, 1_000_000), rng.uniform(50, 58, 1_000_000)
+    to_italy = pyproj.Transformer.from_crs(4326, 32633, always_xy=True)
+    coords = np.column_stack(to_italy.transform(lon, lat))
+    coords[5] = np.nan  # (left out)
+    source = pyproj.CRS.from_epsg(32633)
+    _suggestion(coords[:1000], source)  # (pyproj's caches)
+    start = time.perf_counter()
+    suggested = _suggestion(coords, source)
+    assert time.perf_counter() - start < 0.1
+    assert suggested == ", e.g. crs='EPSG:32630'"

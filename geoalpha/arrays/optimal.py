@@ -128,7 +128,8 @@ def alpha_shapes(
     Returns
     -------
     AlphaShapes
-        Degenerate groups are flagged in ``degenerate``, without a warning.
+        Degenerate groups are flagged in ``degenerate``, without a warning
+        (but a group the kernel failed on, reason 7, warns with its rows).
 
     Raises
     ------
@@ -201,7 +202,22 @@ def alpha_shapes(
     # Around a pole a valid polygon may have any number of parts.
     limit = np.where(polar, np.inf, components) if np.any(polar) else components
     out_xy = xy if coords is None else coords
+    _warn_failed(raw.shapes.reason, codes, name_groups)
     return _verified(raw, out_xy, codes, limit if alpha is None else None)
+
+
+def _warn_failed(reason, codes, name_groups) -> None:
+    """Warn about the groups the kernel failed on (reason 7), naming their rows."""
+    failed = np.flatnonzero(reason == kernel.FAILED)
+    if len(failed):
+        rows = np.flatnonzero(np.isin(codes, failed))
+        warn_user(
+            f"the kernel failed on {len(failed)} group(s) "
+            f"({_named(failed, name_groups)}; rows at positions {first_n(rows)}): "
+            f"they have no shape (reason {kernel.FAILED}, degenerate), the other "
+            "groups are unaffected; this is a bug, please report it with these points",
+            DegenerateGroupWarning,
+        )
 
 
 def _named(which: np.ndarray, name_groups) -> str:
@@ -443,7 +459,7 @@ def _as_xy(points):
 def _one_group(points, **kwargs) -> AlphaShapes:
     """:func:`alpha_shapes` of one group, warning when it has no shape."""
     res = alpha_shapes(_as_xy(points), None, n_groups=1, **kwargs)
-    if res.degenerate[0]:
+    if res.degenerate[0] and res.reason[0] != kernel.FAILED:  # (that one warned)
         why = (
             "are fewer than 3 or all collinear (within "
             f"{np.format_float_scientific(kernel.NEAR_RTOL, trim='-', exp_digits=1)}"

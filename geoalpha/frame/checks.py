@@ -64,11 +64,8 @@ def area_scale(crs: Any, x: Any, y: Any, source_crs: Any) -> np.ndarray:
     finite = np.isfinite(x) & np.isfinite(y)
     if not finite.all():
         x, y = x[finite], y[finite]
-    if x.size > _SAMPLE:
-        pick = np.linspace(0, x.size - 1, _SAMPLE).astype(np.intp)
-        ends = [np.argmin(x), np.argmax(x), np.argmin(y), np.argmax(y)]
-        pick = np.concatenate([pick, ends])
-        x, y = x[pick], y[pick]
+    pick = _sample(x, y)
+    x, y = x[pick], y[pick]
     if x.size == 0:
         return np.empty(0)
     to_lonlat, proj = _factors_of(_key(source_crs), _key(crs))
@@ -78,6 +75,18 @@ def area_scale(crs: Any, x: Any, y: Any, source_crs: Any) -> np.ndarray:
         scale = np.asarray(factors.areal_scale, dtype=float)
     scale[~np.isfinite(scale)] = np.inf
     return scale
+
+
+def _sample(x: np.ndarray, y: np.ndarray) -> np.ndarray | slice:
+    """Rows of at most :data:`_SAMPLE` points evenly spaced, and the extremes.
+
+    The extremes of x and y keep the extent; every point when there are few.
+    """
+    if x.size <= _SAMPLE:
+        return slice(None)
+    pick = np.linspace(0, x.size - 1, _SAMPLE).astype(np.intp)
+    ends = [np.argmin(x), np.argmax(x), np.argmin(y), np.argmax(y)]
+    return np.concatenate([pick, ends])
 
 
 def _key(crs: Any) -> str:
@@ -164,10 +173,16 @@ def computation_crs(source: Any, crs: Any) -> tuple[pyproj.CRS | None, str]:
 
 
 def _suggestion(coords: np.ndarray, source: pyproj.CRS) -> str:
-    """``, e.g. crs='EPSG:32630'``: the UTM zone of the points, if one fits."""
+    """``, e.g. crs='EPSG:32630'``: the UTM zone of the points, if one fits.
+
+    Chosen from a sample (:func:`_sample`: the extremes and 256 points), as
+    ``crs="auto"`` chooses from a group's extent: a constant cost, not one
+    per point.
+    """
     with contextlib.suppress(Exception):
         geographic = source.geodetic_crs or pyproj.CRS.from_epsg(4326)
         to_lonlat = pyproj.Transformer.from_crs(source, geographic, always_xy=True)
+        coords = coords[_sample(coords[:, 0], coords[:, 1])]  # (NaN: left out below)
         lon, lat = to_lonlat.transform(coords[:, 0], coords[:, 1])
         ok = np.isfinite(lon) & np.isfinite(lat)
         codes = np.zeros(int(ok.sum()), dtype=np.intp)

@@ -645,14 +645,21 @@ def degenerate_policy(
 def _why_degenerate(reason, which, groups: Groups, n_points, wide) -> str:
     """Word why the groups ``which`` have no shape, from their reason codes."""
     thin = np.isin(reason[which], (1, 2, 3)) | (n_points[which] == 0)
+    failed = ~thin & (reason[which] == kernel.FAILED)
     reasons = []
+    if failed.any():
+        reasons.append(
+            f"the kernel failed on {failed.sum()} group(s) (a bug: please report it "
+            f"with their points; the other groups are unaffected): "
+            f"{_names(groups, which[failed], n_points)}"
+        )
     if thin.any():
         reasons.append(
             f"{thin.sum()} group(s) have fewer than 3 distinct points or all points "
             f"on a line, so no alpha shape: {_names(groups, which[thin], n_points)}"
         )
-    spread = ~thin & wide[which]
-    other = ~thin & ~spread
+    spread = ~thin & ~failed & wide[which]
+    other = ~thin & ~failed & ~spread
     if spread.any():
         reasons.append(
             f"{spread.sum()} group(s) span more than 180 degrees of longitude, so "
