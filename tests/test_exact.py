@@ -28,6 +28,7 @@ from geoalpha import (
     kernel,
     optimal_alpha,
 )
+from geoalpha.options import Request
 
 # --------------------------------------------------------------------------
 # Point-set strategies (coordinates in metres of some metric CRS)
@@ -284,7 +285,7 @@ def same_triangulation(p, tri) -> bool:
     """
     xy = np.asarray(p, dtype=float)
     codes = np.zeros(len(xy), dtype=np.int64)
-    ours = kernel.solve(xy, codes, 1, holes=True, curve=True)
+    ours = kernel.solve(xy, codes, 1, Request(holes=True, curve=True))
     if ours.reason[0] != 0:
         return False
     values = ours.curve[0]

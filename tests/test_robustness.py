@@ -34,6 +34,7 @@ from geoalpha import (
     alpha_shapes,
     optimal_alpha,
 )
+from geoalpha.options import Request
 
 TEN_SECONDS = datetime.timedelta(seconds=10)
 
@@ -692,12 +693,12 @@ def test_the_kernel_refuses_coordinates_not_in_row_order():
     # x0 x1 ... y0 y1 ...: read as pairs it would be other points.
     xy = np.array([[0.0, 0.0], [4.0, 0.0], [4.0, 3.0], [0.0, 3.0]])
     offsets = np.array([0, 4], dtype=np.int64)
-    kwargs = dict(holes=False, components=1, threads=1, max_union_nodes=1000)
-    done = geoalpha._kernel.alpha_shapes(xy, offsets, **kwargs)
+    request = geoalpha.kernel.Compiled(Request(n_jobs=1), 1, True)
+    done = geoalpha._kernel.alpha_shapes(xy, offsets, request)
     assert done["area"].tolist() == [12.0]
     with pytest.raises(ValueError, match=r"^xy must be C-contiguous$"):
-        geoalpha._kernel.alpha_shapes(np.asfortranarray(xy), offsets, **kwargs)
+        geoalpha._kernel.alpha_shapes(np.asfortranarray(xy), offsets, request)
     with pytest.raises(ValueError, match=r"^out_xy must be C-contiguous$"):
         geoalpha._kernel.alpha_shapes(
-            xy, offsets, out_xy=np.asfortranarray(xy), **kwargs
+            xy, offsets, request, out_xy=np.asfortranarray(xy)
         )
