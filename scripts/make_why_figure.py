@@ -22,7 +22,6 @@ import matplotlib
 matplotlib.use("Agg")
 
 import matplotlib.pyplot as plt
-import shapely
 
 import geoalpha
 from geoalpha import datasets
