@@ -243,7 +243,7 @@ class Solved(NamedTuple):
 
 
 class Alternatives(NamedTuple):
-    """The outlier optima for ``k = 1 .. max_left_out``, flat: one entry each.
+    """The outlier optima for ``k`` from 1 to ``max_left_out``, flat: one entry each.
 
     ``group``, ``k``, ``radius``, ``area`` (computation CRS), ``n_parts``,
     ``capped``; the rows each leaves out are ``rows[row_offsets[i]:

@@ -305,6 +305,9 @@ pub fn best_cover(
     max_nodes: usize,
 ) -> Cover {
     let (label, n) = pieces(|t| w[t] <= r, &mesh.nb);
+    if components == 1 {
+        return heaviest_piece(label, n, mesh, weight);
+    }
     let mut points = vec![Vec::new(); n];
     for (&p, tri) in label.iter().zip(&mesh.tri).filter(|(&p, _)| p != NONE) {
         points[p as usize].extend_from_slice(tri);
@@ -435,6 +438,32 @@ impl<'a> Outliers<'a> {
     /// The largest weight.
     pub fn top(&self) -> u32 {
         self.values.last().copied().unwrap_or(0)
+    }
+}
+
+/// [`best_cover`] with one piece: the piece whose points weigh the most (the
+/// first of equals), each point counted once (the triangles taken piece by
+/// piece, a stamp per point), without the search over unions.
+fn heaviest_piece(label: Vec<u32>, n: usize, mesh: &Mesh, weight: &[u64]) -> Cover {
+    let inside = label.iter().zip(0..).filter(|&(&l, _)| l != NONE);
+    let order = counting_sort(inside.map(|(&l, t)| (l as usize, t)), n);
+    let mut stamp = vec![NONE; weight.len()];
+    let mut total = vec![0u64; n];
+    for &t in &order {
+        let p = label[t as usize];
+        for &v in &mesh.tri[t as usize] {
+            if stamp[v as usize] != p {
+                stamp[v as usize] = p;
+                total[p as usize] += weight[v as usize];
+            }
+        }
+    }
+    let best = (0..n).max_by_key(|&p| (total[p], std::cmp::Reverse(p)));
+    Cover {
+        rows: best.map_or(0, |p| total[p]),
+        chosen: best.map(|p| vec![p as u32]).unwrap_or_default(),
+        capped: false,
+        label,
     }
 }
 
