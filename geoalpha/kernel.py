@@ -463,7 +463,8 @@ class Compiled:
 def _why(res: dict, order: np.ndarray, n_groups: int) -> Why:
     """Return the kernel's explanation with point indices as input positions."""
     critical = res["critical"].reshape(n_groups, 3)
-    critical = np.where(critical >= 0, order[np.maximum(critical, 0)], -1)
+    if len(order):  # (no points: no triangle either)
+        critical = np.where(critical >= 0, order[np.maximum(critical, 0)], -1)
     alt_offsets = res["alt_offsets"]
     return Why(
         limited_by=res["limited_by"],

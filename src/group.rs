@@ -367,8 +367,8 @@ pub fn finish(
                 let total = places.iter().sum::<u64>();
                 let at = values.partition_point(|&v| v <= limit);
                 let lo = lower_bound(&low, &places, 1);
-                let search = Outliers::new(w, mesh, &places, components, nodes);
                 if at > 0 && lo < at as u32 {
+                    let search = Outliers::new(w, mesh, &places, components, nodes);
                     let top = at as u32 - 1;
                     if search.cover(top).rows + 1 >= total {
                         res.suspicious = true;

@@ -358,6 +358,12 @@ pub fn lower_bound(lowest: &[u32], weight: &[u64], k: u64) -> u32 {
         .filter(|&(&l, &x)| l != NONE && x > 0)
         .map(|(&l, &x)| (l, x))
         .collect();
+    // Every point weighs at least 1: the k + 1 highest decide.
+    let top = (k as usize).saturating_add(1);
+    if reached.len() > top {
+        reached.select_nth_unstable_by_key(top - 1, |&(l, _)| std::cmp::Reverse(l));
+        reached.truncate(top);
+    }
     reached.sort_unstable_by_key(|&(l, _)| std::cmp::Reverse(l));
     let mut left = 0;
     for (l, x) in reached {
@@ -391,9 +397,12 @@ impl<'a> Outliers<'a> {
         components: usize,
         max_nodes: usize,
     ) -> Self {
-        let mut values: Vec<u32> = w.to_vec();
-        values.sort_unstable();
-        values.dedup();
+        // The weights are ranks: the distinct ones by presence, in O(m).
+        let mut present = vec![false; w.iter().max().map_or(0, |&x| x as usize + 1)];
+        w.iter().for_each(|&x| present[x as usize] = true);
+        let values: Vec<u32> = (0..present.len() as u32)
+            .filter(|&x| present[x as usize])
+            .collect();
         Outliers {
             w,
             mesh,

@@ -349,12 +349,12 @@ def _shapes(res: kernel.Solved, rows, gave_up, elsewhere: bool):
     reason = res.reason.astype(np.int64)
     n_parts = res.n_parts.astype(np.int64)
     # A group without rings (reason 4) whose shape is every triangle: its convex hull.
-    whole = np.flatnonzero((res.reason == 4) & res.whole)
+    whole = np.flatnonzero((res.reason == kernel.Reason.RINGS) & res.whole)
     if len(whole):
         take = np.isin(res.codes, whole)
         hulls = guarantee.convex_hulls(res.coords[take], res.codes[take], len(rows))
         geometry[whole] = hulls[whole]
-        reason[whole] = 0
+        reason[whole] = kernel.Reason.OK
         n_parts[whole] = 1
     degenerate = reason != 0
     geometry[degenerate] = guarantee.EMPTY_POLYGON
@@ -415,7 +415,7 @@ def _verified(raw: Unverified, out_xy, codes, components) -> AlphaShapes:
         n_outliers=np.bincount(codes[outlier], minlength=len(failed)),
         gave_up=res.gave_up & ~failed,
         capped=res.capped & ~failed,
-        reason=np.where(failed, 5, res.reason),
+        reason=np.where(failed, kernel.Reason.GUARANTEE, res.reason),
     )
 
 

@@ -725,7 +725,10 @@ def _reasons(degenerate, points: Points, proj: gcrs.Projection) -> np.ndarray:
         out=proj.out[sel],
         alpha=np.zeros(len(which)),
     )
-    reason[which] = np.where(np.isin(res.reason, (1, 2, 3)), res.reason, 5)
+    thin = (kernel.Reason.FEW, kernel.Reason.COLLINEAR, kernel.Reason.COLLINEAR_OUT)
+    reason[which] = np.where(
+        np.isin(res.reason, thin), res.reason, kernel.Reason.GUARANTEE
+    )
     return reason
 
 
@@ -842,7 +845,11 @@ def guarantee(
         geometry=geometry,
         alpha=np.where(failed, np.nan, hulls.alpha),
         degenerate=hulls.degenerate | failed,
-        reason=np.where(failed & (hulls.reason == 0), 5, hulls.reason),
+        reason=np.where(
+            failed & (hulls.reason == kernel.Reason.OK),
+            kernel.Reason.GUARANTEE,
+            hulls.reason,
+        ),
         outlier=outlier,
     )
 
