@@ -21,6 +21,7 @@ from hypothesis import assume, event, given, note
 from hypothesis import strategies as st
 from scipy.spatial import QhullError
 
+import geoalpha
 from geoalpha import (
     DegenerateGroupWarning,
     alpha_shape,
@@ -517,3 +518,29 @@ def test_batched_equals_per_group(holes, components, data):
         assert res.geometry[g].geom_type == alone.geom_type
         assert res.n_parts[g] == parts(alone)
         assert_same_region(res.geometry[g], alone)
+
+
+@pytest.mark.parametrize("holes", [False, True], ids=["filled", "holes"])
+@pytest.mark.parametrize("kind", list(STRATEGIES))
+@examples(25)
+@given(data=st.data())
+def test_the_critical_triangle_has_the_optimal_radius(kind, holes, data):
+    """explain()'s critical triangle: its exact circumradius is the radius (#35).
+
+    Cocircular sets and grids tie many triangles at the optimum: the rule
+    (the largest circumradius of the tie run) names one whose radius is it.
+    """
+    import geopandas as gpd
+
+    p = data.draw(STRATEGIES[kind], label="points")
+    frame = gpd.GeoDataFrame(geometry=shapely.points(p))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        why = geoalpha.explain(frame, crs=None, holes=holes, suspicious=False)
+    if why["limited_by"].item() == "degenerate":
+        return
+    rows = why["critical_rows"].item()
+    corners = p[rows[:3]]
+    radius = reference.exact_circumradius(*corners)
+    assert radius == pytest.approx(why["radius"].item(), rel=1e-12, abs=0)
+    assert why["limited_by"].item() in ("coverage", "connection")
