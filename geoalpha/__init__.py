@@ -20,6 +20,7 @@ from geoalpha.errors import (
     InvalidInputError,
     OutlierWarning,
     SearchWarning,
+    SuspiciousHullWarning,
 )
 
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs
@@ -29,7 +30,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs
         alpha_shapes,
         optimal_alpha,
     )
-    from geoalpha.hulls import hull, outlier_rows
+    from geoalpha.hulls import curve, explain, hull, outlier_rows
 
 __all__ = [
     "AlphaShapes",
@@ -41,9 +42,12 @@ __all__ = [
     "InvalidInputError",
     "OutlierWarning",
     "SearchWarning",
+    "SuspiciousHullWarning",
     "__version__",
     "alpha_shape",
     "alpha_shapes",
+    "curve",
+    "explain",
     "hull",
     "optimal_alpha",
     "outlier_rows",
@@ -55,6 +59,8 @@ _LAZY = {
     "alpha_shape": "geoalpha.arrays.optimal",
     "alpha_shapes": "geoalpha.arrays.optimal",
     "optimal_alpha": "geoalpha.arrays.optimal",
+    "curve": "geoalpha.hulls",
+    "explain": "geoalpha.hulls",
     "hull": "geoalpha.hulls",
     "outlier_rows": "geoalpha.hulls",
 }

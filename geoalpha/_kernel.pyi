@@ -5,7 +5,7 @@ has the points sorted by group (:func:`sort_groups`, unless they are already)
 and builds the polygons from the rings.
 """
 
-from typing import Final
+from typing import Final, Protocol
 
 import numpy as np
 import numpy.typing as npt
@@ -34,19 +34,35 @@ EARTH_RADIUS: Final[float]
 #: its centre (the normalised mean of its unit vectors) is refused (reason 6).
 MAX_SPHERE_DEGREES: Final[float]
 
+#: The reason codes by name: ``[("OK", 0), ("FEW", 1), ...]`` (``kernel.Reason``).
+REASONS: Final[list[tuple[str, int]]]
+#: What limits a radius, by name: ``[("degenerate", 0), ("coverage", 1), ...]``.
+LIMITED_BY: Final[list[tuple[str, int]]]
+
+class Request(Protocol):
+    """What :func:`alpha_shapes` reads of ``request`` (``geoalpha.kernel.Compiled``)."""
+
+    holes: bool  #: keep holes (the shape is the solid triangles) or fill them
+    components: int  #: largest number of edge-connected pieces (>= 1)
+    curve: bool  #: also return every group's validity curve
+    threads: int  #: threads to spread the groups over (0 or above the cores: all)
+    max_union_nodes: int  #: node budget of the best union (``MAX_UNION_NODES``)
+    sphere: bool  #: ``xy`` is lon/lat in degrees, computed on the sphere
+    locations: bool  #: ``budget``/``fraction`` count locations, not rows
+    fraction: float  #: the budget as a fraction in [0, 1) of each group's unit
+    explain: bool  #: the critical triangle, ``limited_by``, the points covered last
+    max_left_out: int  #: the outlier optima for k = 1..max_left_out
+    left_out_locations: bool  #: those k count locations (else rows)
+    suspicious: float  #: flag a radius one location divides by this (0: off)
+
 def alpha_shapes(
     xy: npt.NDArray[np.float64],
     offsets: npt.NDArray[np.int64],
+    request: Request,
     *,
     out_xy: npt.NDArray[np.float64] | None = None,
-    holes: bool = False,
-    components: int = 1,
     alpha: npt.NDArray[np.float64] | None = None,
     budget: npt.NDArray[np.int64] | None = None,
-    curve: bool = False,
-    threads: int = 0,
-    max_union_nodes: int = ...,
-    sphere: bool = False,
 ) -> dict[str, np.ndarray]:
     """Optimal (or given-alpha) alpha shapes of every group, in one call.
 
@@ -56,35 +72,22 @@ def alpha_shapes(
         Points sorted by group, in the computation CRS (metres).
     offsets : ndarray of int64, shape (G + 1,)
         Group ``g`` is ``xy[offsets[g]:offsets[g + 1]]``.
+    request : Request
+        What to compute, the same for every group (its attributes are read
+        once). With ``sphere``, ``xy`` holds longitudes and latitudes in
+        degrees and every group is computed on the sphere of radius
+        ``EARTH_RADIUS`` (``src/sphere.rs``); groups beyond
+        ``MAX_SPHERE_DEGREES`` of their centre get reason 6. The GIL is
+        released for the whole computation.
     out_xy : ndarray of float64, shape (n, 2), optional
         The same points in the coordinates the result is returned in; groups
         collinear there are degenerate too (reason 3).
-    holes : bool
-        Keep holes (the shape is the solid triangles) or fill them.
-    components : int
-        Largest number of edge-connected pieces of a valid shape (>= 1).
     alpha : ndarray of float64, shape (G,), optional
         A given alpha per group (>= 0; 0 is the convex hull) instead of the
         optimum.
     budget : ndarray of int64, shape (G,), optional
-        Rows each group may leave out (the outlier optimum where > 0).
-    curve : bool
-        Also return every group's validity curve.
-    threads : int
-        Threads to spread the groups over (0, or more than the cores the
-        process may run on: every core). The GIL is released for the whole
-        computation.
-    max_union_nodes : int
-        Node budget of the exact best union of several pieces (outliers);
-        a group that reaches it is flagged ``capped``. Default
-        ``MAX_UNION_NODES``.
-    sphere : bool
-        ``xy`` holds longitudes and latitudes in degrees and every group is
-        computed on the sphere of radius ``EARTH_RADIUS``: the spherical
-        Delaunay triangulation (empty circumscribed caps), each triangle's
-        radius the geodesic radius of its circumscribed small circle, radii
-        and areas in metres and square metres (``src/sphere.rs``). Groups
-        beyond ``MAX_SPHERE_DEGREES`` of their centre get reason 6.
+        Rows (locations) each group may leave out (the outlier optimum where
+        > 0); ``request.fraction`` instead makes it a fraction of each group's.
 
     Returns
     -------
@@ -92,15 +95,22 @@ def alpha_shapes(
         Per group (G): ``reason`` (uint8: 0 a shape, 1 fewer than 3 distinct
         points, 2 collinear (on a great circle with ``sphere``), 3 collinear in
         ``out_xy``, 4 no rings, 6 a point beyond ``MAX_SPHERE_DEGREES`` of
-        the group's centre, 7 the kernel failed on this group: a panic inside
-        it, caught, the other groups unaffected),
-        ``alpha``, ``n_distinct``, ``n_parts``, ``area``,
-        ``n_outliers`` (rows), ``whole``, ``capped``. Per point (n):
-        ``rep`` (index of the point that represents it), ``left_out``.
+        the group's centre, 7 the kernel failed on this group: a panic
+        inside it, caught, the other groups unaffected), ``alpha``,
+        ``n_distinct``, ``n_parts``, ``area``, ``n_outliers`` (rows),
+        ``whole``, ``capped``,
+        ``limited_by`` (uint8, ``LIMITED_BY``), ``suspicious``; ``critical``
+        (3 per group: point indices of the critical triangle, -1 without);
+        ``last_vertex``/``last_offsets`` (the points covered last). Per point
+        (n): ``rep`` (index of the point that represents it), ``left_out``.
         Rings: ``ring_vertex`` (point indices, closed rings),
         ``ring_offsets``, ``polygon_offsets``, ``group_offsets`` (geoarrow's
         MultiPolygon layout). Curves: ``curve_value``, ``curve_valid``,
-        ``curve_offsets``.
+        ``curve_offsets``. Alternatives (k = 1..``max_left_out``, and a
+        flagged group's one-location optimum), grouped by ``alt_offsets``:
+        ``alt_k``, ``alt_radius``, ``alt_area``, ``alt_parts``,
+        ``alt_capped``, and the rows each leaves out, ``alt_rows`` by
+        ``alt_row_offsets``.
 
     Raises
     ------

@@ -30,6 +30,14 @@ class AlphaAccessor:
     def hull(self, by=None, **options):  # noqa: D102 - documented by hulls.hull
         return hulls.hull(self._obj, by, **options)
 
+    @functools.wraps(hulls.explain)
+    def explain(self, by=None, **options):  # noqa: D102 - documented by hulls.explain
+        return hulls.explain(self._obj, by, **options)
+
+    @functools.wraps(hulls.curve)
+    def curve(self, by=None, **options):  # noqa: D102 - documented by hulls.curve
+        return hulls.curve(self._obj, by, **options)
+
 
 def register(name: str = "alpha") -> None:
     """Register :class:`AlphaAccessor` as ``name`` on GeoDataFrame and GeoSeries.

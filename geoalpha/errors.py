@@ -23,6 +23,7 @@ __all__ = [
     "InvalidInputError",
     "OutlierWarning",
     "SearchWarning",
+    "SuspiciousHullWarning",
     "did_you_mean",
     "first_n",
     "setting",
@@ -75,6 +76,15 @@ class CRSWarning(GeoAlphaWarning):
 
 class GroupingWarning(GeoAlphaWarning):
     """The groups look wrong: nearly as many groups as rows (a wrong ``by``?)."""
+
+
+class SuspiciousHullWarning(GeoAlphaWarning):
+    """One location forces a group's shape far beyond its other points.
+
+    Leaving that location (a distinct point, with all its rows) out divides the
+    group's optimal radius by at least :data:`geoalpha.kernel.SUSPICIOUS_FACTOR`
+    (:doc:`/user_guide/why`); ``suspicious=False`` turns the check off.
+    """
 
 
 class SearchWarning(GeoAlphaWarning):

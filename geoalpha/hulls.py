@@ -8,12 +8,20 @@ import warnings
 import pandas as pd
 
 from geoalpha import options as _options
-from geoalpha.errors import InvalidInputError, OutlierWarning
-from geoalpha.frame.pipeline import as_frame, run
+from geoalpha.errors import InvalidInputError, OutlierWarning, setting, spelled
+from geoalpha.frame.pipeline import as_frame, run, run_all
 from geoalpha.frame.schema import RESULT_COLUMNS
 from geoalpha.options import DEGENERATE_POLICIES, METHODS, Options
 
-__all__ = ["DEGENERATE_POLICIES", "METHODS", "RESULT_COLUMNS", "hull", "outlier_rows"]
+__all__ = [
+    "DEGENERATE_POLICIES",
+    "METHODS",
+    "RESULT_COLUMNS",
+    "curve",
+    "explain",
+    "hull",
+    "outlier_rows",
+]
 
 
 def _is_dask(data) -> bool:
@@ -73,10 +81,10 @@ def hull(gdf, by=None, **options):
     >>> from geoalpha import datasets
     >>> points = datasets.load("uk_clusters")
     >>> import warnings
-    >>> with warnings.catch_warnings(record=True) as caught:  # one 2-point cluster
+    >>> with warnings.catch_warnings(record=True) as caught:
     ...     hulls = points.alpha.hull(by="Cluster")
-    >>> caught[0].category.__name__
-    'DegenerateGroupWarning'
+    >>> sorted(w.category.__name__ for w in caught)  # a 2-point cluster; 5 far-off
+    ['DegenerateGroupWarning', 'SuspiciousHullWarning']
     >>> len(hulls), int(hulls["n_points"].sum()) == len(points)
     (691, True)
     >>> hulls.geom_type.unique().tolist(), hulls.crs.to_epsg()
@@ -136,3 +144,151 @@ def outlier_rows(gdf, by=None, **options):
         warnings.simplefilter("ignore", OutlierWarning)
         _, left_out = run(frame, by, opts)
     return pd.Series(left_out, index=frame.index, name="outlier")
+
+
+def _eager_options(gdf, options, caller: str) -> Options:
+    """Check ``options`` for ``explain()``/``curve()``: the alpha shape, eagerly."""
+    if _is_dask(gdf):
+        raise InvalidInputError(
+            f"{caller} needs an eager GeoDataFrame; call .compute() first"
+        )
+    opts = Options.from_kwargs(options, caller=caller)
+    if opts.method != "alpha":
+        raise InvalidInputError(
+            f"{caller} explains the optimal alpha shape: use it with "
+            f"{setting('method', 'alpha')}; got {setting('method', opts.method)}"
+        )
+    return opts
+
+
+def explain(gdf, by=None, **options):
+    """Why each group's hull got its radius: the critical triangle and the alternative.
+
+    Runs :func:`hull` with the same options and says, per group, what set
+    the optimum (:doc:`/user_guide/why`). Also ``gdf.alpha.explain(...)``.
+
+    Parameters
+    ----------
+    gdf, by, **options
+        As for :func:`hull` (``method="alpha"``).
+
+    Returns
+    -------
+    GeoDataFrame
+        In the input CRS, one row per group of :func:`hull`'s result: the key
+        column(s); ``radius`` and ``alpha`` as :func:`hull` gives them;
+        ``limited_by`` (``"coverage"``, ``"connection"``, ``"outliers"``,
+        ``"alpha given"`` or ``"degenerate"``); ``critical_rows`` (index labels
+        of the critical triangle's three corners, then, for ``"coverage"``,
+        of the point(s) covered last); ``radius_without_1``,
+        ``area_m2_without_1`` and ``rows_without_1`` (the optimum with one
+        location, a distinct point with all its rows, left out, and those
+        rows' labels); ``suspicious`` (what :class:`SuspiciousHullWarning`
+        flags); the critical triangle as ``geometry``.
+
+    Raises
+    ------
+    InvalidInputError
+        As :func:`hull`; for ``method`` other than ``"alpha"`` and for a
+        dask-geopandas frame.
+
+    .. versionadded:: 0.5.0
+
+    Examples
+    --------
+    >>> import geopandas as gpd
+    >>> import shapely
+    >>> pts = [(0, 0), (4, 0), (4, 4), (0, 4), (2, 3.5), (30, 30)]
+    >>> gdf = gpd.GeoDataFrame(geometry=shapely.points(pts), crs="EPSG:32631")
+    >>> why = explain(gdf, suspicious=False)
+    >>> why[["limited_by", "critical_rows", "rows_without_1"]].iloc[0].tolist()
+    ['coverage', [1, 5, 2, 5], [5]]
+    >>> round(why["radius_without_1"].item(), 4)
+    2.3214
+    """
+    opts = _eager_options(gdf, options, "explain()")
+    from geoalpha.frame.why import explain_table
+
+    asked = dict(explain=True, max_left_out=1, left_out_unit="locations")
+    if not opts.outliers and opts.search == "exact" and opts.alpha is None:
+        from geoalpha.kernel import SUSPICIOUS_FACTOR
+
+        asked["suspicious_factor"] = SUSPICIOUS_FACTOR
+    return explain_table(run_all(as_frame(gdf), by, opts, **asked))
+
+
+explain.__signature__ = _options.signature(explain)
+
+
+def curve(
+    gdf, by=None, *, max_left_out: int = 5, outlier_unit: str = "rows", **options
+):
+    """Compute the exact optimum with 0, 1, ..., ``max_left_out`` rows/locations out.
+
+    One kernel call: every group's optima for every ``k`` (:doc:`/user_guide/why`).
+    Also ``gdf.alpha.curve(...)``.
+
+    Parameters
+    ----------
+    gdf, by
+        As for :func:`hull`.
+    max_left_out : int, default 5
+        The largest ``k``; a group keeps at least 3 locations, so a smaller
+        group's curve stops earlier (with an :class:`OutlierWarning`).
+    outlier_unit : {"rows", "locations"}, default "rows"
+        What ``k`` counts.
+    **options
+        As for :func:`hull` (``method="alpha"``; not ``outliers``: ``k`` is the
+        budget).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per group with a shape and ``k`` (0 first): the key column(s),
+        ``k``, ``radius``, ``alpha``, ``area_m2``, ``n_parts`` and ``left_out``
+        (the index labels of the rows left out), each row the exact outlier
+        optimum with at most ``k`` rows (locations) left out. ``k = 0`` is
+        :func:`hull`'s result.
+
+    Raises
+    ------
+    InvalidInputError
+        ``max_left_out`` not an integer >= 0, an unknown ``outlier_unit``,
+        ``outliers`` given, or as :func:`explain`.
+
+    .. versionadded:: 0.5.0
+
+    Examples
+    --------
+    >>> import geopandas as gpd
+    >>> import shapely
+    >>> pts = [(0, 0), (4, 0), (4, 4), (0, 4), (2, 3.5), (30, 30)]
+    >>> gdf = gpd.GeoDataFrame(geometry=shapely.points(pts), crs="EPSG:32631")
+    >>> table = curve(gdf, max_left_out=2, suspicious=False)
+    >>> table[["k", "n_parts", "left_out"]].values.tolist()
+    [[0, 1, []], [1, 1, [5]], [2, 1, [5]]]
+    """
+    import numbers
+
+    from geoalpha.options import META
+
+    if (
+        isinstance(max_left_out, bool)
+        or not isinstance(max_left_out, numbers.Integral)
+        or max_left_out < 0
+    ):
+        raise InvalidInputError(
+            f"{spelled('max_left_out')} must be an integer >= 0; got {max_left_out!r}"
+        )
+    unit = META["outlier_unit"].check("outlier_unit", outlier_unit)
+    opts = _eager_options(gdf, options, "curve()")
+    if opts.outliers:
+        raise InvalidInputError(
+            "curve() leaves out k = 0 .. max_left_out itself: use it without "
+            f"outliers; got {setting('outliers', opts.outliers)}"
+        )
+    from geoalpha.frame.why import curve_table
+
+    asked = dict(max_left_out=int(max_left_out), left_out_unit=unit)
+    ran = run_all(as_frame(gdf), by, opts, **asked)
+    return curve_table(ran, int(max_left_out), unit)

@@ -6,6 +6,7 @@ indices of input points, so every vertex is an input point, bit for bit.
 
 from __future__ import annotations
 
+import enum
 import itertools
 import numbers
 import os
@@ -16,11 +17,12 @@ import shapely
 
 from geoalpha import _kernel
 from geoalpha.errors import first_n
+from geoalpha.options import Request
 
 __all__ = [
     "ALPHA_RTOL",
     "ANTIMERIDIAN_SNAP",
-    "FAILED",
+    "LIMITED_BY",
     "MAX_COORDINATE",
     "MAX_EMPTY_GROUPS",
     "MAX_UNION_NODES",
@@ -29,8 +31,13 @@ __all__ = [
     "PRECISION_ULPS",
     "REASONS",
     "REPAIR_RTOL",
+    "SUSPICIOUS_FACTOR",
     "TIE_RTOL",
+    "Alternatives",
+    "Compiled",
+    "Reason",
     "Solved",
+    "Why",
     "check_points",
     "cores",
     "group_codes",
@@ -68,6 +75,33 @@ OUTPUT_BUFFER_RTOL = 1e-6
 #: hull is split there.
 ANTIMERIDIAN_SNAP = 1e-9
 
+
+class Reason(enum.IntEnum):
+    """Why a group has no shape (``OK``: it has one): the kernel's codes.
+
+    The compiled kernel exports its names (``_kernel.REASONS``), which a test
+    compares with these; ``GUARANTEE`` is Python's own (the guarantee stage).
+    """
+
+    OK = 0
+    FEW = 1
+    COLLINEAR = 2
+    COLLINEAR_OUT = 3
+    RINGS = 4
+    GUARANTEE = 5
+    HEMISPHERE = 6
+    FAILED = 7  #: the kernel failed on this group; the other groups are unaffected
+
+
+#: What limits a group's radius, by the kernel's code (``_kernel.LIMITED_BY``):
+#: ``"coverage"``, ``"connection"``, ``"outliers"``, ``"alpha given"``,
+#: ``"degenerate"`` (:doc:`/user_guide/why`).
+LIMITED_BY: dict[int, str] = {code: name for name, code in _kernel.LIMITED_BY}
+
+#: A group is suspicious when leaving out one location divides its optimal
+#: radius by at least this factor (:doc:`/user_guide/why` justifies it).
+SUSPICIOUS_FACTOR = 4.0
+
 #: Why a group has no shape, by the kernel's reason code (0: it has one).
 REASONS: dict[int, str] = {
     1: "fewer than 3 distinct points",
@@ -76,9 +110,6 @@ REASONS: dict[int, str] = {
     4: "no rings could be traced",
     7: "the kernel failed on this group (a bug: please report it with its points)",
 }
-
-#: Reason code of a group the kernel failed on (the other groups are unaffected).
-FAILED = 7
 
 #: The geometry of a group with no shape.
 EMPTY_POLYGON = shapely.Polygon()
@@ -255,13 +286,55 @@ class Solved(NamedTuple):
     coords: np.ndarray
     geometry: np.ndarray
     curve: tuple[np.ndarray, np.ndarray, np.ndarray] | None
+    why: Why
+
+
+class Alternatives(NamedTuple):
+    """The outlier optima for ``k`` from 1 to ``max_left_out``, flat: one entry each.
+
+    ``group``, ``k``, ``radius``, ``area`` (computation CRS), ``n_parts``,
+    ``capped``; the rows each leaves out are ``rows[row_offsets[i]:
+    row_offsets[i + 1]]`` (input positions, ascending).
+    """
+
+    group: np.ndarray
+    k: np.ndarray
+    radius: np.ndarray
+    area: np.ndarray
+    n_parts: np.ndarray
+    capped: np.ndarray
+    rows: np.ndarray
+    row_offsets: np.ndarray
+
+    def left_out(self, i: int) -> np.ndarray:
+        """Return the input positions of the rows alternative ``i`` leaves out."""
+        return self.rows[self.row_offsets[i] : self.row_offsets[i + 1]]
+
+
+class Why(NamedTuple):
+    """Why each group got its radius (:attr:`Request.explain`), and its alternatives.
+
+    Per group: ``limited_by`` (a key of :data:`LIMITED_BY`), ``critical``
+    (shape (G, 3): input positions of the critical triangle's corners, -1
+    without one), ``last`` (the points covered last: input positions
+    ``last[0][last[1][g]:last[1][g + 1]]``), ``suspicious``. ``alternatives``:
+    :class:`Alternatives`.
+    """
+
+    limited_by: np.ndarray
+    critical: np.ndarray
+    last: tuple[np.ndarray, np.ndarray]
+    suspicious: np.ndarray
+    alternatives: Alternatives
 
 
 _PER_GROUP = ("reason", "alpha", "n_distinct", "n_parts", "area")
 _PER_GROUP += ("n_outliers", "whole", "capped")
+#: Results that are point indices (shifted when groups run in chunks).
+_INDICES = ("rep", "ring_vertex", "last_vertex", "alt_rows")
 
 
-def _run(xy, out, offsets, alpha, budget, progress, **kwargs) -> dict:
+def _run(xy, out, offsets, alpha, budget, progress, request) -> dict:
     """Run the kernel on all groups: one call, or about 20 runs of groups with a bar."""
     n_groups = len(offsets) - 1
     cuts = [0, n_groups]
@@ -273,10 +346,10 @@ def _run(xy, out, offsets, alpha, budget, progress, **kwargs) -> dict:
         res = _kernel.alpha_shapes(
             xy[a:b],
             offsets[g0 : g1 + 1] - a,
+            request,
             out_xy=None if out is None else out[a:b],
             alpha=None if alpha is None else alpha[g0:g1],
             budget=None if budget is None else budget[g0:g1],
-            **kwargs,
         )
         parts.append((a, res))
         if progress is not None:
@@ -288,8 +361,10 @@ def _run(xy, out, offsets, alpha, budget, progress, **kwargs) -> dict:
         arrays, last = [], 0
         for k, (base, res) in enumerate(parts):
             a = res[key]
-            if key in ("rep", "ring_vertex"):
+            if key in _INDICES:
                 a = a + base
+            elif key == "critical":
+                a = np.where(a >= 0, a + base, a)
             elif key.endswith("_offsets"):
                 a = (a if k == 0 else a[1:]) + last
                 last = int(a[-1]) if len(a) else last
@@ -320,20 +395,19 @@ def _geometries(coords, res, n_groups: int) -> np.ndarray:
     return out
 
 
+#: What :func:`solve` computes unless told: the optimum, holes filled, one piece.
+DEFAULT_REQUEST = Request()
+
+
 def solve(
     xy: np.ndarray,
     codes: np.ndarray,
     n_groups: int,
+    request: Request = DEFAULT_REQUEST,
     *,
     out: np.ndarray | None = None,
-    holes: bool = False,
-    components: int = 1,
     alpha: np.ndarray | None = None,
-    budget: np.ndarray | None = None,
-    curve: bool = False,
-    n_jobs: int | None = None,
     progress=None,
-    sphere: bool = False,
 ) -> Solved:
     """Run the kernel on every group and build the polygons.
 
@@ -342,16 +416,15 @@ def solve(
     xy, codes, n_groups
         Checked points (:func:`check_points`) in the computation CRS, their
         group codes ``0 .. n_groups - 1`` (:func:`group_codes`), and how many.
+    request : Request
+        What to compute (:meth:`geoalpha.options.Options.request`): holes,
+        components, outliers, the sphere, the curves, why, the alternatives.
     out : ndarray of shape (n, 2), optional
         The points in the output coordinates (polygons, collinearity).
-    holes, components, n_jobs, progress, sphere
-        As for :func:`geoalpha.alpha_shapes` (``progress`` advances in about
-        20 steps; ``sphere``: reason 6 for a group the sphere refuses).
-    alpha, budget : ndarray of shape (n_groups,), optional
-        A given alpha per group (>= 0) instead of the optimum; rows each group
-        may leave out (``outliers=``).
-    curve : bool
-        Also return the validity curves.
+    alpha : ndarray of shape (n_groups,), optional
+        A given alpha per group (>= 0) instead of the optimum.
+    progress : object with ``update(n)``, optional
+        Advanced in about 20 steps.
 
     Returns
     -------
@@ -360,7 +433,7 @@ def solve(
     Examples
     --------
     >>> xy = np.array([[0, 0], [4, 0], [4, 4], [0, 4], [2, 3.5]])
-    >>> res = solve(xy, np.zeros(5, dtype=np.int64), 1, n_jobs=1)
+    >>> res = solve(xy, np.zeros(5, dtype=np.int64), 1, Request(n_jobs=1))
     >>> res.reason.tolist(), res.n_distinct.tolist(), res.geometry[0].geom_type
     ([0], [5], 'Polygon')
     """
@@ -369,24 +442,23 @@ def solve(
     np.cumsum(sizes, out=offsets[1:])
     sxy, order = np.ascontiguousarray(xy, dtype=float), np.arange(n)
     sout = None if out is None else np.ascontiguousarray(out)
+    n_threads = threads(request.n_jobs)
     if n > 1 and (codes[1:] < codes[:-1]).any():  # (sorted input is not copied)
         codes = np.ascontiguousarray(codes, dtype=np.int64)
         sxy, sout, order = _kernel.sort_groups(
-            sxy, codes, n_groups, out_xy=sout, threads=threads(n_jobs)
+            sxy, codes, n_groups, out_xy=sout, threads=n_threads
         )
+    budget = None
+    if request.budget_kind == "count" and alpha is None:
+        budget = np.full(n_groups, int(request.outliers), dtype=np.int64)
     res = _run(
         sxy,
         sout,
         offsets,
         None if alpha is None else np.ascontiguousarray(alpha, dtype=float),
-        None if budget is None else np.ascontiguousarray(budget, dtype=np.int64),
+        budget,
         progress,
-        holes=bool(holes),
-        components=int(components),
-        curve=bool(curve),
-        threads=threads(n_jobs),
-        max_union_nodes=MAX_UNION_NODES,
-        sphere=bool(sphere),
+        Compiled(request, n_threads, alpha is None),
     )
     coords = sxy if sout is None else sout
     on_ring = np.zeros(n, dtype=bool)
@@ -401,6 +473,59 @@ def solve(
         coords=coords,
         geometry=_geometries(coords, res, n_groups),
         curve=(res["curve_value"], res["curve_valid"], res["curve_offsets"])
-        if curve
+        if request.curve
         else None,
+        why=_why(res, order, n_groups),
+    )
+
+
+class Compiled:
+    """A :class:`~geoalpha.options.Request` as the compiled kernel reads it.
+
+    Its attributes are those of ``Request`` in ``src/lib.rs`` (``threads`` from
+    ``n_jobs``; ``fraction`` only for the optimum, ``optimum=False`` at a given
+    alpha).
+
+    Examples
+    --------
+    >>> Compiled(Request(outliers=0.1), 1, True).fraction
+    0.1
+    """
+
+    def __init__(self, request: Request, n_threads: int, optimum: bool):
+        self.holes = bool(request.holes)
+        self.components = int(request.components)
+        self.curve = bool(request.curve)
+        self.threads = n_threads
+        self.max_union_nodes = MAX_UNION_NODES
+        self.sphere = bool(request.sphere)
+        self.locations = request.locations
+        self.fraction = request.fraction if optimum else 0.0
+        self.explain = bool(request.explain)
+        self.max_left_out = int(request.max_left_out)
+        self.left_out_locations = request.left_out_locations
+        self.suspicious = float(request.suspicious_factor)
+
+
+def _why(res: dict, order: np.ndarray, n_groups: int) -> Why:
+    """Return the kernel's explanation with point indices as input positions."""
+    critical = res["critical"].reshape(n_groups, 3)
+    if len(order):  # (no points: no triangle either)
+        critical = np.where(critical >= 0, order[np.maximum(critical, 0)], -1)
+    alt_offsets = res["alt_offsets"]
+    return Why(
+        limited_by=res["limited_by"],
+        critical=critical,
+        last=(order[res["last_vertex"]], res["last_offsets"]),
+        suspicious=res["suspicious"],
+        alternatives=Alternatives(
+            group=np.repeat(np.arange(n_groups), np.diff(alt_offsets)),
+            k=res["alt_k"].astype(np.int64),
+            radius=res["alt_radius"],
+            area=res["alt_area"],
+            n_parts=res["alt_parts"].astype(np.int64),
+            capped=res["alt_capped"],
+            rows=order[res["alt_rows"]],
+            row_offsets=res["alt_row_offsets"],
+        ),
     )

@@ -20,9 +20,11 @@ __all__ = [
     "FIELDS",
     "META",
     "METHODS",
+    "OUTLIER_UNITS",
     "SEARCHES",
     "OptionMeta",
     "Options",
+    "Request",
     "check",
     "check_outliers",
     "defaults",
@@ -36,6 +38,8 @@ METHODS = ("alpha", "convex", "concave", "knn")
 SEARCHES = ("exact", "ladder", "bisect")
 #: What :func:`geoalpha.hull` does with groups that have no alpha shape.
 DEGENERATE_POLICIES = ("buffer", "empty", "drop")
+#: What ``outliers=`` counts: rows, or locations (distinct points, 1 each).
+OUTLIER_UNITS = ("rows", "locations")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -357,6 +361,23 @@ class Options:
         "count (3); the hull is then the tightest shape around the others. The "
         "output's n_outliers column counts the rows left out.",
     )
+    outlier_unit: str = option(
+        "rows",
+        choices=OUTLIER_UNITS,
+        doc='What ``outliers`` counts: ``"rows"``, or ``"locations"`` (a distinct\n'
+        "point with all its rows counts 1: a wrong geocode that put 50 rows on\n"
+        "one spot is one location); see :doc:`/user_guide/outliers`.",
+        help="What --outliers counts: rows, or locations (a distinct point with "
+        "all its rows counts 1).",
+    )
+    suspicious: bool = option(
+        True,
+        doc="Warn (:class:`SuspiciousHullWarning`) when leaving out one location\n"
+        "would divide a group's optimal radius by at least\n"
+        ":data:`geoalpha.kernel.SUSPICIOUS_FACTOR` (:doc:`/user_guide/why`).",
+        help="Warn when one location forces a group's shape far beyond its "
+        "other points (leaving it out divides the radius several times over).",
+    )
     grow: float = option(
         0.0,
         low=0.0,
@@ -391,6 +412,23 @@ class Options:
                 f"{setting('alpha', self.alpha)}, {setting('search', self.search)}"
             )
 
+    def request(self, **asked: Any) -> Request:
+        """Return what the kernel is asked for these options (``asked``: more).
+
+        Examples
+        --------
+        >>> Options(holes=True, outliers=2).request(explain=True).budget_kind
+        'count'
+        """
+        return Request(
+            holes=self.holes,
+            components=self.components,
+            outliers=self.outliers,
+            outlier_unit=self.outlier_unit,
+            n_jobs=self.n_jobs,
+            **asked,
+        )
+
     @classmethod
     def from_kwargs(cls, kwargs: Mapping[str, Any], caller: str = "hull()") -> Options:
         """Check ``kwargs`` (unknown names are an error) and build the options."""
@@ -401,6 +439,73 @@ class Options:
                 f"are {first_n(NAMES, limit=len(NAMES))}"
             )
         return cls(**kwargs)
+
+
+@dataclasses.dataclass(frozen=True)
+class Request:
+    """What the kernel computes for every group: one value, passed down whole.
+
+    Built by :meth:`Options.request` (or by the array API from its checked
+    arguments); :func:`geoalpha.kernel.solve` hands it to the compiled kernel,
+    which reads its attributes (``src/lib.rs``, ``Request``).
+
+    Attributes
+    ----------
+    holes, components, outliers, outlier_unit, n_jobs
+        As the options of :func:`geoalpha.hull` (checked).
+    sphere : bool
+        Longitudes/latitudes computed on the sphere.
+    curve : bool
+        Also the validity curves (``search="ladder"``/``"bisect"``).
+    explain : bool
+        Also why: the critical triangle, ``limited_by``, the points covered last.
+    max_left_out : int
+        Also the outlier optima for ``k = 1 .. max_left_out`` (the curve).
+    left_out_unit : str
+        What those ``k`` count (``"rows"`` or ``"locations"``).
+    suspicious_factor : float
+        Flag groups whose radius one left-out location divides by at least
+        this factor (0: no check).
+
+    Examples
+    --------
+    >>> Request(outliers=0.2, outlier_unit="locations").fraction
+    0.2
+    """
+
+    holes: bool = False
+    components: int = 1
+    outliers: int | float = 0
+    outlier_unit: str = "rows"
+    n_jobs: int | None = None
+    sphere: bool = False
+    curve: bool = False
+    explain: bool = False
+    max_left_out: int = 0
+    left_out_unit: str = "locations"
+    suspicious_factor: float = 0.0
+
+    @property
+    def budget_kind(self) -> str:
+        """``"none"``, ``"count"`` (an int per group) or ``"fraction"``."""
+        if not self.outliers:
+            return "none"
+        return "count" if isinstance(self.outliers, numbers.Integral) else "fraction"
+
+    @property
+    def fraction(self) -> float:
+        """``outliers`` as a fraction of each group's rows or locations (else 0)."""
+        return float(self.outliers) if self.budget_kind == "fraction" else 0.0
+
+    @property
+    def locations(self) -> bool:
+        """``outliers`` counts locations."""
+        return self.outlier_unit == "locations"
+
+    @property
+    def left_out_locations(self) -> bool:
+        """The alternatives (``max_left_out``) leave out locations."""
+        return self.left_out_unit == "locations"
 
 
 #: The ``kind`` of an option by its annotation (strings: PEP 563).

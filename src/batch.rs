@@ -53,6 +53,19 @@ pub struct Output {
     pub(crate) curve_value: Vec<f64>,
     pub(crate) curve_valid: Vec<bool>,
     pub(crate) curve_offsets: Vec<i64>,
+    pub(crate) limited_by: Vec<u8>,
+    pub(crate) critical: Vec<i64>,
+    pub(crate) last_vertex: Vec<i64>,
+    pub(crate) last_offsets: Vec<i64>,
+    pub(crate) suspicious: Vec<bool>,
+    pub(crate) alt_k: Vec<u32>,
+    pub(crate) alt_radius: Vec<f64>,
+    pub(crate) alt_area: Vec<f64>,
+    pub(crate) alt_parts: Vec<u32>,
+    pub(crate) alt_capped: Vec<bool>,
+    pub(crate) alt_offsets: Vec<i64>,
+    pub(crate) alt_rows: Vec<i64>,
+    pub(crate) alt_row_offsets: Vec<i64>,
 }
 
 fn check(input: &Input) -> Result<usize, String> {
@@ -92,6 +105,16 @@ fn check(input: &Input) -> Result<usize, String> {
     }
     if input.options.components < 1 {
         return Err("components must be >= 1".into());
+    }
+    let f = input.options.fraction;
+    if !((0.0..1.0).contains(&f)) {
+        return Err(format!("fraction must be in [0, 1); got {f}"));
+    }
+    let s = input.options.suspicious;
+    if !(s == 0.0 || s > 1.0 && s.is_finite()) {
+        return Err(format!(
+            "suspicious must be 0 (off) or a factor > 1; got {s}"
+        ));
     }
     let bad = |p: &Xy| !(p[0].abs() <= MAX_COORDINATE && p[1].abs() <= MAX_COORDINATE);
     let mut rows = input.xy.iter().chain(input.out.unwrap_or(&[]));
@@ -190,6 +213,9 @@ fn flatten(solved: &[Solved], offsets: &[i64], n: usize) -> Output {
         polygon_offsets: vec![0],
         group_offsets: vec![0],
         curve_offsets: vec![0],
+        last_offsets: vec![0],
+        alt_offsets: vec![0],
+        alt_row_offsets: vec![0],
         ..Output::default()
     };
     for (s, range) in solved.iter().zip(offsets.windows(2)) {
@@ -219,6 +245,26 @@ fn flatten(solved: &[Solved], offsets: &[i64], n: usize) -> Output {
         o.curve_value.extend_from_slice(&s.curve_values);
         o.curve_valid.extend_from_slice(&s.curve.valid);
         o.curve_offsets.push(o.curve_value.len() as i64);
+        o.limited_by.push(s.limited_by);
+        match s.critical {
+            Some(t) => o.critical.extend(t.iter().map(|&v| base + v as i64)),
+            None => o.critical.extend([-1; 3]),
+        }
+        o.last_vertex
+            .extend(s.last.iter().map(|&v| base + v as i64));
+        o.last_offsets.push(o.last_vertex.len() as i64);
+        o.suspicious.push(s.suspicious);
+        for a in &s.alternatives {
+            o.alt_k.push(a.k);
+            o.alt_radius.push(a.radius);
+            o.alt_area.push(a.area);
+            o.alt_parts.push(a.n_parts);
+            o.alt_capped.push(a.capped);
+            o.alt_rows
+                .extend(a.left_out.iter().map(|&v| base + v as i64));
+            o.alt_row_offsets.push(o.alt_rows.len() as i64);
+        }
+        o.alt_offsets.push(o.alt_k.len() as i64);
     }
     o
 }

@@ -106,29 +106,38 @@ macro_rules! dict_of {
     }};
 }
 
-/// Optimal (or given-alpha) alpha shapes of every group, in one call (the
-/// arguments and the arrays returned: `geoalpha/_kernel.pyi`).
-#[pyfunction(name = "alpha_shapes")]
-#[pyo3(signature = (
-    xy, offsets, *, out_xy=None, holes=false, components=1, alpha=None,
-    budget=None, curve=false, threads=0, max_union_nodes=spectrum::MAX_UNION_NODES,
-    sphere=false
-))]
-#[allow(clippy::too_many_arguments)]
-fn py_alpha_shapes<'py>(
-    py: Python<'py>,
-    xy: PyReadonlyArray2<'py, f64>,
-    offsets: PyReadonlyArray1<'py, i64>,
-    out_xy: Option<PyReadonlyArray2<'py, f64>>,
+/// What `alpha_shapes` is asked, the same for every group: the attributes
+/// of one Python object (`geoalpha.kernel.Request`; `geoalpha/_kernel.pyi`).
+#[derive(FromPyObject)]
+struct Request {
     holes: bool,
     components: usize,
-    alpha: Option<PyReadonlyArray1<'py, f64>>,
-    budget: Option<PyReadonlyArray1<'py, i64>>,
     curve: bool,
     threads: usize,
     max_union_nodes: usize,
     sphere: bool,
+    locations: bool,
+    fraction: f64,
+    explain: bool,
+    max_left_out: usize,
+    left_out_locations: bool,
+    suspicious: f64,
+}
+
+/// Optimal (or given-alpha) alpha shapes of every group, in one call (the
+/// arguments and the arrays returned: `geoalpha/_kernel.pyi`).
+#[pyfunction(name = "alpha_shapes")]
+#[pyo3(signature = (xy, offsets, request, *, out_xy=None, alpha=None, budget=None))]
+fn py_alpha_shapes<'py>(
+    py: Python<'py>,
+    xy: PyReadonlyArray2<'py, f64>,
+    offsets: PyReadonlyArray1<'py, i64>,
+    request: Request,
+    out_xy: Option<PyReadonlyArray2<'py, f64>>,
+    alpha: Option<PyReadonlyArray1<'py, f64>>,
+    budget: Option<PyReadonlyArray1<'py, i64>>,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let r = request;
     let input = Input {
         xy: points("xy", &xy)?,
         out: out_xy.as_ref().map(|o| points("out_xy", o)).transpose()?,
@@ -136,18 +145,26 @@ fn py_alpha_shapes<'py>(
         alpha: alpha.as_ref().map(|a| a.as_slice()).transpose()?,
         budget: budget.as_ref().map(|b| b.as_slice()).transpose()?,
         options: Options {
-            holes,
-            components,
-            curve,
-            max_union_nodes,
-            sphere,
+            holes: r.holes,
+            components: r.components,
+            curve: r.curve,
+            max_union_nodes: r.max_union_nodes,
+            sphere: r.sphere,
+            locations: r.locations,
+            fraction: r.fraction,
+            explain: r.explain,
+            max_left_out: r.max_left_out,
+            left_out_locations: r.left_out_locations,
+            suspicious: r.suspicious,
         },
     };
-    let o = detached(py, threads, || batch::run(&input))?;
+    let o = detached(py, r.threads, || batch::run(&input))?;
     Ok(dict_of!(py, o;
         reason, alpha, n_distinct, n_parts, area, n_outliers, whole, capped,
         rep, left_out, ring_vertex, ring_offsets, polygon_offsets, group_offsets,
-        curve_value, curve_valid, curve_offsets))
+        curve_value, curve_valid, curve_offsets, limited_by, critical, last_vertex,
+        last_offsets, suspicious, alt_k, alt_radius, alt_area, alt_parts, alt_capped,
+        alt_offsets, alt_rows, alt_row_offsets))
 }
 
 /// The points stably sorted by group and the rows in that order
@@ -239,5 +256,7 @@ fn _kernel(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("MAX_UNION_NODES", spectrum::MAX_UNION_NODES)?;
     m.add("EARTH_RADIUS", sphere::EARTH_RADIUS)?;
     m.add("MAX_SPHERE_DEGREES", sphere::MAX_ANGLE_DEGREES)?;
+    m.add("REASONS", group::REASON_NAMES.to_vec())?;
+    m.add("LIMITED_BY", group::LIMITED_BY_NAMES.to_vec())?;
     Ok(())
 }

@@ -305,6 +305,9 @@ pub fn best_cover(
     max_nodes: usize,
 ) -> Cover {
     let (label, n) = pieces(|t| w[t] <= r, &mesh.nb);
+    if components == 1 {
+        return heaviest_piece(label, n, mesh, weight);
+    }
     let mut points = vec![Vec::new(); n];
     for (&p, tri) in label.iter().zip(&mesh.tri).filter(|(&p, _)| p != NONE) {
         points[p as usize].extend_from_slice(tri);
@@ -334,9 +337,148 @@ pub fn best_cover(
     }
 }
 
+/// The smallest weight of a triangle at each point ([`NONE`] for a point
+/// that is no vertex: a near-duplicate merged into another): at a lower
+/// threshold the shape does not reach the point.
+pub fn lowest(w: &[u32], mesh: &Mesh) -> Vec<u32> {
+    let mut lowest = vec![NONE; mesh.rep.len()];
+    for (t, v) in mesh.tri.iter().enumerate() {
+        for &p in v {
+            lowest[p as usize] = lowest[p as usize].min(w[t]);
+        }
+    }
+    lowest
+}
+
+/// A lower bound of the outlier optimum with budget `k`: the smallest
+/// threshold at which the points not yet reached weigh at most `k` (a shape
+/// at a lower one leaves out more than `k`, whichever pieces it keeps).
+pub fn lower_bound(lowest: &[u32], weight: &[u64], k: u64) -> u32 {
+    let mut reached: Vec<(u32, u64)> = (lowest.iter().zip(weight))
+        .filter(|&(&l, &x)| l != NONE && x > 0)
+        .map(|(&l, &x)| (l, x))
+        .collect();
+    // Every point weighs at least 1: the k + 1 highest decide.
+    let top = (k as usize).saturating_add(1);
+    if reached.len() > top {
+        reached.select_nth_unstable_by_key(top - 1, |&(l, _)| std::cmp::Reverse(l));
+        reached.truncate(top);
+    }
+    reached.sort_unstable_by_key(|&(l, _)| std::cmp::Reverse(l));
+    let mut left = 0;
+    for (l, x) in reached {
+        left += x;
+        if left > k {
+            return l;
+        }
+    }
+    0
+}
+
+/// Outlier optima of one triangulation: the best cover at any threshold and
+/// the smallest threshold at which it reaches a number of rows.
+pub struct Outliers<'a> {
+    w: &'a [u32],
+    mesh: &'a Mesh,
+    /// Rows (or 1 per location) at each point, 0 at a merged near-duplicate.
+    pub weight: &'a [u64],
+    components: usize,
+    max_nodes: usize,
+    /// The distinct weights, ascending.
+    values: Vec<u32>,
+}
+
+impl<'a> Outliers<'a> {
+    /// The searches over the weights `w` of `mesh`'s triangles.
+    pub fn new(
+        w: &'a [u32],
+        mesh: &'a Mesh,
+        weight: &'a [u64],
+        components: usize,
+        max_nodes: usize,
+    ) -> Self {
+        // The weights are ranks: the distinct ones by presence, in O(m).
+        let mut present = vec![false; w.iter().max().map_or(0, |&x| x as usize + 1)];
+        w.iter().for_each(|&x| present[x as usize] = true);
+        let values: Vec<u32> = (0..present.len() as u32)
+            .filter(|&x| present[x as usize])
+            .collect();
+        Outliers {
+            w,
+            mesh,
+            weight,
+            components,
+            max_nodes,
+            values,
+        }
+    }
+
+    /// The best `components` pieces at threshold `r` ([`best_cover`]).
+    pub fn cover(&self, r: u32) -> Cover {
+        best_cover(
+            self.w,
+            r,
+            self.mesh,
+            self.weight,
+            self.components,
+            self.max_nodes,
+        )
+    }
+
+    /// The smallest weight in `lo..=hi` at which the best pieces cover at
+    /// least `need`, and those pieces; `hi` must be enough (the largest
+    /// weight always is: one piece, every point). The best coverage only
+    /// grows with the threshold (pieces grow and merge): a binary search.
+    pub fn optimum(&self, need: u64, lo: u32, hi: u32) -> (u32, Cover) {
+        let values = &self.values;
+        let mut a = values.partition_point(|&v| v < lo);
+        let mut b = values.partition_point(|&v| v < hi).min(values.len() - 1);
+        while a < b {
+            let mid = a + (b - a) / 2;
+            if self.cover(values[mid]).rows >= need {
+                b = mid;
+            } else {
+                a = mid + 1;
+            }
+        }
+        (values[b], self.cover(values[b]))
+    }
+
+    /// The largest weight.
+    pub fn top(&self) -> u32 {
+        self.values.last().copied().unwrap_or(0)
+    }
+}
+
+/// [`best_cover`] with one piece: the piece whose points weigh the most (the
+/// first of equals), each point counted once (the triangles taken piece by
+/// piece, a stamp per point), without the search over unions.
+fn heaviest_piece(label: Vec<u32>, n: usize, mesh: &Mesh, weight: &[u64]) -> Cover {
+    let inside = label.iter().zip(0..).filter(|&(&l, _)| l != NONE);
+    let order = counting_sort(inside.map(|(&l, t)| (l as usize, t)), n);
+    let mut stamp = vec![NONE; weight.len()];
+    let mut total = vec![0u64; n];
+    for &t in &order {
+        let p = label[t as usize];
+        for &v in &mesh.tri[t as usize] {
+            if stamp[v as usize] != p {
+                stamp[v as usize] = p;
+                total[p as usize] += weight[v as usize];
+            }
+        }
+    }
+    let best = (0..n).max_by_key(|&p| (total[p], std::cmp::Reverse(p)));
+    Cover {
+        rows: best.map_or(0, |p| total[p]),
+        chosen: best.map(|p| vec![p as u32]).unwrap_or_default(),
+        capped: false,
+        label,
+    }
+}
+
 /// The outlier optimum: the smallest weight at which `components` pieces cover
-/// at least `need` rows, and those pieces. The best coverage only grows with
-/// the threshold (pieces grow and merge): a binary search finds it.
+/// at least `need` rows, and those pieces ([`Outliers::optimum`] over every
+/// weight).
 pub fn outlier_optimum(
     w: &[u32],
     mesh: &Mesh,
@@ -345,21 +487,24 @@ pub fn outlier_optimum(
     need: u64,
     max_nodes: usize,
 ) -> (u32, Cover) {
-    let mut values: Vec<u32> = w.to_vec();
-    values.sort_unstable();
-    values.dedup();
-    let cover = |r| best_cover(w, r, mesh, weight, components, max_nodes);
-    // Invariant: values[hi] is enough (the last one: one piece, every row).
-    let (mut lo, mut hi) = (0usize, values.len() - 1);
-    while lo < hi {
-        let mid = lo + (hi - lo) / 2;
-        if cover(values[mid]).rows >= need {
-            hi = mid;
-        } else {
-            lo = mid + 1;
-        }
-    }
-    (values[hi], cover(values[hi]))
+    let search = Outliers::new(w, mesh, weight, components, max_nodes);
+    let lo = lower_bound(&lowest(w, mesh), weight, weight.iter().sum::<u64>() - need);
+    search.optimum(need, lo, search.top())
+}
+
+/// The critical triangle of the threshold `r`: of the triangles whose own
+/// radius is the spectrum value `r` (`rank`), the one with the largest
+/// circumradius (the reported radius itself: ties within [`TIE_RTOL`] are
+/// one value, the largest), preferring one that enters the shape at `r`
+/// (`w == r`; with holes filled an enclosed one may enter earlier), then the
+/// first in the mesh's order.
+pub fn critical(r: u32, rank: &[u32], w: &[u32], radius: &[f64]) -> Option<usize> {
+    let key = |t: usize| (radius[t], w[t] == r, std::cmp::Reverse(t));
+    (0..rank.len()).filter(|&t| rank[t] == r).max_by(|&a, &b| {
+        key(a)
+            .partial_cmp(&key(b))
+            .unwrap_or(std::cmp::Ordering::Equal)
+    })
 }
 
 #[cfg(test)]

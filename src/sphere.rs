@@ -339,11 +339,8 @@ mod tests {
     #[test]
     fn two_points_far_apart_are_too_few_not_refused() {
         let options = Options {
-            holes: false,
-            components: 1,
-            curve: false,
-            max_union_nodes: crate::spectrum::MAX_UNION_NODES,
             sphere: true,
+            ..Options::DEFAULT
         };
         let pts = [[0.0, 51.5], [151.2, -33.9], [151.2, -33.9]];
         let res = crate::group::solve(&pts, None, None, 0, &options);

@@ -339,7 +339,7 @@ proptest! {
 
     #[test]
     fn the_optimum_is_the_brute_force_one(p in points(), holes in any::<bool>(), c in 1usize..4) {
-        let options = Options { holes, components: c, curve: false, max_union_nodes: MAX_UNION_NODES, sphere: false };
+        let options = Options { holes, components: c, curve: false, max_union_nodes: MAX_UNION_NODES, sphere: false, ..Options::DEFAULT };
         let res = solve(&p, None, None, 0, &options);
         prop_assert_eq!(res.reason, 0);
         let rows = vec![1u64; p.len()];
@@ -370,7 +370,7 @@ proptest! {
         for &i in &dup {
             rows[i % p.len()] += 1;
         }
-        let options = Options { holes, components: c, curve: false, max_union_nodes: MAX_UNION_NODES, sphere: false };
+        let options = Options { holes, components: c, curve: false, max_union_nodes: MAX_UNION_NODES, sphere: false, ..Options::DEFAULT };
         let res = solve(&all, None, None, k, &options);
         let (alpha, left) = brute_optimum(&p, &rows, holes, c, k);
         prop_assert!((res.alpha - alpha).abs() <= 1e-9 * alpha, "{} vs {}", res.alpha, alpha);
@@ -380,8 +380,62 @@ proptest! {
     }
 
     #[test]
+    fn the_alternatives_and_location_budgets_are_the_brute_force_optima(
+        p in points(),
+        holes in any::<bool>(),
+        c in 1usize..3,
+        dup in prop::collection::vec(0usize..8, 0..5),
+        locations in any::<bool>(),
+        k in 1u64..4,
+    ) {
+        // Some points hold several rows: the two units differ.
+        let mut all = p.clone();
+        let mut rows = vec![1u64; p.len()];
+        for &i in &dup {
+            all.push(p[i % p.len()]);
+            rows[i % p.len()] += 1;
+        }
+        let ones = vec![1u64; p.len()];
+        let unit = if locations { &ones } else { &rows };
+        let options = Options {
+            holes,
+            components: c,
+            explain: true,
+            max_left_out: 3,
+            left_out_locations: locations,
+            ..Options::DEFAULT
+        };
+        let res = solve(&all, None, None, 0, &options);
+        let total: u64 = unit.iter().sum();
+        prop_assert_eq!(res.alternatives.len() as u64, 3.min(total - 3));
+        for a in &res.alternatives {
+            let (alpha, _) = brute_optimum(&p, unit, holes, c, u64::from(a.k));
+            prop_assert!((1.0 / a.radius - alpha).abs() <= 1e-9 * alpha, "k {}: {} vs {}", a.k, 1.0 / a.radius, alpha);
+            // What it leaves out weighs at most k in the unit.
+            let mut gone: Vec<usize> = a.left_out.iter().map(|&i| res.rep[i as usize] as usize).collect();
+            gone.sort_unstable();
+            if locations { gone.dedup(); }
+            prop_assert!(gone.len() as u64 <= u64::from(a.k));
+        }
+        // The critical triangle's circumradius is the radius.
+        let t = res.critical.expect("a critical triangle");
+        let r = circumcentre_radius(all[t[0] as usize], all[t[1] as usize], all[t[2] as usize]);
+        prop_assert!((r / res.radius - 1.0).abs() <= 1e-12, "{} vs {}", r, res.radius);
+        // outliers= counted in locations.
+        let by_place = Options { holes, components: c, locations: true, ..Options::DEFAULT };
+        let res = solve(&all, None, None, k, &by_place);
+        let (alpha, _) = brute_optimum(&p, &ones, holes, c, k);
+        prop_assert!((res.alpha - alpha).abs() <= 1e-9 * alpha, "{} vs {}", res.alpha, alpha);
+        let left = res.left_out.iter().zip(&res.rep).filter(|(&x, _)| x).map(|(_, &r)| r);
+        let mut places: Vec<u32> = left.collect();
+        places.sort_unstable();
+        places.dedup();
+        prop_assert!(places.len() as u64 <= k);
+    }
+
+    #[test]
     fn the_shape_at_the_optimal_alpha_is_the_optimal_shape(p in points(), holes in any::<bool>()) {
-        let options = Options { holes, components: 1, curve: false, max_union_nodes: MAX_UNION_NODES, sphere: false };
+        let options = Options { holes, components: 1, curve: false, max_union_nodes: MAX_UNION_NODES, sphere: false, ..Options::DEFAULT };
         let best = solve(&p, None, None, 0, &options);
         let again = solve(&p, None, Some(best.alpha), 0, &options);
         prop_assert_eq!(best.area, again.area);
@@ -390,7 +444,7 @@ proptest! {
 
     #[test]
     fn the_sphere_optimum_is_the_brute_force_one(p in sphere_points(), holes in any::<bool>(), c in 1usize..4) {
-        let options = Options { holes, components: c, curve: false, max_union_nodes: MAX_UNION_NODES, sphere: true };
+        let options = Options { holes, components: c, curve: false, max_union_nodes: MAX_UNION_NODES, sphere: true, ..Options::DEFAULT };
         let res = solve(&p, None, None, 0, &options);
         prop_assert_eq!(res.reason, 0);
         let u: Vec<V3> = p.iter().map(|&q| unit(q)).collect();

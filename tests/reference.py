@@ -426,16 +426,18 @@ def best_union(sets, components, weight):
     return best
 
 
-def coverage_curve(points, holes=False, components=(1, 2, 3)):
+def coverage_curve(points, holes=False, components=(1, 2, 3), unit="rows"):
     """Best coverage, in rows, at every spectrum value, for several ``components``.
 
     Returns ``(n, radii, cover)``: the number of rows, the spectrum
     (ascending) and ``cover[c]``, the most rows ``c`` pieces hold at each
     radius. Stops once one piece covers every point (nothing changes after
-    that for outliers).
+    that for outliers). ``unit="locations"``: every distinct point weighs 1.
     """
     pts, simplices, neighbors, r = triangulation(points)
     weight = row_weights(points, pts)
+    if unit == "locations":
+        weight = np.ones(len(pts), dtype=np.int64)
     n = int(weight.sum())
     radii, cover = [], {c: [] for c in components}
     for R in spectrum(r):

@@ -129,6 +129,7 @@ def test_options_are_passed_to_hull(fake_hull, points_csv, tmp_path):
         "--crs", "EPSG:27700",
         "--degenerate", "drop", "--buffer", "2.5", "--grow", "0.5", "--vertices",
         "--no-dropna", "--no-sort", "-j", "2", "--no-progress",
+        "--outlier-unit", "locations", "--no-suspicious",
     )  # fmt: skip
     assert result.exit_code == 0, result.stderr
     assert fake_hull == [
@@ -152,6 +153,8 @@ def test_options_are_passed_to_hull(fake_hull, points_csv, tmp_path):
             "sort": False,
             "n_jobs": 2,
             "progress": False,
+            "outlier_unit": "locations",
+            "suspicious": False,
         }
     ]
 
@@ -180,6 +183,8 @@ def test_defaults_passed_to_hull(fake_hull, points_csv, tmp_path):
             "sort": True,
             "n_jobs": None,
             "progress": None,
+            "outlier_unit": "rows",
+            "suspicious": True,
         }
     ]
 

@@ -21,6 +21,7 @@ from hypothesis import assume, event, given, note
 from hypothesis import strategies as st
 from scipy.spatial import QhullError
 
+import geoalpha
 from geoalpha import (
     DegenerateGroupWarning,
     alpha_shape,
@@ -28,6 +29,7 @@ from geoalpha import (
     kernel,
     optimal_alpha,
 )
+from geoalpha.options import Request
 
 # --------------------------------------------------------------------------
 # Point-set strategies (coordinates in metres of some metric CRS)
@@ -284,7 +286,7 @@ def same_triangulation(p, tri) -> bool:
     """
     xy = np.asarray(p, dtype=float)
     codes = np.zeros(len(xy), dtype=np.int64)
-    ours = kernel.solve(xy, codes, 1, holes=True, curve=True)
+    ours = kernel.solve(xy, codes, 1, Request(holes=True, curve=True))
     if ours.reason[0] != 0:
         return False
     values = ours.curve[0]
@@ -516,3 +518,29 @@ def test_batched_equals_per_group(holes, components, data):
         assert res.geometry[g].geom_type == alone.geom_type
         assert res.n_parts[g] == parts(alone)
         assert_same_region(res.geometry[g], alone)
+
+
+@pytest.mark.parametrize("holes", [False, True], ids=["filled", "holes"])
+@pytest.mark.parametrize("kind", list(STRATEGIES))
+@examples(25)
+@given(data=st.data())
+def test_the_critical_triangle_has_the_optimal_radius(kind, holes, data):
+    """explain()'s critical triangle: its exact circumradius is the radius (#35).
+
+    Cocircular sets and grids tie many triangles at the optimum: the rule
+    (the largest circumradius of the tie run) names one whose radius is it.
+    """
+    import geopandas as gpd
+
+    p = data.draw(STRATEGIES[kind], label="points")
+    frame = gpd.GeoDataFrame(geometry=shapely.points(p))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        why = geoalpha.explain(frame, crs=None, holes=holes, suspicious=False)
+    if why["limited_by"].item() == "degenerate":
+        return
+    rows = why["critical_rows"].item()
+    corners = p[rows[:3]]
+    radius = reference.exact_circumradius(*corners)
+    assert radius == pytest.approx(why["radius"].item(), rel=1e-12, abs=0)
+    assert why["limited_by"].item() in ("coverage", "connection")

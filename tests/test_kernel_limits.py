@@ -64,8 +64,8 @@ def _fail_group(monkeypatch, failed: int):
     no alpha, no rings, each point its own representative."""
     real = kernel._kernel.alpha_shapes
 
-    def alpha_shapes(xy, offsets, **kwargs):
-        res = real(xy, offsets, **kwargs)
+    def alpha_shapes(xy, offsets, *args, **kwargs):
+        res = real(xy, offsets, *args, **kwargs)
         if failed >= len(offsets) - 1:
             return res
         go, po, ro = res["group_offsets"], res["polygon_offsets"], res["ring_offsets"]
@@ -176,6 +176,14 @@ def test_a_huge_n_groups_is_refused_and_empty_groups_within_the_bound_work():
 _HOSTILE = r"""
 import numpy as np
 from geoalpha import _kernel as k
+from geoalpha.kernel import DEFAULT_REQUEST, Compiled
+
+
+def R(**kw):  # the request of the compiled call, with some attributes changed
+    request = Compiled(DEFAULT_REQUEST, 0, True)
+    request.__dict__.update(kw)
+    return request
+
 
 xy = np.array([[0, 0], [4, 0], [4, 4], [0, 4], [2, 3.5]], float)
 z = np.zeros(5, np.int64)
@@ -195,27 +203,27 @@ calls = [
     lambda: k.sort_groups(np.zeros((5, 3)), z, 1),
     lambda: k.sort_groups(np.zeros((0, 2)), np.zeros(0, np.int64), 0),
     lambda: k.sort_groups(xy, z.astype(np.int32), 1),
-    lambda: k.alpha_shapes(xy, np.array([0, 5]), threads=10**6),
-    lambda: k.alpha_shapes(xy, np.array([], np.int64)),
-    lambda: k.alpha_shapes(xy, np.array([1, 5])),
-    lambda: k.alpha_shapes(xy, np.array([0, 6])),
-    lambda: k.alpha_shapes(xy, np.array([0, 4, 2, 5])),
-    lambda: k.alpha_shapes(xy, np.array([0, -1, 5])),
-    lambda: k.alpha_shapes(xy, np.array([0, 2**62, 5])),
-    lambda: k.alpha_shapes(xy, np.array([0, 5]), alpha=np.array([1.0, 2.0])),
-    lambda: k.alpha_shapes(xy, np.array([0, 5]), alpha=np.array([np.nan])),
-    lambda: k.alpha_shapes(xy, np.array([0, 5]), budget=np.array([-1])),
-    lambda: k.alpha_shapes(xy, np.array([0, 5]), budget=np.array([2**62])),
-    lambda: k.alpha_shapes(xy, np.array([0, 5]), components=0),
-    lambda: k.alpha_shapes(xy, np.array([0, 5]), components=2**62),
-    lambda: k.alpha_shapes(xy, np.array([0, 5]), max_union_nodes=0, components=2,
+    lambda: k.alpha_shapes(xy, np.array([0, 5]), R(threads=10**6)),
+    lambda: k.alpha_shapes(xy, np.array([], np.int64), R()),
+    lambda: k.alpha_shapes(xy, np.array([1, 5]), R()),
+    lambda: k.alpha_shapes(xy, np.array([0, 6]), R()),
+    lambda: k.alpha_shapes(xy, np.array([0, 4, 2, 5]), R()),
+    lambda: k.alpha_shapes(xy, np.array([0, -1, 5]), R()),
+    lambda: k.alpha_shapes(xy, np.array([0, 2**62, 5]), R()),
+    lambda: k.alpha_shapes(xy, np.array([0, 5]), R(), alpha=np.array([1.0, 2.0])),
+    lambda: k.alpha_shapes(xy, np.array([0, 5]), R(), alpha=np.array([np.nan])),
+    lambda: k.alpha_shapes(xy, np.array([0, 5]), R(), budget=np.array([-1])),
+    lambda: k.alpha_shapes(xy, np.array([0, 5]), R(), budget=np.array([2**62])),
+    lambda: k.alpha_shapes(xy, np.array([0, 5]), R(components=0)),
+    lambda: k.alpha_shapes(xy, np.array([0, 5]), R(components=2**62)),
+    lambda: k.alpha_shapes(xy, np.array([0, 5]), R(max_union_nodes=0, components=2),
                            budget=np.array([2])),
-    lambda: k.alpha_shapes(xy, np.array([0, 5]), out_xy=xy[:3]),
-    lambda: k.alpha_shapes(xy * np.nan, np.array([0, 5])),
-    lambda: k.alpha_shapes(xy * 1e300, np.array([0, 5])),
-    lambda: k.alpha_shapes(xy * 100, np.array([0, 5]), sphere=True),
-    lambda: k.alpha_shapes(np.zeros((0, 2)), np.array([0])),
-    lambda: k.alpha_shapes(np.zeros((0, 2)), np.array([0, 0, 0])),
+    lambda: k.alpha_shapes(xy, np.array([0, 5]), R(), out_xy=xy[:3]),
+    lambda: k.alpha_shapes(xy * np.nan, np.array([0, 5]), R()),
+    lambda: k.alpha_shapes(xy * 1e300, np.array([0, 5]), R()),
+    lambda: k.alpha_shapes(xy * 100, np.array([0, 5]), R(sphere=True)),
+    lambda: k.alpha_shapes(np.zeros((0, 2)), np.array([0]), R()),
+    lambda: k.alpha_shapes(np.zeros((0, 2)), np.array([0, 0, 0]), R()),
     lambda: k.geodesic_areas(lon, lat[:3], z[:1], z[:1], z[:1]),
     lambda: k.geodesic_areas(lon, lat, z[:0], z[:0], z[:0]),
     lambda: k.geodesic_areas(lon, lat, np.array([0, 9]), np.array([0, 1]),
@@ -263,12 +271,14 @@ _LONG_CALL = r"""
 import time
 import numpy as np
 from geoalpha import _kernel
+from geoalpha.kernel import DEFAULT_REQUEST, Compiled
 
+request = Compiled(DEFAULT_REQUEST, 2, True)
 xy = np.random.default_rng(1).uniform(0, 1000, (3_000_000, 2))
 print("start", flush=True)
 start = time.perf_counter()
 try:
-    _kernel.alpha_shapes(xy, np.array([0, len(xy)]), threads=2)
+    _kernel.alpha_shapes(xy, np.array([0, len(xy)]), request)
     print("finished", flush=True)
 except KeyboardInterrupt:
     print("KeyboardInterrupt", flush=True)
@@ -303,11 +313,11 @@ def test_a_call_after_an_interrupted_one_is_whole():
 import os, signal, threading
 threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT)).start()
 try:
-    _kernel.alpha_shapes(xy, np.array([0, len(xy)]), threads=2)
+    _kernel.alpha_shapes(xy, np.array([0, len(xy)]), request)
 except KeyboardInterrupt:
     print("again interrupted", flush=True)
 square = np.array([[0, 0], [4, 0], [4, 4], [0, 4], [2, 3.5]], float)
-res = _kernel.alpha_shapes(np.r_[square, square], np.array([0, 5, 10]), threads=2)
+res = _kernel.alpha_shapes(np.r_[square, square], np.array([0, 5, 10]), request)
 print(res["reason"].tolist(), res["n_parts"].tolist(), flush=True)
 """
     run = subprocess.run(

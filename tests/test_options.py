@@ -26,7 +26,7 @@ from geoalpha import kernel
 from geoalpha.cli import _flags, main
 from geoalpha.errors import FLAGS, InvalidInputError, SearchWarning
 from geoalpha.frame import pipeline
-from geoalpha.options import FIELDS, NAMES, Options
+from geoalpha.options import FIELDS, NAMES, Options, Request
 
 #: A value that is not the default, for every option.
 NON_DEFAULT = {
@@ -47,6 +47,8 @@ NON_DEFAULT = {
     "progress": False,
     "n_jobs": 2,
     "outliers": 1,
+    "outlier_unit": "locations",
+    "suspicious": False,
     "grow": 2.0,
 }
 
@@ -78,7 +80,8 @@ def received(monkeypatch):
         return compute(points, proj, n_groups, options, **kwargs)
 
     def record_kernel(*args, **kwargs):
-        calls["kernel"].append(kwargs)
+        request = args[3] if len(args) > 3 else kwargs["request"]
+        calls["kernel"].append(vars(request))
         return run_kernel(*args, **kwargs)
 
     monkeypatch.setattr(pipeline, "compute", record_compute)
@@ -431,7 +434,7 @@ def test_the_array_api_defaults_are_those_of_options():
         geoalpha.optimal_alpha,
         geoalpha.alpha_shape,
         search.bisect_alpha,  # the layers below options.py: no import of it
-        kernel.solve,
+        Request,  # what options.py hands the kernel
         crs.metric_crs,
     )
     for func in functions:

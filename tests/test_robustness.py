@@ -34,6 +34,7 @@ from geoalpha import (
     alpha_shapes,
     optimal_alpha,
 )
+from geoalpha.options import Request
 
 TEN_SECONDS = datetime.timedelta(seconds=10)
 
@@ -716,12 +717,33 @@ def test_the_kernel_refuses_coordinates_not_in_row_order():
     # x0 x1 ... y0 y1 ...: read as pairs it would be other points.
     xy = np.array([[0.0, 0.0], [4.0, 0.0], [4.0, 3.0], [0.0, 3.0]])
     offsets = np.array([0, 4], dtype=np.int64)
-    kwargs = dict(holes=False, components=1, threads=1, max_union_nodes=1000)
-    done = geoalpha._kernel.alpha_shapes(xy, offsets, **kwargs)
+    request = geoalpha.kernel.Compiled(Request(n_jobs=1), 1, True)
+    done = geoalpha._kernel.alpha_shapes(xy, offsets, request)
     assert done["area"].tolist() == [12.0]
     with pytest.raises(ValueError, match=r"^xy must be C-contiguous$"):
-        geoalpha._kernel.alpha_shapes(np.asfortranarray(xy), offsets, **kwargs)
+        geoalpha._kernel.alpha_shapes(np.asfortranarray(xy), offsets, request)
     with pytest.raises(ValueError, match=r"^out_xy must be C-contiguous$"):
         geoalpha._kernel.alpha_shapes(
-            xy, offsets, out_xy=np.asfortranarray(xy), **kwargs
+            xy, offsets, request, out_xy=np.asfortranarray(xy)
         )
+
+
+def test_explain_and_curve_take_every_family_of_group():
+    # Nearly collinear, near-duplicate, thin and plain groups in one call: each
+    # group gets its own row; one without a shape takes no other down (#35).
+    frame = hostile_frame()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        hulls = frame.alpha.hull(by="g")
+        why = frame.alpha.explain(by="g")
+        curve = frame.alpha.curve(by="g", max_left_out=2, outlier_unit="locations")
+    assert why["g"].tolist() == hulls["g"].tolist()
+    np.testing.assert_array_equal(why["radius"], hulls["radius"])
+    shaped = why["limited_by"] != "degenerate"
+    assert set(why.loc[~shaped, "g"]) == set(hulls.loc[hulls["alpha"].isna(), "g"])
+    assert why.loc[shaped, "geometry"].notna().all()
+    assert why.loc[~shaped, "geometry"].isna().all()
+    assert set(curve["g"]) == set(why.loc[shaped, "g"])
+    for _, one in curve.groupby("g"):  # never wider with more left out
+        radius = one["radius"].to_numpy()  # (k = 0 is hull()'s 1 / alpha)
+        assert (np.diff(radius) <= 1e-12 * radius[0]).all()

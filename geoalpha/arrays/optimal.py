@@ -9,7 +9,6 @@ import shapely
 
 from geoalpha import kernel
 from geoalpha.arrays import guarantee
-from geoalpha.arrays.budget import outlier_budget
 from geoalpha.arrays.lonlat import restore_longitudes
 from geoalpha.arrays.search import bisect_alpha, ladder_alpha
 from geoalpha.arrays.sphere import (
@@ -28,6 +27,7 @@ from geoalpha.errors import (
     setting,
     warn_user,
 )
+from geoalpha.options import Request
 from geoalpha.options import check as check_options
 
 __all__ = ["AlphaShapes", "alpha_shape", "alpha_shapes", "optimal_alpha"]
@@ -93,6 +93,7 @@ def alpha_shapes(
     progress=None,
     n_jobs: int | None = None,
     outliers: float = 0,
+    outlier_unit: str = "rows",
     name_groups=None,
     sphere: bool = False,
     polar=None,
@@ -107,7 +108,7 @@ def alpha_shapes(
         Group code ``0 .. G-1`` of each point (:func:`pandas.factorize`), or one group.
     alpha : float or array_like of shape (G,), optional
         Use this alpha instead of the optimum (0 is the convex hull).
-    holes, components, search, max_iterations, n_jobs, outliers
+    holes, components, search, max_iterations, n_jobs, outliers, outlier_unit
         As for :func:`geoalpha.hull`; the rows left out are reported in
         ``n_outliers`` and ``outlier`` (:doc:`/user_guide/outliers`).
     coords : array_like of shape (n, 2), optional
@@ -160,6 +161,7 @@ def alpha_shapes(
         search=search,
         max_iterations=max_iterations,
         outliers=outliers,
+        outlier_unit=outlier_unit,
         n_jobs=n_jobs,
     )
     if outliers and (alpha is not None or search != "exact"):  # (as Options)
@@ -187,17 +189,19 @@ def alpha_shapes(
         raise InvalidInputError(str(err)) from err
     if sphere and coords is None:
         coords, _, _, polar = sphere_output(xy, codes, n_groups)
+    search, max_iterations = checked.pop("search"), checked.pop("max_iterations")
     raw = solve_checked(
         xy,
         codes,
         n_groups,
+        Request(sphere=bool(sphere), **checked),
         alpha=None if alpha is None else _given_alpha(alpha, n_groups),
+        search=search,
+        max_iterations=max_iterations,
         out=coords,
         progress=progress,
-        sphere=bool(sphere),
         polar=polar,
         name_groups=name_groups,
-        **checked,
     )
     # Around a pole a valid polygon may have any number of parts.
     limit = np.where(polar, np.inf, components) if np.any(polar) else components
@@ -208,14 +212,15 @@ def alpha_shapes(
 
 def _warn_failed(reason, codes, name_groups) -> None:
     """Warn about the groups the kernel failed on (reason 7), naming their rows."""
-    failed = np.flatnonzero(reason == kernel.FAILED)
+    failed = np.flatnonzero(reason == kernel.Reason.FAILED)
     if len(failed):
         rows = np.flatnonzero(np.isin(codes, failed))
         warn_user(
             f"the kernel failed on {len(failed)} group(s) "
             f"({_named(failed, name_groups)}; rows at positions {first_n(rows)}): "
-            f"they have no shape (reason {kernel.FAILED}, degenerate), the other "
-            "groups are unaffected; this is a bug, please report it with these points",
+            f"they have no shape (reason {int(kernel.Reason.FAILED)}, degenerate), "
+            "the other groups are unaffected; this is a bug, please report it "
+            "with these points",
             DegenerateGroupWarning,
         )
 
@@ -287,54 +292,51 @@ class Unverified(NamedTuple):
     #: per point: a vertex of its group's polygon in the output coordinates, or
     #: covered by construction there while that polygon is valid (not tested)
     certain: np.ndarray
+    #: why each group got its radius, and its alternatives (what ``request`` asked)
+    why: kernel.Why
 
 
 def solve_checked(
     xy: np.ndarray,
     codes: np.ndarray,
     n_groups: int,
+    request: Request,
     *,
     alpha: np.ndarray | None,
-    holes: bool,
-    components: int,
-    search: str,
-    max_iterations: int,
-    outliers,
+    search: str = "exact",
+    max_iterations: int = 10_000,
     out: np.ndarray | None = None,
     progress=None,
-    n_jobs: int | None = None,
-    sphere: bool = False,
     polar=None,
     name_groups=None,
 ) -> Unverified:
     """:func:`alpha_shapes` on checked inputs, without the guarantee: one kernel call.
 
-    Trusts its inputs (checked as :func:`alpha_shapes` does); the caller
-    enforces the guarantee (:func:`geoalpha.arrays.guarantee.enforce`). Raises
-    for the groups the sphere refuses; warns about the searches that gave up.
-    With ``sphere``, ``out`` is given (the output longitudes and latitudes).
+    Trusts its inputs (checked as :func:`alpha_shapes` does; ``request``:
+    :meth:`geoalpha.options.Options.request`); the caller enforces the
+    guarantee (:func:`geoalpha.arrays.guarantee.enforce`). Raises for the
+    groups the sphere refuses; warns about the searches that gave up. With
+    ``request.sphere``, ``out`` is given (the output longitudes and latitudes).
     """
+    import dataclasses
+
     rows = np.bincount(codes, minlength=n_groups)
-    options = dict(
-        holes=holes, components=components, n_jobs=n_jobs, out=out, sphere=sphere
-    )
     gave_up = np.zeros(n_groups, dtype=bool)
     try:
         if alpha is None and search != "exact":
-            curve = kernel.solve(xy, codes, n_groups, curve=True, **options).curve
+            asked = dataclasses.replace(request, curve=True, outliers=0)
+            curve = kernel.solve(xy, codes, n_groups, asked, out=out).curve
             alpha, gave_up = _searched_alpha(curve, n_groups, search, max_iterations)
-        if outliers and alpha is None:
-            options["budget"] = outlier_budget(outliers, rows)
         res = kernel.solve(
-            xy, codes, n_groups, alpha=alpha, progress=progress, **options
+            xy, codes, n_groups, request, out=out, alpha=alpha, progress=progress
         )
     except ValueError as err:  # what the kernel refuses (e.g. |coordinate| > 1e100)
         raise InvalidInputError(str(err)) from err
-    if sphere:
+    if request.sphere:
         res = _on_the_sphere(res, polar, name_groups)
     shapes, certain = _shapes(res, rows, gave_up, out is not None)
-    _warn_search(shapes, max_iterations, components, name_groups)
-    return Unverified(shapes, certain)
+    _warn_search(shapes, max_iterations, request.components, name_groups)
+    return Unverified(shapes, certain, res.why)
 
 
 def _on_the_sphere(res: kernel.Solved, polar, name_groups) -> kernel.Solved:
@@ -364,12 +366,12 @@ def _shapes(res: kernel.Solved, rows, gave_up, elsewhere: bool):
     reason = res.reason.astype(np.int64)
     n_parts = res.n_parts.astype(np.int64)
     # A group without rings (reason 4) whose shape is every triangle: its convex hull.
-    whole = np.flatnonzero((res.reason == 4) & res.whole)
+    whole = np.flatnonzero((res.reason == kernel.Reason.RINGS) & res.whole)
     if len(whole):
         take = np.isin(res.codes, whole)
         hulls = guarantee.convex_hulls(res.coords[take], res.codes[take], len(rows))
         geometry[whole] = hulls[whole]
-        reason[whole] = 0
+        reason[whole] = kernel.Reason.OK
         n_parts[whole] = 1
     degenerate = reason != 0
     geometry[degenerate] = guarantee.EMPTY_POLYGON
@@ -430,7 +432,7 @@ def _verified(raw: Unverified, out_xy, codes, components) -> AlphaShapes:
         n_outliers=np.bincount(codes[outlier], minlength=len(failed)),
         gave_up=res.gave_up & ~failed,
         capped=res.capped & ~failed,
-        reason=np.where(failed, 5, res.reason),
+        reason=np.where(failed, kernel.Reason.GUARANTEE, res.reason),
     )
 
 
@@ -459,7 +461,7 @@ def _as_xy(points):
 def _one_group(points, **kwargs) -> AlphaShapes:
     """:func:`alpha_shapes` of one group, warning when it has no shape."""
     res = alpha_shapes(_as_xy(points), None, n_groups=1, **kwargs)
-    if res.degenerate[0] and res.reason[0] != kernel.FAILED:  # (that one warned)
+    if res.degenerate[0] and res.reason[0] != kernel.Reason.FAILED:  # (that one warned)
         why = (
             "are fewer than 3 or all collinear (within "
             f"{np.format_float_scientific(kernel.NEAR_RTOL, trim='-', exp_digits=1)}"
@@ -484,6 +486,7 @@ def optimal_alpha(
     search: Search = "exact",
     max_iterations: int = 10_000,
     outliers: float = 0,
+    outlier_unit: str = "rows",
 ) -> float:
     """Largest alpha whose shape is one piece containing every point.
 
@@ -491,7 +494,7 @@ def optimal_alpha(
     ----------
     points : array_like of shape (n, 2)
         Coordinates in a metric CRS (alpha comes in 1/unit of them).
-    holes, components, search, max_iterations, outliers
+    holes, components, search, max_iterations, outliers, outlier_unit
         As for :func:`alpha_shapes`.
 
     Returns
@@ -514,7 +517,10 @@ def optimal_alpha(
     (0.035624, 0.430769)
     """
     options = dict(holes=holes, components=components, search=search, outliers=outliers)
-    return float(_one_group(points, max_iterations=max_iterations, **options).alpha[0])
+    res = _one_group(
+        points, max_iterations=max_iterations, outlier_unit=outlier_unit, **options
+    )
+    return float(res.alpha[0])
 
 
 def alpha_shape(

@@ -34,6 +34,7 @@ from geoalpha.errors import (
     GeoAlphaWarning,
     InvalidInputError,
     OutlierWarning,
+    SuspiciousHullWarning,
     did_you_mean,
     first_n,
     setting,
@@ -45,7 +46,7 @@ from geoalpha.frame import progress
 from geoalpha.frame.checks import check_distortion, check_grouping
 from geoalpha.frame.schema import RESULT_COLUMNS, result_frame, result_geometry_name
 from geoalpha.frame.sphere import SphereProjection
-from geoalpha.options import Options
+from geoalpha.options import Options, Request
 
 __all__ = [
     "Groups",
@@ -63,10 +64,13 @@ __all__ = [
     "report_rows",
     "row_report",
     "run",
+    "run_all",
     "scan_rows",
     "split_at_antimeridian",
+    "suspicious_groups",
     "table",
     "warn_output_crs",
+    "warn_suspicious",
 ]
 
 
@@ -115,6 +119,21 @@ class Hulls(NamedTuple):
     made: np.ndarray
     certain: np.ndarray
     keep: np.ndarray | None = None  #: groups that get a row (None: all)
+    #: why each group got its radius (the kernel's :class:`~geoalpha.kernel.Why`)
+    why: kernel.Why | None = None
+
+
+class Ran(NamedTuple):
+    """Everything :func:`run_all` made: the table and what explain/curve read."""
+
+    table: Any  #: the result GeoDataFrame
+    left_out: np.ndarray  #: the row mask of :func:`geoalpha.outlier_rows`
+    groups: Groups
+    points: Points
+    proj: Any  #: the :class:`~.crs.Projection`
+    hulls: Hulls
+    #: each group's shape's area in the computation CRS (as the alternatives')
+    planar_area: np.ndarray
 
 
 def run(frame, by, options: Options, *, checks: bool = True, rows: bool = True):
@@ -124,14 +143,26 @@ def run(frame, by, options: Options, *, checks: bool = True, rows: bool = True):
     ``checks=False`` leaves out the set-up warnings (:mod:`~.checks`),
     ``rows=False`` the dropped rows' (:func:`geoalpha.dask.hull` makes them once).
     """
+    ran = run_all(frame, by, options, checks=checks, rows=rows)
+    return ran.table, ran.left_out
+
+
+def run_all(
+    frame, by, options: Options, *, checks: bool = True, rows: bool = True, **asked
+) -> Ran:
+    """Run :func:`run`, returning every stage's result (:class:`Ran`).
+
+    ``asked``: more of the kernel (:class:`~geoalpha.options.Request`:
+    ``explain``, ``max_left_out``, ``left_out_unit``).
+    """
     outer = progress.current()
     if outer is not None and options.progress is not False:
-        return _stages(frame, by, options, outer, checks, rows)
+        return _stages(frame, by, options, outer, checks, rows, asked)
     with progress.phases(progress.HULL_PHASES, options.progress) as bar:
-        return _stages(frame, by, options, bar, checks, rows)
+        return _stages(frame, by, options, bar, checks, rows, asked)
 
 
-def _stages(frame, by, options, bar: progress.Phases, checks: bool, rows: bool):
+def _stages(frame, by, options, bar: progress.Phases, checks, rows, asked) -> Ran:
     bar.estimate(progress.hull_costs(len(frame), 0, per_group_crs=False))  # 0: unknown
     bar.start("group")
     groups = group(frame, by, options)
@@ -151,7 +182,8 @@ def _stages(frame, by, options, bar: progress.Phases, checks: bool, rows: bool):
     proj = project(points, crs, options)
     bar.start("compute", units=n_groups)
     names = partial(_names, groups, counts=points.n_points)
-    hulls = compute(points, proj, n_groups, options, names=names)
+    hulls = compute(points, proj, n_groups, options, names=names, **asked)
+    warn_suspicious(hulls, groups, points, options)
     bar.start("check")
     hulls = grow(hulls, points, proj, options)
     grown = hulls.geometry
@@ -159,10 +191,17 @@ def _stages(frame, by, options, bar: progress.Phases, checks: bool, rows: bool):
     hulls = guarantee(hulls, groups, points, proj, options)
     hulls = degenerate_policy(hulls, groups, points, proj, options)
     warn_output_crs(hulls, groups, points, proj)
+    planar_area = hulls.area
     hulls = hulls._replace(area=area_m2(hulls, grown, proj, options))
     name = result_geometry_name(frame, groups.names)
     out = table(groups, points, proj, hulls, crs, name)
-    return out, report_outliers(hulls, groups, points, len(frame), options)
+    left_out = report_outliers(hulls, groups, points, len(frame), options)
+    return Ran(out, left_out, groups, points, proj, hulls, planar_area)
+
+
+def _quoted(value) -> str:
+    """Return a key as Python spells it: ``'HI'``, ``67`` (not ``np.int64(67)``)."""
+    return repr(value.item() if isinstance(value, np.generic) else value)
 
 
 def _names(groups: Groups, which: np.ndarray, counts=None, value=None) -> str:
@@ -496,11 +535,14 @@ def compute(
     n_groups: int,
     options: Options,
     names: Callable[[np.ndarray], str] | None = None,
+    **asked,
 ) -> Hulls:
     """Compute the shape of every group, by ``method``, in the output coordinates.
 
     ``"alpha"``, ``"convex"``: one kernel call, the others :mod:`~.arrays.comparison`
-    (a shown bar counts groups done); ``names`` names groups (by code) in warnings.
+    (a shown bar counts groups done); ``names`` names groups (by code) in warnings;
+    ``asked``: more of the kernel (:meth:`~geoalpha.options.Options.request`). The
+    suspicious check runs at the exact optimum without outliers.
     """
     method = options.method
     bar = progress.current()
@@ -511,21 +553,20 @@ def compute(
             return _comparison(points, proj, n_groups, options, names, bar)
         sphere = getattr(proj, "sphere", False)
         alpha = 0.0 if method == "convex" else options.alpha
+        optimum = alpha is None and options.search == "exact"
+        if options.suspicious and optimum and not options.outliers:
+            asked.setdefault("suspicious_factor", kernel.SUSPICIOUS_FACTOR)
         raw = solve_checked(
             proj.lonlat if sphere else proj.xy,
             points.codes,
             n_groups,
+            options.request(sphere=sphere, **asked),
             alpha=None if alpha is None else np.full(n_groups, alpha),
-            holes=options.holes,
-            components=options.components,
             search=options.search,
             max_iterations=options.max_iterations,
-            outliers=options.outliers,
             # None: the output coordinates are the computation's (projected input)
             out=proj.out if sphere or proj.out is not proj.xy else None,
             progress=bar,
-            n_jobs=options.n_jobs,
-            sphere=sphere,
             polar=getattr(proj, "polar", None),
             name_groups=names,
         )
@@ -546,6 +587,7 @@ def compute(
             reason=res.reason,
             made=res.geometry,
             certain=raw.certain,
+            why=raw.why,
         )
     finally:
         if bar is not None:  # groups of 1-2 points are done too: the phase ends full
@@ -645,7 +687,7 @@ def degenerate_policy(
 def _why_degenerate(reason, which, groups: Groups, n_points, wide) -> str:
     """Word why the groups ``which`` have no shape, from their reason codes."""
     thin = np.isin(reason[which], (1, 2, 3)) | (n_points[which] == 0)
-    failed = ~thin & (reason[which] == kernel.FAILED)
+    failed = ~thin & (reason[which] == kernel.Reason.FAILED)
     reasons = []
     if failed.any():
         reasons.append(
@@ -691,11 +733,14 @@ def _reasons(degenerate, points: Points, proj: gcrs.Projection) -> np.ndarray:
         (proj.lonlat if sphere else proj.xy)[sel],
         code,
         len(which),
+        Request(sphere=sphere),
         out=proj.out[sel],
         alpha=np.zeros(len(which)),
-        sphere=sphere,
     )
-    reason[which] = np.where(np.isin(res.reason, (1, 2, 3)), res.reason, 5)
+    thin = (kernel.Reason.FEW, kernel.Reason.COLLINEAR, kernel.Reason.COLLINEAR_OUT)
+    reason[which] = np.where(
+        np.isin(res.reason, thin), res.reason, kernel.Reason.GUARANTEE
+    )
     return reason
 
 
@@ -812,7 +857,11 @@ def guarantee(
         geometry=geometry,
         alpha=np.where(failed, np.nan, hulls.alpha),
         degenerate=hulls.degenerate | failed,
-        reason=np.where(failed & (hulls.reason == 0), 5, hulls.reason),
+        reason=np.where(
+            failed & (hulls.reason == kernel.Reason.OK),
+            kernel.Reason.GUARANTEE,
+            hulls.reason,
+        ),
         outlier=outlier,
     )
 
@@ -951,6 +1000,75 @@ def grow(
     return hulls._replace(geometry=geometry, area=area)
 
 
+def suspicious_groups(hulls: Hulls, points: Points) -> list[dict]:
+    """Return the flagged groups (:class:`SuspiciousHullWarning`), one dict each.
+
+    Keys: ``group`` (code), ``rows`` (positions of the location's rows among
+    the points), ``radius``, ``area`` (with it, computation CRS), ``radius_without``,
+    ``area_without``.
+    """
+    why = hulls.why
+    if why is None or not why.suspicious.any():
+        return []
+    alt = why.alternatives
+    flagged = []
+    for g in np.flatnonzero(why.suspicious & ~hulls.degenerate):
+        i = np.flatnonzero((alt.group == g) & (alt.k == 1))
+        if not len(i):  # pragma: no cover - the kernel gives a flagged group one
+            continue
+        i = int(i[0])
+        flagged.append(
+            {
+                "group": int(g),
+                "rows": alt.left_out(i),
+                "radius": 1.0 / hulls.alpha[g],
+                "area": float(hulls.area[g]),
+                "radius_without": float(alt.radius[i]),
+                "area_without": float(alt.area[i]),
+            }
+        )
+    return flagged
+
+
+def _amount(value: float) -> str:
+    """Show a radius or area: whole numbers with commas from 100 on."""
+    return f"{value:,.0f}" if abs(value) >= 100 else f"{value:.4g}"
+
+
+def warn_suspicious(hulls: Hulls, groups: Groups, points: Points, options) -> None:
+    """Warn about the groups one location forces far beyond their other points."""
+    flagged = suspicious_groups(hulls, points) if options.suspicious else []
+    if not flagged:
+        return
+    units = "m" if options.crs is not None else "units"
+    lines = []
+    for f in flagged[:10]:
+        rows = f["rows"]
+        x, y = points.coords[rows[0]]
+        labels = list(points.labels[rows[:5]])
+        more = ", ..." if len(rows) > 5 else ""
+        name = _names(groups, np.array([f["group"]]), value=_quoted)
+        lines.append(
+            f"group {name}: the location "
+            f"({x:.6g}, {y:.6g}) with {len(rows)} row(s) (index "
+            f"{', '.join(map(repr, labels))}{more}) makes its radius "
+            f"{_amount(f['radius'])} {units} and area {_amount(f['area'])} {units}²; "
+            f"without it {_amount(f['radius_without'])} {units} and "
+            f"{_amount(f['area_without'])} {units}²"
+        )
+    if len(flagged) > 10:
+        lines.append(f"... and {len(flagged) - 10} more group(s)")
+    warn_user(
+        f"{spelled('hull()')}: in {len(flagged)} group(s) one location forces the "
+        f"shape far beyond the other points (leaving it out divides the radius "
+        f"by {kernel.SUSPICIOUS_FACTOR:g} or more): " + "; ".join(lines) + ". If "
+        f"it is wrong, leave it out with {setting('outliers', 1)}, "
+        f"{setting('outlier_unit', 'locations')} (geoalpha.explain() shows why); "
+        f"{setting('suspicious', False)} turns this check off",
+        SuspiciousHullWarning,
+    )
+
+
 def report_outliers(
     hulls: Hulls, groups: Groups, points: Points, n_rows: int, options: Options
 ) -> np.ndarray:
@@ -962,7 +1080,7 @@ def report_outliers(
             points.codes[hulls.outlier], minlength=len(points.n_points)
         )
         which = np.flatnonzero(n_outliers)
-        each = _names(groups, which, n_outliers, value=repr)
+        each = _names(groups, which, n_outliers, value=_quoted)
         warn_user(
             f"{spelled('hull()')} left {n_outliers.sum()} row(s) of {len(which)} "
             f"group(s) outside their hulls ({setting('outliers', options.outliers)}): "

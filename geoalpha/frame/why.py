@@ -1,0 +1,197 @@
+"""The tables of ``explain()`` and ``curve()``: why each group got its radius.
+
+Both read what :func:`~.pipeline.run_all` made (the kernel's
+:class:`~geoalpha.kernel.Why`), one row per group or per group and ``k``
+(:doc:`/user_guide/why`).
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pandas as pd
+import shapely
+
+from geoalpha import kernel
+from geoalpha.errors import OutlierWarning, first_n, setting, spelled, warn_user
+from geoalpha.frame.pipeline import Ran
+
+__all__ = ["CURVE_COLUMNS", "EXPLAIN_COLUMNS", "curve_table", "explain_table"]
+
+#: Columns of :func:`geoalpha.explain` after the group keys (then ``geometry``).
+EXPLAIN_COLUMNS = (
+    "radius",
+    "alpha",
+    "limited_by",
+    "critical_rows",
+    "radius_without_1",
+    "area_m2_without_1",
+    "rows_without_1",
+    "suspicious",
+)
+#: Columns of :func:`geoalpha.curve` after the group keys.
+CURVE_COLUMNS = ("k", "radius", "alpha", "area_m2", "n_parts", "left_out")
+
+
+def _kept(ran: Ran) -> np.ndarray:
+    """Return the codes of the groups with a row in the hull table, in its order."""
+    keep = ran.hulls.keep
+    n = ran.groups.n_groups
+    return np.arange(n) if keep is None else np.flatnonzero(keep)
+
+
+def _keys(ran: Ran, kept: np.ndarray, repeat=None) -> dict:
+    columns = (np.asarray(c)[kept] for c in ran.groups.columns)
+    if repeat is not None:
+        columns = (np.repeat(c, repeat) for c in columns)
+    return dict(zip(ran.groups.names, columns, strict=True))
+
+
+def _label_lists(ran: Ran, positions: np.ndarray, offsets: np.ndarray) -> list:
+    """Index labels of the points ``positions[offsets[i]:offsets[i + 1]]``, per i."""
+    labels = ran.points.labels[np.asarray(positions, dtype=np.int64)].tolist()
+    cuts = np.asarray(offsets, dtype=np.int64).tolist()
+    return [labels[a:b] for a, b in itertools.pairwise(cuts)]
+
+
+def _first_alternatives(alt, n_groups: int) -> np.ndarray:
+    """Each group's k = 1 alternative (an index into ``alt``), -1 without one."""
+    first = np.full(n_groups, -1, dtype=np.int64)
+    ones = np.flatnonzero(alt.k == 1)
+    first[alt.group[ones][::-1]] = ones[::-1]  # the first of each group wins
+    return first
+
+
+def explain_table(ran: Ran):
+    """Build :func:`geoalpha.explain`'s GeoDataFrame from a run with ``explain``."""
+    import geopandas as gpd
+
+    hulls, why = ran.hulls, ran.hulls.why
+    kept = _kept(ran)
+    alt = why.alternatives
+    degenerate = np.asarray(hulls.degenerate, dtype=bool)[kept]
+    names = np.array([kernel.LIMITED_BY[c] for c in range(len(kernel.LIMITED_BY))])
+    limited = np.where(degenerate, "degenerate", names[why.limited_by[kept]])
+    # critical_rows: the three corners, then the points covered last
+    corners = why.critical[kept]
+    has = (corners[:, 0] >= 0) & ~degenerate
+    last, last_offsets = why.last
+    n_last = np.where(has, np.diff(last_offsets)[kept], 0)
+    size = np.where(has, 3 + n_last, 0)
+    offsets = np.zeros(len(kept) + 1, dtype=np.int64)
+    np.cumsum(size, out=offsets[1:])
+    take = np.zeros(offsets[-1], dtype=np.int64)
+    starts = offsets[:-1][has]
+    for j in range(3):
+        take[starts + j] = corners[has, j]
+    counts = n_last[has]
+    within = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
+    src = np.repeat(last_offsets[kept][has], counts) + within
+    take[np.repeat(starts + 3, counts) + within] = last[src]
+    critical = _label_lists(ran, take, offsets)
+    geometry = np.full(len(kept), None, dtype=object)
+    if has.any():
+        ring = ran.points.coords[corners[has]]  # (g, 3, 2)
+        geometry[has] = shapely.polygons(ring)
+    # the one-location alternative
+    first = _first_alternatives(alt, ran.groups.n_groups)[kept]
+    first = np.where(degenerate, -1, first)
+    ok = first >= 0
+    i = first[ok]
+    # area_m2 of a hull is geodesic, the kernel's planar: scale the alternative
+    # by the group's ratio of the two (the CRS's areal scale where it is).
+    with np.errstate(divide="ignore", invalid="ignore"):
+        scale = np.where(ran.planar_area > 0, hulls.area / ran.planar_area, 1.0)
+    radius_1 = np.full(len(kept), np.nan)
+    area_1 = np.full(len(kept), np.nan)
+    radius_1[ok] = alt.radius[i]
+    area_1[ok] = alt.area[i] * scale[kept][ok]
+    n_rows = np.zeros(len(kept), dtype=np.int64)
+    n_rows[ok] = np.diff(alt.row_offsets)[i]
+    row_offsets = np.zeros(len(kept) + 1, dtype=np.int64)
+    np.cumsum(n_rows, out=row_offsets[1:])
+    src = np.concatenate(
+        [np.arange(alt.row_offsets[a], alt.row_offsets[a + 1]) for a in i] or [[]]
+    ).astype(np.int64)
+    rows_1 = _label_lists(ran, alt.rows[src], row_offsets)
+    table = ran.table
+    values = {
+        "radius": table["radius"].to_numpy(),
+        "alpha": table["alpha"].to_numpy(),
+        "limited_by": limited,
+        "critical_rows": critical,
+        "radius_without_1": radius_1,
+        "area_m2_without_1": area_1,
+        "rows_without_1": rows_1,
+        "suspicious": np.asarray(why.suspicious, dtype=bool)[kept] & ~degenerate,
+    }
+    frame = pd.DataFrame({**_keys(ran, kept), **values})
+    return gpd.GeoDataFrame(frame, geometry=geometry, crs=ran.points.crs)
+
+
+def curve_table(ran: Ran, max_left_out: int, unit: str):
+    """Build :func:`geoalpha.curve`'s DataFrame from a run with ``max_left_out``."""
+    hulls, alt = ran.hulls, ran.hulls.why.alternatives
+    kept = _kept(ran)
+    table = ran.table
+    shaped = ~np.asarray(hulls.degenerate, dtype=bool)[kept]
+    kept, table = kept[shaped], table[shaped]
+    n_groups = ran.groups.n_groups
+    # one row per group (k = 0) and per alternative, grouped, k ascending
+    count = np.bincount(alt.group, minlength=n_groups)
+    sizes = 1 + count[kept]
+    where = np.zeros(n_groups, dtype=bool)
+    where[kept] = True
+    use = np.flatnonzero(where[alt.group])  # the alternatives of kept groups
+    owner = np.concatenate([kept, alt.group[use]])
+    order = np.lexsort((np.concatenate([np.zeros(len(kept)), alt.k[use]]), owner))
+    # k = 0 from the hull table, the others from the kernel
+    zero_parts = table["n_parts"].to_numpy().astype(np.int64)
+    k = np.concatenate([np.zeros(len(kept), dtype=np.int64), alt.k[use]])[order]
+    radius = np.concatenate([table["radius"].to_numpy(), alt.radius[use]])[order]
+    area = np.concatenate([ran.planar_area[kept], alt.area[use]])[order]
+    parts = np.concatenate([zero_parts, alt.n_parts[use]])[order]
+    n_left = np.concatenate(
+        [np.zeros(len(kept), np.int64), np.diff(alt.row_offsets)[use]]
+    )
+    n_left = n_left[order]
+    offsets = np.zeros(len(order) + 1, dtype=np.int64)
+    np.cumsum(n_left, out=offsets[1:])
+    which = order - len(kept)
+    src = [
+        np.arange(alt.row_offsets[use[w]], alt.row_offsets[use[w] + 1])
+        for w in which
+        if w >= 0
+    ]
+    src = np.concatenate(src or [[]]).astype(np.int64)
+    left_out = _label_lists(ran, alt.rows[src], offsets)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        scale = np.where(ran.planar_area > 0, hulls.area / ran.planar_area, 1.0)
+    owner = owner[order]
+    short = np.flatnonzero(sizes - 1 < max_left_out)
+    if len(short):
+        columns_of = ran.groups.columns
+        shown = first_n(
+            f"{', '.join(str(c[kept[j]]) for c in columns_of) or 'all points'} "
+            f"({sizes[j] - 1})"
+            for j in short
+        )
+        warn_user(
+            f"{spelled('curve()')}: {len(short)} group(s) have fewer {unit} than "
+            f"{setting('max_left_out', max_left_out)} leaves a shape for (at least "
+            f"3 locations stay); their curves stop earlier (largest k): {shown}",
+            OutlierWarning,
+        )
+    with np.errstate(divide="ignore"):
+        alpha = np.concatenate([table["alpha"].to_numpy(), 1.0 / alt.radius[use]])
+    alpha = alpha[order]
+    columns = {
+        "k": k,
+        "radius": radius,
+        "alpha": alpha,
+        "area_m2": area * scale[owner],
+        "n_parts": parts.astype(np.int64),
+        "left_out": left_out,
+    }
+    return pd.DataFrame({**_keys(ran, kept, sizes), **columns})
