@@ -152,6 +152,8 @@ def test_options_are_passed_to_hull(fake_hull, points_csv, tmp_path):
             "sort": False,
             "n_jobs": 2,
             "progress": False,
+            "outlier_unit": "rows",
+            "suspicious": True,
         }
     ]
 
@@ -180,6 +182,8 @@ def test_defaults_passed_to_hull(fake_hull, points_csv, tmp_path):
             "sort": True,
             "n_jobs": None,
             "progress": None,
+            "outlier_unit": "rows",
+            "suspicious": True,
         }
     ]
 
