@@ -17,6 +17,7 @@ import pytest
 __all__ = [
     "HAS_DASK",
     "HAS_FIONA",
+    "HAS_MATPLOTLIB",
     "HAS_PYARROW",
     "HAS_PYOGRIO",
     "HAS_TQDM",
@@ -35,6 +36,7 @@ def _has(*modules: str) -> bool:
 
 HAS_DASK = _has("dask_geopandas", "distributed")
 HAS_FIONA = _has("fiona")
+HAS_MATPLOTLIB = _has("matplotlib")
 HAS_PYARROW = _has("pyarrow")
 HAS_PYOGRIO = _has("pyogrio")
 HAS_TQDM = _has("tqdm")
