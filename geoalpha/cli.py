@@ -298,9 +298,15 @@ def _explain_targets(target: dict, params: dict, points_layer: bool) -> dict:
     return sides
 
 
-def _explain_frames(why, points, left_out) -> dict:
-    """Return the ``why`` and ``left_out`` layers as files can hold them."""
+def _explain_frames(why, points, left_out, unit: str | None) -> dict:
+    """Return the ``why`` and ``left_out`` layers as files can hold them.
+
+    With a planar ``unit`` (as the hulls' ``area`` and ``unit``), the area
+    column is ``area_without_1``, in square ``unit``.
+    """
     why = why.copy()
+    if unit is not None:
+        why = why.rename(columns={"area_m2_without_1": "area_without_1"})
     for column in ("critical_rows", "rows_without_1"):  # lists of labels: text
         why[column] = [", ".join(map(str, labels)) for labels in why[column]]
     return {"why": why, "left_out": points[left_out.to_numpy()]}
@@ -460,12 +466,13 @@ def _run(
         from geoalpha.hulls import hull_and_why
 
         hulls, why, left_out = hull_and_why(points, by=key, **options)
-        explained = _explain_frames(why, points, left_out)
     if len(hulls) == 0:
         raise InvalidInputError(
             f"no hull to write: every group of {source} was dropped"
         )
     unit = planar_unit(points.crs, options.get("crs", "auto"))
+    if sides is not None:
+        explained = _explain_frames(why, points, left_out, unit)
     table = with_area_unit(hulls, unit)  # say the unit instead of a wrong "m2"
     bar.start("write")
     mappings, created = {}, []

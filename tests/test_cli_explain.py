@@ -197,3 +197,20 @@ def test_demo_explain_adds_the_layers(tmp_path):
     layers = set(pyogrio.list_layers(out)[:, 0])
     assert layers == {"demo", "points", "why", "left_out"}
     assert len(gpd.read_file(out, layer="why")) == 56
+
+
+def test_explain_planar_input_names_the_area_without_m2(tmp_path):
+    # --crs-in none: the hulls have area and unit, the layer 'why' area_without_1
+    path = tmp_path / "plane.csv"
+    square = [(0, 0), (4, 0), (4, 4), (0, 4), (2, 3.5), (30, 30)]
+    pd.DataFrame(square, columns=["x", "y"]).to_csv(path, index=False)
+    out = tmp_path / "plane.gpkg"
+    result = run("hull", path, out, "--crs-in", "none", "--explain")
+    assert result.exit_code == 0, result.stderr
+    why = gpd.read_file(out, layer="why")
+    assert "area_m2_without_1" not in why.columns
+    assert why["rows_without_1"].item() == "5"  # the far point, row 5
+    # without the far point: inside the square of the other five, not empty
+    assert 0 < why["area_without_1"].item() <= 16
+    hulls = gpd.read_file(out, layer="plane")
+    assert hulls["unit"].item() == "coordinate unit"
