@@ -494,7 +494,7 @@ def _run(
         return
     for line in _summary(points, hulls, source, by, options, unit):
         click.echo(line, err=True)
-    if explained is not None and _flagged(why, by):
+    if explained is not None and options.get("suspicious", True) and _flagged(why, by):
         click.echo(_flagged(why, by), err=True)
     for old, new in mapping.items():
         click.echo(f"Shapefile field {old!r} written as {new!r}", err=True)

@@ -93,6 +93,15 @@ def test_explain_writes_why_and_names_the_flagged_group(airports_csv, tmp_path):
     expected = csv.loc[corners, ["longitude", "latitude"]].to_numpy()
     np.testing.assert_array_equal(ring, expected)
     assert len(gpd.read_file(out, layer="left_out")) == 0
+    # --no-suspicious: no warning, no line; the column stays
+    quiet = run(
+        "hull", airports_csv, tmp_path / "q.gpkg", "--by", "state", "--explain",
+        "--no-suspicious",
+    )  # fmt: skip
+    assert quiet.exit_code == 0, quiet.stderr
+    assert "suspicious" not in quiet.stderr
+    flags = gpd.read_file(tmp_path / "q.gpkg", layer="why")["suspicious"]
+    assert flags.sum() == 1
 
 
 def test_explain_left_out_holds_the_rows_with_their_columns(airports_csv, tmp_path):
