@@ -31,6 +31,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs
         optimal_alpha,
     )
     from geoalpha.hulls import curve, explain, hull, outlier_rows
+    from geoalpha.plot import plot_curve, plot_why
 
 __all__ = [
     "AlphaShapes",
@@ -51,6 +52,8 @@ __all__ = [
     "hull",
     "optimal_alpha",
     "outlier_rows",
+    "plot_curve",
+    "plot_why",
 ]
 
 #: Public names loaded on first use, and the module that defines each.
@@ -63,6 +66,8 @@ _LAZY = {
     "explain": "geoalpha.hulls",
     "hull": "geoalpha.hulls",
     "outlier_rows": "geoalpha.hulls",
+    "plot_curve": "geoalpha.plot",
+    "plot_why": "geoalpha.plot",
 }
 
 

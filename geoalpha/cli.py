@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import glob
 import logging
 import os
 import sys
@@ -240,6 +241,7 @@ def _session(params: dict, size, points_layer=False, source=None) -> Iterator:
     from geoalpha.io.files import check_not_input, check_output
 
     preview = params.pop("preview")
+    explain = params.pop("explain", False)
     target = {k: params.pop(k) for k in ("overwrite", "engine")}
     target |= {"path": params.pop("output"), "layer": params.pop("output_layer")}
     verbose, quiet = params.pop("verbose"), params.pop("quiet")  # after the command
@@ -272,12 +274,124 @@ def _session(params: dict, size, points_layer=False, source=None) -> Iterator:
         bar.estimate(costs | after_hull(rows, rows / 100))
         if source is not None:
             check_not_input(target["path"], target["layer"], *source)
+        sides = _explain_targets(target, params, points_layer) if explain else None
         check_output(
             target["path"], layer=target["layer"], overwrite=target["overwrite"]
         )
         bar.start("read")
         _check_preview(preview)
-        yield functools.partial(_run, target, preview, verbosity, bar)
+        yield functools.partial(_run, target, preview, verbosity, bar, sides)
+
+
+#: The layers of ``--explain`` (``docs/cli.md``): explain()'s critical
+#: triangles and the rows left out by --outliers.
+EXPLAIN_LAYERS = ("why", "left_out")
+
+
+def _explain_targets(target: dict, params: dict, points_layer: bool) -> dict:
+    """Check, before computing, where ``--explain`` writes its two layers.
+
+    Return ``{layer: path}``: OUTPUT itself for a GeoPackage (new layers in
+    it), else ``<stem>_why<ext>`` and ``<stem>_left_out<ext>`` beside it, each
+    checked as OUTPUT is (refused if it exists, without ``--overwrite``).
+    """
+    from geoalpha.io.files import check_output
+
+    if params.get("method", "alpha") != "alpha":
+        raise InvalidInputError(
+            "--explain explains the optimal alpha shape: use it with --method "
+            f"alpha (the default); got --method {params['method']}"
+        )
+    path = target["path"]
+    if is_postgres_url(path):
+        raise InvalidInputError(
+            "--explain writes its layers 'why' and 'left_out' to files only, not "
+            "to PostGIS: write a GeoPackage (.gpkg) OUTPUT, or run without --explain"
+        )
+    if path.lower().endswith(".gpkg"):
+        layer = target["layer"] or Path(path).stem or "hulls"
+        taken = {layer, "points"} if points_layer else {layer}
+        clash = sorted(taken & set(EXPLAIN_LAYERS))
+        if clash:
+            raise InvalidInputError(
+                f"--explain writes the layers 'why' and 'left_out' beside the "
+                f"hulls' layer {clash[0]!r}: name the hulls' layer otherwise with "
+                "--output-layer (or OUTPUT's file name)"
+            )
+        return dict.fromkeys(EXPLAIN_LAYERS, path)
+    base = Path(path)
+    sides = {
+        n: str(base.with_name(f"{base.stem}_{n}{base.suffix}")) for n in EXPLAIN_LAYERS
+    }
+    for side in sides.values():
+        check_output(side, overwrite=target["overwrite"])
+    return sides
+
+
+def _explain_frames(why, points, left_out, unit: str | None) -> dict:
+    """Return the ``why`` and ``left_out`` layers as files can hold them.
+
+    With a planar ``unit`` (as the hulls' ``area`` and ``unit``), the area
+    column is ``area_without_1``, in square ``unit``.
+    """
+    why = why.copy()
+    if unit is not None:
+        why = why.rename(columns={"area_m2_without_1": "area_without_1"})
+    for column in ("critical_rows", "rows_without_1"):  # lists of labels: text
+        why[column] = [", ".join(map(str, labels)) for labels in why[column]]
+    return {"why": why, "left_out": points[left_out.to_numpy()]}
+
+
+def _write_explained(target: dict, sides: dict, layers: dict, created: list) -> dict:
+    """Write ``--explain``'s files beside OUTPUT; return each one's renamed fields.
+
+    Each file is written atomically (as OUTPUT); the ones this run creates
+    are added to ``created``, for :func:`_remove_created` should a later
+    write fail.
+    """
+    from geoalpha.io.files import write_hulls
+
+    mappings = {}
+    for name, path in sides.items():
+        new = not Path(path).exists()
+        mappings[name] = write_hulls(
+            layers[name], path, overwrite=target["overwrite"], engine=target["engine"]
+        )
+        if new:
+            created.append(Path(path))
+    return mappings
+
+
+def _remove_created(created: list[Path]) -> None:
+    """Remove the files (a Shapefile with its sidecars) a failed run created."""
+    for path in created:
+        for file in path.parent.glob(f"{glob.escape(path.stem)}.*"):
+            if file.suffix.lower() in _SIDECARS:
+                file.unlink(missing_ok=True)
+
+
+#: The extensions of a file :func:`_remove_created` removes (with its sidecars).
+_SIDECARS = {".shp", ".shx", ".dbf", ".prj", ".cpg", ".geojson", ".fgb", ".parquet"}
+
+
+def _flagged(why, by: list[str]) -> str:
+    """``"3 groups flagged as suspicious: 'HI', 'AK', ..."``, or ``""``."""
+    from geoalpha.errors import first_n
+
+    flagged = why[why["suspicious"].to_numpy(dtype=bool)]
+    if flagged.empty:
+        return ""
+    if len(by) == 1:
+        names = [repr(v) for v in flagged[by[0]].tolist()]
+    elif by:
+        names = [str(v) for v in flagged[by].itertuples(index=False, name=None)]
+    else:
+        names = ["all points"]
+    return (
+        f"{_plural(len(flagged), 'group')} flagged as suspicious (one location "
+        f"forces the shape far beyond the others; see the layer 'why'): "
+        f"{first_n(names)}"
+    )
 
 
 def _plural(n: int, noun: str) -> str:
@@ -366,6 +480,7 @@ def _run(
     preview,
     verbosity,
     bar,
+    sides,
     points,
     *,
     source,
@@ -374,13 +489,23 @@ def _run(
     metres=None,
     **options,
 ):
-    """Compute the hulls (in the command's ``bar``), write them, draw ``preview``."""
+    """Compute the hulls (in the command's ``bar``), write them, draw ``preview``.
+
+    With ``sides`` (``--explain``: :func:`_explain_targets`) also explain()'s
+    table and the rows left out, from the same run.
+    """
     from geoalpha.frame.schema import planar_unit, with_area_unit
-    from geoalpha.hulls import hull
     from geoalpha.io.files import write_hulls
 
     key = None if not by else by[0] if len(by) == 1 else by
-    hulls = hull(points, by=key, **options)
+    if sides is None:
+        from geoalpha.hulls import hull
+
+        hulls, explained = hull(points, by=key, **options), None
+    else:
+        from geoalpha.hulls import hull_and_why
+
+        hulls, why, left_out = hull_and_why(points, by=key, **options)
     if len(hulls) == 0:
         raise InvalidInputError(
             f"no hull to write: every group of {source} was dropped"
@@ -389,9 +514,20 @@ def _run(
     if metres is not None:  # --unit: planar numbers in a known unit
         hulls = _in_metres(hulls, METRES_PER_UNIT[metres])
         unit = None
+    if sides is not None:
+        explained = _explain_frames(why, points, left_out, unit)
     table = with_area_unit(hulls, unit)  # say the unit instead of a wrong "m2"
     bar.start("write")
-    mapping = write_hulls(table, **target, extra_layers=extra_layers)
+    mappings, created = {}, []
+    try:
+        if explained is not None and target["path"].lower().endswith(".gpkg"):
+            extra_layers = {**(extra_layers or {}), **explained}
+        elif explained is not None:
+            mappings = _write_explained(target, sides, explained, created)
+        mapping = write_hulls(table, **target, extra_layers=extra_layers)
+    except BaseException:
+        _remove_created(created)  # nothing half-written stays behind
+        raise
     output, layer = target["path"], target["layer"]
     if preview is not None:
         bar.start("preview")
@@ -401,8 +537,13 @@ def _run(
         return
     for line in _summary(points, hulls, source, by, options, unit, metres):
         click.echo(line)  # the summary on stdout; warnings and errors on stderr
+    if explained is not None and options.get("suspicious", True) and _flagged(why, by):
+        click.echo(_flagged(why, by))
     for old, new in mapping.items():
         click.echo(f"Shapefile field {old!r} written as {new!r}")
+    for name, renamed in mappings.items():
+        for old, new in renamed.items():
+            click.echo(f"Shapefile field {old!r} of {name!r} written as {new!r}")
     where = redact(output)
     if is_postgres_url(output):
         where += f" (table {layer})"
@@ -414,6 +555,13 @@ def _run(
         f"Wrote {_plural(len(hulls), 'hull')} of {_plural(rows, 'point')} to "
         f"{redact(where)}"
     )
+    if explained is not None:
+        shown = " and ".join(
+            f"{_plural(len(explained[n]), 'row')} to "
+            + (f"layer {n!r}" if sides[n] == output else redact(sides[n]))
+            for n in EXPLAIN_LAYERS
+        )
+        click.echo(f"Wrote --explain: {shown}")
     if preview is not None:
         click.echo(f"Wrote a preview to {preview}")
 
@@ -530,6 +678,14 @@ _overwrite_option = click.option(
     help="Replace OUTPUT if it exists; in a GeoPackage, only the layer written "
     "(its other layers are kept).",
 )
+_explain_option = click.option(
+    "--explain",
+    is_flag=True,
+    help="Also write why each group got its radius (layer 'why': the critical "
+    "triangles, as geoalpha.explain()) and the rows --outliers left out (layer "
+    "'left_out'): into a GeoPackage OUTPUT, else beside it as "
+    "<OUTPUT>_why and <OUTPUT>_left_out.",
+)
 _preview_option = click.option(
     "--preview",
     metavar="IMAGE",
@@ -610,6 +766,7 @@ _preview_option = click.option(
 @_options()
 @_overwrite_option
 @_engine_option
+@_explain_option
 @_preview_option
 @_verbose_option
 @_quiet_option
@@ -704,6 +861,7 @@ hull.help = hull.help.replace(
 @_overwrite_option
 @_engine_option
 @_options("progress")
+@_explain_option
 @_preview_option
 @_verbose_option
 @_quiet_option

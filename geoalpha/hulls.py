@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import sys
 import warnings
+from typing import Any, NamedTuple
 
 import pandas as pd
 
@@ -17,9 +18,11 @@ __all__ = [
     "DEGENERATE_POLICIES",
     "METHODS",
     "RESULT_COLUMNS",
+    "Explained",
     "curve",
     "explain",
     "hull",
+    "hull_and_why",
     "outlier_rows",
 ]
 
@@ -292,3 +295,69 @@ def curve(
     asked = dict(max_left_out=int(max_left_out), left_out_unit=unit)
     ran = run_all(as_frame(gdf), by, opts, **asked)
     return curve_table(ran, int(max_left_out), unit)
+
+
+class Explained(NamedTuple):
+    """What :func:`hull_and_why` returns: one run's three tables."""
+
+    #: :func:`hull`'s result
+    hulls: Any
+    #: :func:`explain`'s result (one row per row of ``hulls``)
+    why: Any
+    #: :func:`outlier_rows`'s result (True: left out by ``outliers``)
+    left_out: Any
+
+
+def hull_and_why(gdf, by=None, **options) -> Explained:
+    """Run :func:`hull`, :func:`explain` and :func:`outlier_rows` as one run.
+
+    The faces that write all three (``geoalpha hull --explain``, the QGIS
+    plugin's WHY and LEFT_OUT layers) call this: the kernel runs once, with
+    the warnings of :func:`hull` (:class:`SuspiciousHullWarning` included).
+
+    Parameters
+    ----------
+    gdf, by, **options
+        As for :func:`explain` (``method="alpha"``, an eager GeoDataFrame).
+
+    Returns
+    -------
+    Explained
+        ``(hulls, why, left_out)``: the GeoDataFrames of :func:`hull` and
+        :func:`explain`, and the boolean Series of :func:`outlier_rows` on
+        ``gdf``'s index.
+
+    Raises
+    ------
+    InvalidInputError
+        As :func:`explain`.
+
+    .. versionadded:: 0.5.0
+
+    Examples
+    --------
+    >>> import geopandas as gpd
+    >>> import shapely
+    >>> pts = [(0, 0), (4, 0), (4, 4), (0, 4), (2, 3.5), (30, 30)]
+    >>> gdf = gpd.GeoDataFrame(geometry=shapely.points(pts), crs="EPSG:32631")
+    >>> import warnings
+    >>> with warnings.catch_warnings(record=True):  # OutlierWarning: 1 row out
+    ...     hulls, why, left_out = hull_and_why(gdf, outliers=1)
+    >>> int(hulls["n_outliers"].item()), why["limited_by"].item(), left_out.tolist()
+    (1, 'outliers', [False, False, False, False, False, True])
+    """
+    opts = _eager_options(gdf, options, "explain()")
+    from geoalpha.frame.why import explain_table
+
+    asked = dict(explain=True, max_left_out=1, left_out_unit="locations")
+    if not opts.outliers and opts.search == "exact" and opts.alpha is None:
+        from geoalpha.kernel import SUSPICIOUS_FACTOR
+
+        asked["suspicious_factor"] = SUSPICIOUS_FACTOR
+    frame = as_frame(gdf)
+    ran = run_all(frame, by, opts, **asked)
+    left_out = pd.Series(ran.left_out, index=frame.index, name="outlier")
+    return Explained(ran.table, explain_table(ran), left_out)
+
+
+hull_and_why.__signature__ = _options.signature(hull_and_why)

@@ -35,6 +35,7 @@ LAYER_OF = {
     "accessor": "faces",
     "registration": "faces",
     "dask": "faces",
+    "plot": "faces",
     "kernel": "kernel",
     "_kernel": "kernel",
     "options": "base",

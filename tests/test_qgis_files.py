@@ -17,6 +17,8 @@ import pytest
 import shapely
 from cli_runner import run
 
+from geoalpha import datasets
+
 SYSTEM_PYTHON = "/usr/bin/python3"
 
 # Open every layer of a GeoPackage with QGIS; print what QGIS sees as JSON.
@@ -209,3 +211,28 @@ def test_qgis_copies_a_shapefile_without_value_not_written_warnings(tmp_path):
     ours, theirs = gpd.read_file(out), gpd.read_file(copy)
     assert theirs["area_m2"].max() == pytest.approx(ours["area_m2"].max(), rel=1e-9)
     assert ours["area_m2"].max() > 1e12  # Alaska: the value that did not fit
+
+
+def test_explain_layers_open_in_qgis(tmp_path):
+    # geoalpha hull --explain (issue #35): the hulls, 'why' and 'left_out'
+    out = tmp_path / "hulls.gpkg"
+    points = tmp_path / "airports.gpkg"
+    airports = datasets.load("us_airports")
+    airports[airports["state"].isin(["HI", "CO", "RI"])].to_file(points)
+    result = run(
+        "-q", "hull", points, out, "--by", "state", "--explain", "--outliers", "2"
+    )
+    assert result.exit_code == 0, result.stderr
+    layers, messages = open_in_qgis(out)
+    assert set(layers) == {"hulls", "why", "left_out"}
+    assert all(layer["valid"] for layer in layers.values())
+    assert layers["why"]["features"] == 3 and layers["why"]["crs"] == "EPSG:4326"
+    # the rows the hulls count as left out, no more, no fewer (at most 2 each)
+    n_outliers = gpd.read_file(out, layer="hulls")["n_outliers"]
+    assert layers["left_out"]["features"] == n_outliers.sum() > 0
+    assert n_outliers.max() <= 2
+    assert {"state", "limited_by", "critical_rows", "suspicious"} <= set(
+        layers["why"]["fields"]
+    )
+    assert {"iata", "name", "state"} <= set(layers["left_out"]["fields"])
+    assert "may only be partially supported" not in messages

@@ -30,6 +30,7 @@ import shapely
 import geoalpha
 from geoalpha import datasets
 from geoalpha.frame.schema import DTYPES, RESULT_COLUMNS, with_area_unit
+from geoalpha.frame.why import EXPLAIN_COLUMNS
 from geoalpha.options import META, NAMES, Options
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -486,7 +487,15 @@ def test_qgis_process_parameters_are_the_options_of_hull(qgis, installed):
     left_out = build_qgis_plugin.LEFT_OUT
     offered = [name for name in NAMES if name not in left_out]
     assert "outliers" in offered and "grow" in offered
-    assert set(params) == {"INPUT", "FIELD", "OUTPUT", *map(str.upper, offered)}
+    assert set(params) == {
+        "INPUT",
+        "FIELD",
+        "OUTPUT",
+        "WHY",
+        "LEFT_OUT",
+        *map(str.upper, offered),
+    }
+    assert params["WHY"]["optional"] and params["LEFT_OUT"]["optional"]
     defaults = Options()
     for name in offered:
         param, meta = params[name.upper()], META[name]
@@ -697,3 +706,47 @@ def test_docs_list_every_parameter():
         assert f"`{name}`" in page[page.index("Not offered") :], name
     for column in RESULT:
         assert f"`{column}`" in page, column
+
+
+def test_pyqgis_why_and_left_out_layers(pyqgis, points):
+    got = pyqgis["why"]
+    assert got["outputs"] == ["LEFT_OUT", "OUTPUT", "WHY"]
+    options = dict(outliers=1, outlier_unit="locations")
+    gdf = gpd.read_file(points)  # fid i + 1 is row i (as geopandas wrote it)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", geoalpha.GeoAlphaWarning)
+        why = geoalpha.explain(gdf, by="state", **options)
+        left = geoalpha.outlier_rows(gdf, by="state", **options)
+    layer = got["why"]
+    assert [name for name, _ in layer["fields"]] == ["state", *EXPLAIN_COLUMNS]
+    assert layer["crs"] == "EPSG:4326"
+    features = {f["attributes"]["state"]: f for f in layer["features"]}
+    assert sorted(features) == sorted(why["state"])
+    for row in why.itertuples():
+        feature = features[row.state]["attributes"]
+        if np.isnan(row.radius):  # a group without shape: NULL in QGIS
+            assert feature["radius"] is None
+        else:
+            assert feature["radius"] == pytest.approx(row.radius, rel=1e-12)
+        assert feature["limited_by"] == row.limited_by
+        assert feature["critical_rows"] == ", ".join(
+            str(label + 1) for label in row.critical_rows
+        )
+        assert bool(feature["suspicious"]) == bool(row.suspicious)
+        wkb = features[row.state]["wkb"]
+        if row.geometry is None:  # no triangle: a NULL or empty geometry
+            assert wkb is None or shapely.from_wkb(bytes.fromhex(wkb)).is_empty
+        else:
+            assert shapely.equals_exact(
+                shapely.from_wkb(bytes.fromhex(wkb)), row.geometry, tolerance=0
+            )
+    # the features left out, copied with every field
+    rows = got["left_out"]
+    assert [name for name, _ in rows["fields"]] == [
+        name for name, _ in pyqgis["by2"]["input_fields"]
+    ]
+    assert sorted(f["attributes"]["iata"] for f in rows["features"]) == sorted(
+        gdf.loc[left.to_numpy(), "iata"]
+    )
+    assert len(rows["features"]) == int(left.sum()) > 0
+    assert "METHOD=alpha" in got["convex"]

@@ -60,12 +60,26 @@ LABELS = {
     "dropna": "Leave out features with an empty group value",
     "sort": "Sort the groups by value",
     "outliers": "Outliers per group: a fraction (0.02) or a count (3)",
+    "outlier_unit": "What the outliers count: rows or locations",
+    "suspicious": "Warn about hulls one location forces far out",
     "grow": "Grow every hull by (metres)",
 }
 #: Options shown under the dialog's "Advanced Parameters".
 ADVANCED = ("alpha", "crs", "search", "max_iterations", "ratio", "k", "buffer")
 #: Output field type of each dtype of the result table (geoalpha.frame.schema).
 _FIELD_TYPES = {"f": QVariant.Double, "i": QVariant.Int, "u": QVariant.Int}
+#: The fields of the WHY layer after the group fields (``geoalpha.explain()``);
+#: lists of row labels become text of feature ids.
+_WHY_FIELDS = {
+    "radius": QVariant.Double,
+    "alpha": QVariant.Double,
+    "limited_by": QVariant.String,
+    "critical_rows": QVariant.String,
+    "radius_without_1": QVariant.Double,
+    "area_m2_without_1": QVariant.Double,
+    "rows_without_1": QVariant.String,
+    "suspicious": QVariant.Bool,
+}
 _CHUNK = 1000  # features between progress reports and cancellation checks
 _PLAIN = (str, int, float, bool)  # attribute types that need no conversion
 
@@ -101,6 +115,14 @@ def _help() -> str:
             ", ".join(SPEC["result_columns"]) + "; alpha is in 1/metre, radius",
             "in metres. A planar computation not in metres (CRS=none) writes",
             "area and unit instead of area_m2.</p>",
+            "<p><b>Why this shape</b> (WHY, optional): one feature per group,",
+            "the critical triangle whose circumradius is the optimal radius, with",
+            "the fields of <code>geoalpha.explain()</code>: "
+            + ", ".join(_WHY_FIELDS)
+            + "; the rows are",
+            "given as feature ids of the input layer. <b>Rows left out</b>",
+            "(LEFT_OUT, optional): the input features the hulls leave out",
+            "(OUTLIERS), with all their fields. Both need METHOD=alpha.</p>",
             f"<p>Not offered here: {left_out}.</p>",
         ]
     )
@@ -187,6 +209,17 @@ def _unset(value) -> bool:
     )
 
 
+def _wanted(parameters: dict, key: str) -> bool:
+    """Tell whether an optional output (a feature sink) was asked for."""
+    value = parameters.get(key)
+    if _unset(value):
+        return False
+    sink = getattr(value, "sink", None)  # a QgsProcessingOutputLayerDefinition
+    if sink is not None:
+        value = sink.staticValue()
+    return not _unset(value)
+
+
 def _parameter(name: str, spec: dict):
     """Return the Processing parameter of the option ``name`` of ``hull()``."""
     key, kind, label = name.upper(), spec["kind"], LABELS.get(name, name)
@@ -222,6 +255,8 @@ class OptimalAlphaHulls(QgsProcessingAlgorithm):
     INPUT = "INPUT"
     FIELD = "FIELD"
     OUTPUT = "OUTPUT"
+    WHY = "WHY"
+    LEFT_OUT = "LEFT_OUT"
 
     def createInstance(self):
         """Return a new copy (QGIS runs each execution on its own instance)."""
@@ -289,6 +324,24 @@ class OptimalAlphaHulls(QgsProcessingAlgorithm):
                 self.OUTPUT, "Alpha hulls", QgsProcessing.TypeVectorPolygon
             )
         )
+        self.addParameter(
+            QgsProcessingParameterFeatureSink(
+                self.WHY,
+                "Why this shape (the critical triangles)",
+                QgsProcessing.TypeVectorPolygon,
+                optional=True,
+                createByDefault=False,
+            )
+        )
+        self.addParameter(
+            QgsProcessingParameterFeatureSink(
+                self.LEFT_OUT,
+                "Rows left out (outliers)",
+                QgsProcessing.TypeVectorAnyGeometry,
+                optional=True,
+                createByDefault=False,
+            )
+        )
 
     def _options(self, parameters, context) -> dict:
         """Keyword arguments of ``geoalpha.hull`` from the parameter values.
@@ -351,6 +404,14 @@ class OptimalAlphaHulls(QgsProcessingAlgorithm):
         if planar_input and options["crs"] is not None:
             raise QgsProcessingException(_no_crs(crs))
 
+        explain = _wanted(parameters, self.WHY) or _wanted(parameters, self.LEFT_OUT)
+        if explain and options["method"] != "alpha":
+            raise QgsProcessingException(
+                "The layers 'Why this shape' (WHY) and 'Rows left out' (LEFT_OUT) "
+                "explain the optimal alpha shape: use them with METHOD=alpha; "
+                f"got METHOD={options['method']}"
+            )
+
         # 1. Read geometries (as WKB) and group values: 0-40 %.
         started = time.perf_counter()
         in_fields = source.fields()
@@ -358,8 +419,9 @@ class OptimalAlphaHulls(QgsProcessingAlgorithm):
         request = QgsFeatureRequest().setSubsetOfAttributes(indices)
         total = max(source.featureCount(), 1)
         curved = QgsWkbTypes.isCurvedType(source.wkbType())
-        wkb, raw = [], [[] for _ in names]
+        wkb, raw, fids = [], [[] for _ in names], []
         for i, feature in enumerate(source.getFeatures(request)):
+            fids.append(feature.id())
             if i % _CHUNK == 0:
                 if feedback.isCanceled():
                     return {}
@@ -412,9 +474,16 @@ class OptimalAlphaHulls(QgsProcessingAlgorithm):
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             try:
-                result = geoalpha.hull(
-                    frame, by=list(names) or None, progress=False, **options
-                )
+                if explain:
+                    from geoalpha.hulls import hull_and_why
+
+                    result, why, left_out = hull_and_why(
+                        frame, by=list(names) or None, progress=False, **options
+                    )
+                else:
+                    result = geoalpha.hull(
+                        frame, by=list(names) or None, progress=False, **options
+                    )
             except geoalpha.GeoAlphaError as err:
                 hint = ""
                 if "vertices=True" in str(err) and not options["vertices"]:
@@ -470,10 +539,95 @@ class OptimalAlphaHulls(QgsProcessingAlgorithm):
                 raise QgsProcessingException(
                     self.writeFeatureError(sink, parameters, "")
                 )
+        outputs = {self.OUTPUT: dest_id}
+        if explain:
+            outputs |= self._write_explained(
+                parameters, context, source, (fields, names, originals), why, fids
+            )
+            outputs |= self._write_left_out(
+                parameters, context, source, left_out.to_numpy(), fids
+            )
         feedback.setProgress(100)
         feedback.pushInfo(
             f"{len(result):,} hulls written (seconds: reading "
             f"{read - started:.2f}, hull() {computed - read:.2f}, writing "
             f"{time.perf_counter() - computed:.2f})"
         )
-        return {self.OUTPUT: dest_id}
+        return outputs
+
+    def _write_explained(self, parameters, context, source, keys, why, fids) -> dict:
+        """Write ``geoalpha.explain()``'s critical triangles to WHY, if asked."""
+        if not _wanted(parameters, self.WHY):
+            return {}
+        import numpy as np
+        import shapely
+
+        hull_fields, names, originals = keys
+        fields = QgsFields()
+        for name in names:
+            fields.append(QgsField(hull_fields.field(name)))
+        for name, kind in _WHY_FIELDS.items():
+            fields.append(QgsField(name, kind))
+        sink, dest_id = self.parameterAsSink(
+            parameters,
+            self.WHY,
+            context,
+            fields,
+            QgsWkbTypes.Polygon,
+            source.sourceCrs(),
+        )
+        if sink is None:
+            raise QgsProcessingException(self.invalidSinkError(parameters, self.WHY))
+        shapes = shapely.to_wkb(
+            np.asarray(why.geometry.values, dtype=object), output_dimension=2
+        )
+        for i, row in enumerate(why.itertuples(index=False)):
+            values = dict(zip(why.columns, row, strict=True))
+            attributes = [
+                seen.get(_python_value(values[name]), values[name])
+                for seen, name in zip(originals, names, strict=True)
+            ]
+            for name in _WHY_FIELDS:
+                value = values[name]
+                if isinstance(value, list):  # row labels: the features' ids
+                    value = ", ".join(str(fids[label]) for label in value)
+                elif name == "suspicious":
+                    value = bool(value)
+                attributes.append(_attribute(value))
+            feature = QgsFeature(fields)
+            if shapes[i] is not None:
+                geometry = QgsGeometry()
+                geometry.fromWkb(shapes[i])
+                feature.setGeometry(geometry)
+            feature.setAttributes(attributes)
+            if not sink.addFeature(feature, QgsFeatureSink.FastInsert):
+                raise QgsProcessingException(
+                    self.writeFeatureError(sink, parameters, self.WHY)
+                )
+        return {self.WHY: dest_id}
+
+    def _write_left_out(self, parameters, context, source, mask, fids) -> dict:
+        """Copy the input features the hulls leave out to LEFT_OUT, if asked."""
+        if not _wanted(parameters, self.LEFT_OUT):
+            return {}
+        sink, dest_id = self.parameterAsSink(
+            parameters,
+            self.LEFT_OUT,
+            context,
+            source.fields(),
+            source.wkbType(),
+            source.sourceCrs(),
+        )
+        if sink is None:
+            raise QgsProcessingException(
+                self.invalidSinkError(parameters, self.LEFT_OUT)
+            )
+        wanted = [fids[i] for i, out in enumerate(mask) if out]
+        if wanted:
+            request = QgsFeatureRequest().setFilterFids(wanted)
+            for feature in source.getFeatures(request):
+                if not sink.addFeature(feature, QgsFeatureSink.FastInsert):
+                    raise QgsProcessingException(
+                        self.writeFeatureError(sink, parameters, self.LEFT_OUT)
+                    )
+        return {self.LEFT_OUT: dest_id}

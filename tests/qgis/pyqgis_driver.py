@@ -195,6 +195,41 @@ def main():
         "input_fields": layer_report(points)["fields"],
         "join": misses(points, out_dir / "by2.gpkg", keys),
     }
+    # Why this shape (issue #35): the optional WHY and LEFT_OUT layers.
+    feedback = Feedback()
+    result = processing.run(
+        ALG,
+        {
+            "INPUT": str(points),
+            "FIELD": ["state"],
+            "OUTLIERS": 1,
+            "OUTLIER_UNIT": "locations",
+            "OUTPUT": str(out_dir / "why_hulls.gpkg"),
+            "WHY": str(out_dir / "why.gpkg"),
+            "LEFT_OUT": str(out_dir / "left_out.gpkg"),
+        },
+        feedback=feedback,
+    )
+    report["why"] = {
+        "outputs": sorted(result),
+        "hulls": layer_report(out_dir / "why_hulls.gpkg"),
+        "why": layer_report(out_dir / "why.gpkg"),
+        "left_out": layer_report(out_dir / "left_out.gpkg"),
+        "warnings": feedback.warnings,
+    }
+    try:
+        processing.run(
+            ALG,
+            {
+                "INPUT": str(points),
+                "METHOD": "convex",
+                "OUTPUT": "memory:",
+                "WHY": "memory:",
+            },
+        )
+        report["why"]["convex"] = None
+    except Exception as err:
+        report["why"]["convex"] = str(err)
     # Every option passed through.
     for name, options in (
         ("holes", {"HOLES": True, "COMPONENTS": 3, "DEGENERATE": "empty"}),
