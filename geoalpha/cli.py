@@ -326,7 +326,7 @@ def _run(
     target, preview, verbosity, bar, points, *, source, by, extra_layers=None, **options
 ):
     """Compute the hulls (in the command's ``bar``), write them, draw ``preview``."""
-    from geoalpha.frame.schema import planar_unit, with_area_unit
+    from geoalpha.frame.schema import planar_unit
     from geoalpha.hulls import hull
     from geoalpha.io.files import write_hulls
 
@@ -336,10 +336,9 @@ def _run(
         raise InvalidInputError(
             f"no hull to write: every group of {source} was dropped"
         )
-    unit = planar_unit(points.crs, options.get("crs", "auto"))
-    table = with_area_unit(hulls, unit)  # say the unit instead of a wrong "m2"
+    unit = planar_unit(points.crs, options.get("crs", "auto"))  # hull() wrote it
     bar.start("write")
-    mapping = write_hulls(table, **target, extra_layers=extra_layers)
+    mapping = write_hulls(hulls, **target, extra_layers=extra_layers)
     output, layer = target["path"], target["layer"]
     if preview is not None:
         bar.start("preview")

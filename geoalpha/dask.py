@@ -20,7 +20,12 @@ from geoalpha.errors import InvalidInputError, did_you_mean
 from geoalpha.frame import crs as gcrs
 from geoalpha.frame.checks import check_distortion, check_grouping, computation_crs
 from geoalpha.frame.pipeline import group, merge_reports, report_rows, row_report, run
-from geoalpha.frame.schema import empty_result, result_geometry_name
+from geoalpha.frame.schema import (
+    empty_result,
+    planar_unit,
+    result_geometry_name,
+    with_area_unit,
+)
 from geoalpha.options import Options
 from geoalpha.registration import attach
 
@@ -285,6 +290,7 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
     names = _key_names(ddf, by)
     keys = group(ddf._meta, by, opts).keys  # the eager result's columns and dtypes
     meta = empty_result(keys, ddf._meta.crs, result_geometry_name(ddf._meta, keys))
+    meta = with_area_unit(meta, planar_unit(ddf._meta.crs, opts.crs))
     if names:  # the eager checks of the options, on the (empty) meta frame
         run(ddf._meta, by, opts, checks=False)
     checked = _checks(ddf, names, by, opts)

@@ -518,6 +518,24 @@ def test_input_without_crs_needs_crs_none(stats19):
     assert hulls.loc["E09000020", "alpha"] == pytest.approx(361.415, abs=5e-4)
 
 
+def test_crs_none_names_the_area_unit_as_the_cli(stats19, stats19_osgr):
+    # Degrees or bare numbers: `area` in that unit squared and a `unit` column,
+    # never an `area_m2` that does not hold square metres (as `geoalpha hull`).
+    degrees = geoalpha.hull(stats19, by=LA, crs=None)
+    assert "area_m2" not in degrees.columns
+    assert degrees.columns[degrees.columns.get_loc("area") + 1] == "unit"
+    assert set(degrees["unit"]) == {"degree"}
+    row = degrees.set_index(LA).loc["E09000020"]
+    assert row["area"] == pytest.approx(row["geometry"].area, rel=1e-12)
+    assert row["area"] < 1  # square degrees, not m2
+    bare = geoalpha.hull(stats19.set_crs(None, allow_override=True), by=LA, crs=None)
+    assert set(bare["unit"]) == {"coordinate unit"}
+    # Metres stay `area_m2` (then planar square metres), and so does crs="auto".
+    metres = geoalpha.hull(stats19_osgr, by=LA, crs=None)
+    assert "area_m2" in metres.columns and "unit" not in metres.columns
+    assert "area_m2" in geoalpha.hull(stats19, by=LA).columns
+
+
 def test_forced_metric_crs(stats19):
     hulls = geoalpha.hull(stats19, by=LA, crs="EPSG:27700")
     assert set(hulls["crs_used"]) == {"EPSG:27700"}

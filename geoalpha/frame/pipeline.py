@@ -43,7 +43,13 @@ from geoalpha.errors import (
 from geoalpha.frame import crs as gcrs
 from geoalpha.frame import progress
 from geoalpha.frame.checks import check_distortion, check_grouping
-from geoalpha.frame.schema import RESULT_COLUMNS, result_frame, result_geometry_name
+from geoalpha.frame.schema import (
+    RESULT_COLUMNS,
+    planar_unit,
+    result_frame,
+    result_geometry_name,
+    with_area_unit,
+)
 from geoalpha.frame.sphere import SphereProjection
 from geoalpha.options import Options
 
@@ -162,6 +168,8 @@ def _stages(frame, by, options, bar: progress.Phases, checks: bool, rows: bool):
     hulls = hulls._replace(area=area_m2(hulls, grown, proj, options))
     name = result_geometry_name(frame, groups.names)
     out = table(groups, points, proj, hulls, crs, name)
+    # Planar areas in another unit than metres: ``area`` and ``unit``, as the CLI.
+    out = with_area_unit(out, planar_unit(crs, options.crs))
     return out, report_outliers(hulls, groups, points, len(frame), options)
 
 
