@@ -18,6 +18,7 @@ import geopandas as gpd
 import numpy as np
 import pandas as pd
 import pytest
+import shapely
 from compat import HAS_DASK, require_for_module
 from geopandas.testing import assert_geodataframe_equal
 
@@ -164,6 +165,43 @@ def test_sort_false_keeps_the_partitions(clusters):
     assert lazy.npartitions == 3
     got = lazy.compute().sort_values("Cluster").reset_index(drop=True)
     assert_geodataframe_equal(got, clusters.alpha.hull(by="Cluster"), check_dtype=False)
+
+
+def test_the_shuffle_carries_every_geometry_exactly():
+    # 2D points travel as x/y floats, the rest as WKB: both exact, None stays None.
+    nan = float("nan")
+    geoms = [
+        shapely.Point(0.1, 1 / 3),
+        shapely.Point(-179.99999999999997, 89.5, 7.0),
+        shapely.MultiPoint([(0, 0), (1e-300, 5e300)]),
+        shapely.Point(),
+        None,
+        shapely.Point(nan, 2.0),
+    ]
+    frame = gpd.GeoDataFrame({"g": list("abcdef")}, geometry=geoms, crs=None)
+    plain = geoalpha.dask._for_shuffle(frame.copy(), "geometry")
+    assert plain["__geoalpha_point__"].tolist() == [1, 0, 0, 0, 0, 1]
+    assert plain["__geoalpha_x__"][0] == 0.1 and plain["__geoalpha_y__"][0] == 1 / 3
+    back = geoalpha.dask._from_shuffle(plain, "geometry")
+    assert back[4] is None
+    assert (
+        shapely.to_wkb(back, hex=True).tolist()
+        == shapely.to_wkb(np.array(geoms, dtype=object), hex=True).tolist()
+    )
+
+
+def test_mixed_geometries_through_the_shuffle_as_the_eager_call(clusters):
+    gdf = clusters.copy()
+    xy = shapely.get_coordinates(gdf.geometry.to_numpy())
+    geoms = gdf.geometry.to_numpy().copy()
+    geoms[::7] = shapely.points(xy[::7, 0], xy[::7, 1], np.full(len(xy[::7]), 5.0))
+    geoms[3::11] = [shapely.MultiPoint([p, (p[0] + 1e-4, p[1])]) for p in xy[3::11]]
+    geoms[5::13] = None
+    gdf = gdf.set_geometry(gpd.GeoSeries(geoms, index=gdf.index, crs=gdf.crs))
+    ddf = spread(gdf, 4)
+    assert_same_hulls(
+        geoalpha.hull(ddf, by="Cluster"), geoalpha.hull(ddf.compute(), by="Cluster")
+    )
 
 
 def test_no_by_gives_one_hull(clusters):
