@@ -27,7 +27,7 @@ from geoalpha.frame.schema import (
     with_area_unit,
 )
 from geoalpha.options import Options
-from geoalpha.registration import attach
+from geoalpha.registration import ColumnHint, attach
 
 try:
     import dask
@@ -362,7 +362,7 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
 hull.__signature__ = _options.signature(hull)
 
 
-class DaskAlphaAccessor:
+class DaskAlphaAccessor(ColumnHint):
     """``ddf.alpha.hull(...)``: :func:`hull` on a dask-geopandas frame (lazy)."""
 
     def __init__(self, obj):
