@@ -250,7 +250,9 @@ def test_alpha_radius_and_area_are_consistent(bundled):
     np.testing.assert_allclose(shaped["radius"], 1.0 / shaped["alpha"])
     assert (hulls["area_m2"] > 0).all()
     assert (hulls["n_parts"] == 1).all()
-    assert set(hulls["method"]) == {"alpha"}
+    # the degenerate groups' rows hold a buffer, and say so
+    assert (hulls["method"] == "alpha").tolist() == hulls["alpha"].notna().tolist()
+    assert set(hulls.loc[hulls["alpha"].isna(), "method"]) <= {"buffer"}
 
 
 def test_degenerate_groups_are_named_in_a_warning(bundled):
@@ -377,7 +379,9 @@ def test_by_two_columns(stats19):
 
 
 def test_by_list_of_two_names_the_pairs_in_the_warning(stats19):
-    with pytest.warns(DegenerateGroupWarning, match=r"'E06000047, 3' \(1 row\)"):
+    with pytest.warns(
+        DegenerateGroupWarning, match=r"'E06000047, 3' \(1 row, 1 distinct point\)"
+    ):
         geoalpha.hull(stats19, by=[LA, "Day_of_Week"])
 
 
@@ -740,7 +744,9 @@ def test_methods_give_the_same_table(by_method, name, method):
     assert hulls["n_points"].tolist() == reference["n_points"].tolist()
     assert hulls.is_valid.all()
     assert hulls.crs == points.crs
-    assert hulls["method"].str.startswith(method).all()
+    degenerate = reference["alpha"].isna().to_numpy()
+    assert hulls["method"][~degenerate].str.startswith(method).all()
+    assert (hulls["method"][degenerate] == "buffer").all()
 
 
 @pytest.mark.parametrize("name", list(BY))
@@ -841,6 +847,22 @@ def with_degenerate():
     return frame(xy, groups)
 
 
+def test_a_degenerate_group_is_counted_in_rows_and_distinct_points():
+    # 26 rows on 2 places: the warning says both, and the row says "buffer"
+    rng = np.random.default_rng(26)
+    good = rng.uniform(0.0, 500.0, (12, 2))
+    two = np.repeat([[2000.0, 0.0], [2010.0, 5.0]], 13, axis=0)
+    points = frame(np.vstack([good, two]) + UTM30_ORIGIN, ["good"] * 12 + ["x"] * 26)
+    with pytest.warns(DegenerateGroupWarning) as caught:
+        hulls = geoalpha.hull(points, by="g").set_index("g")
+    message = str(caught[0].message)
+    assert (
+        "no alpha shape: 'x' (26 rows, 2 distinct points); their rows hold" in message
+    )
+    assert hulls["method"].to_dict() == {"good": "alpha", "x": "buffer"}
+    assert hulls.loc["x", "n_points"] == 26
+
+
 def test_a_group_at_the_pole_is_named_for_what_failed_and_its_buffer_holds_it():
     """Four points within ~1 m of the south pole in a 1.6 degree wedge.
 
@@ -879,8 +901,9 @@ def test_degenerate_policy(with_degenerate, tmp_path, policy):
     kwargs = {} if policy == "buffer" else {"degenerate": policy}
     message = (
         r"3 group\(s\) have fewer than 3 distinct points or all points on a "
-        r"line, so no alpha shape: 'line' \(5 rows\); 'one' \(1 row\); 'two' "
-        rf"\(2 rows\); .*degenerate='{policy}'"
+        r"line, so no alpha shape: 'line' \(5 rows, 5 distinct points\); 'one' "
+        r"\(1 row, 1 distinct point\); 'two' \(2 rows, 2 distinct points\); "
+        rf".*degenerate='{policy}'"
     )
     with pytest.warns(DegenerateGroupWarning, match=message):
         hulls = geoalpha.hull(points, by="g", **kwargs)
@@ -892,6 +915,8 @@ def test_degenerate_policy(with_degenerate, tmp_path, policy):
         rows = hulls[hulls["g"].isin(odd)]
         assert rows["alpha"].isna().all()
         assert rows.geom_type.eq("Polygon").all()
+        method = "buffer" if policy == "buffer" else "alpha"
+        assert (rows["method"] == method).all()
         if policy == "buffer":
             assert not rows.is_empty.any()
             assert_covers(points, hulls, "g")

@@ -173,7 +173,9 @@ def _stages(frame, by, options, bar: progress.Phases, checks: bool, rows: bool):
     return out, report_outliers(hulls, groups, points, len(frame), options)
 
 
-def _names(groups: Groups, which: np.ndarray, counts=None, value=None) -> str:
+def _names(
+    groups: Groups, which: np.ndarray, counts=None, value=None, distinct=None
+) -> str:
     """Name groups by key (quoted whole, or each value by ``value``) for messages."""
     shown = which[:11]  # first_n shows 10, and "..." when there is an 11th
 
@@ -188,10 +190,27 @@ def _names(groups: Groups, which: np.ndarray, counts=None, value=None) -> str:
     ]
     if counts is not None:
         names = [
-            f"{n if value else repr(n)} ({c} row{'s' if c != 1 else ''})"
+            f"{n if value else repr(n)} ({c} row{'s' if c != 1 else ''}"
             for n, c in zip(names, counts[shown], strict=True)
         ]
+        if distinct is not None:
+            names = [
+                f"{n}, {d} distinct point{'s' if d != 1 else ''}"
+                for n, d in zip(names, distinct[shown], strict=True)
+            ]
+        names = [f"{n})" for n in names]
     return first_n(names, limit=10, sep="; ")
+
+
+def _distinct_points(points: Points, which: np.ndarray) -> np.ndarray:
+    """Distinct coordinate pairs of each group (counted for the groups ``which``)."""
+    out = np.zeros(len(points.n_points), dtype=np.int64)
+    sel = np.isin(points.codes, which)
+    if sel.any():
+        keyed = np.column_stack([points.codes[sel], points.coords[sel]])
+        codes = np.unique(keyed, axis=0)[:, 0].astype(np.intp)
+        out += np.bincount(codes, minlength=len(out))
+    return out
 
 
 def as_frame(data):
@@ -639,25 +658,33 @@ def degenerate_policy(
         done = "their rows hold an empty polygon"
     else:
         done = f"they were dropped ({n_points[which].sum()} rows)"
+    distinct = _distinct_points(points, which)
     warn_user(
-        _why_degenerate(hulls.reason, which, groups, n_points, proj.wide)
+        _why_degenerate(hulls.reason, which, groups, n_points, proj.wide, distinct)
         + f"; {done} ({setting('degenerate', policy)})",
         DegenerateGroupWarning,
     )
     keep = ~degenerate if policy == "drop" else hulls.keep
+    labels = hulls.labels
+    if policy == "buffer":  # the row holds a buffer, not the method's hull
+        labels = np.array(labels, dtype=object)
+        labels[which] = "buffer"
     return hulls._replace(
-        geometry=geometry, area=area, degenerate=degenerate, keep=keep
+        geometry=geometry, area=area, degenerate=degenerate, keep=keep, labels=labels
     )
 
 
-def _why_degenerate(reason, which, groups: Groups, n_points, wide) -> str:
+def _why_degenerate(
+    reason, which, groups: Groups, n_points, wide, distinct=None
+) -> str:
     """Word why the groups ``which`` have no shape, from their reason codes."""
     thin = np.isin(reason[which], (1, 2, 3)) | (n_points[which] == 0)
     reasons = []
     if thin.any():
+        named = _names(groups, which[thin], n_points, distinct=distinct)
         reasons.append(
             f"{thin.sum()} group(s) have fewer than 3 distinct points or all points "
-            f"on a line, so no alpha shape: {_names(groups, which[thin], n_points)}"
+            f"on a line, so no alpha shape: {named}"
         )
     spread = ~thin & wide[which]
     other = ~thin & ~spread
