@@ -207,6 +207,31 @@ def same_geometries(actual, wanted):
     return bool(shapely.equals_exact(a, b, tolerance=0))
 
 
+def test_the_install_message_names_what_to_install_from(tmp_path):
+    # (stdlib only: runs without QGIS) A plugin in a clone names that clone; a
+    # copied plugin names WHEEL and says what it is. `install_geoalpha.py`
+    # with no argument would ask PyPI for geoalpha.
+    sys.path.insert(0, str(PLUGIN_DIR))
+    try:
+        from geoalpha_qgis import dependencies
+    finally:
+        sys.path.pop(0)
+    in_clone = dependencies.install_message()
+    installer = PLUGIN_DIR / "geoalpha_qgis" / "install_geoalpha.py"
+    assert f'/usr/bin/python3 "{installer}" "{ROOT}"' in in_clone
+    assert f'python "{installer}" "{ROOT}"' in in_clone
+    assert "needs Rust >= 1.88; a downloaded wheel file in its place needs none" in (
+        in_clone.replace("\n", " ")
+    )
+    copy = tmp_path / "plugins" / "geoalpha_qgis"
+    shutil.copytree(PLUGIN_DIR / "geoalpha_qgis", copy)
+    copied = dependencies.install_message(here=copy)
+    assert f'/usr/bin/python3 "{copy / "install_geoalpha.py"}" WHEEL' in copied
+    assert "WHEEL: the geoalpha wheel for your platform" in copied
+    assert "geoalpha-<version>-cp310-abi3-<platform>.whl; needs no" in copied
+    assert "or the folder of a geoalpha clone (needs Rust >= 1.88)" in copied
+
+
 def test_zip_holds_the_plugin_folder(tmp_path):
     archive = build_qgis_plugin.build(tmp_path)
     with zipfile.ZipFile(archive) as zf:
@@ -286,7 +311,8 @@ def test_qgis_process_says_how_to_install_when_geoalpha_is_missing(
     text = done.stdout + done.stderr
     assert done.returncode != 0
     assert "geoalpha Python library is not installed for QGIS's Python" in text
-    assert f'/usr/bin/python3 "{installed / "install_geoalpha.py"}"' in text
+    assert f'/usr/bin/python3 "{installed / "install_geoalpha.py"}" WHEEL' in text
+    assert "WHEEL: the geoalpha wheel for your platform, downloaded from the" in text
     assert "OSGeo4W Shell" in text
     assert "QGIS-LTR.app/Contents/MacOS/bin/python3" in text
     assert not (qgis.tmp / "n.gpkg").exists()
