@@ -26,6 +26,7 @@ from geoalpha.arrays.guarantee import (
     repair_invalid,
 )
 from geoalpha.arrays.optimal import solve_checked
+from geoalpha.arrays.sphere import MAX_SPHERE_DEGREES, REFUSED
 from geoalpha.crs_parsing import is_sphere, parse_crs
 from geoalpha.errors import (
     AntimeridianWarning,
@@ -555,6 +556,7 @@ def compute(
             sphere=sphere,
             polar=getattr(proj, "polar", None),
             name_groups=names,
+            refuse=False,  # too wide for the sphere: degenerate, named (below)
         )
         res = raw.shapes
         geometry = res.geometry
@@ -659,9 +661,14 @@ def degenerate_policy(
     else:
         done = f"they were dropped ({n_points[which].sum()} rows)"
     distinct = _distinct_points(points, which)
+    why = _why_degenerate(hulls.reason, which, groups, n_points, proj.wide, distinct)
+    far = which[hulls.reason[which] == REFUSED]
+    if len(far):
+        why = _too_wide_for_the_sphere(far, groups, points, proj) + (
+            f"; {why}" if why else ""
+        )
     warn_user(
-        _why_degenerate(hulls.reason, which, groups, n_points, proj.wide, distinct)
-        + f"; {done} ({setting('degenerate', policy)})",
+        why + f"; {done} ({setting('degenerate', policy)})",
         DegenerateGroupWarning,
     )
     keep = ~degenerate if policy == "drop" else hulls.keep
@@ -678,6 +685,7 @@ def _why_degenerate(
     reason, which, groups: Groups, n_points, wide, distinct=None
 ) -> str:
     """Word why the groups ``which`` have no shape, from their reason codes."""
+    which = which[reason[which] != REFUSED]  # (worded by _too_wide_for_the_sphere)
     thin = np.isin(reason[which], (1, 2, 3)) | (n_points[which] == 0)
     reasons = []
     if thin.any():
@@ -704,6 +712,41 @@ def _why_degenerate(
             f"{_names(groups, which[other], n_points)}"
         )
     return "; ".join(reasons)
+
+
+def _too_wide_for_the_sphere(far, groups: Groups, points: Points, proj) -> str:
+    """Word the groups ``crs="sphere"`` refused, naming each one's farthest rows.
+
+    Angles from the group's centre, the normalised mean of its unit vectors (as
+    the kernel's): the rows beyond :data:`MAX_SPHERE_DEGREES`, farthest first.
+    """
+    lon, lat = np.radians(proj.lonlat).T
+    unit = np.column_stack([np.cos(lat) * np.cos(lon), np.cos(lat) * np.sin(lon)])
+    unit = np.column_stack([unit, np.sin(lat)])
+    named = []
+    for g in far[:11]:
+        rows = np.flatnonzero(points.codes == g)
+        centre = unit[rows].sum(axis=0)
+        centre /= np.linalg.norm(centre) or 1.0
+        angle = np.degrees(np.arccos(np.clip(unit[rows] @ centre, -1.0, 1.0)))
+        order = np.argsort(-angle, kind="stable")
+        beyond = order[angle[order] > MAX_SPHERE_DEGREES]
+        shown = (beyond if len(beyond) else order[:1])[:5]
+        labels = points.labels[rows[shown]].tolist()
+        where = ", ".join(
+            f"{label!r} ({a:.0f} degrees)"
+            for label, a in zip(labels, angle[shown], strict=True)
+        )
+        more = f" and {len(beyond) - 5} more" if len(beyond) > 5 else ""
+        group = _names(groups, np.array([g]), points.n_points)
+        named.append(f"{group}, the farthest at index {where}{more}")
+    return (
+        f"{len(far)} group(s) have points farther than {MAX_SPHERE_DEGREES:g} "
+        f"degrees from their centre, beyond what {setting('crs', 'sphere')} "
+        f"handles, so no shape on the sphere: {first_n(named, limit=10, sep='; ')} "
+        f"(split them with a finer {setting('by')} key, or compute them with "
+        f"{setting('crs', 'auto')})"
+    )
 
 
 def _reasons(degenerate, points: Points, proj: gcrs.Projection) -> np.ndarray:
