@@ -221,6 +221,14 @@ def test_projected_input_and_forced_crs(clusters):
     )
 
 
+def test_crs_none_on_degrees_gives_area_and_unit_as_eager(clusters):
+    ddf = spread(clusters, 3)
+    lazy = geoalpha.hull(ddf, by="Cluster", crs=None)
+    assert "area_m2" not in lazy.columns and "unit" in lazy.columns
+    got = assert_same_hulls(lazy, geoalpha.hull(ddf.compute(), by="Cluster", crs=None))
+    assert set(got["unit"]) == {"degree"}
+
+
 def test_dask_geoseries_gives_one_hull(clusters):
     series = dask_geopandas.from_geopandas(clusters.geometry, npartitions=3)
     assert_same_hulls(series.alpha.hull(), clusters.geometry.alpha.hull())
