@@ -190,15 +190,20 @@ def test_the_shuffle_carries_every_geometry_exactly():
     )
 
 
-def test_mixed_geometries_through_the_shuffle_as_the_eager_call(clusters):
+@pytest.fixture(scope="module")
+def mixed(clusters):
+    """The clusters with 3D points, MultiPoints and missing geometries."""
     gdf = clusters.copy()
     xy = shapely.get_coordinates(gdf.geometry.to_numpy())
     geoms = gdf.geometry.to_numpy().copy()
     geoms[::7] = shapely.points(xy[::7, 0], xy[::7, 1], np.full(len(xy[::7]), 5.0))
     geoms[3::11] = [shapely.MultiPoint([p, (p[0] + 1e-4, p[1])]) for p in xy[3::11]]
     geoms[5::13] = None
-    gdf = gdf.set_geometry(gpd.GeoSeries(geoms, index=gdf.index, crs=gdf.crs))
-    ddf = spread(gdf, 4)
+    return gdf.set_geometry(gpd.GeoSeries(geoms, index=gdf.index, crs=gdf.crs))
+
+
+def test_mixed_geometries_through_the_shuffle_as_the_eager_call(mixed):
+    ddf = spread(mixed, 4)
     assert_same_hulls(
         geoalpha.hull(ddf, by="Cluster"), geoalpha.hull(ddf.compute(), by="Cluster")
     )
@@ -406,8 +411,9 @@ def client():
         yield client
 
 
-def test_local_cluster_gives_the_eager_hulls(client, clusters, airports):
-    for gdf, by in ((clusters, "Cluster"), (airports, "state")):
+def test_local_cluster_gives_the_eager_hulls(client, clusters, airports, mixed):
+    # (the p2p shuffle between worker processes: points as floats, WKB, None)
+    for gdf, by in ((clusters, "Cluster"), (airports, "state"), (mixed, "Cluster")):
         ddf = spread(gdf, 4)
         lazy = geoalpha.hull(ddf, by=by)
         got = client.compute(lazy).result()
