@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import warnings
 
-__all__ = ["CachedAccessor", "ColumnHint", "attach"]
+__all__ = ["CachedAccessor", "attach"]  # (ColumnHint: the accessors' base)
 
 
 class ColumnHint:

@@ -121,7 +121,13 @@ def test_the_documented_commands_are_found():
 
 def test_the_wheel_command_is_the_one_ci_runs_without_rust():
     readme = (ROOT / "README.md").read_text(encoding="utf-8")
-    wheel = re.search(r"`pip install (\./geoalpha-[^`]+\.whl)`", readme)
+    assert (
+        "A release wheel needs no Rust ([how to get it](docs/getting_started.md))"
+        in (readme.replace("\n", " "))
+    )
+    assert re.search(r"`pip install \./geoalpha-[^`]+\.whl`", readme)
+    page = (ROOT / "docs" / "getting_started.md").read_text(encoding="utf-8")
+    wheel = re.search(r"`pip install (\./geoalpha-[^`]+\.whl)`", page)
     assert wheel is not None
     assert re.fullmatch(
         r"\./geoalpha-[\d.]+-cp310-abi3-manylinux_2_17_x86_64\.whl", wheel[1]
