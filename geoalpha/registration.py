@@ -79,6 +79,9 @@ class ColumnHint:
     def __len__(self):
         raise TypeError(self._hint(""))
 
+    def __bool__(self):  # (not __len__'s error: ``if frame.alpha`` stays True)
+        return True
+
     def __array__(self, *args, **kwargs):
         raise TypeError(self._hint(".to_numpy()"))
 
