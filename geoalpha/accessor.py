@@ -6,12 +6,12 @@ import functools
 import sys
 
 from geoalpha import hulls
-from geoalpha.registration import attach
+from geoalpha.registration import ColumnHint, attach
 
 __all__ = ["AlphaAccessor", "register"]
 
 
-class AlphaAccessor:
+class AlphaAccessor(ColumnHint):
     """Optimal alpha shapes of the points of a GeoDataFrame or GeoSeries.
 
     Examples

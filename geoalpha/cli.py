@@ -446,7 +446,8 @@ def _summary(
             f"the input coordinates as they are (alpha in 1/{u}, radius in {u}, "
             f"area in square {u})"
         )
-    no_shape = hulls["alpha"].isna() & hulls["method"].astype(str).eq("alpha")
+    method = hulls["method"].astype(str)  # degenerate rows: "buffer" (or kept)
+    no_shape = hulls["alpha"].isna() & method.isin(["alpha", "buffer"])
     lines = [
         f"Read {_plural(len(points), 'point')} of {source} ({where}, {in_crs})",
         f"Computed in {shown}: {_plural(len(hulls), 'group')}"

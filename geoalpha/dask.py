@@ -20,9 +20,14 @@ from geoalpha.errors import InvalidInputError, did_you_mean
 from geoalpha.frame import crs as gcrs
 from geoalpha.frame.checks import check_distortion, check_grouping, computation_crs
 from geoalpha.frame.pipeline import group, merge_reports, report_rows, row_report, run
-from geoalpha.frame.schema import empty_result, result_geometry_name
+from geoalpha.frame.schema import (
+    empty_result,
+    planar_unit,
+    result_geometry_name,
+    with_area_unit,
+)
 from geoalpha.options import Options
-from geoalpha.registration import attach
+from geoalpha.registration import ColumnHint, attach
 
 try:
     import dask
@@ -40,6 +45,8 @@ _EXTENT = ["west", "east", "west360", "east360", "south", "north"]
 _ROW = "__geoalpha_row__"
 #: Row positions are ``partition << _ROW_BITS | row in partition``.
 _ROW_BITS = 40
+#: Columns carrying 2D points through the shuffle as x/y (``_POINT``: which).
+_X, _Y, _POINT = "__geoalpha_x__", "__geoalpha_y__", "__geoalpha_point__"
 
 
 def _key_names(frame, by) -> list:
@@ -155,13 +162,38 @@ def _checks(ddf, names: list, by, options: Options):
 
 
 def _for_shuffle(part, geometry: str, partition_info=None) -> pd.DataFrame:
-    """Plain rows for the shuffle: geometries as WKB (exact), plus the row position."""
+    """Plain rows for the shuffle: 2D points as x/y, other geometries as WKB.
+
+    Both are exact; a point's two floats cost far less than its WKB to write,
+    move and read back (the profile of ``benchmarks/bench_dask.py``). Plus
+    each row's position in ``ddf.compute()``.
+    """
     number = partition_info["number"] if partition_info else 0
     first = np.int64(number) << np.int64(_ROW_BITS)
+    geoms = np.asarray(part[geometry].array, dtype=object)
+    point = (shapely.get_type_id(geoms) == 0) & ~shapely.has_z(geoms)
+    point &= ~shapely.is_empty(geoms)
+    xy = np.full((len(geoms), 2), np.nan)
+    xy[point] = shapely.get_coordinates(geoms[point])
+    wkb = np.full(len(geoms), None, dtype=object)
+    wkb[~point] = shapely.to_wkb(_nan_kept(geoms[~point]))  # None stays None
     out = pd.DataFrame(part, copy=False)
-    out[geometry] = shapely.to_wkb(_nan_kept(part[geometry].array))
+    out[geometry] = wkb
+    out[_X], out[_Y], out[_POINT] = xy[:, 0], xy[:, 1], point
     out[_ROW] = first + np.arange(len(part), dtype=np.int64)
     return out
+
+
+def _from_shuffle(part, geometry: str):
+    """Return the geometries :func:`_for_shuffle` wrote (numpy array of objects)."""
+    wkb = np.asarray(part[geometry].to_numpy(), dtype=object)
+    point = np.asarray(part[_POINT].to_numpy(), dtype=bool)
+    geoms = np.full(len(wkb), None, dtype=object)
+    geoms[~point] = shapely.from_wkb(wkb[~point])
+    x = np.asarray(part[_X].to_numpy(), dtype=np.float64)
+    y = np.asarray(part[_Y].to_numpy(), dtype=np.float64)
+    geoms[point] = shapely.points(x[point], y[point])
+    return geoms
 
 
 def _nan_kept(array) -> np.ndarray:
@@ -194,10 +226,10 @@ def _hull_partition(
     if _ROW in part.columns:
         # Back to the input order within every group: the triangulation works
         # relative to a group's first point, so its last bits depend on it.
-        part = part.sort_values(_ROW, kind="stable").drop(columns=_ROW)
-        part[geometry] = gpd.GeoSeries.from_wkb(
-            part[geometry].to_numpy(), index=part.index, crs=source_crs
-        )
+        part = part.sort_values(_ROW, kind="stable")
+        geoms = _from_shuffle(part, geometry)
+        part = part.drop(columns=[_ROW, _X, _Y, _POINT])
+        part[geometry] = gpd.GeoSeries(geoms, index=part.index, crs=source_crs)
     part = gpd.GeoDataFrame(part, geometry=geometry, crs=source_crs)
     # With ``by``, the dataset's bad rows were reported once (``checked``).
     out, _ = run(
@@ -285,6 +317,7 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
     names = _key_names(ddf, by)
     keys = group(ddf._meta, by, opts).keys  # the eager result's columns and dtypes
     meta = empty_result(keys, ddf._meta.crs, result_geometry_name(ddf._meta, keys))
+    meta = with_area_unit(meta, planar_unit(ddf._meta.crs, opts.crs))
     if names:  # the eager checks of the options, on the (empty) meta frame
         run(ddf._meta, by, opts, checks=False)
     checked = _checks(ddf, names, by, opts)
@@ -329,7 +362,7 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
 hull.__signature__ = _options.signature(hull)
 
 
-class DaskAlphaAccessor:
+class DaskAlphaAccessor(ColumnHint):
     """``ddf.alpha.hull(...)``: :func:`hull` on a dask-geopandas frame (lazy)."""
 
     def __init__(self, obj):

@@ -55,7 +55,8 @@ def hull(gdf, by=None, **options):
     GeoDataFrame
         In the input CRS, one row per group: the key column(s),
         :data:`RESULT_COLUMNS` and ``geometry``, a Polygon whose vertices are
-        input points (:doc:`/user_guide/hulls`).
+        input points (:doc:`/user_guide/hulls`). With ``crs=None`` on input
+        not in metres, ``area`` and ``unit`` instead of ``area_m2``.
 
     Raises
     ------

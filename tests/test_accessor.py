@@ -170,3 +170,26 @@ def test_accessor_warnings_point_at_the_caller(stats19):
     with pytest.warns(DegenerateGroupWarning) as record:
         stats19.geometry.alpha.hull(by=stats19[LA])
     assert record[0].filename == __file__
+
+
+def test_the_alpha_column_of_a_hull_table_is_named_when_used_as_the_accessor(
+    stats19,
+):
+    hulls = stats19.alpha.hull(by=LA)
+    column = r'the \'alpha\' column: write hulls\["alpha"\]'
+    with pytest.raises(AttributeError, match=column + r"\.mean\(\.\.\.\)"):
+        hulls.alpha.mean()
+    with pytest.raises(TypeError, match=column + r" == \.\.\."):
+        hulls.alpha == 0.5  # noqa: B015 - the comparison is what raises
+    with pytest.raises(TypeError, match=column + r" > \.\.\."):
+        hulls[hulls.alpha > 0.1]
+    with pytest.raises(TypeError, match=column + r" \* \.\.\."):
+        2 * hulls.alpha
+    with pytest.raises(TypeError, match=column + r"\.to_numpy\(\)"):
+        np.asarray(hulls.alpha, dtype=float)
+    # the column itself, and the accessor's own method, work as before
+    assert hulls["alpha"].mean() == pytest.approx(np.nanmean(hulls["alpha"]))
+    assert len(hulls.alpha.hull(by=LA, vertices=True)) == len(hulls)
+    # on points without an 'alpha' column it says so
+    with pytest.raises(AttributeError, match=r"no 'alpha' column"):
+        stats19.alpha.mean()

@@ -139,10 +139,14 @@ def test_grown_and_buffered_hulls_are_measured_on_the_ellipsoid(clusters):
 def test_planar_computation_keeps_the_planar_area(clusters):
     # crs=None: no ellipsoid (input without a CRS), or computed in the input
     # coordinates as they are: the area is the polygon's, in their units
+    # (`area_m2` in metres; without a CRS `area` next to its `unit`)
     bng = clusters.to_crs(27700)
-    for points in (bng, bng.set_crs(None, allow_override=True)):
+    for points, column in (
+        (bng, "area_m2"),
+        (bng.set_crs(None, allow_override=True), "area"),
+    ):
         hulls = geoalpha.hull(points, by="Cluster", crs=None)
-        np.testing.assert_allclose(hulls["area_m2"], hulls.area, rtol=1e-12)
+        np.testing.assert_allclose(hulls[column], hulls.area, rtol=1e-12)
 
 
 def test_the_array_function_takes_holes_parts_and_collections_out_and_in():

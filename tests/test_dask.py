@@ -18,6 +18,7 @@ import geopandas as gpd
 import numpy as np
 import pandas as pd
 import pytest
+import shapely
 from compat import HAS_DASK, require_for_module
 from geopandas.testing import assert_geodataframe_equal
 
@@ -166,6 +167,48 @@ def test_sort_false_keeps_the_partitions(clusters):
     assert_geodataframe_equal(got, clusters.alpha.hull(by="Cluster"), check_dtype=False)
 
 
+def test_the_shuffle_carries_every_geometry_exactly():
+    # 2D points travel as x/y floats, the rest as WKB: both exact, None stays None.
+    nan = float("nan")
+    geoms = [
+        shapely.Point(0.1, 1 / 3),
+        shapely.Point(-179.99999999999997, 89.5, 7.0),
+        shapely.MultiPoint([(0, 0), (1e-300, 5e300)]),
+        shapely.Point(),
+        None,
+        shapely.Point(nan, 2.0),
+    ]
+    frame = gpd.GeoDataFrame({"g": list("abcdef")}, geometry=geoms, crs=None)
+    plain = geoalpha.dask._for_shuffle(frame.copy(), "geometry")
+    assert plain["__geoalpha_point__"].tolist() == [1, 0, 0, 0, 0, 1]
+    assert plain["__geoalpha_x__"][0] == 0.1 and plain["__geoalpha_y__"][0] == 1 / 3
+    back = geoalpha.dask._from_shuffle(plain, "geometry")
+    assert back[4] is None
+    assert (
+        shapely.to_wkb(back, hex=True).tolist()
+        == shapely.to_wkb(np.array(geoms, dtype=object), hex=True).tolist()
+    )
+
+
+@pytest.fixture(scope="module")
+def mixed(clusters):
+    """The clusters with 3D points, MultiPoints and missing geometries."""
+    gdf = clusters.copy()
+    xy = shapely.get_coordinates(gdf.geometry.to_numpy())
+    geoms = gdf.geometry.to_numpy().copy()
+    geoms[::7] = shapely.points(xy[::7, 0], xy[::7, 1], np.full(len(xy[::7]), 5.0))
+    geoms[3::11] = [shapely.MultiPoint([p, (p[0] + 1e-4, p[1])]) for p in xy[3::11]]
+    geoms[5::13] = None
+    return gdf.set_geometry(gpd.GeoSeries(geoms, index=gdf.index, crs=gdf.crs))
+
+
+def test_mixed_geometries_through_the_shuffle_as_the_eager_call(mixed):
+    ddf = spread(mixed, 4)
+    assert_same_hulls(
+        geoalpha.hull(ddf, by="Cluster"), geoalpha.hull(ddf.compute(), by="Cluster")
+    )
+
+
 def test_no_by_gives_one_hull(clusters):
     ddf = spread(clusters, 3)
     assert_same_hulls(geoalpha.hull(ddf), geoalpha.hull(ddf.compute()))
@@ -181,6 +224,14 @@ def test_projected_input_and_forced_crs(clusters):
         geoalpha.hull(ddf, by="Cluster", crs=27700),
         geoalpha.hull(ddf.compute(), by="Cluster", crs=27700),
     )
+
+
+def test_crs_none_on_degrees_gives_area_and_unit_as_eager(clusters):
+    ddf = spread(clusters, 3)
+    lazy = geoalpha.hull(ddf, by="Cluster", crs=None)
+    assert "area_m2" not in lazy.columns and "unit" in lazy.columns
+    got = assert_same_hulls(lazy, geoalpha.hull(ddf.compute(), by="Cluster", crs=None))
+    assert set(got["unit"]) == {"degree"}
 
 
 def test_dask_geoseries_gives_one_hull(clusters):
@@ -360,8 +411,9 @@ def client():
         yield client
 
 
-def test_local_cluster_gives_the_eager_hulls(client, clusters, airports):
-    for gdf, by in ((clusters, "Cluster"), (airports, "state")):
+def test_local_cluster_gives_the_eager_hulls(client, clusters, airports, mixed):
+    # (the p2p shuffle between worker processes: points as floats, WKB, None)
+    for gdf, by in ((clusters, "Cluster"), (airports, "state"), (mixed, "Cluster")):
         ddf = spread(gdf, 4)
         lazy = geoalpha.hull(ddf, by=by)
         got = client.compute(lazy).result()

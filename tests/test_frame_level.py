@@ -41,7 +41,9 @@ def london():
 def test_every_geometry_missing_gives_empty_rows_not_an_index_error():
     frame = gpd.GeoDataFrame({"g": ["a", "a", "b"]}, geometry=[None] * 3, crs=4326)
     with pytest.warns(DroppedRowsWarning, match="dropped 3 of 3 rows"):
-        with pytest.warns(DegenerateGroupWarning, match=r"'a' \(0 rows\); 'b'"):
+        with pytest.warns(
+            DegenerateGroupWarning, match=r"'a' \(0 rows, 0 distinct points\); 'b'"
+        ):
             hulls = geoalpha.hull(frame, by="g")
     assert hulls["g"].tolist() == ["a", "b"]
     assert hulls["n_points"].tolist() == [0, 0]
@@ -86,7 +88,8 @@ def test_a_group_without_points_is_dropped_by_degenerate_drop(london):
     frame.loc[frame["g"] == "b", "geometry"] = None
     with pytest.warns(DroppedRowsWarning, match="dropped 40 of 80 rows"):
         with pytest.warns(
-            DegenerateGroupWarning, match=r"^1 group\(s\).*'b' \(0 rows\)"
+            DegenerateGroupWarning,
+            match=r"^1 group\(s\).*'b' \(0 rows, 0 distinct points\)",
         ):
             hulls = geoalpha.hull(frame, by="g", degenerate="drop")
     assert hulls["g"].tolist() == ["a"]

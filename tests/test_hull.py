@@ -251,7 +251,9 @@ def test_alpha_radius_and_area_are_consistent(bundled):
     np.testing.assert_allclose(shaped["radius"], 1.0 / shaped["alpha"])
     assert (hulls["area_m2"] > 0).all()
     assert (hulls["n_parts"] == 1).all()
-    assert set(hulls["method"]) == {"alpha"}
+    # the degenerate groups' rows hold a buffer, and say so
+    assert (hulls["method"] == "alpha").tolist() == hulls["alpha"].notna().tolist()
+    assert set(hulls.loc[hulls["alpha"].isna(), "method"]) <= {"buffer"}
 
 
 def test_degenerate_groups_are_named_in_a_warning(bundled):
@@ -380,7 +382,9 @@ def test_by_two_columns(stats19):
 
 
 def test_by_list_of_two_names_the_pairs_in_the_warning(stats19):
-    with pytest.warns(DegenerateGroupWarning, match=r"'E06000047, 3' \(1 row\)"):
+    with pytest.warns(
+        DegenerateGroupWarning, match=r"'E06000047, 3' \(1 row, 1 distinct point\)"
+    ):
         geoalpha.hull(stats19, by=[LA, "Day_of_Week"])
 
 
@@ -519,6 +523,24 @@ def test_input_without_crs_needs_crs_none(stats19):
     hulls = geoalpha.hull(bare, by=LA, crs=None).set_index(LA)
     assert hulls.crs is None
     assert hulls.loc["E09000020", "alpha"] == pytest.approx(361.415, abs=5e-4)
+
+
+def test_crs_none_names_the_area_unit_as_the_cli(stats19, stats19_osgr):
+    # Degrees or bare numbers: `area` in that unit squared and a `unit` column,
+    # never an `area_m2` that does not hold square metres (as `geoalpha hull`).
+    degrees = geoalpha.hull(stats19, by=LA, crs=None)
+    assert "area_m2" not in degrees.columns
+    assert degrees.columns[degrees.columns.get_loc("area") + 1] == "unit"
+    assert set(degrees["unit"]) == {"degree"}
+    row = degrees.set_index(LA).loc["E09000020"]
+    assert row["area"] == pytest.approx(row["geometry"].area, rel=1e-12)
+    assert row["area"] < 1  # square degrees, not m2
+    bare = geoalpha.hull(stats19.set_crs(None, allow_override=True), by=LA, crs=None)
+    assert set(bare["unit"]) == {"coordinate unit"}
+    # Metres stay `area_m2` (then planar square metres), and so does crs="auto".
+    metres = geoalpha.hull(stats19_osgr, by=LA, crs=None)
+    assert "area_m2" in metres.columns and "unit" not in metres.columns
+    assert "area_m2" in geoalpha.hull(stats19, by=LA).columns
 
 
 def test_forced_metric_crs(stats19):
@@ -725,7 +747,9 @@ def test_methods_give_the_same_table(by_method, name, method):
     assert hulls["n_points"].tolist() == reference["n_points"].tolist()
     assert hulls.is_valid.all()
     assert hulls.crs == points.crs
-    assert hulls["method"].str.startswith(method).all()
+    degenerate = reference["alpha"].isna().to_numpy()
+    assert hulls["method"][~degenerate].str.startswith(method).all()
+    assert (hulls["method"][degenerate] == "buffer").all()
 
 
 @pytest.mark.parametrize("name", list(BY))
@@ -826,6 +850,22 @@ def with_degenerate():
     return frame(xy, groups)
 
 
+def test_a_degenerate_group_is_counted_in_rows_and_distinct_points():
+    # 26 rows on 2 places: the warning says both, and the row says "buffer"
+    rng = np.random.default_rng(26)
+    good = rng.uniform(0.0, 500.0, (12, 2))
+    two = np.repeat([[2000.0, 0.0], [2010.0, 5.0]], 13, axis=0)
+    points = frame(np.vstack([good, two]) + UTM30_ORIGIN, ["good"] * 12 + ["x"] * 26)
+    with pytest.warns(DegenerateGroupWarning) as caught:
+        hulls = geoalpha.hull(points, by="g").set_index("g")
+    message = str(caught[0].message)
+    assert (
+        "no alpha shape: 'x' (26 rows, 2 distinct points); their rows hold" in message
+    )
+    assert hulls["method"].to_dict() == {"good": "alpha", "x": "buffer"}
+    assert hulls.loc["x", "n_points"] == 26
+
+
 def test_a_group_at_the_pole_is_named_for_what_failed_and_its_buffer_holds_it():
     """Four points within ~1 m of the south pole in a 1.6 degree wedge.
 
@@ -864,8 +904,9 @@ def test_degenerate_policy(with_degenerate, tmp_path, policy):
     kwargs = {} if policy == "buffer" else {"degenerate": policy}
     message = (
         r"3 group\(s\) have fewer than 3 distinct points or all points on a "
-        r"line, so no alpha shape: 'line' \(5 rows\); 'one' \(1 row\); 'two' "
-        rf"\(2 rows\); .*degenerate='{policy}'"
+        r"line, so no alpha shape: 'line' \(5 rows, 5 distinct points\); 'one' "
+        r"\(1 row, 1 distinct point\); 'two' \(2 rows, 2 distinct points\); "
+        rf".*degenerate='{policy}'"
     )
     with pytest.warns(DegenerateGroupWarning, match=message):
         hulls = geoalpha.hull(points, by="g", **kwargs)
@@ -877,6 +918,8 @@ def test_degenerate_policy(with_degenerate, tmp_path, policy):
         rows = hulls[hulls["g"].isin(odd)]
         assert rows["alpha"].isna().all()
         assert rows.geom_type.eq("Polygon").all()
+        method = "buffer" if policy == "buffer" else "alpha"
+        assert (rows["method"] == method).all()
         if policy == "buffer":
             assert not rows.is_empty.any()
             assert_covers(points, hulls, "g")

@@ -19,6 +19,9 @@ bundles, 23.2 on Python 3.11), in a copy of this clone, with no
 - docs/user_guide/qgis_plugin.md is left out: its commands run with QGIS's
   own Python, which tests/test_qgis_plugin.py and .ci/run's
   ``install_geoalpha.py`` step cover.
+- ``pip install ./geoalpha-...whl`` (a downloaded release wheel) is left out
+  here: .ci/run installs the wheel it builds that way in a venv without Rust
+  and runs the demo (tests/test_release.py checks that step is there).
 
 These tests install from the network and take minutes: they carry the
 ``install`` marker, deselected by default; CI runs them with
@@ -57,6 +60,8 @@ ELSEWHERE = {
 FENCE = re.compile(r"^```(?P<lang>[^\n]*)\n(?P<code>.*?)^```[ \t]*$", re.S | re.M)
 INLINE = re.compile(r"`((?:python -m )?pip install [^`]+)`")
 SUITE = re.compile(r"\bpython -m pytest\b")
+#: A downloaded wheel's file name (not in the clone: .ci/run installs its own).
+WHEEL_FILE = re.compile(r"\bgeoalpha-[\w.]+\.whl\b")
 #: What a block's pytest command becomes: collected in this process (-n 0).
 COLLECT = "python -m pytest --collect-only -q -n 0"
 #: pip's warning for `.[name]` when the project has no extra `name`.
@@ -80,7 +85,8 @@ def documented_commands():
                 found.append((name, tuple(line for line in lines if line.strip())))
         prose = FENCE.sub("", text)
         for command in INLINE.findall(prose.replace("\n", " ")):
-            found.append((name, (command,)))
+            if not WHEEL_FILE.search(command):  # .ci/run's no-Rust step
+                found.append((name, (command,)))
     # The same command on several pages runs once, under its first page.
     seen, unique = set(), []
     for name, lines in found:
@@ -112,6 +118,31 @@ def test_the_documented_commands_are_found():
     assert 'pip install -e ".[test]" && python -m pytest' in flat
     assert any("sphinx -b html docs docs/_build/html" in line for line in flat)
     assert any('pip install "geoalpha[dask]"' in line for line in flat)
+
+
+def test_the_wheel_command_is_the_one_ci_runs_without_rust():
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    assert (
+        "A release wheel needs no Rust ([how to get it](docs/getting_started.md))"
+        in (readme.replace("\n", " "))
+    )
+    assert re.search(r"`pip install \./geoalpha-[^`]+\.whl`", readme)
+    page = (ROOT / "docs" / "getting_started.md").read_text(encoding="utf-8")
+    wheel = re.search(r"`pip install (\./geoalpha-[^`]+\.whl)`", page)
+    assert wheel is not None
+    assert re.fullmatch(
+        r"\./geoalpha-[\d.]+-cp310-abi3-manylinux_2_17_x86_64\.whl", wheel[1]
+    )
+    assert PYPROJECT["project"]["version"] in wheel[1]
+    assert 'pip install --quiet "$wheel"' in (ROOT / ".ci" / "run").read_text()
+
+
+def test_the_extras_in_the_clone_keep_the_editable_install():
+    # after `pip install -e ".[test]"`, `pip install ".[dask]"` would replace
+    # the in-place install with a copy: getting started keeps -e
+    text = (ROOT / "docs" / "getting_started.md").read_text(encoding="utf-8")
+    assert 'pip install -e ".[test,dask]"' in text
+    assert not re.search(r'pip install "\.\[', text)
 
 
 def test_every_documented_extra_exists():

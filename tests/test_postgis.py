@@ -472,12 +472,9 @@ def test_readme_postgis_examples_run(cluster, tmp_path):
         readme,
         re.S,
     )
-    assert len(blocks) == 2
+    # the first loads the bundled data itself: the page needs nothing else
+    assert len(blocks) == 3 and "datasets.load(" in blocks[0]
     cluster.create_database("readme")
-    engine = _engine(cluster.url("readme", password=True))
-    points = datasets.load("uk_clusters").rename(columns={"Cluster": "cluster"})
-    points.rename_geometry("geom").to_postgis("uk_clusters", engine, index=False)
-    engine.dispose()
     here = f"geoalpha@127.0.0.1:{cluster.port}/readme"
     env = {**os.environ, "PYTHONPATH": str(REPO), "PGPASSWORD": pgcluster.PASSWORD}
     for code in blocks:
@@ -493,6 +490,21 @@ def test_readme_postgis_examples_run(cluster, tmp_path):
         )
         assert done.returncode == 0, done.stderr
     assert _query(cluster, "SELECT count(*) FROM cluster_hulls", "readme") == "691"
+    assert _query(cluster, "SELECT count(*) FROM uk_clusters", "readme") == "15255"
+    # the page's command lines, on the table its first block made
+    url = cluster.url("readme")
+    result = run(
+        "hull", url, url, "--layer", "public.uk_clusters", "--by", "cluster",
+        "--output-layer", "public.cli_hulls",
+    )  # fmt: skip
+    assert result.exit_code == 0, result.stderr
+    assert "Wrote 691 hulls of 15,255 points to " in result.stdout + result.stderr
+    sql = re.search(r'--sql "([^"]+)"', readme)[1]
+    assert sql == "SELECT cluster, geom FROM uk_clusters WHERE cluster < 100"
+    out = tmp_path / "hulls.gpkg"
+    result = run("hull", url, out, "--by", "cluster", "--sql", sql)
+    assert result.exit_code == 0, result.stderr
+    assert gpd.read_file(out)["cluster"].tolist() == list(range(100))
 
 
 # --------------------------------------------------------------------------

@@ -29,7 +29,7 @@ import shapely
 
 import geoalpha
 from geoalpha import datasets
-from geoalpha.frame.schema import DTYPES, RESULT_COLUMNS, with_area_unit
+from geoalpha.frame.schema import DTYPES, RESULT_COLUMNS
 from geoalpha.frame.why import EXPLAIN_COLUMNS
 from geoalpha.options import META, NAMES, Options
 
@@ -208,6 +208,31 @@ def same_geometries(actual, wanted):
     return bool(shapely.equals_exact(a, b, tolerance=0))
 
 
+def test_the_install_message_names_what_to_install_from(tmp_path):
+    # (stdlib only: runs without QGIS) A plugin in a clone names that clone; a
+    # copied plugin names WHEEL and says what it is. `install_geoalpha.py`
+    # with no argument would ask PyPI for geoalpha.
+    sys.path.insert(0, str(PLUGIN_DIR))
+    try:
+        from geoalpha_qgis import dependencies
+    finally:
+        sys.path.pop(0)
+    in_clone = dependencies.install_message()
+    installer = PLUGIN_DIR / "geoalpha_qgis" / "install_geoalpha.py"
+    assert f'/usr/bin/python3 "{installer}" "{ROOT}"' in in_clone
+    assert f'python "{installer}" "{ROOT}"' in in_clone
+    assert "needs Rust >= 1.88; a downloaded wheel file in its place needs none" in (
+        in_clone.replace("\n", " ")
+    )
+    copy = tmp_path / "plugins" / "geoalpha_qgis"
+    shutil.copytree(PLUGIN_DIR / "geoalpha_qgis", copy)
+    copied = dependencies.install_message(here=copy)
+    assert f'/usr/bin/python3 "{copy / "install_geoalpha.py"}" WHEEL' in copied
+    assert "WHEEL: the geoalpha wheel for your platform" in copied
+    assert "geoalpha-<version>-cp310-abi3-<platform>.whl; needs no" in copied
+    assert "or the folder of a geoalpha clone (needs Rust >= 1.88)" in copied
+
+
 def test_zip_holds_the_plugin_folder(tmp_path):
     archive = build_qgis_plugin.build(tmp_path)
     with zipfile.ZipFile(archive) as zf:
@@ -287,7 +312,8 @@ def test_qgis_process_says_how_to_install_when_geoalpha_is_missing(
     text = done.stdout + done.stderr
     assert done.returncode != 0
     assert "geoalpha Python library is not installed for QGIS's Python" in text
-    assert f'/usr/bin/python3 "{installed / "install_geoalpha.py"}"' in text
+    assert f'/usr/bin/python3 "{installed / "install_geoalpha.py"}" WHEEL' in text
+    assert "WHEEL: the geoalpha wheel for your platform, downloaded from the" in text
     assert "OSGeo4W Shell" in text
     assert "QGIS-LTR.app/Contents/MacOS/bin/python3" in text
     assert not (qgis.tmp / "n.gpkg").exists()
@@ -372,7 +398,9 @@ def test_model_runs_the_algorithm_like_hull(pyqgis, points, qgis, installed):
     want = expected(points, "state", method="convex")
     features = pyqgis["model"]["layer"]["features"]
     assert [f["attributes"]["state"] for f in features] == want["state"].tolist()
-    assert {f["attributes"]["method"] for f in features} == {"convex"}
+    methods = [f["attributes"]["method"] for f in features]
+    assert methods == want["method"].tolist()  # "buffer" for degenerate states
+    assert set(methods) == {"convex", "buffer"}
     for feature, geometry in zip(features, want.geometry, strict=True):
         assert same_geometries(
             shapely.from_wkb(bytes.fromhex(feature["wkb"])), geometry
@@ -445,7 +473,9 @@ def test_batch_dialog_runs_one_output_per_row(pyqgis, points):
         want = expected(points, field, method=method)
         features = batch[field]["features"]
         assert [f["attributes"][field] for f in features] == want[field].tolist()
-        assert {f["attributes"]["method"] for f in features} == {method}
+        methods = [f["attributes"]["method"] for f in features]
+        assert methods == want["method"].tolist()  # "buffer" for degenerate groups
+        assert set(methods) <= {method, "buffer"} and method in methods
         for feature, geometry in zip(features, want.geometry, strict=True):
             got = shapely.from_wkb(bytes.fromhex(feature["wkb"]))
             assert same_geometries(got, geometry)
@@ -609,9 +639,9 @@ def test_qgis_process_crs_none_writes_area_and_unit(qgis, installed, km_points):
     ]
     assert list(got.columns) == ["state", *planar, "geometry"]
     assert set(got["unit"]) == {"coordinate unit"}
-    np.testing.assert_allclose(got["area"], want["area_m2"], rtol=1e-9)  # km2
+    np.testing.assert_allclose(got["area"], want["area"], rtol=1e-9)  # km2
     assert got["area"].max() < 1e6  # square km, not a value in square metres
-    assert_same_values(got, with_area_unit(want, "coordinate unit"))
+    assert_same_values(got, want)
     for a, b in zip(got.geometry, want.geometry, strict=True):
         assert same_geometries(a, b)
 

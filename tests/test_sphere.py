@@ -11,6 +11,7 @@ DESIGN.md swept over that triangulation.
 
 from __future__ import annotations
 
+import re
 import warnings
 
 import geopandas as gpd
@@ -225,15 +226,47 @@ def test_a_group_across_the_antimeridian_is_split_and_holds_its_points():
     assert_guarantee(out, gdf)
 
 
-def test_a_group_wider_than_the_sphere_handles_is_an_error_naming_it():
+def test_a_group_wider_than_the_sphere_handles_is_degenerate_naming_its_far_rows():
+    # one group that does not fit no longer stops the others (issue #36)
     rng = np.random.default_rng(5)
     world = np.column_stack([rng.uniform(-180, 180, 50), rng.uniform(-80, 80, 50)])
     near = cap(rng, 10.0, 50.0, 100.0, 20)
     pts = np.vstack([near, world])
     gdf = frame(pts, np.array(["Europe"] * 20 + ["World"] * 50))
-    with pytest.raises(InvalidInputError, match="World") as err:
-        geoalpha.hull(gdf, by="g", crs="sphere")
-    assert "Europe" not in str(err.value)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        out = geoalpha.hull(gdf, by="g", crs="sphere").set_index("g")
+    degenerate = [w for w in caught if w.category is DegenerateGroupWarning]
+    assert len(degenerate) == 1
+    message = str(degenerate[0].message)
+    assert message.startswith(
+        "1 group(s) have points farther than 80 degrees from their centre, beyond "
+        "what crs='sphere' handles, so no shape on the sphere: 'World' (50 rows), "
+        "the farthest at index "
+    )
+    assert "compute them with crs='auto')" in message and "Europe" not in message
+    # the named rows are World's, farthest first, each beyond 80 degrees
+    named = re.findall(r"(\d+) \((\d+) degrees\)", message)
+    assert len(named) == 5 and "and 20 more" in message  # 25 beyond 80 degrees
+    assert all(20 <= int(row) < 70 for row, _ in named)
+    degrees = [int(d) for _, d in named]
+    assert degrees == sorted(degrees, reverse=True) and min(degrees) > 80
+    centre = unit(world).sum(axis=0)
+    centre /= np.linalg.norm(centre)
+    far = np.degrees(np.arccos(np.clip(unit(world) @ centre, -1, 1)))
+    assert int((far > 80).sum()) == 25
+    assert int(named[0][0]) == 20 + int(np.argmax(far))
+    # Europe as alone; World holds a buffer that covers its points
+    alone = geoalpha.hull(gdf[gdf["g"] == "Europe"], by="g", crs="sphere")
+    assert out.loc["Europe", "alpha"] == alone["alpha"].item()
+    assert out.loc["Europe", "method"] == "alpha"
+    assert (
+        np.isnan(out.loc["World", "alpha"]) and out.loc["World", "method"] == "buffer"
+    )
+    assert_guarantee(out.reset_index(), gdf)
+    # the array function still refuses, naming the group
+    with pytest.raises(InvalidInputError, match="do not: codes 1"):
+        geoalpha.alpha_shapes(pts, np.repeat([0, 1], [20, 50]), sphere=True)
 
 
 @pytest.mark.parametrize(

@@ -309,14 +309,17 @@ def solve_checked(
     progress=None,
     polar=None,
     name_groups=None,
+    refuse: bool = True,
 ) -> Unverified:
     """:func:`alpha_shapes` on checked inputs, without the guarantee: one kernel call.
 
     Trusts its inputs (checked as :func:`alpha_shapes` does; ``request``:
     :meth:`geoalpha.options.Options.request`); the caller enforces the
     guarantee (:func:`geoalpha.arrays.guarantee.enforce`). Raises for the
-    groups the sphere refuses; warns about the searches that gave up. With
-    ``request.sphere``, ``out`` is given (the output longitudes and latitudes).
+    groups the sphere refuses (``refuse=False``: they are degenerate, reason
+    :data:`~geoalpha.arrays.sphere.REFUSED`, for the caller to word); warns
+    about the searches that gave up. With ``request.sphere``, ``out`` is given
+    (the output longitudes and latitudes).
     """
     import dataclasses
 
@@ -333,16 +336,18 @@ def solve_checked(
     except ValueError as err:  # what the kernel refuses (e.g. |coordinate| > 1e100)
         raise InvalidInputError(str(err)) from err
     if request.sphere:
-        res = _on_the_sphere(res, polar, name_groups)
+        res = _on_the_sphere(res, polar, name_groups, refuse)
     shapes, certain = _shapes(res, rows, gave_up, out is not None)
     _warn_search(shapes, max_iterations, request.components, name_groups)
     return Unverified(shapes, certain, res.why)
 
 
-def _on_the_sphere(res: kernel.Solved, polar, name_groups) -> kernel.Solved:
+def _on_the_sphere(
+    res: kernel.Solved, polar, name_groups, refuse: bool = True
+) -> kernel.Solved:
     """Refuse groups too wide for the sphere; unfold the others, close polar ones."""
     refused = np.flatnonzero(res.reason == REFUSED)
-    if len(refused):
+    if len(refused) and refuse:
         raise InvalidInputError(
             refused_message(_named(refused, name_groups), len(refused))
         )

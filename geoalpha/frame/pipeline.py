@@ -26,6 +26,7 @@ from geoalpha.arrays.guarantee import (
     repair_invalid,
 )
 from geoalpha.arrays.optimal import solve_checked
+from geoalpha.arrays.sphere import MAX_SPHERE_DEGREES, REFUSED
 from geoalpha.crs_parsing import is_sphere, parse_crs
 from geoalpha.errors import (
     AntimeridianWarning,
@@ -44,7 +45,13 @@ from geoalpha.errors import (
 from geoalpha.frame import crs as gcrs
 from geoalpha.frame import progress
 from geoalpha.frame.checks import check_distortion, check_grouping
-from geoalpha.frame.schema import RESULT_COLUMNS, result_frame, result_geometry_name
+from geoalpha.frame.schema import (
+    RESULT_COLUMNS,
+    planar_unit,
+    result_frame,
+    result_geometry_name,
+    with_area_unit,
+)
 from geoalpha.frame.sphere import SphereProjection
 from geoalpha.options import Options, Request
 
@@ -195,6 +202,8 @@ def _stages(frame, by, options, bar: progress.Phases, checks, rows, asked) -> Ra
     hulls = hulls._replace(area=area_m2(hulls, grown, proj, options))
     name = result_geometry_name(frame, groups.names)
     out = table(groups, points, proj, hulls, crs, name)
+    # Planar areas in another unit than metres: ``area`` and ``unit``, as the CLI.
+    out = with_area_unit(out, planar_unit(crs, options.crs))
     left_out = report_outliers(hulls, groups, points, len(frame), options)
     return Ran(out, left_out, groups, points, proj, hulls, planar_area)
 
@@ -204,7 +213,9 @@ def _quoted(value) -> str:
     return repr(value.item() if isinstance(value, np.generic) else value)
 
 
-def _names(groups: Groups, which: np.ndarray, counts=None, value=None) -> str:
+def _names(
+    groups: Groups, which: np.ndarray, counts=None, value=None, distinct=None
+) -> str:
     """Name groups by key (quoted whole, or each value by ``value``) for messages."""
     shown = which[:11]  # first_n shows 10, and "..." when there is an 11th
 
@@ -219,10 +230,27 @@ def _names(groups: Groups, which: np.ndarray, counts=None, value=None) -> str:
     ]
     if counts is not None:
         names = [
-            f"{n if value else repr(n)} ({c} row{'s' if c != 1 else ''})"
+            f"{n if value else repr(n)} ({c} row{'s' if c != 1 else ''}"
             for n, c in zip(names, counts[shown], strict=True)
         ]
+        if distinct is not None:
+            names = [
+                f"{n}, {d} distinct point{'s' if d != 1 else ''}"
+                for n, d in zip(names, distinct[shown], strict=True)
+            ]
+        names = [f"{n})" for n in names]
     return first_n(names, limit=10, sep="; ")
+
+
+def _distinct_points(points: Points, which: np.ndarray) -> np.ndarray:
+    """Distinct coordinate pairs of each group (counted for the groups ``which``)."""
+    out = np.zeros(len(points.n_points), dtype=np.int64)
+    sel = np.isin(points.codes, which)
+    if sel.any():
+        keyed = np.column_stack([points.codes[sel], points.coords[sel]])
+        codes = np.unique(keyed, axis=0)[:, 0].astype(np.intp)
+        out += np.bincount(codes, minlength=len(out))
+    return out
 
 
 def as_frame(data):
@@ -569,6 +597,7 @@ def compute(
             progress=bar,
             polar=getattr(proj, "polar", None),
             name_groups=names,
+            refuse=False,  # too wide for the sphere: degenerate, named (below)
         )
         res = raw.shapes
         geometry = res.geometry
@@ -673,19 +702,32 @@ def degenerate_policy(
         done = "their rows hold an empty polygon"
     else:
         done = f"they were dropped ({n_points[which].sum()} rows)"
+    distinct = _distinct_points(points, which)
+    why = _why_degenerate(hulls.reason, which, groups, n_points, proj.wide, distinct)
+    far = which[hulls.reason[which] == REFUSED]
+    if len(far):
+        why = _too_wide_for_the_sphere(far, groups, points, proj) + (
+            f"; {why}" if why else ""
+        )
     warn_user(
-        _why_degenerate(hulls.reason, which, groups, n_points, proj.wide)
-        + f"; {done} ({setting('degenerate', policy)})",
+        why + f"; {done} ({setting('degenerate', policy)})",
         DegenerateGroupWarning,
     )
     keep = ~degenerate if policy == "drop" else hulls.keep
+    labels = hulls.labels
+    if policy == "buffer":  # the row holds a buffer, not the method's hull
+        labels = np.array(labels, dtype=object)
+        labels[which] = "buffer"
     return hulls._replace(
-        geometry=geometry, area=area, degenerate=degenerate, keep=keep
+        geometry=geometry, area=area, degenerate=degenerate, keep=keep, labels=labels
     )
 
 
-def _why_degenerate(reason, which, groups: Groups, n_points, wide) -> str:
+def _why_degenerate(
+    reason, which, groups: Groups, n_points, wide, distinct=None
+) -> str:
     """Word why the groups ``which`` have no shape, from their reason codes."""
+    which = which[reason[which] != REFUSED]  # (worded by _too_wide_for_the_sphere)
     thin = np.isin(reason[which], (1, 2, 3)) | (n_points[which] == 0)
     failed = ~thin & (reason[which] == kernel.Reason.FAILED)
     reasons = []
@@ -696,9 +738,10 @@ def _why_degenerate(reason, which, groups: Groups, n_points, wide) -> str:
             f"{_names(groups, which[failed], n_points)}"
         )
     if thin.any():
+        named = _names(groups, which[thin], n_points, distinct=distinct)
         reasons.append(
             f"{thin.sum()} group(s) have fewer than 3 distinct points or all points "
-            f"on a line, so no alpha shape: {_names(groups, which[thin], n_points)}"
+            f"on a line, so no alpha shape: {named}"
         )
     spread = ~thin & ~failed & wide[which]
     other = ~thin & ~failed & ~spread
@@ -718,6 +761,41 @@ def _why_degenerate(reason, which, groups: Groups, n_points, wide) -> str:
             f"{_names(groups, which[other], n_points)}"
         )
     return "; ".join(reasons)
+
+
+def _too_wide_for_the_sphere(far, groups: Groups, points: Points, proj) -> str:
+    """Word the groups ``crs="sphere"`` refused, naming each one's farthest rows.
+
+    Angles from the group's centre, the normalised mean of its unit vectors (as
+    the kernel's): the rows beyond :data:`MAX_SPHERE_DEGREES`, farthest first.
+    """
+    lon, lat = np.radians(proj.lonlat).T
+    unit = np.column_stack([np.cos(lat) * np.cos(lon), np.cos(lat) * np.sin(lon)])
+    unit = np.column_stack([unit, np.sin(lat)])
+    named = []
+    for g in far[:11]:
+        rows = np.flatnonzero(points.codes == g)
+        centre = unit[rows].sum(axis=0)
+        centre /= np.linalg.norm(centre) or 1.0
+        angle = np.degrees(np.arccos(np.clip(unit[rows] @ centre, -1.0, 1.0)))
+        order = np.argsort(-angle, kind="stable")
+        beyond = order[angle[order] > MAX_SPHERE_DEGREES]
+        shown = (beyond if len(beyond) else order[:1])[:5]
+        labels = points.labels[rows[shown]].tolist()
+        where = ", ".join(
+            f"{label!r} ({a:.0f} degrees)"
+            for label, a in zip(labels, angle[shown], strict=True)
+        )
+        more = f" and {len(beyond) - 5} more" if len(beyond) > 5 else ""
+        group = _names(groups, np.array([g]), points.n_points)
+        named.append(f"{group}, the farthest at index {where}{more}")
+    return (
+        f"{len(far)} group(s) have points farther than {MAX_SPHERE_DEGREES:g} "
+        f"degrees from their centre, beyond what {setting('crs', 'sphere')} "
+        f"handles, so no shape on the sphere: {first_n(named, limit=10, sep='; ')} "
+        f"(split them with a finer {setting('by')} key, or compute them with "
+        f"{setting('crs', 'auto')})"
+    )
 
 
 def _reasons(degenerate, points: Points, proj: gcrs.Projection) -> np.ndarray:

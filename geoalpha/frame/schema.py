@@ -96,7 +96,7 @@ def with_area_unit(table, unit: str | None):
     -------
     geopandas.GeoDataFrame
     """
-    if unit is None:
+    if unit is None or "area_m2" not in table.columns:  # (already done)
         return table
     table = table.rename(columns={"area_m2": "area"})
     table.insert(list(table.columns).index("area") + 1, "unit", unit)

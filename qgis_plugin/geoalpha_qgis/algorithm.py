@@ -381,8 +381,6 @@ class OptimalAlphaHulls(QgsProcessingAlgorithm):
         import numpy as np
         import shapely
 
-        from geoalpha.frame.schema import planar_unit, with_area_unit
-
         source = self.parameterAsSource(parameters, self.INPUT, context)
         if source is None:
             raise QgsProcessingException(
@@ -500,7 +498,7 @@ class OptimalAlphaHulls(QgsProcessingAlgorithm):
         computed = time.perf_counter()
 
         # 3. One feature per group: 90-100 %.
-        table = with_area_unit(result, planar_unit(frame.crs, options["crs"]))
+        table = result  # (planar input: hull() wrote area and unit already)
         columns = [c for c in table.columns if c not in (*names, table.geometry.name)]
         fields = QgsFields()
         for name in names:

@@ -58,19 +58,55 @@ def add_env_to_path() -> Path | None:
     return folder
 
 
-def install_message(error: BaseException | None = None) -> str:
-    """Say that geoalpha is missing and how to install it on each platform."""
+def clone_folder(here: Path = HERE) -> Path | None:
+    """Return the geoalpha clone this plugin folder lies in (a symlink followed).
+
+    Examples
+    --------
+    >>> clone_folder(Path("/nowhere/qgis_plugin/geoalpha_qgis")) is None
+    True
+    """
+    root = here.parent.parent
+    try:
+        text = (root / "pyproject.toml").read_text(encoding="utf-8")
+    except OSError:
+        return None
+    return root if 'name = "geoalpha"' in text else None
+
+
+def install_message(error: BaseException | None = None, *, here: Path = HERE) -> str:
+    """Say that geoalpha is missing and how to install it on each platform.
+
+    The commands name what to install from: this plugin's own clone when it
+    lies in one, else ``WHEEL``, explained below them (a downloaded wheel, or a
+    clone's folder).
+    """
     numpy_version = sys.modules["numpy"].__version__ if "numpy" in sys.modules else "?"
+    clone, installer = clone_folder(here), here / INSTALLER.name
+    what = f'"{clone}"' if clone is not None else "WHEEL"
     lines = [
         "The geoalpha Python library is not installed for QGIS's Python "
         f"(Python {sys.version.split()[0]}, numpy {numpy_version}; looked in "
         f"{site_packages(env_dir())}).",
         "Install it with the script in this plugin's folder, run by QGIS's own "
         "Python (it keeps QGIS's numpy), then restart QGIS:",
-        f'  Linux:   /usr/bin/python3 "{INSTALLER}"',
-        f'  Windows: in the OSGeo4W Shell: python "{INSTALLER}"',
+        f'  Linux:   /usr/bin/python3 "{installer}" {what}',
+        f'  Windows: in the OSGeo4W Shell: python "{installer}" {what}',
         "  macOS:   /Applications/QGIS-LTR.app/Contents/MacOS/bin/python3 "
-        f'"{INSTALLER}"  (QGIS.app for the latest release)',
+        f'"{installer}" {what}  (QGIS.app for the latest release)',
+    ]
+    if clone is not None:
+        lines.append(
+            f"({clone} is the geoalpha clone this plugin comes from: building it "
+            "needs Rust >= 1.88; a downloaded wheel file in its place needs none.)"
+        )
+    else:
+        lines.append(
+            "WHEEL: the geoalpha wheel for your platform, downloaded from the "
+            "release (geoalpha-<version>-cp310-abi3-<platform>.whl; needs no "
+            "Rust), or the folder of a geoalpha clone (needs Rust >= 1.88)."
+        )
+    lines += [
         "Do not pip-install geoalpha into QGIS's Python without it: a second "
         "numpy breaks QGIS's GDAL tools.",
     ]
