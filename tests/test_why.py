@@ -402,3 +402,22 @@ def test_leaving_out_the_point_covered_last_nearly_always_lowers_the_optimum():
         else:
             outcome["not lower"] += 1
     assert outcome == {"lower": 508, "not lower": 1, "degenerate": 2}
+
+
+def test_a_curve_in_rows_of_a_flagged_group_keeps_its_radius_until_the_location():
+    # 50 rows at one wrong spot: leaving out 1-3 rows changes nothing (the
+    # location still holds rows), and the curve neither fails nor warns about
+    # a location it was not asked to leave out (it crashed with IndexError).
+    gdf = hawaii_like()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", SuspiciousHullWarning)
+        curve = geoalpha.curve(gdf, by="state", max_left_out=3)
+    hi = curve[curve["state"] == "HI"]
+    assert hi["k"].tolist() == [0, 1, 2, 3]
+    assert hi["radius"].tolist() == pytest.approx([hi["radius"].iloc[0]] * 4, rel=1e-12)
+    assert hi["radius"].iloc[0] > 400_000
+    in_locations = geoalpha.curve(
+        gdf, by="state", max_left_out=1, outlier_unit="locations"
+    )
+    assert sorted(in_locations["left_out"].iloc[1]) == list(range(9000, 9050))
+    assert in_locations["radius"].iloc[1] < hi["radius"].iloc[0] / 4

@@ -190,7 +190,9 @@ def _stages(frame, by, options, bar: progress.Phases, checks, rows, asked) -> Ra
     bar.start("compute", units=n_groups)
     names = partial(_names, groups, counts=points.n_points)
     hulls = compute(points, proj, n_groups, options, names=names, **asked)
-    warn_suspicious(hulls, groups, points, options)
+    if not asked.get("max_left_out") or asked.get("left_out_unit") == "locations":
+        # (a curve in rows has no one-location alternative to name)
+        warn_suspicious(hulls, groups, points, options)
     bar.start("check")
     hulls = grow(hulls, points, proj, options)
     grown = hulls.geometry
