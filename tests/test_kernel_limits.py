@@ -268,8 +268,12 @@ def test_no_kernel_entry_point_aborts_the_process_on_hostile_arguments():
 # --- Ctrl-C (item 8) ---------------------------------------------------------
 
 _LONG_CALL = r"""
+import signal
 import time
 import numpy as np
+
+# (a shell starts background jobs with SIGINT ignored, and children inherit it)
+signal.signal(signal.SIGINT, signal.default_int_handler)
 from geoalpha import _kernel
 from geoalpha.kernel import DEFAULT_REQUEST, Compiled
 

@@ -73,7 +73,9 @@ def test_a_blank_key_is_a_dropped_row_named_in_the_warning(zips_csv, tmp_path):
         "Warning: geoalpha dropped 1 of 9 rows: 1 with a missing group key "
         "(index 7; --no-dropna keeps them)"
     ) in result.stderr
-    assert "'00530' (1 row)" in result.stderr  # the one-point group, by its key
+    assert (
+        "'00530' (1 row, 1 distinct point)" in result.stderr
+    )  # the one-point group, by its key
     assert not re.search(r"\d\.0\b", result.stderr)  # no '530.0', no 501.0
 
 
