@@ -61,6 +61,56 @@ def exact_circumradius(a, b, c) -> float:
     return math.sqrt(float(r2))
 
 
+def exact_delaunay(points):
+    """Delaunay triangles and neighbours of a few points, in rational arithmetic.
+
+    Brute force over every triple (O(n^4) exact ``incircle`` tests: for a
+    dozen points): a triangle is Delaunay when no point is strictly inside
+    its circumcircle. Returns ``(simplices, neighbors)`` as scipy's Delaunay
+    does (counter-clockwise; neighbour ``k`` opposite vertex ``k``, -1 on the
+    hull), or None when four points are cocircular (not unique) or all are
+    collinear.
+    """
+    p = [(Fraction(float(x)), Fraction(float(y))) for x, y in points]
+
+    def orient(a, b, c):
+        return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+
+    def incircle(a, b, c, d):  # > 0: d inside the circle of ccw a, b, c
+        rows = [(q[0] - d[0], q[1] - d[1]) for q in (a, b, c)]
+        m = [(x, y, x * x + y * y) for x, y in rows]
+        return (
+            m[0][0] * (m[1][1] * m[2][2] - m[2][1] * m[1][2])
+            - m[0][1] * (m[1][0] * m[2][2] - m[2][0] * m[1][2])
+            + m[0][2] * (m[1][0] * m[2][1] - m[2][0] * m[1][1])
+        )
+
+    tris = []
+    for i, j, k in itertools.combinations(range(len(p)), 3):
+        o = orient(p[i], p[j], p[k])
+        if o == 0:
+            continue
+        t = (i, j, k) if o > 0 else (i, k, j)
+        side = [incircle(*(p[v] for v in t), p[m]) for m in range(len(p)) if m not in t]
+        if any(s > 0 for s in side):
+            continue
+        if any(s == 0 for s in side):
+            return None
+        tris.append(t)
+    if not tris:
+        return None
+    simplices = np.array(tris, dtype=np.int64)
+    edge = {}
+    for t, s in enumerate(tris):
+        for k in range(3):
+            edge[(s[(k + 1) % 3], s[(k + 2) % 3])] = (t, k)
+    neighbors = np.full((len(tris), 3), -1, dtype=np.int64)
+    for (a, b), (t, k) in edge.items():
+        if (b, a) in edge:
+            neighbors[t, k] = edge[(b, a)][0]
+    return simplices, neighbors
+
+
 #: The documented near-degeneracy rule (README "Near-degenerate input"),
 #: restated here rather than imported: relative to the set's extent, never
 #: below 64 units in the last place of its largest coordinate.

@@ -414,6 +414,61 @@ def test_needle_triangle_radius():
     assert reference.graph_optimum(p) == pytest.approx(1 / needle, rel=1e-14)
 
 
+@st.composite
+def slivers(draw):
+    """Points exactly on y = x / 2, one a flatness of 1e-12..1e-6 off it, one far off.
+
+    The off point's triangles with the line are nearly flat (issue #37, repro
+    02): its smallest radius is the optimum, a needle's radius. The far point
+    (below the line) keeps the group from being collinear.
+    """
+    xs = draw(st.lists(st.integers(0, 800), min_size=3, max_size=7, unique=True))
+    line = [(x / 8, x / 16) for x in xs]  # exact: y is x / 2
+    flat = 10.0 ** draw(st.floats(-12, -6))
+    ax = draw(st.integers(0, 800).filter(lambda x: x not in xs)) / 8
+    apex = (ax, ax / 2 + flat * 100)
+    far = draw(st.integers(0, 800)) / 8
+    return np.array([*line, apex, (far, far / 2 - draw(st.sampled_from([5, 20, 60])))])
+
+
+@examples(200)
+@given(p=slivers())
+def test_sliver_radii_are_exact_to_a_few_ulps(p):
+    # Issue #37 (item 4): the optimum against a rational Delaunay triangulation
+    # and correctly rounded radii, on flatnesses 1e-12..1e-6 of the extent.
+    assume(not reference.is_collinear(p))
+    exact = reference.exact_delaunay(p)
+    assume(exact is not None)
+    simplices, neighbors = exact
+    r = np.array([reference.exact_circumradius(*p[s]) for s in simplices])
+    for holes in (False, True):
+        want = reference.mesh_optimum(len(p), simplices, neighbors, r, holes)
+        assert optimal_alpha(p, holes=holes) == pytest.approx(want, rel=4e-16, abs=0)
+
+
+def test_the_needle_fan_of_repro_02_is_exact():
+    # 196 points on y = x / 2 and one 3.5e-9 of the extent off it: the fan's
+    # largest radius was off by 2.4e-9 (the float determinant of orient2d).
+    from fractions import Fraction as F
+
+    xs = np.linspace(0, 100, 196)
+    line = np.c_[xs, xs / 2]
+    apex = np.array([50.0, 25 + 3.5e-7])
+    p = np.r_[[apex], line]
+
+    def r2(a, b, c):
+        (ax, ay), (bx, by), (cx, cy) = ((F(u), F(v)) for u, v in (a, b, c))
+        cr = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
+        sq = [
+            (u - v) ** 2 + (w - z) ** 2
+            for u, w, v, z in ((ax, ay, bx, by), (bx, by, cx, cy), (cx, cy, ax, ay))
+        ]
+        return sq[0] * sq[1] * sq[2] / (4 * cr * cr)
+
+    want = math.sqrt(float(max(r2(apex, line[i], line[i + 1]) for i in range(195))))
+    assert 1 / optimal_alpha(p) == pytest.approx(want, rel=4e-16, abs=0)
+
+
 def test_near_duplicate_below_tolerance_is_merged():
     # 1e-11 of the extent apart: one point (docs/user_guide/guarantee.md).
     # The optimum is that of the three other points, and the merged point is
