@@ -185,7 +185,7 @@ class Solved(NamedTuple):
     shape), ``capped`` (the outlier search hit its node budget), ``geometry``. Per
     point, sorted by group (``order[i]``: input row of sorted point ``i``): ``codes``,
     ``rep`` (sorted index of its representative), ``left_out``, ``on_ring`` (its
-    representative is a ring vertex), ``coords`` (output coordinates). ``curve``:
+    output coordinates are a ring vertex's), ``coords`` (output coordinates). ``curve``:
     the validity curves when asked, ``(values, valid, offsets)``.
     """
 
@@ -339,15 +339,20 @@ def solve(
         sphere=bool(sphere),
     )
     coords = sxy if sout is None else sout
+    # A point is on a ring when its coordinates are a ring vertex's: it is
+    # one (a merged near-duplicate taken in), or it has its representative's.
     on_ring = np.zeros(n, dtype=bool)
     on_ring[res["ring_vertex"]] = True
+    rep = res["rep"]
+    point = np.ascontiguousarray(coords, float).reshape(n, 2).view(complex)[:, 0]
+    on_ring |= on_ring[rep] & (point == point[rep])
     return Solved(
         order=order,
         codes=np.repeat(np.arange(n_groups), sizes),
         **{k: res[k] for k in _PER_GROUP},
         rep=res["rep"],
         left_out=res["left_out"],
-        on_ring=on_ring[res["rep"]],
+        on_ring=on_ring,
         coords=coords,
         geometry=_geometries(coords, res, n_groups),
         curve=(res["curve_value"], res["curve_valid"], res["curve_offsets"])

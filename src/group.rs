@@ -4,7 +4,7 @@ use rayon::prelude::*;
 
 use crate::frame::{circumradius, collinear, orient, Frame, Xy};
 use crate::mesh::{triangulate, Mesh, NONE};
-use crate::rings::{trace, Polygons};
+use crate::rings::{take_in, trace, Polygons};
 use crate::spectrum::{
     fill_rank, merge_ties, outlier_optimum, pieces, sweep, Curve, ALPHA_RTOL, PARALLEL_TRIANGLES,
 };
@@ -233,7 +233,11 @@ pub fn finish(
     res.whole = label.iter().all(|&l| l != NONE);
     res.area = shape().fold(0.0, |area, (_, t)| area + area_of(t));
     match trace(ring_points, mesh, &label, n_pieces) {
-        Some(polygons) => res.polygons = polygons,
+        Some(mut polygons) => {
+            // Merged near-duplicates become vertices (coverage by construction).
+            take_in(ring_points, &mesh.rep, &mut polygons);
+            res.polygons = polygons
+        }
         None => res.reason = Reason::Rings as u8,
     }
     res

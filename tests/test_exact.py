@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -497,6 +498,75 @@ def test_merged_points_are_covered(p):
         shape = alpha_shape(p, holes=holes)
         outside = ~shapely.covers(shape, shapely.points(p))
         assert not outside.any(), f"{p[outside]} outside {shape.wkt}"
+
+
+@st.composite
+def tiny_at_an_offset(draw):
+    """A group ~1e-9 across at an offset of up to 1e3 (issue #37, repro 07)."""
+    n = draw(st.integers(4, 40))
+    seed = draw(st.integers(0, 2**32 - 1))
+    offset = draw(st.tuples(st.integers(-1000, 1000), st.integers(-1000, 1000)))
+    rng = np.random.default_rng(seed)
+    return rng.random((n, 2)) * 1e-9 + np.array(offset, dtype=float)
+
+
+FED_BACK = {
+    "near_duplicates": near_duplicates(smallest=1e-14, largest=1e-6),
+    "tiny_at_an_offset": tiny_at_an_offset(),
+    "uniform": uniform(),
+}
+
+
+def assert_the_optimum_feeds_back(p, holes):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DegenerateGroupWarning)
+        alpha = optimal_alpha(p, holes=holes)
+        assume(np.isfinite(alpha))
+        best = alpha_shape(p, holes=holes)
+        fed = alpha_shape(p, alpha=alpha, holes=holes)
+    points = shapely.points(p)
+    assert shapely.covers(best, points).all()
+    assert shapely.covers(fed, points).all(), f"{p[~shapely.covers(fed, points)]}"
+    assert fed.equals(best), f"{fed.wkt} != {best.wkt}"
+    assert fed.area == pytest.approx(best.area, rel=1e-12, abs=0)
+
+
+@pytest.mark.parametrize("holes", [False, True])
+@pytest.mark.parametrize("kind", list(FED_BACK))
+@examples(200)
+@given(data=st.data())
+def test_the_optimal_alpha_fed_back_gives_the_optimal_shape(kind, holes, data):
+    # Issue #37 (item 3): alpha_shape(p, alpha=optimal_alpha(p)) is the optimal
+    # shape, merged near-duplicates and holes included.
+    assert_the_optimum_feeds_back(data.draw(FED_BACK[kind], label="points"), holes)
+
+
+@pytest.mark.parametrize("holes", [False, True])
+@pytest.mark.parametrize(
+    "name", ["roundtrip_near_duplicates", "roundtrip_tiny_extent_holes"]
+)
+def test_the_campaign_round_trips_feed_back(name, holes):
+    # Issue #37, repros 05 and 07 (tests/data/README.md): the fed-back shape left
+    # 14 merged points outside, or had a triangle less.
+    p = np.load(Path(__file__).parent / "data" / "issue37" / f"{name}.npy")
+    assert_the_optimum_feeds_back(p, holes)
+
+
+def test_merged_points_off_the_shape_are_vertices_of_the_kernel_polygon():
+    # Issue #37 (item 2, repro 03): a chain of 4,000 points 0.5 x the tolerance
+    # apart is one point; the 3,999 merged ones are outside the shape's turn
+    # at their representative and come back from the kernel as ring vertices,
+    # in order (no take-in one at a time, which was quadratic).
+    n = 4000
+    chain = np.c_[200 + np.arange(n) * 0.5e-6, np.full(n, 200.0)]
+    p = np.r_[[[0, 0], [1000, 0], [0, 1000]], chain]
+    res = kernel.solve(p, np.zeros(len(p), dtype=np.int64), 1, n_jobs=1)
+    assert res.n_distinct.tolist() == [4]
+    assert res.on_ring.all()
+    ring = shapely.get_coordinates(res.geometry[0])
+    assert len(ring) == len(p) + 1
+    assert res.geometry[0].is_valid
+    assert shapely.covers(res.geometry[0], shapely.points(p)).all()
 
 
 def test_bowtie_by_hand():

@@ -701,3 +701,26 @@ def test_the_kernel_refuses_coordinates_not_in_row_order():
         geoalpha._kernel.alpha_shapes(
             xy, offsets, out_xy=np.asfortranarray(xy), **kwargs
         )
+
+
+def test_points_outside_are_taken_in_in_linear_time(monkeypatch):
+    # Issue #37 (item 2): at most TAKE_IN_POINTS points of a group are taken in
+    # one at a time (each rebuilding the rings); the rest at once. 3,000 points
+    # just outside one edge of a square were 3,000 rebuilds before.
+    from geoalpha.arrays import guarantee
+
+    calls = []
+    real = guarantee._take_in
+    monkeypatch.setattr(
+        guarantee, "_take_in", lambda poly, p: calls.append(p) or real(poly, p)
+    )
+    x = np.linspace(0.001, 0.999, 3000)
+    pts = np.r_[[[0, 0], [1, 0], [1, 1], [0, 1]], np.c_[x, -1e-7 * (1 + x)]]
+    square = np.array([shapely.box(0, 0, 1, 1)])
+    fixed, failed = guarantee.enforce(
+        square, pts, np.zeros(len(pts), dtype=int), np.ones(1, bool)
+    )
+    assert not failed[0]
+    assert fixed[0].is_valid
+    assert shapely.covers(fixed[0], shapely.points(pts)).all()
+    assert len(calls) <= guarantee.TAKE_IN_POINTS

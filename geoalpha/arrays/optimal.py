@@ -359,12 +359,12 @@ def _shapes(res: kernel.Solved, rows, gave_up, elsewhere: bool):
     geometry[degenerate] = guarantee.EMPTY_POLYGON
     # With exact predicates the kernel's rings are valid and hold every distinct
     # point in the computation coordinates; in other output coordinates only
-    # the ring vertices are certain, and a near-duplicate merged into its
-    # representative never is.
-    point = np.ascontiguousarray(res.coords, float).view(complex)[:, 0]  # x + yi
-    certain = point == point[res.rep]
-    if elsewhere:
-        certain &= res.on_ring
+    # the ring vertices are certain. A near-duplicate merged into its
+    # representative is certain where the kernel took it in as a vertex.
+    certain = res.on_ring
+    if not elsewhere:
+        point = np.ascontiguousarray(res.coords, float).view(complex)[:, 0]  # x + yi
+        certain = certain | (point == point[res.rep])
     back = np.ones(len(certain), dtype=bool)  # in input order (usually all True)
     if not certain.all():
         back[res.order] = certain
