@@ -51,8 +51,8 @@ MAX_COORDINATE: float = _kernel.MAX_COORDINATE
 # The tolerances of the Python side, here with the kernel's so that every
 # tolerance of geoalpha is in this module (docs/user_guide/guarantee.md).
 
-#: Width of the widened ear that takes in a point no other repair could, in the
-#: output coordinates, relative to the polygon's extent (at least 1).
+#: Width of the widened ear (or strip) that takes in a point no other repair
+#: could, in the output coordinates, relative to the polygon's extent (at least 1).
 REPAIR_RTOL = 1e-9
 #: Width of the ``degenerate="buffer"`` polygon made in the output coordinates
 #: (where the metric one is not valid there), relative to the extent there.
