@@ -27,9 +27,9 @@ import shapely
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from timing import best_of, fmt_time  # noqa: E402
+from timing import best_of, fmt_time
 
-import geoalpha  # noqa: E402
+import geoalpha
 
 
 def circle(n: int, seed: int = 0) -> np.ndarray:
