@@ -8,6 +8,8 @@
 //! two polygons. Every ring is then simple, and each piece has one shell,
 //! which is the valid OGC form GEOS expects.
 
+use std::cmp::Ordering;
+
 use crate::frame::{orient, Xy};
 use crate::mesh::{Mesh, NONE};
 
@@ -122,8 +124,9 @@ pub fn trace(points: &[Xy], mesh: &Mesh, label: &[u32], n_pieces: usize) -> Opti
 /// the shape around `r` (decided exactly: the ring edges at `r` cut the turn
 /// around it into sectors, inside and outside in turn, where rings touch at
 /// `r` too), is inserted into the edge at `r` that bounds its sector, when
-/// it is to the right of that edge's line, the points of one edge in the
-/// order of their projections onto it. So a merged point is a vertex of the polygon,
+/// it is to the right of that edge's line, the points of one edge in
+/// counter-clockwise order around their representative (each edge gains
+/// simple fans from its ends, outside the shape near them). So a merged point is a vertex of the polygon,
 /// in the output coordinates too (the rings are indices of input points).
 /// The others (inside the turn, or not on a ring) are left to the check
 /// where the polygons are returned. Time: linear in the points and ring
@@ -160,8 +163,9 @@ pub fn take_in(points: &[Xy], rep: &[u32], polygons: &mut Polygons) -> usize {
         let at = |i: usize| points[ring[i] as usize];
         (at(before), at(k), at((k + 1) % len), before, k)
     };
-    // Insertions: (polygon, ring, edge, key along the edge, point).
-    let mut inserts: Vec<(u32, u32, u32, f64, u32)> = Vec::new();
+    // Insertions: (polygon, ring, edge, side, point, representative); side 0:
+    // after the edge's first vertex (its representative), 1: before its last.
+    let mut inserts: Vec<(u32, u32, u32, u8, u32, u32)> = Vec::new();
     let mut rays: Vec<(Xy, usize, bool)> = Vec::new();
     for m in (0..rep.len()).filter(|&m| moved(m)) {
         let v = rep[m];
@@ -187,25 +191,42 @@ pub fn take_in(points: &[Xy], rep: &[u32], polygons: &mut Polygons) -> usize {
             continue;
         }
         let (p, q) = (first.0, last.0);
-        let (place, edge) = if orient(p, r, x) < 0.0 {
+        let (place, edge, side) = if orient(p, r, x) < 0.0 {
             let place = &places[lo + first.1];
-            (place, corners(place).3) // into r, from the ray's end
+            (place, corners(place).3, 1) // into r, from the ray's end
         } else if !last.2 && orient(r, q, x) < 0.0 {
             let place = &places[lo + last.1];
-            (place, corners(place).4) // out of r
+            (place, corners(place).4, 0) // out of r
         } else {
             continue;
         };
-        let ring = &polygons[place[1] as usize][place[2] as usize];
-        let (a, b) = (points[ring[edge] as usize], points[ring[edge + 1] as usize]);
-        let key = (x[0] - a[0]) * (b[0] - a[0]) + (x[1] - a[1]) * (b[1] - a[1]);
-        inserts.push((place[1], place[2], edge as u32, key, m as u32));
+        inserts.push((place[1], place[2], edge as u32, side, m as u32, v));
     }
-    inserts.sort_unstable_by(|u, v| {
-        (u.0, u.1, u.2)
-            .cmp(&(v.0, v.1, v.2))
-            .then(u.3.total_cmp(&v.3))
-            .then(u.4.cmp(&v.4))
+    // Along an edge: the points after its first vertex, then those before its
+    // last, each in counter-clockwise order around their representative (all
+    // are within half a turn of it, to the right of the edge's line), so the
+    // ring gains fans from the representative: p, m1 .. mk, r with the mi
+    // turning counter-clockwise around r is a simple, counter-clockwise fan,
+    // outside the shape near r. On one ray: towards the representative last
+    // (before it) or first (after it).
+    let dist = |m: u32, v: u32| {
+        let (a, b) = (points[m as usize], points[v as usize]);
+        (a[0] - b[0]).hypot(a[1] - b[1])
+    };
+    inserts.sort_unstable_by(|u, w| {
+        (u.0, u.1, u.2, u.3)
+            .cmp(&(w.0, w.1, w.2, w.3))
+            .then_with(|| {
+                let (r, a, b) = (
+                    points[u.5 as usize],
+                    points[u.4 as usize],
+                    points[w.4 as usize],
+                );
+                let turn = 0.0.partial_cmp(&orient(r, a, b)).unwrap_or(Ordering::Equal);
+                let along = dist(u.4, u.5).total_cmp(&dist(w.4, w.5));
+                let along = if u.3 == 1 { along.reverse() } else { along };
+                turn.then(along).then(u.4.cmp(&w.4))
+            })
     });
     let mut i = 0;
     while i < inserts.len() {
@@ -214,7 +235,7 @@ pub fn take_in(points: &[Xy], rep: &[u32], polygons: &mut Polygons) -> usize {
         let mut ring = Vec::with_capacity(old.len() + inserts.len() - i);
         for (edge, &v) in old[..old.len() - 1].iter().enumerate() {
             ring.push(v);
-            while let Some(&(_, _, _, _, m)) = inserts
+            while let Some(&(_, _, _, _, m, _)) = inserts
                 .get(i)
                 .filter(|s| (s.0, s.1, s.2 as usize) == (pi, ri, edge))
             {
@@ -237,11 +258,9 @@ fn clockwise_from(r: Xy, x: Xy, a: Xy, b: Xy) -> std::cmp::Ordering {
         let ahead = (v[0] - r[0]) * (x[0] - r[0]) + (v[1] - r[1]) * (x[1] - r[1]) > 0.0;
         u8::from(o > 0.0 || (o == 0.0 && !ahead))
     };
-    half(a).cmp(&half(b)).then_with(|| {
-        orient(r, a, b)
-            .partial_cmp(&0.0)
-            .unwrap_or(std::cmp::Ordering::Equal)
-    })
+    half(a)
+        .cmp(&half(b))
+        .then_with(|| orient(r, a, b).partial_cmp(&0.0).unwrap_or(Ordering::Equal))
 }
 
 /// Orientation of a simple closed ring, exactly: the turn at its
