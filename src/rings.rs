@@ -126,8 +126,9 @@ pub fn trace(points: &[Xy], mesh: &Mesh, label: &[u32], n_pieces: usize) -> Opti
 /// `r` too), is inserted into the edge at `r` that bounds its sector, when
 /// it is to the right of that edge's line, the points of one edge in
 /// counter-clockwise order around their representative (each edge gains
-/// simple fans from its ends, outside the shape near them). So a merged point is a vertex of the polygon,
-/// in the output coordinates too (the rings are indices of input points).
+/// simple fans from its ends, outside the shape near them). So a merged
+/// point is a vertex of the polygon, in the output coordinates too (the
+/// rings are indices of input points).
 /// The others (inside the turn, or not on a ring) are left to the check
 /// where the polygons are returned. Time: linear in the points and ring
 /// vertices, plus sorting the inserted points; exact duplicates of their
