@@ -271,6 +271,9 @@ class Unverified(NamedTuple):
     #: per point: a vertex of its group's polygon in the output coordinates, or
     #: covered by construction there while that polygon is valid (not tested)
     certain: np.ndarray
+    #: per point: the row of its representative (itself unless merged as a
+    #: near-duplicate); None when no point was merged
+    rep: np.ndarray | None = None
 
 
 def solve_checked(
@@ -318,7 +321,11 @@ def solve_checked(
         res = _on_the_sphere(res, polar, name_groups)
     shapes, certain = _shapes(res, rows, gave_up, out is not None)
     _warn_search(shapes, max_iterations, components, name_groups)
-    return Unverified(shapes, certain)
+    rep = None
+    if (res.rep != np.arange(len(res.rep))).any():  # rows merged into others
+        rep = np.empty(len(res.rep), dtype=np.int64)
+        rep[res.order] = res.order[res.rep]
+    return Unverified(shapes, certain, rep)
 
 
 def _on_the_sphere(res: kernel.Solved, polar, name_groups) -> kernel.Solved:
@@ -391,16 +398,31 @@ def _shapes(res: kernel.Solved, rows, gave_up, elsewhere: bool):
 def _verified(raw: Unverified, out_xy, codes, components) -> AlphaShapes:
     """Enforce the guarantee (``components``: None at a given alpha) on ``raw``."""
     res = raw.shapes
+    # At a given alpha only alpha 0 (the convex hull) holds every point; and a
+    # near-duplicate merged into a point the shape covers is covered, as at
+    # the optimum (so an optimal alpha fed back gives the optimal shape).
+    cover = True if components is not None else res.alpha == 0
+    exempt = res.outlier if res.outlier.any() else None
+    if components is None and raw.rep is not None:
+        merged = raw.rep != np.arange(len(raw.rep))
+        held = np.zeros(len(merged), dtype=bool)
+        held[merged] = guarantee.covered(
+            res.geometry, out_xy[raw.rep[merged]], codes[merged]
+        )
+        if held.any():  # their groups' shapes are not empty
+            free = ~cover[codes] & ~held  # not merged into a covered point
+            exempt = free if exempt is None else exempt | free
+            cover = cover.copy()
+            cover[codes[held]] = True
     geometry, failed = guarantee.enforce(
         res.geometry,
         out_xy,
         codes,
         ~res.degenerate,
-        # At a given alpha only alpha 0 (the convex hull) holds every point.
-        cover=True if components is not None else res.alpha == 0,
+        cover=cover,
         components=components,
         test=~raw.certain,
-        exempt=res.outlier if res.outlier.any() else None,
+        exempt=exempt,
     )
     # A repair that took in a just-missed point may have covered one left out.
     outlier = guarantee.left_outside(res.outlier, geometry, out_xy, codes)
