@@ -550,7 +550,9 @@ def alpha_shape(
     shapely.Polygon or shapely.MultiPolygon
         At the optimum, a valid (Multi)Polygon of at most ``components`` parts
         covering every input point; at a given alpha, a MultiPolygon where
-        pieces separate, empty when nothing is solid.
+        pieces separate, empty when nothing is solid (a near-duplicate merged
+        into a point it covers is covered too, so the optimal alpha fed back
+        gives the optimal shape).
 
     Examples
     --------
