@@ -65,8 +65,8 @@ MAX_EMPTY_GROUPS: int = _kernel.MAX_EMPTY_GROUPS
 # The tolerances of the Python side, here with the kernel's so that every
 # tolerance of geoalpha is in this module (docs/user_guide/guarantee.md).
 
-#: Width of the widened ear that takes in a point no other repair could, in the
-#: output coordinates, relative to the polygon's extent (at least 1).
+#: Width of the widened ear (or strip) that takes in a point no other repair
+#: could, in the output coordinates, relative to the polygon's extent (at least 1).
 REPAIR_RTOL = 1e-9
 #: Width of the ``degenerate="buffer"`` polygon made in the output coordinates
 #: (where the metric one is not valid there), relative to the extent there.
@@ -266,7 +266,7 @@ class Solved(NamedTuple):
     shape), ``capped`` (the outlier search hit its node budget), ``geometry``. Per
     point, sorted by group (``order[i]``: input row of sorted point ``i``): ``codes``,
     ``rep`` (sorted index of its representative), ``left_out``, ``on_ring`` (its
-    representative is a ring vertex), ``coords`` (output coordinates). ``curve``:
+    output coordinates are a ring vertex's), ``coords`` (output coordinates). ``curve``:
     the validity curves when asked, ``(values, valid, offsets)``.
     """
 
@@ -461,15 +461,20 @@ def solve(
         Compiled(request, n_threads, alpha is None),
     )
     coords = sxy if sout is None else sout
+    # A point is on a ring when its coordinates are a ring vertex's: it is
+    # one (a merged near-duplicate taken in), or it has its representative's.
     on_ring = np.zeros(n, dtype=bool)
     on_ring[res["ring_vertex"]] = True
+    rep = res["rep"]
+    point = np.ascontiguousarray(coords, float).reshape(n, 2).view(complex)[:, 0]
+    on_ring |= on_ring[rep] & (point == point[rep])
     return Solved(
         order=order,
         codes=np.repeat(np.arange(n_groups), sizes),
         **{k: res[k] for k in _PER_GROUP},
         rep=res["rep"],
         left_out=res["left_out"],
-        on_ring=on_ring[res["rep"]],
+        on_ring=on_ring,
         coords=coords,
         geometry=_geometries(coords, res, n_groups),
         curve=(res["curve_value"], res["curve_valid"], res["curve_offsets"])

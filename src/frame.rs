@@ -106,7 +106,9 @@ pub fn coord(p: Xy) -> robust::Coord<f64> {
 }
 
 /// Twice the signed area of the triangle `a, b, c`, with the exact sign
-/// (positive counter-clockwise) and a magnitude accurate to a few ulps.
+/// (positive counter-clockwise); its magnitude is the float determinant's
+/// whenever that has the right sign (see [`cross_accurate`] for one accurate
+/// to a few ulps).
 pub fn orient(a: Xy, b: Xy, c: Xy) -> f64 {
     robust::orient2d(coord(a), coord(b), coord(c))
 }
@@ -115,10 +117,10 @@ pub fn orient(a: Xy, b: Xy, c: Xy) -> f64 {
 /// units: `|ab| |bc| |ca| / (2 |cross|)`, `inf` for a flat triangle.
 ///
 /// The cross product is taken at the vertex of the largest angle, where the
-/// edge vectors are furthest from parallel: accurate to a few ulps unless the
-/// triangle is nearly flat, so needles keep an accurate radius (at the other
-/// vertices it can cancel to 1e-8 of its terms). Plain square roots, not
-/// `hypot`: scaled edges are between the tolerance and 2 long.
+/// edge vectors are furthest from parallel, and in the accurate form of
+/// [`cross_accurate`] where it cancels (a nearly flat triangle): the radius
+/// is accurate to a few ulps for needles and slivers alike. Plain square
+/// roots, not `hypot`: scaled edges are between the tolerance and 2 long.
 pub fn circumradius(a: Xy, b: Xy, c: Xy) -> f64 {
     let sq = |p: Xy, q: Xy| {
         let (dx, dy) = (q[0] - p[0], q[1] - p[1]);
@@ -126,18 +128,82 @@ pub fn circumradius(a: Xy, b: Xy, c: Xy) -> f64 {
     };
     let (ab, bc, ca) = (sq(a, b), sq(b, c), sq(c, a));
     // Rotations keep the orientation; the last vertex is the pivot.
-    let cross = if ab >= bc && ab >= ca {
-        orient(a, b, c)
+    let (a, b, c) = if ab >= bc && ab >= ca {
+        (a, b, c)
     } else if bc >= ca {
-        orient(b, c, a)
+        (b, c, a)
     } else {
-        orient(c, a, b)
-    }
-    .abs();
-    if cross == 0.0 {
+        (c, a, b)
+    };
+    // Flat exactly when the exact predicate says so.
+    if orient(a, b, c) == 0.0 {
         return f64::INFINITY;
     }
+    let cross = cross_accurate(a, b, c).abs();
     ab.sqrt() * bc.sqrt() / (2.0 * cross) * ca.sqrt()
+}
+
+/// `(s, e)` with `s = a + b` rounded and `s + e = a + b` exactly (Knuth's
+/// two-sum).
+fn two_sum(a: f64, b: f64) -> (f64, f64) {
+    let s = a + b;
+    let bb = s - a;
+    (s, (a - (s - bb)) + (b - bb))
+}
+
+/// `(p, e)` with `p = a * b` rounded and `p + e = a * b` exactly (one fused
+/// multiply-add; exact unless the product underflows).
+fn two_product(a: f64, b: f64) -> (f64, f64) {
+    let p = a * b;
+    (p, a.mul_add(b, -p))
+}
+
+/// The cross product `(a - c) x (b - c)` accurate to about one ulp of its
+/// value however much it cancels: the exact adaptive `orient2d` returns the
+/// plain float determinant whenever its sign is certain, which can be wrong
+/// in all but the first digits of a nearly flat triangle. Here each
+/// coordinate difference is split exactly into two floats (two-sum), the
+/// sixteen partial products are each split exactly (two-product) and the
+/// thirty-two terms are summed in twice the working precision (Ogita, Rump
+/// and Oishi's `Sum2`): the error is at most `eps |det| + 32^2 eps^2
+/// sum|terms|`, so a few ulps for a cancellation down to `1e-15` of the
+/// terms. Used where the float determinant's error bound (Shewchuk's
+/// `ccwerrboundA`) is above `2^-50` of its value; exact for an exactly flat
+/// triangle (0).
+pub fn cross_accurate(a: Xy, b: Xy, c: Xy) -> f64 {
+    let (acx, acy) = (a[0] - c[0], a[1] - c[1]);
+    let (bcx, bcy) = (b[0] - c[0], b[1] - c[1]);
+    let det = acx * bcy - acy * bcx;
+    let detsum = (acx * bcy).abs() + (acy * bcx).abs();
+    // Shewchuk's bound on the float determinant's error: (3 + 16 eps) eps.
+    const ERR: f64 = 3.330_669_073_875_471_6e-16;
+    if ERR * detsum <= 2.0 * f64::EPSILON * det.abs() {
+        return det;
+    }
+    let ax = two_sum(a[0], -c[0]);
+    let ay = two_sum(a[1], -c[1]);
+    let bx = two_sum(b[0], -c[0]);
+    let by = two_sum(b[1], -c[1]);
+    let mut terms = [0.0f64; 32];
+    let mut k = 0;
+    for (u, v, sign) in [(ax, by, 1.0), (ay, bx, -1.0)] {
+        for x in [u.0, u.1] {
+            for y in [v.0, v.1] {
+                let (p, e) = two_product(x, sign * y);
+                terms[k] = p;
+                terms[k + 1] = e;
+                k += 2;
+            }
+        }
+    }
+    // Sum2: a cascade of two-sums, the rounding errors added up apart.
+    let (mut s, mut err) = (0.0f64, 0.0f64);
+    for t in terms {
+        let (sum, e) = two_sum(s, t);
+        s = sum;
+        err += e;
+    }
+    s + err
 }
 
 #[cfg(test)]
@@ -181,6 +247,27 @@ mod tests {
             let r = circumradius(q(x), q(y), q(z)) / s;
             assert!((r / exact - 1.0).abs() < 1e-14, "{r} vs {exact}");
         }
+    }
+
+    #[test]
+    fn a_sliver_cross_product_is_accurate_where_the_float_one_is_not() {
+        // (a - c) x (b - c) = cy - cx / 2 for a = (0, 0), b = (1, 0.5): exact
+        // in floats (Sterbenz), while the float determinant of the rounded
+        // differences keeps only its first digits at these flatnesses.
+        for d in [1e-6, 3.5e-9, 1e-10, 1e-12, 1e-14] {
+            let (a, b) = ([0.0, 0.0], [1.0, 0.5]);
+            let c = [0.3, 0.15 + d];
+            let exact = c[1] - 0.5 * c[0];
+            let got = cross_accurate(a, b, c);
+            assert!(
+                (got / exact - 1.0).abs() <= 4.0 * f64::EPSILON,
+                "{d}: {got} {exact}"
+            );
+            // In every vertex order (a rotation keeps the sign).
+            assert_eq!(cross_accurate(b, c, a), got);
+            assert_eq!(cross_accurate(c, a, b), got);
+        }
+        assert_eq!(cross_accurate([0.0, 0.0], [1.0, 0.5], [0.3, 0.15]), 0.0);
     }
 
     #[test]

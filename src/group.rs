@@ -4,7 +4,7 @@ use rayon::prelude::*;
 
 use crate::frame::{circumradius, collinear, orient, Frame, Xy};
 use crate::mesh::{placed, triangulate, Mesh, NONE};
-use crate::rings::{trace, Polygons};
+use crate::rings::{take_in, trace, Polygons};
 use crate::spectrum::{
     critical, fill_rank, lower_bound, lowest, merge_ties, pieces, sweep, Cover, Curve, Outliers,
     ALPHA_RTOL, PARALLEL_TRIANGLES,
@@ -415,7 +415,11 @@ pub fn finish(
         return res;
     }
     match trace(ring_points, mesh, &label, n_pieces) {
-        Some(polygons) => res.polygons = polygons,
+        Some(mut polygons) => {
+            // Merged near-duplicates become vertices (coverage by construction).
+            take_in(ring_points, &mesh.rep, &mut polygons);
+            res.polygons = polygons
+        }
         None => res.reason = Reason::Rings as u8,
     }
     res

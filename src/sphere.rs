@@ -100,29 +100,37 @@ pub struct Local {
 }
 
 /// The group in the frame of its centre; `None` beyond [`MAX_ANGLE_DEGREES`].
+///
+/// The centre `c` (longitude `l0`, latitude `p0`) is the normalised mean of
+/// the unit vectors; each point's coordinates in the frame east, north, `c`
+/// are computed from its longitude and latitude differences to the centre,
+/// in degrees (exact for nearby points), by formulas without cancellation:
+/// `x = cos p sin dl`, `y = sin(p - p0) + 2 sin p0 cos p sin^2(dl / 2)`,
+/// `z = cos(p - p0) - 2 cos p0 cos p sin^2(dl / 2)`. So a small cap (metres
+/// across) keeps the relative accuracy of its coordinates, about an ulp of
+/// its own size, not an ulp of the sphere's radius, and points 1e-12 degrees
+/// apart keep their offsets (issue #37: differences of unit vectors lost
+/// them).
 pub fn local(points: &[Xy]) -> Option<Local> {
     let unit_vector = |p: &Xy| {
         let (sl, cl) = p[0].to_radians().sin_cos();
         let (sp, cp) = p[1].to_radians().sin_cos();
         [cp * cl, cp * sl, sp]
     };
-    let world: Vec<V3> = points.iter().map(unit_vector).collect();
-    let add = |m: V3, u: &V3| [m[0] + u[0], m[1] + u[1], m[2] + u[2]];
-    let mean = world.iter().fold([0.0; 3], add);
+    let add = |m: V3, p: &Xy| {
+        let u = unit_vector(p);
+        [m[0] + u[0], m[1] + u[1], m[2] + u[2]]
+    };
+    let mean = points.iter().fold([0.0; 3], add);
     let m = norm(mean);
     if !(m > 0.0 && m.is_finite()) {
         return None;
     }
     let c = scale(mean, 1.0 / m);
-    // e1 perpendicular to c and to the axis c is farthest from.
-    let axis = if c[2].abs() < 0.9 {
-        [0.0, 0.0, 1.0]
-    } else {
-        [1.0, 0.0, 0.0]
-    };
-    let e1 = cross(axis, c);
-    let e1 = scale(e1, 1.0 / norm(e1));
-    let e2 = cross(c, e1);
+    // The centre's longitude and latitude, in degrees (any longitude at a pole).
+    let l0 = c[1].atan2(c[0]).to_degrees();
+    let p0 = c[2].atan2(c[0].hypot(c[1])).to_degrees();
+    let (sp0, cp0) = p0.to_radians().sin_cos();
     let mut out = Local {
         unit: Vec::with_capacity(points.len()),
         stereo: Vec::with_capacity(points.len()),
@@ -130,8 +138,21 @@ pub fn local(points: &[Xy]) -> Option<Local> {
         theta_max: 0.0,
     };
     let limit = MAX_ANGLE_DEGREES.to_radians();
-    for u in world {
-        let (x, y, z) = (dot(u, e1), dot(u, e2), dot(u, c));
+    for p in points {
+        // The longitude difference in (-180, 180].
+        let mut dl = p[0] - l0;
+        if dl > 180.0 {
+            dl -= 360.0;
+        } else if dl <= -180.0 {
+            dl += 360.0;
+        }
+        let dl = dl.to_radians();
+        let dp = (p[1] - p0).to_radians();
+        let cp = p[1].to_radians().cos();
+        let (sdp, cdp) = dp.sin_cos();
+        let h = (0.5 * dl).sin();
+        let h2 = 2.0 * h * h;
+        let (x, y, z) = (cp * dl.sin(), sdp + sp0 * cp * h2, cdp - cp0 * cp * h2);
         let theta = x.hypot(y).atan2(z);
         if theta.is_nan() || theta > limit {
             return None;

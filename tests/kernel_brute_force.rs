@@ -334,6 +334,41 @@ fn points() -> impl Strategy<Value = Vec<Xy>> {
     .prop_filter("well separated", |p| spread(p))
 }
 
+/// Whether `q` is in the closed region of a ring (exact: on an edge, or a
+/// nonzero winding number, both by `orient2d`).
+fn in_ring(points: &[Xy], ring: &[u32], q: Xy) -> bool {
+    let mut winding = 0i32;
+    for w in ring.windows(2) {
+        let (a, b) = (points[w[0] as usize], points[w[1] as usize]);
+        let o = orient2d(coord(a), coord(b), coord(q));
+        let within = |k: usize| a[k].min(b[k]) <= q[k] && q[k] <= a[k].max(b[k]);
+        if o == 0.0 && within(0) && within(1) {
+            return true;
+        }
+        if a[1] <= q[1] && b[1] > q[1] && o > 0.0 {
+            winding += 1;
+        } else if a[1] > q[1] && b[1] <= q[1] && o < 0.0 {
+            winding -= 1;
+        }
+    }
+    winding != 0
+}
+
+/// Whether `q` is covered by one of the polygons (shell, then holes).
+fn covered(points: &[Xy], polygons: &[Vec<Vec<u32>>], q: Xy) -> bool {
+    polygons.iter().any(|poly| {
+        let on_hole_edge = poly[1..].iter().any(|h| {
+            h.windows(2).any(|w| {
+                let (a, b) = (points[w[0] as usize], points[w[1] as usize]);
+                let within = |k: usize| a[k].min(b[k]) <= q[k] && q[k] <= a[k].max(b[k]);
+                orient2d(coord(a), coord(b), coord(q)) == 0.0 && within(0) && within(1)
+            })
+        });
+        in_ring(points, &poly[0], q)
+            && (on_hole_edge || !poly[1..].iter().any(|h| in_ring(points, h, q)))
+    })
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(300))]
 
@@ -456,6 +491,31 @@ proptest! {
         // alpha = 0: every spherical Delaunay triangle, the spherical hull.
         let hull = solve(&p, None, Some(0.0), 0, &options);
         prop_assert_eq!(hull.polygons.len(), 1);
+    }
+
+    #[test]
+    fn merged_near_duplicates_are_covered_by_the_kernel_polygon(
+        p in points(),
+        holes in any::<bool>(),
+        copies in prop::collection::vec((0usize..8, -4i32..5, -4i32..5), 1..12),
+    ) {
+        // Copies of some points moved by up to 5.7e-8 (merged when the
+        // extent is above 57, the tolerance being 1e-9 of it): the kernel's
+        // polygon covers every one of them exactly, in the input coordinates
+        // (issue #37), and the optimal alpha fed back gives the same polygons.
+        let mut all = p.clone();
+        for &(i, dx, dy) in &copies {
+            let q = p[i % p.len()];
+            all.push([q[0] + f64::from(dx) * 1e-8, q[1] + f64::from(dy) * 1e-8]);
+        }
+        let options = Options { holes, components: 1, curve: false, max_union_nodes: MAX_UNION_NODES, sphere: false };
+        let best = solve(&all, None, None, 0, &options);
+        prop_assert_eq!(best.reason, 0);
+        for (i, &q) in all.iter().enumerate() {
+            prop_assert!(covered(&all, &best.polygons, q), "point {} {:?} outside {:?}", i, q, best.polygons);
+        }
+        let again = solve(&all, None, Some(best.alpha), 0, &options);
+        prop_assert_eq!(best.polygons, again.polygons);
     }
 }
 

@@ -30,6 +30,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections import deque
+from decimal import Decimal, localcontext
 from fractions import Fraction
 
 import numpy as np
@@ -59,6 +60,56 @@ def exact_circumradius(a, b, c) -> float:
     r2 = ab2 * bc2 * ca2 / (4 * cross * cross)
     # float(Fraction) is correctly rounded; the square root adds < 1 ulp.
     return math.sqrt(float(r2))
+
+
+def exact_delaunay(points):
+    """Delaunay triangles and neighbours of a few points, in rational arithmetic.
+
+    Brute force over every triple (O(n^4) exact ``incircle`` tests: for a
+    dozen points): a triangle is Delaunay when no point is strictly inside
+    its circumcircle. Returns ``(simplices, neighbors)`` as scipy's Delaunay
+    does (counter-clockwise; neighbour ``k`` opposite vertex ``k``, -1 on the
+    hull), or None when four points are cocircular (not unique) or all are
+    collinear.
+    """
+    p = [(Fraction(float(x)), Fraction(float(y))) for x, y in points]
+
+    def orient(a, b, c):
+        return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+
+    def incircle(a, b, c, d):  # > 0: d inside the circle of ccw a, b, c
+        rows = [(q[0] - d[0], q[1] - d[1]) for q in (a, b, c)]
+        m = [(x, y, x * x + y * y) for x, y in rows]
+        return (
+            m[0][0] * (m[1][1] * m[2][2] - m[2][1] * m[1][2])
+            - m[0][1] * (m[1][0] * m[2][2] - m[2][0] * m[1][2])
+            + m[0][2] * (m[1][0] * m[2][1] - m[2][0] * m[1][1])
+        )
+
+    tris = []
+    for i, j, k in itertools.combinations(range(len(p)), 3):
+        o = orient(p[i], p[j], p[k])
+        if o == 0:
+            continue
+        t = (i, j, k) if o > 0 else (i, k, j)
+        side = [incircle(*(p[v] for v in t), p[m]) for m in range(len(p)) if m not in t]
+        if any(s > 0 for s in side):
+            continue
+        if any(s == 0 for s in side):
+            return None
+        tris.append(t)
+    if not tris:
+        return None
+    simplices = np.array(tris, dtype=np.int64)
+    edge = {}
+    for t, s in enumerate(tris):
+        for k in range(3):
+            edge[(s[(k + 1) % 3], s[(k + 2) % 3])] = (t, k)
+    neighbors = np.full((len(tris), 3), -1, dtype=np.int64)
+    for (a, b), (t, k) in edge.items():
+        if (b, a) in edge:
+            neighbors[t, k] = edge[(b, a)][0]
+    return simplices, neighbors
 
 
 #: The documented near-degeneracy rule (README "Near-degenerate input"),
@@ -509,3 +560,95 @@ def ellipsoid_areas(hulls) -> np.ndarray:
             for g in lonlat
         ]
     )
+
+
+# --------------------------------------------------------------------------
+# The sphere in 60 significant digits (issue #37): no float unit vectors
+# --------------------------------------------------------------------------
+
+_PI = Decimal("3.14159265358979323846264338327950288419716939937510582097494459")
+
+
+def _dsin(x: Decimal) -> Decimal:
+    """sin in decimal arithmetic (Taylor series after reduction to [-pi, pi])."""
+    with localcontext() as ctx:
+        ctx.prec = 60
+        x = x % (2 * _PI)
+        if x > _PI:
+            x -= 2 * _PI
+        term, total, k = x, x, 1
+        while abs(term) > Decimal(10) ** -70:
+            term *= -x * x / ((2 * k) * (2 * k + 1))
+            total += term
+            k += 1
+        return +total
+
+
+def decimal_unit(lon: float, lat: float) -> tuple:
+    """The unit vector of a longitude and latitude in degrees, 60 digits."""
+    with localcontext() as ctx:
+        ctx.prec = 60
+        lo = Decimal(float(lon)) * _PI / 180
+        la = Decimal(float(lat)) * _PI / 180
+        cos_la = _dsin(la + _PI / 2)
+        return (cos_la * _dsin(lo + _PI / 2), cos_la * _dsin(lo), _dsin(la))
+
+
+def _sub(a, b):
+    return tuple(x - y for x, y in zip(a, b, strict=True))
+
+
+def _dot(a, b):
+    return sum(x * y for x, y in zip(a, b, strict=True))
+
+
+def _cross(a, b):
+    return (
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    )
+
+
+def decimal_cap_radius(u, v, w) -> float:
+    """Angular radius of the circle through three decimal unit vectors.
+
+    The circumradius of their chord triangle, ``|ab| |bc| |ca| / (2 |ab x ac|)``,
+    is the sine of the smaller cap's angular radius (a formula the kernel does
+    not use), evaluated in 60 digits.
+    """
+    with localcontext() as ctx:
+        ctx.prec = 60
+        ab, bc, ca = (_dot(d, d).sqrt() for d in (_sub(v, u), _sub(w, v), _sub(u, w)))
+        n = _cross(_sub(v, u), _sub(w, u))
+        return math.asin(float(ab * bc * ca / (2 * _dot(n, n).sqrt())))
+
+
+def decimal_sphere_optimum(lonlat, radius, holes=False, components=1) -> float:
+    """Optimal alpha on the sphere of ``radius``, the unit vectors in 60 digits.
+
+    The stereographic image from minus the points' mean direction (circles to
+    circles) is computed in decimal arithmetic and rounded to floats relative
+    to the first point, so it keeps offsets far below an ulp of the sphere;
+    Qhull triangulates it (every point must be a vertex), and each triangle's
+    radius is :func:`decimal_cap_radius`. Then :func:`mesh_optimum`.
+    """
+    u = [decimal_unit(*p) for p in lonlat]
+    with localcontext() as ctx:
+        ctx.prec = 60
+        m = tuple(sum(v[k] for v in u) for k in range(3))
+        c = tuple(x / _dot(m, m).sqrt() for x in m)
+        e1 = _cross((Decimal(0), Decimal(0), Decimal(1)), c)
+        e1 = tuple(x / _dot(e1, e1).sqrt() for x in e1)
+        e2 = _cross(c, e1)
+        img = [
+            (2 * _dot(v, e1) / (1 + _dot(v, c)), 2 * _dot(v, e2) / (1 + _dot(v, c)))
+            for v in u
+        ]
+        x0, y0 = img[0]
+        plane = np.array([(float(x - x0), float(y - y0)) for x, y in img])
+    d = Delaunay(plane)
+    hull = len(np.unique(d.convex_hull))
+    assert len(d.simplices) == 2 * len(plane) - hull - 2, "Qhull dropped a point"
+    r = np.array([radius * decimal_cap_radius(*(u[i] for i in s)) for s in d.simplices])
+    return mesh_optimum(len(plane), d.simplices, d.neighbors, r, holes, components)

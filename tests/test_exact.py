@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -372,9 +373,9 @@ def check_against_reference(p, holes, components, data):
         assert (got.geom_type, parts(got)) == (expected.geom_type, parts(expected)), (
             alpha
         )
-        # Alpha 0, the convex hull, holds every point: merged near-duplicates
-        # are taken in as vertices, as at the optimum.
-        assert_same_region(got, expected, slack if alpha == 0 else 0.0)
+        # At every alpha, merged near-duplicates outside the shape beside a
+        # ring vertex are taken in as vertices, as at the optimum (issue #37).
+        assert_same_region(got, expected, slack)
         assert_vertices_are_inputs(got, p)
 
 
@@ -416,6 +417,62 @@ def test_needle_triangle_radius():
     assert reference.graph_optimum(p) == pytest.approx(1 / needle, rel=1e-14)
 
 
+@st.composite
+def slivers(draw):
+    """Points exactly on y = x / 2, one a flatness of 1e-12..1e-6 off it, one far off.
+
+    The off point's triangles with the line are nearly flat (issue #37, repro
+    02): its smallest radius is the optimum, a needle's radius. The far point
+    (below the line) keeps the group from being collinear.
+    """
+    xs = draw(st.lists(st.integers(0, 800), min_size=3, max_size=7, unique=True))
+    line = [(x / 8, x / 16) for x in xs]  # exact: y is x / 2
+    flat = 10.0 ** draw(st.floats(-12, -6))
+    ax = draw(st.integers(0, 800).filter(lambda x: x not in xs)) / 8
+    apex = (ax, ax / 2 + flat * 100)
+    far = draw(st.integers(0, 800)) / 8
+    return np.array([*line, apex, (far, far / 2 - draw(st.sampled_from([5, 20, 60])))])
+
+
+@examples(200)
+@given(p=slivers())
+def test_sliver_radii_are_exact_to_a_few_ulps(p):
+    # Issue #37 (item 4): the optimum against a rational Delaunay triangulation
+    # and correctly rounded radii, on flatnesses 1e-12..1e-6 of the extent.
+    assume(not reference.is_collinear(p))
+    exact = reference.exact_delaunay(p)
+    assume(exact is not None)
+    simplices, neighbors = exact
+    r = np.array([reference.exact_circumradius(*p[s]) for s in simplices])
+    for holes in (False, True):
+        want = reference.mesh_optimum(len(p), simplices, neighbors, r, holes)
+        # A few ulps: the radius's and the division's roundings.
+        assert optimal_alpha(p, holes=holes) == pytest.approx(want, rel=1e-15, abs=0)
+
+
+def test_the_needle_fan_of_repro_02_is_exact():
+    # 196 points on y = x / 2 and one 3.5e-9 of the extent off it: the fan's
+    # largest radius was off by 2.4e-9 (the float determinant of orient2d).
+    from fractions import Fraction as F
+
+    xs = np.linspace(0, 100, 196)
+    line = np.c_[xs, xs / 2]
+    apex = np.array([50.0, 25 + 3.5e-7])
+    p = np.r_[[apex], line]
+
+    def r2(a, b, c):
+        (ax, ay), (bx, by), (cx, cy) = ((F(u), F(v)) for u, v in (a, b, c))
+        cr = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
+        sq = [
+            (u - v) ** 2 + (w - z) ** 2
+            for u, w, v, z in ((ax, ay, bx, by), (bx, by, cx, cy), (cx, cy, ax, ay))
+        ]
+        return sq[0] * sq[1] * sq[2] / (4 * cr * cr)
+
+    want = math.sqrt(float(max(r2(apex, line[i], line[i + 1]) for i in range(195))))
+    assert 1 / optimal_alpha(p) == pytest.approx(want, rel=4e-16, abs=0)
+
+
 def test_near_duplicate_below_tolerance_is_merged():
     # 1e-11 of the extent apart: one point (docs/user_guide/guarantee.md).
     # The optimum is that of the three other points, and the merged point is
@@ -444,6 +501,75 @@ def test_merged_points_are_covered(p):
         shape = alpha_shape(p, holes=holes)
         outside = ~shapely.covers(shape, shapely.points(p))
         assert not outside.any(), f"{p[outside]} outside {shape.wkt}"
+
+
+@st.composite
+def tiny_at_an_offset(draw):
+    """A group ~1e-9 across at an offset of up to 1e3 (issue #37, repro 07)."""
+    n = draw(st.integers(4, 40))
+    seed = draw(st.integers(0, 2**32 - 1))
+    offset = draw(st.tuples(st.integers(-1000, 1000), st.integers(-1000, 1000)))
+    rng = np.random.default_rng(seed)
+    return rng.random((n, 2)) * 1e-9 + np.array(offset, dtype=float)
+
+
+FED_BACK = {
+    "near_duplicates": near_duplicates(smallest=1e-14, largest=1e-6),
+    "tiny_at_an_offset": tiny_at_an_offset(),
+    "uniform": uniform(),
+}
+
+
+def assert_the_optimum_feeds_back(p, holes):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DegenerateGroupWarning)
+        alpha = optimal_alpha(p, holes=holes)
+        assume(np.isfinite(alpha))
+        best = alpha_shape(p, holes=holes)
+        fed = alpha_shape(p, alpha=alpha, holes=holes)
+    points = shapely.points(p)
+    assert shapely.covers(best, points).all()
+    assert shapely.covers(fed, points).all(), f"{p[~shapely.covers(fed, points)]}"
+    assert fed.equals(best), f"{fed.wkt} != {best.wkt}"
+    assert fed.area == pytest.approx(best.area, rel=1e-12, abs=0)
+
+
+@pytest.mark.parametrize("holes", [False, True])
+@pytest.mark.parametrize("kind", list(FED_BACK))
+@examples(200)
+@given(data=st.data())
+def test_the_optimal_alpha_fed_back_gives_the_optimal_shape(kind, holes, data):
+    # Issue #37 (item 3): alpha_shape(p, alpha=optimal_alpha(p)) is the optimal
+    # shape, merged near-duplicates and holes included.
+    assert_the_optimum_feeds_back(data.draw(FED_BACK[kind], label="points"), holes)
+
+
+@pytest.mark.parametrize("holes", [False, True])
+@pytest.mark.parametrize(
+    "name", ["roundtrip_near_duplicates", "roundtrip_tiny_extent_holes"]
+)
+def test_the_campaign_round_trips_feed_back(name, holes):
+    # Issue #37, repros 05 and 07 (tests/data/README.md): the fed-back shape left
+    # 14 merged points outside, or had a triangle less.
+    p = np.load(Path(__file__).parent / "data" / "issue37" / f"{name}.npy")
+    assert_the_optimum_feeds_back(p, holes)
+
+
+def test_merged_points_off_the_shape_are_vertices_of_the_kernel_polygon():
+    # Issue #37 (item 2, repro 03): a chain of 4,000 points 0.5 x the tolerance
+    # apart is one point; the 3,999 merged ones are outside the shape's turn
+    # at their representative and come back from the kernel as ring vertices,
+    # in order (no take-in one at a time, which was quadratic).
+    n = 4000
+    chain = np.c_[200 + np.arange(n) * 0.5e-6, np.full(n, 200.0)]
+    p = np.r_[[[0, 0], [1000, 0], [0, 1000]], chain]
+    res = kernel.solve(p, np.zeros(len(p), dtype=np.int64), 1, Request(n_jobs=1))
+    assert res.n_distinct.tolist() == [4]
+    assert res.on_ring.all()
+    ring = shapely.get_coordinates(res.geometry[0])
+    assert len(ring) == len(p) + 1
+    assert res.geometry[0].is_valid
+    assert shapely.covers(res.geometry[0], shapely.points(p)).all()
 
 
 def test_bowtie_by_hand():

@@ -747,3 +747,26 @@ def test_explain_and_curve_take_every_family_of_group():
     for _, one in curve.groupby("g"):  # never wider with more left out
         radius = one["radius"].to_numpy()  # (k = 0 is hull()'s 1 / alpha)
         assert (np.diff(radius) <= 1e-12 * radius[0]).all()
+
+
+def test_points_outside_are_taken_in_in_linear_time(monkeypatch):
+    # Issue #37 (item 2): at most TAKE_IN_POINTS points of a group are taken in
+    # one at a time (each rebuilding the rings); the rest at once. 3,000 points
+    # just outside one edge of a square were 3,000 rebuilds before.
+    from geoalpha.arrays import guarantee
+
+    calls = []
+    real = guarantee._take_in
+    monkeypatch.setattr(
+        guarantee, "_take_in", lambda poly, p: calls.append(p) or real(poly, p)
+    )
+    x = np.linspace(0.001, 0.999, 3000)
+    pts = np.r_[[[0, 0], [1, 0], [1, 1], [0, 1]], np.c_[x, -1e-7 * (1 + x)]]
+    square = np.array([shapely.box(0, 0, 1, 1)])
+    fixed, failed = guarantee.enforce(
+        square, pts, np.zeros(len(pts), dtype=int), np.ones(1, bool)
+    )
+    assert not failed[0]
+    assert fixed[0].is_valid
+    assert shapely.covers(fixed[0], shapely.points(pts)).all()
+    assert len(calls) <= guarantee.TAKE_IN_POINTS

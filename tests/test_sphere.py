@@ -13,12 +13,21 @@ from __future__ import annotations
 
 import re
 import warnings
+from pathlib import Path
 
 import geopandas as gpd
 import numpy as np
 import pytest
 import shapely
-from reference import AREA_ATOL, AREA_RTOL, ellipsoid_areas, mesh_optimum
+from reference import (
+    AREA_ATOL,
+    AREA_RTOL,
+    decimal_cap_radius,
+    decimal_sphere_optimum,
+    decimal_unit,
+    ellipsoid_areas,
+    mesh_optimum,
+)
 from scipy.spatial import ConvexHull
 
 import geoalpha
@@ -394,3 +403,39 @@ def test_two_points_far_apart_are_a_degenerate_group_not_an_error():
     with pytest.warns(DegenerateGroupWarning, match="far"):
         out = geoalpha.hull(gdf, by="g", crs="sphere")
     assert out.set_index("g")["alpha"].isna().tolist() == [True, False]
+
+
+def test_small_caps_have_their_radius_to_1e_13():
+    # Issue #37 (item 5): triangles 3 m to 50 m across, anywhere below 85
+    # degrees of latitude, against their chord circumradius in 60 digits. The
+    # differences of float unit vectors lost up to 1.3e-8 here (6.7e-4 in the
+    # campaign); coordinates from longitude and latitude differences keep ~1e-15.
+    rng = np.random.default_rng(37)
+    worst = 0.0
+    for _ in range(100):
+        lon0, lat0 = rng.uniform(-180, 180), rng.uniform(-85, 85)
+        half = 10 ** rng.uniform(np.log10(1.5), np.log10(25)) / R * 180 / np.pi
+        dlon = rng.uniform(-1, 1, 3) * half / np.cos(np.radians(lat0))
+        pts = np.c_[lon0 + dlon, lat0 + rng.uniform(-1, 1, 3) * half]
+        res = geoalpha.alpha_shapes(pts, sphere=True, n_jobs=1)
+        want = R * decimal_cap_radius(*(decimal_unit(*p) for p in pts))
+        worst = max(worst, abs(1 / res.alpha[0] / want - 1))
+    assert worst < 1e-13
+
+
+def test_the_near_duplicate_group_of_the_campaign_matches_a_60_digit_reference():
+    # Issue #37 (item 5, repro 06): a group 600 m across with pairs 2e-11 degrees
+    # apart (3.5e-9 of its extent: not merged). The campaign's references, on
+    # float unit vectors (the pairs are ~1,600 ulps of 1 apart there, and
+    # Qhull's 3-D hull loses them: test's own spherical_delaunay fails on it),
+    # said 244 m; in 60 digits the optimum is geoalpha's 63.8 m.
+    ll = np.load(
+        Path(__file__).parent / "data" / "issue37" / "sphere_near_duplicates.npy"
+    )
+    res = geoalpha.alpha_shapes(ll, sphere=True, n_jobs=1)
+    assert res.n_distinct[0] == len(ll)
+    want = decimal_sphere_optimum(ll, R)
+    assert res.alpha[0] == pytest.approx(want, rel=1e-12)
+    assert 1 / res.alpha[0] == pytest.approx(63.8, abs=0.01)
+    hull = geoalpha.hull(frame(ll), crs="sphere")
+    assert shapely.covers(hull.geometry[0], shapely.points(ll)).all()

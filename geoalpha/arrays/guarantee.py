@@ -29,6 +29,9 @@ EMPTY_POLYGON = kernel.EMPTY_POLYGON
 _MAKE_VALID_METHOD = "method" in inspect.signature(shapely.make_valid).parameters
 #: Points from which :func:`covered` spreads its tests over threads.
 THREAD_POINTS = 100_000
+#: Points outside a group's polygon taken in one at a time as vertices; the
+#: rest of the group's are joined to it at once (:func:`_cover_points`).
+TAKE_IN_POINTS = 64
 
 
 def convex_hulls(out_xy: np.ndarray, codes: np.ndarray, n_groups: int) -> np.ndarray:
@@ -169,19 +172,49 @@ def enforce(
 
 
 def _cover_points(geoms, out_xy, codes) -> np.ndarray:
-    """Grow each group's geometry to take in its points outside (:func:`_take_in`)."""
+    """Grow each group's geometry to take in its points outside.
+
+    At most :data:`TAKE_IN_POINTS` points of a group one at a time as vertices
+    (:func:`_take_in`: each rebuilds the part's rings); the rest of a group
+    at once (:func:`_take_in_all`), so the time is linear in the points
+    outside, never their number times the ring's size (issue #37).
+    """
     geoms = geoms.copy()
     outside = ~covered(geoms, out_xy, codes) & ~shapely.is_empty(geoms[codes])
-    for g in np.unique(codes[outside]):  # only groups with a point outside
+    order = np.argsort(codes[outside], kind="stable")
+    xy, which = out_xy[outside][order], codes[outside][order]
+    groups, starts = np.unique(which, return_index=True)
+    ends = np.append(starts[1:], len(which))[: len(groups)]
+    for g, a, b in zip(groups, starts, ends, strict=True):
         poly = geoms[g]
         try:
-            for p in shapely.points(out_xy[outside & (codes == g)]):
+            for p in shapely.points(xy[a : min(b, a + TAKE_IN_POINTS)]):
                 if not poly.covers(p):
                     poly = _take_in(poly, p)
+            if b - a > TAKE_IN_POINTS:
+                poly = _take_in_all(poly, xy[a + TAKE_IN_POINTS : b])
         except (shapely.errors.GEOSException, ValueError):
             continue  # left as it was: the caller's coverage check fails it
         geoms[g] = poly
     return geoms
+
+
+def _take_in_all(poly, xy):
+    """Join the points of ``xy`` outside ``poly`` to it by thin strips, in one union.
+
+    Each point's shortest line to the polygon, widened by
+    :data:`~geoalpha.kernel.REPAIR_RTOL` of the extent: O(k log k) for k points.
+    """
+    points = shapely.points(xy)
+    points = points[~shapely.covers(poly, points)]
+    if len(points) == 0:
+        return poly
+    lines = shapely.shortest_line(poly, points)
+    coords = np.r_[shapely.get_coordinates(poly), xy]
+    extent = max(np.ptp(coords, axis=0).max(), np.abs(coords).max(), 1.0)
+    strips = shapely.buffer(lines, kernel.REPAIR_RTOL * extent)
+    grown = shapely.union_all(np.r_[[poly], strips])
+    return _polygonal(np.array([grown], dtype=object))[0]
 
 
 def covered(

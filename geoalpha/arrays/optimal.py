@@ -294,6 +294,9 @@ class Unverified(NamedTuple):
     certain: np.ndarray
     #: why each group got its radius, and its alternatives (what ``request`` asked)
     why: kernel.Why
+    #: per point: the row of its representative (itself unless merged as a
+    #: near-duplicate); None when no point was merged
+    rep: np.ndarray | None = None
 
 
 def solve_checked(
@@ -339,7 +342,11 @@ def solve_checked(
         res = _on_the_sphere(res, polar, name_groups, refuse)
     shapes, certain = _shapes(res, rows, gave_up, out is not None)
     _warn_search(shapes, max_iterations, request.components, name_groups)
-    return Unverified(shapes, certain, res.why)
+    rep = None
+    if (res.rep != np.arange(len(res.rep))).any():  # rows merged into others
+        rep = np.empty(len(res.rep), dtype=np.int64)
+        rep[res.order] = res.order[res.rep]
+    return Unverified(shapes, certain, res.why, rep)
 
 
 def _on_the_sphere(
@@ -382,12 +389,12 @@ def _shapes(res: kernel.Solved, rows, gave_up, elsewhere: bool):
     geometry[degenerate] = guarantee.EMPTY_POLYGON
     # With exact predicates the kernel's rings are valid and hold every distinct
     # point in the computation coordinates; in other output coordinates only
-    # the ring vertices are certain, and a near-duplicate merged into its
-    # representative never is.
-    point = np.ascontiguousarray(res.coords, float).view(complex)[:, 0]  # x + yi
-    certain = point == point[res.rep]
-    if elsewhere:
-        certain &= res.on_ring
+    # the ring vertices are certain. A near-duplicate merged into its
+    # representative is certain where the kernel took it in as a vertex.
+    certain = res.on_ring
+    if not elsewhere:
+        point = np.ascontiguousarray(res.coords, float).view(complex)[:, 0]  # x + yi
+        certain = certain | (point == point[res.rep])
     back = np.ones(len(certain), dtype=bool)  # in input order (usually all True)
     if not certain.all():
         back[res.order] = certain
@@ -414,16 +421,31 @@ def _shapes(res: kernel.Solved, rows, gave_up, elsewhere: bool):
 def _verified(raw: Unverified, out_xy, codes, components) -> AlphaShapes:
     """Enforce the guarantee (``components``: None at a given alpha) on ``raw``."""
     res = raw.shapes
+    # At a given alpha only alpha 0 (the convex hull) holds every point; and a
+    # near-duplicate merged into a point the shape covers is covered, as at
+    # the optimum (so an optimal alpha fed back gives the optimal shape).
+    cover = True if components is not None else res.alpha == 0
+    exempt = res.outlier if res.outlier.any() else None
+    if components is None and raw.rep is not None:
+        merged = raw.rep != np.arange(len(raw.rep))
+        held = np.zeros(len(merged), dtype=bool)
+        held[merged] = guarantee.covered(
+            res.geometry, out_xy[raw.rep[merged]], codes[merged]
+        )
+        if held.any():  # their groups' shapes are not empty
+            free = ~cover[codes] & ~held  # not merged into a covered point
+            exempt = free if exempt is None else exempt | free
+            cover = cover.copy()
+            cover[codes[held]] = True
     geometry, failed = guarantee.enforce(
         res.geometry,
         out_xy,
         codes,
         ~res.degenerate,
-        # At a given alpha only alpha 0 (the convex hull) holds every point.
-        cover=True if components is not None else res.alpha == 0,
+        cover=cover,
         components=components,
         test=~raw.certain,
-        exempt=res.outlier if res.outlier.any() else None,
+        exempt=exempt,
     )
     # A repair that took in a just-missed point may have covered one left out.
     outlier = guarantee.left_outside(res.outlier, geometry, out_xy, codes)
@@ -555,7 +577,9 @@ def alpha_shape(
     shapely.Polygon or shapely.MultiPolygon
         At the optimum, a valid (Multi)Polygon of at most ``components`` parts
         covering every input point; at a given alpha, a MultiPolygon where
-        pieces separate, empty when nothing is solid.
+        pieces separate, empty when nothing is solid (a near-duplicate merged
+        into a point it covers is covered too, so the optimal alpha fed back
+        gives the optimal shape).
 
     Examples
     --------
