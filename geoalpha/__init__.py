@@ -20,6 +20,7 @@ from geoalpha.errors import (
     InvalidInputError,
     OutlierWarning,
     SearchWarning,
+    SharedLocationWarning,
 )
 
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs
@@ -41,6 +42,7 @@ __all__ = [
     "InvalidInputError",
     "OutlierWarning",
     "SearchWarning",
+    "SharedLocationWarning",
     "__version__",
     "alpha_shape",
     "alpha_shapes",
