@@ -126,7 +126,8 @@ def split_overlaps(
     if check is not None:
         usable &= check
     touching = _intersecting(np.where(usable, geoms, None))  # one STRtree query
-    pairs = touching[_inner(geoms, touching)]
+    inner = _inner(geoms, touching)
+    pairs = touching[inner]
     none = np.zeros(n, dtype=bool)
     if not len(pairs):
         return Split(
@@ -176,7 +177,9 @@ def split_overlaps(
     return Split(
         out,
         mask & ~failed,
-        _neighbours(out, touching),
+        _neighbours(out, touching, np.where(failed[touching].any(axis=1), False, inner))
+        if len(touching)
+        else np.zeros(n, dtype=np.int64),
         np.concatenate(shared) if shared else np.zeros((0, 2)),
         np.concatenate(shared_groups) if shared else np.zeros((0, 2), dtype=np.int64),
         failed,
@@ -212,17 +215,18 @@ def _split_pair(overlap, pg: np.ndarray, ph: np.ndarray, g: int, h: int, angles)
     pad = max(diagonal, reach, 1e-300)
     frame = shapely.box(x0 - pad, y0 - pad, x1 + pad, y1 + pad)
     cells = _voronoi_cells(sites, frame)
-    mixed = has.all(axis=1)
-    to_g = list(cells[has[:, 0] & ~mixed])
-    to_h = list(cells[has[:, 1] & ~mixed])
+    shapely.prepare(overlap)
+    meets = shapely.intersects(overlap, cells)  # only these cells matter
+    mixed = has.all(axis=1) & meets
+    to_g = [_cells_union(cells[has[:, 0] & ~mixed & meets])]
+    to_h = [_cells_union(cells[has[:, 1] & ~mixed & meets])]
     if mixed.any():
         for site, cell in zip(sites[mixed], cells[mixed], strict=True):
             chosen = angles[tuple(site.tolist())]
             half = _half_plane(site, chosen[g], chosen[h], cell)
             to_g.append(_overlay(shapely.intersection, cell, half))
             to_h.append(_overlay(shapely.difference, cell, half))
-    region_g = _overlay(shapely.union_all, np.array(to_g, dtype=object))
-    region_h = _overlay(shapely.union_all, np.array(to_h, dtype=object))
+    region_g, region_h = _union(to_g), _union(to_h)
     lose_g = _overlay(shapely.intersection, overlap, region_h)
     lose_h = _overlay(shapely.intersection, overlap, region_g)
     return lose_g, lose_h, sites[mixed]
@@ -232,17 +236,18 @@ def _shared_locations(xy: np.ndarray, codes: np.ndarray):
     """Return the locations holding points of several groups, and their groups."""
     if not len(xy):
         return np.zeros((0, 2)), []
-    keys = np.column_stack([xy, codes])
-    keys = np.unique(keys, axis=0)  # sorted by location, then group
-    loc, first, count = np.unique(
-        keys[:, :2], axis=0, return_index=True, return_counts=True
-    )
-    many = count > 1
-    groups = [
-        keys[f : f + c, 2].astype(np.int64).tolist()
-        for f, c in zip(first[many], count[many], strict=True)
-    ]
-    return loc[many], groups
+    order = np.lexsort((codes, xy[:, 1], xy[:, 0]))
+    sx, sc = xy[order], codes[order]
+    new = np.r_[True, (sx[1:] != sx[:-1]).any(axis=1)]  # a location starts
+    other = np.r_[False, ~new[1:] & (sc[1:] != sc[:-1])]  # another group there
+    if not other.any():
+        return np.zeros((0, 2)), []
+    starts = np.flatnonzero(new)
+    where = np.searchsorted(starts, np.flatnonzero(other), side="right") - 1
+    shared = np.unique(where)
+    ends = np.r_[starts[1:], len(sx)]
+    groups = [np.unique(sc[starts[k] : ends[k]]).tolist() for k in shared]
+    return sx[starts[shared]], groups
 
 
 def _cut(poly, losses: list):
@@ -255,7 +260,7 @@ def _cut(poly, losses: list):
     losses = np.array([g for g in losses if not shapely.is_empty(g)], dtype=object)
     if not len(losses):
         return poly
-    lost = _overlay(shapely.union_all, losses)
+    lost = _union(list(losses))
     whole, part = shapely.area(poly), shapely.area(lost)
     tol = 1e-9 * whole
 
@@ -272,6 +277,37 @@ def _cut(poly, losses: list):
         return cut
     scale = max(float(np.abs(shapely.bounds(poly)).max()), 1e-300)
     return shapely.difference(poly, lost, grid_size=_GRID_RTOL * scale)
+
+
+def _union(geoms: list):
+    """Return the union of polygons (an overlay only for two or more non-empty)."""
+    geoms = [g for g in geoms if not shapely.is_empty(g)]
+    if not geoms:
+        return EMPTY_POLYGON
+    if len(geoms) == 1:
+        return geoms[0]
+    return _overlay(shapely.union_all, np.array(geoms, dtype=object))
+
+
+def _cells_union(cells: np.ndarray):
+    """Return the union of Voronoi cells (a coverage: edges shared exactly).
+
+    ``coverage_union_all`` only drops the shared edges, far faster than an
+    overlay; checked by area (a coverage's union has the sum of its areas),
+    else the overlay.
+    """
+    if not len(cells):
+        return EMPTY_POLYGON
+    if len(cells) == 1:
+        return cells[0]
+    try:
+        union = shapely.coverage_union_all(cells)
+        total = float(shapely.area(cells).sum())
+        if shapely.is_valid(union) and abs(shapely.area(union) - total) <= 1e-9 * total:
+            return union
+    except shapely.errors.GEOSException:
+        pass
+    return _overlay(shapely.union_all, cells)
 
 
 def _voronoi_cells(sites: np.ndarray, frame) -> np.ndarray:
@@ -412,19 +448,21 @@ def _without_crumbs(split, before):
     return parts[0] if len(parts) == 1 else shapely.multipolygons(parts)
 
 
-def _neighbours(geoms: np.ndarray, touching: np.ndarray) -> np.ndarray:
+def _neighbours(geoms: np.ndarray, touching: np.ndarray, inner=None) -> np.ndarray:
     """Count, per group, the groups whose polygon shares a boundary line with it.
 
     ``touching``: the pairs that intersected before the split (the split only
-    takes area away, so no other pair can share a boundary after it).
+    takes area away, so no other pair can share a boundary after it), and
+    ``inner``: those that overlapped, which the split leaves sharing the line
+    that divides their overlap (counted without a test).
     """
     count = np.zeros(len(geoms), dtype=np.int64)
     if not len(touching):
         return count
-    a, b = geoms[touching[:, 0]], geoms[touching[:, 1]]
-    meet = shapely.relate_pattern(a, b, "****1****") | shapely.relate_pattern(
-        a, b, "T********"
-    )
+    inner = np.zeros(len(touching), dtype=bool) if inner is None else inner
+    a, b = geoms[touching[~inner, 0]], geoms[touching[~inner, 1]]
+    meet = inner.copy()
+    meet[~inner] = shapely.relate_pattern(a, b, "****1****")
     np.add.at(count, touching[meet, 0], 1)
     np.add.at(count, touching[meet, 1], 1)
     return count
