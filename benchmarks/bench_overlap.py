@@ -8,7 +8,10 @@ Data, each hulled by the whole GeoDataFrame pipeline (``geoalpha.hull``):
 
 - the 691 bundled UK accident DBSCAN clusters (15,255 points; few overlaps);
 - 1M lon/lat points in 1,000 groups of about 100 km around the world
-  (``bench_hull.world_groups``; mostly disjoint groups, a few overlap);
+  (``bench_hull.world_groups``, the other benchmarks' data: random centres, so
+  that 293 pairs of groups overlap, many of them widely);
+- the same, the 1,000 centres on a 40 x 25 grid (no two groups overlap: what
+  a mostly disjoint dataset costs);
 - the bundled US airports by state (3,376 points; 9 pairs of states overlap),
   the heavily overlapping real dataset at hand (zip codes by county, the
   issue's third dataset, are not available offline);
@@ -41,12 +44,27 @@ except ImportError:  # running from a source tree without installing
     import geoalpha
 
 import geopandas as gpd  # noqa: E402
+import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 from bench_hull import world_groups  # noqa: E402
 
 from geoalpha import datasets  # noqa: E402
 
 LANSING = HERE.parent / "tests" / "data" / "lansing_trees_spatstat.csv"
+
+
+def grid_groups(n: int = 1_000_000, seed: int = 0):
+    """``world_groups`` with the 1,000 centres on a grid: groups far apart."""
+    rng = np.random.default_rng(seed)
+    lon, lat = np.meshgrid(np.linspace(-170, 170, 40), np.linspace(-60, 70, 25))
+    centre = np.column_stack([lon.ravel(), lat.ravel()])
+    code = rng.integers(0, len(centre), n)
+    scale = np.cos(np.radians(centre[code, 1]))
+    x = centre[code, 0] + rng.normal(0, 0.4, n) / scale
+    y = centre[code, 1] + rng.normal(0, 0.4, n)
+    return gpd.GeoDataFrame(
+        {"g": code}, geometry=gpd.points_from_xy(x, y), crs="EPSG:4326"
+    )
 
 
 def cases() -> dict:
@@ -61,7 +79,13 @@ def cases() -> dict:
             {},
             1,
         ),
-        "1M points in 1,000 groups (world)": (world_groups(), "g", {}, 0),
+        "1M points in 1,000 groups (world, 293 overlapping pairs)": (
+            world_groups(),
+            "g",
+            {},
+            0,
+        ),
+        "1M points in 1,000 groups (grid, none overlap)": (grid_groups(), "g", {}, 0),
         f"US airports by state ({len(airports):,} points, 56 groups)": (
             airports,
             "state",
