@@ -125,6 +125,9 @@ def test_split_columns_say_what_was_ceded_and_to_how_many():
     np.testing.assert_allclose(split["area_m2"], after, rtol=1e-12)
     np.testing.assert_allclose(ceded, before - after, rtol=1e-9, atol=1e-12)
     assert (ceded > 0).all()
+    # the optimum is the group's own: alpha and radius as without the split
+    assert split["alpha"].tolist() == kept["alpha"].tolist()
+    assert split["radius"].tolist() == kept["radius"].tolist()
     # every pair overlapped: after the split each shares a boundary with the 2 others
     assert split["neighbours"].tolist() == [2, 2, 2]
     # what one group ceded the others got: the union is the same ground
