@@ -231,20 +231,23 @@ def _points_of(part, involved, names, geometry, source_crs) -> pd.DataFrame:
     return part.loc[mine, [*names, geometry, _ROW]]
 
 
-def _split_table(table, near, names: list, options: Options, source_crs):
+def _split_table(table, near, names: list, options: Options, source_crs, geometry):
     """Split the hulls in ``table``: the second pass of ``overlap="split"``.
 
-    ``near``: the rows (shuffled: WKB geometries, row positions) of the groups
-    whose hulls overlap; the same function as :func:`geoalpha.hull` on them.
+    ``near``: the rows (shuffled: WKB geometries in the column ``geometry``, row
+    positions) of the groups whose hulls overlap; the same function as
+    :func:`geoalpha.hull` on them. Without ``names``, one group: nothing to split.
     """
     table = table.reset_index(drop=True)
     n = len(table)
     geoms = np.asarray(table.geometry.array, dtype=object)
-    near = near.sort_values(_ROW, kind="stable")  # the eager order of the rows
-    wkb = near[table.geometry.name if table.geometry.name in near else "geometry"]
-    points = shapely.from_wkb(wkb.to_numpy())
-    xy, at = shapely.get_coordinates(points, return_index=True)
-    if names and n:
+    if names and len(near):
+        near = near.sort_values(_ROW, kind="stable")  # the eager order of the rows
+        points = shapely.from_wkb(near[geometry].to_numpy())
+        xy, at = shapely.get_coordinates(points, return_index=True)
+    else:
+        near, xy, at = near.iloc[:0], np.zeros((0, 2)), np.zeros(0, dtype=np.int64)
+    if names and n and len(at):
         index = pd.MultiIndex.from_frame(table[names])
         codes = index.get_indexer(pd.MultiIndex.from_frame(near[names]))[at]
     else:
@@ -427,7 +430,7 @@ def _second_pass(out, grouped, names: list, opts: Options, ddf, meta):
     else:  # one group: nothing to split
         near = grouped.map_partitions(lambda part: part.iloc[:0], meta=grouped._meta)
         near = near.repartition(npartitions=1)
-    whole = dask.delayed(_split_table)(hulls, near, names, opts, ddf.crs)
+    whole = dask.delayed(_split_table)(hulls, near, names, opts, ddf.crs, geometry)
     return dask.dataframe.from_delayed([whole], meta=meta, verify_meta=False)
 
 

@@ -369,3 +369,21 @@ def test_the_command_splits_with_overlap_split(tmp_path):
     bad = run_cli("hull", source, str(out), "--overlap", "merge")
     assert bad.exit_code != 0
     assert "Invalid value for '--overlap'" in bad.output
+
+
+@requires_dask
+@pytest.mark.parametrize("by", ["g", None])
+def test_dask_split_with_one_group_or_a_renamed_geometry(by):
+    import dask_geopandas
+
+    pts = interleaved(n_groups=3, per_group=30, seed=9).rename_geometry("geom")
+    ddf = dask_geopandas.from_geopandas(pts, npartitions=3)
+    lazy = geoalpha.hull(ddf, by, crs=None, overlap="split")
+    got = lazy.compute(scheduler="sync")
+    eager = geoalpha.hull(pts, by, crs=None, overlap="split")
+    assert got.geometry.name == eager.geometry.name == "geom"
+    assert got.dtypes.to_dict() == lazy._meta.dtypes.to_dict()
+    assert got.geom_equals(eager).all()
+    assert got["neighbours"].tolist() == eager["neighbours"].tolist()
+    if by is None:
+        assert got["neighbours"].tolist() == [0] and got["area_ceded_m2"].sum() == 0
