@@ -27,8 +27,9 @@ _CARVE_RTOL = 1e-9
 _GRID = 16
 #: Grid of the last resort of :func:`_overlay`, relative to the coordinates.
 _GRID_RTOL = 1e-12
-#: Parts a split leaves that are smaller than this share of the group's polygon and
-#: hold none of its points are float noise of the overlay, not territory.
+#: Parts a split leaves that are smaller than this share of the group's polygon
+#: are float noise of the overlay, not territory (a point of the group left
+#: outside by dropping one is taken back in by the guarantee's check).
 _CRUMB_RTOL = 1e-12
 
 
