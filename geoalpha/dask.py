@@ -238,6 +238,8 @@ def _split_table(table, near, names: list, options: Options, source_crs, geometr
     positions) of the groups whose hulls overlap; the same function as
     :func:`geoalpha.hull` on them. Without ``names``, one group: nothing to split.
     """
+    if names:  # the groups in the eager call's order: the same cuts, bit for bit
+        table = table.sort_values(names, kind="stable", na_position="last")
     table = table.reset_index(drop=True)
     n = len(table)
     geoms = np.asarray(table.geometry.array, dtype=object)

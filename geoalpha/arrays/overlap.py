@@ -227,17 +227,20 @@ def _split_pair(overlap, pg: np.ndarray, ph: np.ndarray, g: int, h: int, angles)
     shapely.prepare(overlap)
     meets = shapely.intersects(overlap, cells)  # only these cells matter
     mixed = has.all(axis=1) & meets
-    to_g = [_cells_union(cells[has[:, 0] & ~mixed & meets])]
-    to_h = [_cells_union(cells[has[:, 1] & ~mixed & meets])]
+    # One side's cells are joined (the side with fewer); the other side loses
+    # the rest of the overlap, so that the two share one cut exactly.
+    of_g, of_h = has[:, 0] & ~mixed & meets, has[:, 1] & ~mixed & meets
+    side = 0 if of_g.sum() <= of_h.sum() else 1
+    parts = [_cells_union(cells[of_g if side == 0 else of_h])]
     if mixed.any():
         for site, cell in zip(sites[mixed], cells[mixed], strict=True):
             chosen = angles[tuple(site.tolist())]
-            half = _half_plane(site, chosen[g], chosen[h], cell)
-            to_g.append(_overlay(shapely.intersection, cell, half))
-            to_h.append(_overlay(shapely.difference, cell, half))
-    region_g, region_h = _union(to_g), _union(to_h)
-    lose_g = _overlay(shapely.intersection, overlap, region_h)
-    lose_h = _overlay(shapely.intersection, overlap, region_g)
+            half = _half_plane(site, chosen[g], chosen[h], cell)  # g's side
+            op = shapely.intersection if side == 0 else shapely.difference
+            parts.append(_overlay(op, cell, half))
+    won = _overlay(shapely.intersection, overlap, _union(parts))
+    rest = _overlay(shapely.difference, overlap, won)
+    lose_g, lose_h = (rest, won) if side == 0 else (won, rest)
     return lose_g, lose_h, sites[mixed]
 
 
