@@ -251,7 +251,9 @@ def _carve(geoms, xy, codes, own, changed) -> np.ndarray:
     rounding next to near-duplicate points of two groups can leave a point
     just inside the other's cut: a disc around it, narrower than half the
     distance to that group's nearest own point, is taken out of the other's
-    polygon, so that the point is strictly inside no polygon but its own.
+    polygon, so that the point is strictly inside no polygon but its own. At a
+    location of both groups the disc leaves the other group's own point out too:
+    the guarantee's check then takes it back in as a vertex, on the boundary.
     """
     at = np.flatnonzero(own & changed[codes])
     if not len(at):
@@ -271,15 +273,18 @@ def _carve(geoms, xy, codes, own, changed) -> np.ndarray:
     geoms = geoms.copy()
     for g in np.unique(poly[strict]):
         pts = xy[p[strict & (poly == g)]]
-        mine = xy[own & (codes == g)]
-        if len(mine):
-            gap, _ = cKDTree(mine).query(pts)
-        else:
-            gap = np.full(len(pts), np.inf)
+        mine = np.unique(xy[own & (codes == g)], axis=0)
+        gap = np.full(len(pts), np.inf)
+        if len(mine) > 1:  # a location of g's own too (shared): the next one
+            dist, _ = cKDTree(mine).query(pts, k=2)
+            gap = np.where(dist[:, 0] > 0, dist[:, 0], dist[:, 1])
+        elif len(mine):
+            gap = np.hypot(*(pts - mine[0]).T)
+            gap[gap == 0] = np.inf
         x0, y0, x1, y1 = shapely.bounds(geoms[g])
         extent = max(x1 - x0, y1 - y0, 1e-300)
         radius = np.minimum(gap / 2, _CARVE_RTOL * extent)
-        keep = radius > 0  # (a location of g's own: a shared one, on its boundary)
+        keep = radius > 0
         if keep.any():
             discs = shapely.buffer(shapely.points(pts[keep]), radius[keep], quad_segs=2)
             geoms[g] = _overlay(shapely.difference, geoms[g], shapely.union_all(discs))
