@@ -966,8 +966,9 @@ def warn_split(split, groups: Groups) -> None:
     """Warn about what ``overlap="split"`` could not do plainly.
 
     The locations holding rows of two groups whose hulls overlap
-    (:class:`~geoalpha.errors.SharedLocationWarning`), and the groups whose split
-    polygon failed the guarantee (they keep their hull).
+    (:class:`~geoalpha.errors.SharedLocationWarning`), the groups whose split
+    polygon failed the guarantee (they keep their hull), and the pairs that
+    still overlap after the split.
 
     Parameters
     ----------
@@ -981,6 +982,18 @@ def warn_split(split, groups: Groups) -> None:
             f"{len(which)} group(s) kept their hull where it overlaps a neighbour's "
             "(its split failed the guarantee in the output coordinates): "
             f"{_names(groups, which)} ({setting('overlap', 'split')})",
+            GeoAlphaWarning,
+        )
+    if len(split.still):
+        pairs = [
+            f"{_names(groups, pair[:1], value=repr)} and "
+            f"{_names(groups, pair[1:], value=repr)}"
+            for pair in split.still[:11]
+        ]
+        warn_user(
+            f"{len(split.still)} pair(s) of groups still overlap after "
+            f"{setting('overlap', 'split')} (GEOS's overlay could not cut them "
+            "exactly): " + first_n(pairs, limit=10, sep="; "),
             GeoAlphaWarning,
         )
     if not len(split.shared):
