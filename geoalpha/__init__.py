@@ -20,6 +20,7 @@ from geoalpha.errors import (
     InvalidInputError,
     OutlierWarning,
     SearchWarning,
+    SharedLocationWarning,
     SuspiciousHullWarning,
 )
 
@@ -43,6 +44,7 @@ __all__ = [
     "InvalidInputError",
     "OutlierWarning",
     "SearchWarning",
+    "SharedLocationWarning",
     "SuspiciousHullWarning",
     "__version__",
     "alpha_shape",

@@ -15,11 +15,20 @@ import pandas as pd
 import shapely
 
 from geoalpha import options as _options
+from geoalpha.arrays.overlap import overlapping_pairs, split_overlaps
 from geoalpha.crs_parsing import crs_name, parse_crs
 from geoalpha.errors import InvalidInputError, did_you_mean
 from geoalpha.frame import crs as gcrs
 from geoalpha.frame.checks import check_distortion, check_grouping, computation_crs
-from geoalpha.frame.pipeline import group, merge_reports, report_rows, row_report, run
+from geoalpha.frame.pipeline import (
+    Groups,
+    group,
+    merge_reports,
+    report_rows,
+    row_report,
+    run,
+    warn_split,
+)
 from geoalpha.frame.schema import (
     empty_result,
     planar_unit,
@@ -238,6 +247,90 @@ def _hull_partition(
     return out.astype(dict(meta.dtypes.drop(meta.geometry.name)))
 
 
+def _involved(table, names: list) -> pd.DataFrame:
+    """Return the keys of the groups whose hulls overlap another's (first pass)."""
+    geoms = np.asarray(table.geometry.array, dtype=object)
+    pairs = overlapping_pairs(geoms)
+    return table[names].iloc[np.unique(pairs)].reset_index(drop=True)
+
+
+def _points_of(part, involved, names, geometry, source_crs) -> pd.DataFrame:
+    """Return the rows of a shuffled partition in the ``involved`` groups."""
+    columns = [*names, geometry, _X, _Y, _POINT, _ROW]  # as :func:`_for_shuffle`
+    if len(part) == 0 or len(involved) == 0:
+        return part.iloc[:0][columns]
+    index = pd.MultiIndex.from_frame(involved[names])
+    mine = pd.MultiIndex.from_frame(part[names]).isin(index)
+    return part.loc[mine, columns]
+
+
+#: The area columns of the split table (with ``crs=None`` in another unit than
+#: metres: ``area`` and ``area_ceded``, as :func:`~.schema.with_area_unit` names).
+SPLIT_AREAS = ("area_m2", "area_ceded_m2")
+
+
+def _split_table(table, near, names: list, options: Options, source_crs, geometry):
+    """Split the hulls in ``table``: the second pass of ``overlap="split"``.
+
+    ``near``: the rows (as shuffled: :func:`_for_shuffle`'s columns, row
+    positions) of the groups whose hulls overlap; the same function as
+    :func:`geoalpha.hull` on them. Without ``names``, one group: nothing to split.
+    """
+    if names:  # the groups in the eager call's order: the same cuts, bit for bit
+        table = table.sort_values(names, kind="stable", na_position="last")
+    table = table.reset_index(drop=True)
+    n = len(table)
+    geoms = np.asarray(table.geometry.array, dtype=object)
+    if names and len(near):
+        near = near.sort_values(_ROW, kind="stable")  # the eager order of the rows
+        points = _from_shuffle(near, geometry)
+        xy, at = shapely.get_coordinates(points, return_index=True)
+    else:
+        near, xy, at = near.iloc[:0], np.zeros((0, 2)), np.zeros(0, dtype=np.int64)
+    if names and n and len(at):
+        index = pd.MultiIndex.from_frame(table[names])
+        codes = index.get_indexer(pd.MultiIndex.from_frame(near[names]))[at]
+    else:
+        codes = np.zeros(len(at), dtype=np.int64)
+    ok = (codes >= 0) & np.isfinite(xy).all(axis=1)
+    xy, codes = xy[ok], codes[ok]
+    order = np.argsort(codes, kind="stable")
+    split = split_overlaps(geoms, xy[order], codes[order])
+    groups = Groups(
+        np.zeros(0, dtype=np.int64),
+        tuple(names) or ("group",),
+        tuple(table[c].array for c in names),
+        n,
+    )
+    warn_split(split, groups)
+    planar = "area_m2" not in table  # crs=None in another unit: area and unit
+    area_column, ceded_column = ("area", "area_ceded") if planar else SPLIT_AREAS
+    area = table[area_column].to_numpy(dtype=np.float64).copy()
+    ceded = np.zeros(n)
+    changed = split.changed
+    if changed.any():
+        new = split.geometry[changed]
+        if options.crs is None:
+            after = shapely.area(new)
+        else:
+            after = gcrs.geodesic_areas(new, source_crs)
+        ceded[changed] = np.maximum(area[changed] - after, 0.0)
+        area[changed] = after
+    out = table.copy()
+    out[table.geometry.name] = gpd.GeoSeries(
+        split.geometry, index=out.index, crs=table.crs
+    )
+    out["n_parts"] = np.where(
+        shapely.is_empty(split.geometry), 0, shapely.get_num_geometries(split.geometry)
+    ).astype(np.int32)
+    out[area_column] = area
+    out[ceded_column] = ceded
+    out["neighbours"] = split.neighbours
+    geometry = out.pop(table.geometry.name)
+    out[table.geometry.name] = geometry  # the geometry column stays last
+    return gpd.GeoDataFrame(out, geometry=table.geometry.name, crs=table.crs)
+
+
 def _finish(part, keys: list, checked=None):
     """Return a result partition (sorted by ``keys``) after the lazy ``checked``."""
     if keys:
@@ -316,8 +409,17 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
     opts = dataclasses.replace(opts, progress=False, n_jobs=1)
     names = _key_names(ddf, by)
     keys = group(ddf._meta, by, opts).keys  # the eager result's columns and dtypes
-    meta = empty_result(keys, ddf._meta.crs, result_geometry_name(ddf._meta, keys))
+    geometry_name = result_geometry_name(ddf._meta, keys)
+    meta = empty_result(keys, ddf._meta.crs, geometry_name, opts.overlap)
     meta = with_area_unit(meta, planar_unit(ddf._meta.crs, opts.crs))
+    # overlap="split": the partitions make the hulls as with "keep"; a second
+    # pass over them (they are small) and the points of the groups that overlap.
+    split = opts.overlap == "split"
+    each = dataclasses.replace(opts, overlap="keep") if split else opts
+    meta_each = meta
+    if split:
+        meta_each = empty_result(keys, ddf._meta.crs, geometry_name)
+        meta_each = with_area_unit(meta_each, planar_unit(ddf._meta.crs, opts.crs))
     if names:  # the eager checks of the options, on the (empty) meta frame
         run(ddf._meta, by, opts, checks=False)
     checked = _checks(ddf, names, by, opts)
@@ -339,14 +441,16 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
         _hull_partition,
         by,
         crs,
-        meta,
+        meta_each,
         ddf.geometry.name,
         source,
-        opts,
+        each,
         checked,  # the partitions wait for it: its errors name every bad row
-        meta=meta,
+        meta=meta_each,
         enforce_metadata=False,
     )
+    if split:
+        out = _second_pass(out, grouped, names, opts, ddf, meta)
     if opts.sort:
         keys = list(meta.columns[: meta.columns.get_loc("alpha")])
         out = out.repartition(npartitions=1).map_partitions(
@@ -357,6 +461,23 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
             _finish, [], checked, meta=meta, enforce_metadata=False
         )
     return out
+
+
+def _second_pass(out, grouped, names: list, opts: Options, ddf, meta):
+    """``overlap="split"`` on the hulls ``out``: one partition, lazy."""
+    hulls = out.repartition(npartitions=1)
+    geometry = ddf.geometry.name
+    if names:
+        involved = dask.delayed(_involved)(hulls, names)
+        rows = grouped._meta[[*names, geometry, _X, _Y, _POINT, _ROW]]
+        near = grouped.map_partitions(
+            _points_of, involved, names, geometry, ddf.crs, meta=rows
+        ).repartition(npartitions=1)
+    else:  # one group: nothing to split
+        near = grouped.map_partitions(lambda part: part.iloc[:0], meta=grouped._meta)
+        near = near.repartition(npartitions=1)
+    whole = dask.delayed(_split_table)(hulls, near, names, opts, ddf.crs, geometry)
+    return dask.dataframe.from_delayed([whole], meta=meta, verify_meta=False)
 
 
 hull.__signature__ = _options.signature(hull)

@@ -23,6 +23,7 @@ __all__ = [
     "InvalidInputError",
     "OutlierWarning",
     "SearchWarning",
+    "SharedLocationWarning",
     "SuspiciousHullWarning",
     "did_you_mean",
     "first_n",
@@ -89,6 +90,13 @@ class SuspiciousHullWarning(GeoAlphaWarning):
 
 class SearchWarning(GeoAlphaWarning):
     """A non-exact alpha search (ladder or bisection) gave a weaker result."""
+
+
+class SharedLocationWarning(GeoAlphaWarning):
+    """Rows of two groups at the same location in an overlap (``overlap="split"``).
+
+    The location became a boundary vertex of both groups' polygons.
+    """
 
 
 def warn_user(message: str, category: type[Warning]) -> None:

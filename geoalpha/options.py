@@ -21,6 +21,7 @@ __all__ = [
     "META",
     "METHODS",
     "OUTLIER_UNITS",
+    "OVERLAPS",
     "SEARCHES",
     "OptionMeta",
     "Options",
@@ -40,6 +41,9 @@ SEARCHES = ("exact", "ladder", "bisect")
 DEGENERATE_POLICIES = ("buffer", "empty", "drop")
 #: What ``outliers=`` counts: rows, or locations (distinct points, 1 each).
 OUTLIER_UNITS = ("rows", "locations")
+
+#: What :func:`geoalpha.hull` does where neighbouring groups' hulls overlap.
+OVERLAPS = ("keep", "split")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -391,6 +395,19 @@ class Options:
         "and within/contains joins; alpha and radius stay those of the optimal "
         "shape, area_m2 is the grown area. 0: the exact shape, whose vertices are "
         "input points.",
+    )
+    overlap: str = option(
+        "keep",
+        choices=OVERLAPS,
+        doc='Where groups\' hulls overlap: ``"keep"`` the overlaps (each group\n'
+        'hulled on its own), ``"split"`` them: each part of an overlap goes to the\n'
+        "group of the nearest input point, so that the hulls are interior-disjoint\n"
+        "and every point is strictly inside no other group's hull (adds the\n"
+        "columns ``area_ceded_m2`` and ``neighbours``; :doc:`/user_guide/neighbours`).",
+        help="Where the hulls of groups overlap: keep the overlaps, or split each "
+        "overlap between the groups by nearest input point (the hulls then do not "
+        "overlap, every point stays in its own group's hull and strictly inside no "
+        "other); split adds the columns area_ceded_m2 and neighbours.",
     )
 
     def __post_init__(self) -> None:

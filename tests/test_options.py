@@ -50,6 +50,7 @@ NON_DEFAULT = {
     "outlier_unit": "locations",
     "suspicious": False,
     "grow": 2.0,
+    "overlap": "split",
 }
 
 
@@ -181,8 +182,12 @@ def test_every_option_arrives_on_every_path(points, received, tmp_path, path, na
             with pytest.raises(InvalidInputError, match="does not apply to dask"):
                 path(*args)
             return
-        path(*args)
+        result = path(*args)
     assert received["compute"], "the compute stage was not reached"
+    if dask_path and name == "overlap":  # split by dask's second pass, over them all
+        assert received["compute"][-1].overlap == "keep"  # (the partitions)
+        assert {"area_ceded_m2", "neighbours"} <= set(result.columns)
+        return
     for options in received["compute"]:
         assert getattr(options, name) == value, (name, options)
     if path is _n_jobs or name == "n_jobs":

@@ -26,6 +26,7 @@ from geoalpha.arrays.guarantee import (
     repair_invalid,
 )
 from geoalpha.arrays.optimal import solve_checked
+from geoalpha.arrays.overlap import split_overlaps
 from geoalpha.arrays.sphere import MAX_SPHERE_DEGREES, REFUSED
 from geoalpha.crs_parsing import is_sphere, parse_crs
 from geoalpha.errors import (
@@ -35,6 +36,7 @@ from geoalpha.errors import (
     GeoAlphaWarning,
     InvalidInputError,
     OutlierWarning,
+    SharedLocationWarning,
     SuspiciousHullWarning,
     did_you_mean,
     first_n,
@@ -46,8 +48,8 @@ from geoalpha.frame import crs as gcrs
 from geoalpha.frame import progress
 from geoalpha.frame.checks import check_distortion, check_grouping
 from geoalpha.frame.schema import (
-    RESULT_COLUMNS,
     planar_unit,
+    result_columns,
     result_frame,
     result_geometry_name,
     with_area_unit,
@@ -60,6 +62,7 @@ __all__ = [
     "Hulls",
     "Points",
     "RowReport",
+    "area_ceded",
     "as_frame",
     "compute",
     "degenerate_policy",
@@ -74,9 +77,11 @@ __all__ = [
     "run_all",
     "scan_rows",
     "split_at_antimeridian",
+    "split_overlaps_stage",
     "suspicious_groups",
     "table",
     "warn_output_crs",
+    "warn_split",
     "warn_suspicious",
 ]
 
@@ -128,6 +133,11 @@ class Hulls(NamedTuple):
     keep: np.ndarray | None = None  #: groups that get a row (None: all)
     #: why each group got its radius (the kernel's :class:`~geoalpha.kernel.Why`)
     why: kernel.Why | None = None
+    #: ``overlap="split"`` (else None): the polygons before the split, the groups
+    #: each shares a boundary line with, and the area each gave to neighbours
+    unsplit: np.ndarray | None = None
+    neighbours: np.ndarray | None = None
+    ceded: np.ndarray | None = None
 
 
 class Ran(NamedTuple):
@@ -199,9 +209,11 @@ def _stages(frame, by, options, bar: progress.Phases, checks, rows, asked) -> Ra
     hulls = split_at_antimeridian(hulls, points, proj)
     hulls = guarantee(hulls, groups, points, proj, options)
     hulls = degenerate_policy(hulls, groups, points, proj, options)
+    hulls = split_overlaps_stage(hulls, groups, points, proj, options)
     warn_output_crs(hulls, groups, points, proj)
     planar_area = hulls.area
     hulls = hulls._replace(area=area_m2(hulls, grown, proj, options))
+    hulls = area_ceded(hulls, proj, options)
     name = result_geometry_name(frame, groups.names)
     out = table(groups, points, proj, hulls, crs, name)
     # Planar areas in another unit than metres: ``area`` and ``unit``, as the CLI.
@@ -305,11 +317,12 @@ def group(frame, by, options: Options) -> Groups:
         raise InvalidInputError(f"hull(by=...) cannot group the rows: {err}") from err
     if len(groups.names) == 1 and isinstance(groups.names[0], int | None):
         groups = groups._replace(names=("group",))
-    clash = [c for c in groups.names if c in (*RESULT_COLUMNS, "geometry")]
+    columns = result_columns(options.overlap)
+    clash = [c for c in groups.names if c in (*columns, "geometry")]
     if clash:
         raise InvalidInputError(
             f"group column(s) {clash} have the name of a result column; rename them "
-            f"(result columns: {', '.join(RESULT_COLUMNS)}, geometry)"
+            f"(result columns: {', '.join(columns)}, geometry)"
         )
     return groups
 
@@ -1036,12 +1049,125 @@ def table(
         "crs_used": proj.names,
         "method": hulls.labels,
     }
+    if hulls.neighbours is not None:  # overlap="split"
+        values.update(area_ceded_m2=hulls.ceded, neighbours=hulls.neighbours)
     columns, keep = groups.columns, hulls.keep
     if keep is not None:
         values = {name: np.asarray(v)[keep] for name, v in values.items()}
         geometry, columns = geometry[keep], [c[keep] for c in columns]
     keys = dict(zip(groups.names, columns, strict=True))
     return result_frame(keys, values, geometry, crs, geometry_name)
+
+
+def split_overlaps_stage(
+    hulls: Hulls,
+    groups: Groups,
+    points: Points,
+    proj: gcrs.Projection,
+    options: Options,
+) -> Hulls:
+    """``overlap="split"``: split the overlaps of groups' polygons by nearest point.
+
+    In the output coordinates, on the final polygons (degenerate buffers too),
+    with :func:`geoalpha.arrays.overlap.split_overlaps`, which checks the split
+    polygons with the guarantee (:func:`~geoalpha.arrays.guarantee.enforce`).
+    Groups wider than 180 degrees of longitude (no faithful polygon) and dropped
+    groups take no part. Warns about locations holding rows of two groups
+    (:class:`~geoalpha.errors.SharedLocationWarning`).
+    """
+    if options.overlap != "split":
+        return hulls
+    check = ~proj.wide if hulls.keep is None else ~proj.wide & hulls.keep
+    split = split_overlaps(
+        hulls.geometry, points.coords, points.codes, check=check, n_jobs=options.n_jobs
+    )
+    warn_split(split, groups)
+    area = hulls.area
+    if options.crs is None and split.changed.any():  # planar, in the input units
+        area = np.array(area, dtype=np.float64)
+        area[split.changed] = shapely.area(split.geometry[split.changed])
+    return hulls._replace(
+        geometry=split.geometry,
+        area=area,
+        unsplit=hulls.geometry,
+        neighbours=split.neighbours,
+    )
+
+
+def warn_split(split, groups: Groups) -> None:
+    """Warn about what ``overlap="split"`` could not do plainly.
+
+    The locations holding rows of two groups whose hulls overlap
+    (:class:`~geoalpha.errors.SharedLocationWarning`), the groups whose split
+    polygon failed the guarantee (they keep their hull), and the pairs that
+    still overlap after the split.
+
+    Parameters
+    ----------
+    split : geoalpha.arrays.overlap.Split
+    groups : Groups
+        Names the groups (its ``codes`` are not used).
+    """
+    if split.failed.any():
+        which = np.flatnonzero(split.failed)
+        warn_user(
+            f"{len(which)} group(s) kept their hull where it overlaps a neighbour's "
+            "(its split failed the guarantee in the output coordinates): "
+            f"{_names(groups, which)} ({setting('overlap', 'split')})",
+            GeoAlphaWarning,
+        )
+    if len(split.still):
+        pairs = [
+            f"{_names(groups, pair[:1], value=repr)} and "
+            f"{_names(groups, pair[1:], value=repr)}"
+            for pair in split.still[:11]
+        ]
+        warn_user(
+            f"{len(split.still)} pair(s) of groups still overlap after "
+            f"{setting('overlap', 'split')} (GEOS's overlay could not cut them "
+            "exactly): " + first_n(pairs, limit=10, sep="; "),
+            GeoAlphaWarning,
+        )
+    if not len(split.shared):
+        return
+    shown = [
+        f"({x!r}, {y!r}) of {_names(groups, pair[:1], value=repr)} and "
+        f"{_names(groups, pair[1:], value=repr)}"
+        for (x, y), pair in zip(
+            split.shared[:11].tolist(), split.shared_groups[:11], strict=True
+        )
+    ]
+    warn_user(
+        f"{len(split.shared)} location(s) hold rows of two groups whose hulls "
+        f"overlap ({setting('overlap', 'split')}); each is a boundary vertex of both "
+        "groups' polygons, strictly inside neither: "
+        + first_n(shown, limit=10, sep="; "),
+        SharedLocationWarning,
+    )
+
+
+def area_ceded(hulls: Hulls, proj: gcrs.Projection, options: Options) -> Hulls:
+    """``area_ceded_m2`` of ``overlap="split"``: the area given to neighbours.
+
+    The area of the polygon before the split minus that after (as ``area_m2``:
+    on the WGS84 ellipsoid; planar in the input's units with ``crs=None``).
+    """
+    if hulls.unsplit is None:
+        return hulls
+    ceded = np.zeros(len(hulls.geometry))
+    changed = np.flatnonzero(
+        np.array(
+            [a is not b for a, b in zip(hulls.geometry, hulls.unsplit, strict=True)]
+        )
+    )
+    if len(changed):
+        before = hulls.unsplit[changed]
+        if options.crs is None:
+            full = shapely.area(before)
+        else:
+            full = gcrs.geodesic_areas(before, proj.source, n_jobs=options.n_jobs)
+        ceded[changed] = np.maximum(full - np.asarray(hulls.area)[changed], 0.0)
+    return hulls._replace(ceded=ceded)
 
 
 def grow(

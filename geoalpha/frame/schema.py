@@ -19,8 +19,10 @@ if TYPE_CHECKING:
 __all__ = [
     "DTYPES",
     "RESULT_COLUMNS",
+    "SPLIT_DTYPES",
     "empty_result",
     "planar_unit",
+    "result_columns",
     "result_frame",
     "result_geometry_name",
     "with_area_unit",
@@ -40,6 +42,21 @@ DTYPES: dict[str, str] = {
 }
 #: Columns :func:`geoalpha.hull` adds next to the group keys (then ``geometry``).
 RESULT_COLUMNS: tuple[str, ...] = tuple(DTYPES)
+#: Columns ``overlap="split"`` adds after :data:`RESULT_COLUMNS`: the area each
+#: group gave to its neighbours (m², as ``area_m2``) and the number of groups
+#: whose polygon shares a boundary line with its own.
+SPLIT_DTYPES: dict[str, str] = {"area_ceded_m2": "float64", "neighbours": "int64"}
+
+
+def result_columns(overlap: str = "keep") -> tuple[str, ...]:
+    """Return the result columns after the group keys for an ``overlap`` option.
+
+    Examples
+    --------
+    >>> result_columns("split")[-3:]
+    ('method', 'area_ceded_m2', 'neighbours')
+    """
+    return RESULT_COLUMNS + (tuple(SPLIT_DTYPES) if overlap == "split" else ())
 
 
 @cache
@@ -85,6 +102,8 @@ def planar_unit(input_crs, crs) -> str | None:
 def with_area_unit(table, unit: str | None):
     """Write ``area`` and ``unit`` instead of ``area_m2`` when ``unit`` is given.
 
+    (and ``area_ceded`` instead of ``area_ceded_m2``, with ``overlap="split"``).
+
     Parameters
     ----------
     table : geopandas.GeoDataFrame
@@ -98,7 +117,7 @@ def with_area_unit(table, unit: str | None):
     """
     if unit is None or "area_m2" not in table.columns:  # (already done)
         return table
-    table = table.rename(columns={"area_m2": "area"})
+    table = table.rename(columns={"area_m2": "area", "area_ceded_m2": "area_ceded"})
     table.insert(list(table.columns).index("area") + 1, "unit", unit)
     return table
 
@@ -138,7 +157,8 @@ def result_frame(
     keys : pandas.DataFrame or mapping
         One row per group: the key column(s) (none for one group), by name.
     values : dict
-        One array per name of :data:`RESULT_COLUMNS`; cast to :data:`DTYPES`.
+        One array per name of :data:`RESULT_COLUMNS`, cast to :data:`DTYPES`;
+        with ``overlap="split"`` also those of :data:`SPLIT_DTYPES`.
     geometry, crs : array_like of shapely geometries, CRS or None
         One per group, and their CRS.
     geometry_name : str, default "geometry"
@@ -157,7 +177,8 @@ def result_frame(
     if isinstance(keys, pd.DataFrame):
         keys = {name: keys.iloc[:, i].array for i, name in enumerate(keys.columns)}
     columns = dict(keys)
-    for name, dtype in DTYPES.items():
+    extra = {name: t for name, t in SPLIT_DTYPES.items() if name in values}
+    for name, dtype in {**DTYPES, **extra}.items():
         if dtype == "text":
             text = np.asarray(values[name], dtype=object)
             columns[name] = pd.array(text, dtype=_text_dtype())
@@ -175,8 +196,12 @@ def result_frame(
     return out
 
 
-def empty_result(keys: pd.DataFrame, crs, geometry_name: str = "geometry"):
+def empty_result(
+    keys: pd.DataFrame, crs, geometry_name: str = "geometry", overlap: str = "keep"
+):
     """Build the result table with no row (dask's ``meta``): same columns and dtypes.
+
+    ``overlap``: that option of :func:`geoalpha.hull` (``"split"`` adds columns).
 
     Examples
     --------
@@ -185,5 +210,5 @@ def empty_result(keys: pd.DataFrame, crs, geometry_name: str = "geometry"):
     >>> len(meta), meta.columns.tolist()[:3], str(meta.dtypes["n_parts"])
     (0, ['g', 'alpha', 'radius'], 'int32')
     """
-    values = {name: [] for name in DTYPES}  # (result_frame casts them)
+    values = {name: [] for name in result_columns(overlap)}  # (cast there)
     return result_frame(keys.iloc[:0], values, [], crs, geometry_name)

@@ -1,0 +1,620 @@
+"""``overlap="split"``: the hulls of neighbouring groups made interior-disjoint.
+
+Wherever two groups' polygons overlap (their interiors meet), each part of the
+overlap goes to the group of the nearest input point: the Voronoi cells of the
+two groups' points there (GEOS), restricted to the overlap. Every point stays
+covered by its own group's polygon and is strictly inside no other
+(:doc:`/user_guide/neighbours`).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+import shapely
+from scipy.spatial import cKDTree
+
+from geoalpha.arrays.guarantee import EMPTY_POLYGON, covered, enforce
+
+__all__ = ["Split", "overlapping_pairs", "split_overlaps"]
+
+#: Relative slack on the radius within which points may be nearest to an overlap.
+_SLACK = 1e-9
+#: Largest radius (of the polygon's extent) of a disc :func:`_carve` cuts out.
+_CARVE_RTOL = 1e-9
+#: Cells per side of the grid that bounds the distance to the nearest point.
+_GRID = 16
+#: Grid of the last resort of :func:`_overlay`, relative to the coordinates.
+_GRID_RTOL = 1e-12
+#: Parts a split leaves that are smaller than this share of the group's polygon
+#: are float noise of the overlay, not territory (a point of the group left
+#: outside by dropping one is taken back in by the guarantee's check).
+_CRUMB_RTOL = 1e-12
+
+
+class Split(NamedTuple):
+    """Result of :func:`split_overlaps`, one entry a group (``shared``: locations)."""
+
+    geometry: np.ndarray  #: the polygons, split where they overlapped
+    changed: np.ndarray  #: bool: the group ceded or lost area
+    neighbours: np.ndarray  #: groups whose polygon shares a boundary line with it
+    shared: np.ndarray  #: (m, 2) locations in an overlap holding points of 2 groups
+    shared_groups: np.ndarray  #: (m, 2) the two groups of each shared location
+    failed: np.ndarray  #: bool: split polygon failed the guarantee, kept unsplit
+    #: (p, 2) pairs of groups whose split polygons still overlap (beyond float
+    #: noise: 1e-9 of the larger's area), found by checking every split pair
+    still: np.ndarray = np.zeros((0, 2), dtype=np.int64)
+
+
+def overlapping_pairs(geoms: np.ndarray) -> np.ndarray:
+    """Return the pairs ``(i, j)``, ``i < j``, of geometries whose interiors meet.
+
+    One STRtree query finds the candidates; ``relate`` keeps those whose interiors
+    intersect (an overlap with area), not those that only touch.
+
+    Parameters
+    ----------
+    geoms : ndarray of shapely geometries, shape (G,)
+
+    Returns
+    -------
+    ndarray of int, shape (p, 2)
+
+    Examples
+    --------
+    >>> a, b = shapely.box(0, 0, 2, 2), shapely.box(1, 1, 3, 3)
+    >>> overlapping_pairs(np.array([a, b, shapely.box(3, 0, 4, 1)])).tolist()
+    [[0, 1]]
+    """
+    touching = _intersecting(np.asarray(geoms, dtype=object))
+    return touching[_inner(geoms, touching)]
+
+
+def _intersecting(geoms: np.ndarray) -> np.ndarray:
+    """Return the pairs ``(i, j)``, ``i < j``, of non-empty geometries that meet."""
+    usable = ~(shapely.is_missing(geoms) | shapely.is_empty(geoms))
+    index = np.flatnonzero(usable)
+    if len(index) < 2:
+        return np.zeros((0, 2), dtype=np.int64)
+    tree = shapely.STRtree(geoms[index])
+    left, right = tree.query(geoms[index], predicate="intersects")
+    upper = left < right
+    return np.stack([index[left[upper]], index[right[upper]]], axis=1).astype(np.int64)
+
+
+def _inner(geoms: np.ndarray, pairs: np.ndarray) -> np.ndarray:
+    """Whether the interiors of each pair's geometries intersect."""
+    if not len(pairs):
+        return np.zeros(0, dtype=bool)
+    return shapely.relate_pattern(geoms[pairs[:, 0]], geoms[pairs[:, 1]], "T********")
+
+
+def split_overlaps(
+    geoms: np.ndarray,
+    xy: np.ndarray,
+    codes: np.ndarray,
+    *,
+    check: np.ndarray | None = None,
+    n_jobs: int | None = 1,
+) -> Split:
+    """Give each part of every overlap to the group of the nearest input point.
+
+    Parameters
+    ----------
+    geoms : ndarray of shapely (Multi)Polygons, shape (G,)
+        One polygon per group (empty for none), in the coordinates of ``xy``.
+    xy, codes : ndarray of shape (k, 2) and (k,)
+        The input points and the group of each. Only the points their own
+        group's polygon covers take part (rows left out by ``outliers=`` do not).
+    check : ndarray of bool, shape (G,), optional
+        The groups that take part (default: every non-empty polygon).
+    n_jobs : int or None, default 1
+        Threads of the point tests.
+
+    Returns
+    -------
+    Split
+        A group whose hull overlapped none is returned as the very same object.
+        A location holding points of both groups of an overlap becomes a
+        boundary vertex of both: its Voronoi cell is halved by a line through
+        it, each half going to the group on its side (``shared`` lists them).
+
+    Examples
+    --------
+    >>> xy = np.array([[0, 0], [2, 0], [2, 2], [0, 2], [1, 0], [3, 0], [3, 2], [1, 2]])
+    >>> codes = np.array([0, 0, 0, 0, 1, 1, 1, 1])
+    >>> hulls = np.array([shapely.box(0, 0, 2, 2), shapely.box(1, 0, 3, 2)])
+    >>> out = split_overlaps(hulls, xy.astype(float), codes)
+    >>> [round(g.area, 6) for g in out.geometry], out.neighbours.tolist()
+    [[1.5, 1.5], [1, 1]]
+    """
+    geoms = np.asarray(geoms, dtype=object)
+    n = len(geoms)
+    usable = ~(shapely.is_missing(geoms) | shapely.is_empty(geoms))
+    if check is not None:
+        usable &= check
+    touching = _intersecting(np.where(usable, geoms, None))  # one STRtree query
+    inner = _inner(geoms, touching)
+    pairs = touching[inner]
+    none = np.zeros(n, dtype=bool)
+    if not len(pairs):
+        return Split(
+            geoms,
+            none,
+            _neighbours(geoms, touching),
+            np.zeros((0, 2)),
+            np.zeros((0, 2), dtype=np.int64),
+            none,
+        )
+    involved = np.zeros(n, dtype=bool)
+    involved[pairs.ravel()] = True
+    at = np.flatnonzero(involved[codes])  # the points of groups that overlap
+    own = np.zeros(len(codes), dtype=bool)
+    own[at] = covered(geoms, xy[at], codes[at], n_jobs=n_jobs)
+    take = np.flatnonzero(own)
+    order = take[np.argsort(codes[take], kind="stable")]
+    starts = np.searchsorted(codes[order], np.arange(n + 1))
+    losses: list[list] = [[] for _ in range(n)]
+    broken = np.zeros(n, dtype=bool)
+    shared, shared_groups = [], []
+    angles = _angles(geoms, *_shared_locations(xy[take], codes[take]))
+    overlaps = _overlay(shapely.intersection, geoms[pairs[:, 0]], geoms[pairs[:, 1]])
+    for (g, h), overlap in zip(pairs.tolist(), overlaps, strict=True):
+        pg = xy[order[starts[g] : starts[g + 1]]]
+        ph = xy[order[starts[h] : starts[h + 1]]]
+        try:
+            lose_g, lose_h, both = _split_pair(overlap, pg, ph, g, h, angles)
+        except (shapely.errors.GEOSException, ValueError):  # pragma: no cover
+            broken[[g, h]] = True  # they keep their hulls (a warning says so)
+            continue
+        losses[g].append(lose_g)
+        losses[h].append(lose_h)
+        if len(both):
+            shared.append(both)
+            shared_groups.append(np.tile([g, h], (len(both), 1)))
+    out = geoms.copy()
+    changed = np.flatnonzero(involved)
+    for g in changed:
+        try:
+            mine = xy[order[starts[g] : starts[g + 1]]]
+            out[g] = _without_crumbs(_cut(geoms[g], losses[g], mine), geoms[g])
+        except (shapely.errors.GEOSException, ValueError):  # pragma: no cover
+            broken[g] = True
+    # The guarantee on the split polygons: valid, covering their own points.
+    mask = np.zeros(n, dtype=bool)
+    mask[changed] = True
+    out = _carve(out, xy, codes, own, mask)
+    fixed, failed = enforce(out, xy, codes, mask, exempt=~own, n_jobs=n_jobs)
+    failed |= broken
+    out = np.where(failed, geoms, fixed)
+    if shared:  # each location once per pair of groups
+        both = np.concatenate(
+            [np.concatenate(shared), np.concatenate(shared_groups)], axis=1
+        )
+        both = np.unique(both, axis=0)
+        shared, shared_groups = [both[:, :2]], [both[:, 2:].astype(np.int64)]
+    a, b = out[pairs[:, 0]], out[pairs[:, 1]]
+    grid = _GRID_RTOL * max(float(np.abs(shapely.total_bounds(a)).max()), 1e-300)
+    try:  # snap-rounded: the float overlay can report an overlap that is not
+        left = shapely.area(shapely.intersection(a, b, grid_size=grid))
+    except shapely.errors.GEOSException:  # pragma: no cover
+        left = shapely.area(_overlay(shapely.intersection, a, b))
+    still = pairs[left > 1e-9 * np.maximum(shapely.area(a), shapely.area(b))]
+    return Split(
+        out,
+        mask & ~failed,
+        _neighbours(out, touching, np.where(failed[touching].any(axis=1), False, inner))
+        if len(touching)
+        else np.zeros(n, dtype=np.int64),
+        np.concatenate(shared) if shared else np.zeros((0, 2)),
+        np.concatenate(shared_groups) if shared else np.zeros((0, 2), dtype=np.int64),
+        failed,
+        still,
+    )
+
+
+def _split_pair(overlap, pg: np.ndarray, ph: np.ndarray, g: int, h: int, angles):
+    """Split one overlap: the parts groups g and h lose, and their shared locations.
+
+    The points that can be nearest to some location of the overlap
+    (:func:`_candidates`) make the Voronoi cells.
+    """
+    x0, y0, x1, y1 = shapely.bounds(overlap)
+    both = np.concatenate([pg, ph])
+    if not len(both):
+        return EMPTY_POLYGON, EMPTY_POLYGON, np.zeros((0, 2))
+    near, reach = _candidates(both, (x0, y0, x1, y1))
+    label = np.r_[np.zeros(len(pg), dtype=np.int8), np.ones(len(ph), dtype=np.int8)]
+    sites, inverse = _distinct(both[near])
+    has = np.zeros((len(sites), 2), dtype=bool)
+    has[inverse, label[near]] = True
+    if not has[:, 1].any():
+        return EMPTY_POLYGON, overlap, np.zeros((0, 2))
+    if not has[:, 0].any():
+        return overlap, EMPTY_POLYGON, np.zeros((0, 2))
+    pad = max(float(np.hypot(x1 - x0, y1 - y0)), reach, 1e-300)
+    frame = shapely.box(x0 - pad, y0 - pad, x1 + pad, y1 + pad)
+    cells = _voronoi_cells(sites, frame)
+    shapely.prepare(overlap)
+    meets = shapely.intersects(overlap, cells)  # only these cells matter
+    mixed = has.all(axis=1) & meets
+    # One side's cells are joined (the side with fewer); the other side loses
+    # the rest of the overlap, so that the two share one cut exactly.
+    of_g, of_h = has[:, 0] & ~mixed & meets, has[:, 1] & ~mixed & meets
+    side = 0 if of_g.sum() <= of_h.sum() else 1
+    parts = [_cells_union(cells[of_g if side == 0 else of_h])]
+    if mixed.any():
+        for site, cell in zip(sites[mixed], cells[mixed], strict=True):
+            chosen = angles[tuple(site.tolist())]
+            half = _half_plane(site, chosen[g], chosen[h], cell)  # g's side
+            op = shapely.intersection if side == 0 else shapely.difference
+            parts.append(_overlay(op, cell, half))
+    won = _overlay(shapely.intersection, overlap, _union(parts))
+    rest = _overlay(shapely.difference, overlap, won)
+    lose_g, lose_h = (rest, won) if side == 0 else (won, rest)
+    return lose_g, lose_h, sites[mixed]
+
+
+def _carve(geoms, xy, codes, own, changed) -> np.ndarray:
+    """Cut a point out of a neighbour's polygon that holds it strictly inside.
+
+    Not expected (each point's Voronoi cell goes to its group), but float
+    rounding next to near-duplicate points of two groups can leave a point
+    just inside the other's cut: a disc around it, narrower than half the
+    distance to that group's nearest own point, is taken out of the other's
+    polygon, so that the point is strictly inside no polygon but its own. At a
+    location of both groups the disc leaves the other group's own point out too:
+    the guarantee's check then takes it back in as a vertex, on the boundary.
+    """
+    at = np.flatnonzero(own & changed[codes])
+    if not len(at):
+        return geoms
+    usable = np.flatnonzero(changed & ~shapely.is_empty(geoms))
+    p, k = shapely.STRtree(geoms[usable]).query(
+        shapely.points(xy[at]), predicate="within"
+    )
+    poly = usable[k]
+    foreign = codes[at[p]] != poly
+    if not foreign.any():
+        return geoms
+    p, poly = at[p[foreign]], poly[foreign]
+    strict = shapely.contains_properly(geoms[poly], shapely.points(xy[p]))
+    if not strict.any():
+        return geoms
+    geoms = geoms.copy()
+    for g in np.unique(poly[strict]):
+        pts = xy[p[strict & (poly == g)]]
+        mine = np.unique(xy[own & (codes == g)], axis=0)
+        gap = np.full(len(pts), np.inf)
+        if len(mine) > 1:  # a location of g's own too (shared): the next one
+            dist, _ = cKDTree(mine).query(pts, k=2)
+            gap = np.where(dist[:, 0] > 0, dist[:, 0], dist[:, 1])
+        elif len(mine):
+            gap = np.hypot(*(pts - mine[0]).T)
+            gap[gap == 0] = np.inf
+        x0, y0, x1, y1 = shapely.bounds(geoms[g])
+        extent = max(x1 - x0, y1 - y0, 1e-300)
+        radius = np.minimum(gap / 2, _CARVE_RTOL * extent)
+        keep = radius > 0
+        if keep.any():
+            discs = shapely.buffer(shapely.points(pts[keep]), radius[keep], quad_segs=2)
+            geoms[g] = _overlay(shapely.difference, geoms[g], shapely.union_all(discs))
+    return geoms
+
+
+def _candidates(xy: np.ndarray, bounds) -> tuple[np.ndarray, float]:
+    """Mark the points that can be nearest to some location of the box ``bounds``.
+
+    A grid of :data:`_GRID` x :data:`_GRID` cells over the box: from a location
+    in a cell, the nearest point is at most ``r`` = (the cell's centre's distance
+    to its nearest point) + (half the cell's diagonal) away; so a point farther
+    than the largest ``r`` from the box is nearer to none of its locations than
+    that one. Returns the mask and that distance.
+    """
+    x0, y0, x1, y1 = bounds
+    gx = x0 + (np.arange(_GRID) + 0.5) * (x1 - x0) / _GRID
+    gy = y0 + (np.arange(_GRID) + 0.5) * (y1 - y0) / _GRID
+    centres = np.stack(np.meshgrid(gx, gy), axis=-1).reshape(-1, 2)
+    nearest, _ = cKDTree(xy).query(centres)
+    half = float(np.hypot(x1 - x0, y1 - y0)) / (2 * _GRID)
+    scale = max(float(np.abs(xy).max()), 1e-300)
+    reach = (float(nearest.max()) + half) * (1 + _SLACK) + _SLACK * scale
+    dx = np.maximum(np.maximum(x0 - xy[:, 0], xy[:, 0] - x1), 0.0)
+    dy = np.maximum(np.maximum(y0 - xy[:, 1], xy[:, 1] - y1), 0.0)
+    return np.hypot(dx, dy) <= reach, reach
+
+
+def _distinct(xy: np.ndarray):
+    """Return the distinct rows of ``xy`` and the index of each row among them."""
+    order = np.lexsort((xy[:, 1], xy[:, 0]))
+    sx = xy[order]
+    new = np.r_[True, (sx[1:] != sx[:-1]).any(axis=1)]
+    inverse = np.empty(len(xy), dtype=np.int64)
+    inverse[order] = np.cumsum(new) - 1
+    return sx[new], inverse
+
+
+def _shared_locations(xy: np.ndarray, codes: np.ndarray):
+    """Return the locations holding points of several groups, and their groups."""
+    if not len(xy):
+        return np.zeros((0, 2)), []
+    order = np.lexsort((codes, xy[:, 1], xy[:, 0]))
+    sx, sc = xy[order], codes[order]
+    new = np.r_[True, (sx[1:] != sx[:-1]).any(axis=1)]  # a location starts
+    other = np.r_[False, ~new[1:] & (sc[1:] != sc[:-1])]  # another group there
+    if not other.any():
+        return np.zeros((0, 2)), []
+    starts = np.flatnonzero(new)
+    where = np.searchsorted(starts, np.flatnonzero(other), side="right") - 1
+    shared = np.unique(where)
+    ends = np.r_[starts[1:], len(sx)]
+    groups = [np.unique(sc[starts[k] : ends[k]]).tolist() for k in shared]
+    return sx[starts[shared]], groups
+
+
+def _cut(poly, losses: list, points: np.ndarray):
+    """Return ``poly`` without the union of ``losses`` (parts of it), checked.
+
+    A float overlay can misjudge an edge nearly along another (a loss whose
+    ring nearly touches itself): return the polygon whole, drop a piece of a
+    loss, or take away more. Each result is checked: no loss left in it (by
+    snap-rounded overlay, which is robust), none of the group's ``points``
+    taken, no more than the losses' areas taken. Tried in turn: the union of
+    the losses taken away, the losses one by one, both snap-rounded to a grid of
+    :data:`_GRID_RTOL` of the coordinates; else ValueError (the group keeps
+    its hull, with a warning).
+    """
+    losses = np.array([g for g in losses if not shapely.is_empty(g)], dtype=object)
+    if not len(losses):
+        return poly
+    tol = 1e-9 * shapely.area(poly)
+    most = float(shapely.area(losses).sum())  # (the losses may overlap)
+    grid = _GRID_RTOL * max(float(np.abs(shapely.bounds(poly)).max()), 1e-300)
+    x0, y0, x1, y1 = shapely.bounds(poly)
+    reach = max(_CARVE_RTOL * max(x1 - x0, y1 - y0), 4 * grid)
+
+    def right(cut) -> bool:
+        if shapely.area(cut) < shapely.area(poly) - most - tol:
+            return False
+        if len(points):  # (one rounded just outside is taken back in later)
+            out = points[~shapely.intersects_xy(cut, *points.T)]
+            if len(out) and shapely.distance(cut, shapely.points(out)).max() > reach:
+                return False
+        try:
+            left = shapely.area(shapely.intersection(cut, losses, grid_size=grid))
+        except shapely.errors.GEOSException:
+            return False
+        return bool(left.sum() <= tol)
+
+    def whole() -> object:
+        return _overlay(shapely.difference, poly, _union(list(losses)))
+
+    def one_by_one() -> object:
+        cut = poly
+        for loss in losses:
+            cut = _overlay(shapely.difference, cut, loss)
+        return cut
+
+    def snapped() -> object:
+        lost = shapely.union_all(losses, grid_size=grid)
+        return _areal(shapely.difference(poly, lost, grid_size=grid))
+
+    def snapped_one_by_one() -> object:
+        cut = poly
+        for loss in losses:
+            cut = _areal(shapely.difference(cut, loss, grid_size=grid))
+        return cut
+
+    for attempt in (whole, one_by_one, snapped, snapped_one_by_one):
+        try:
+            cut = attempt()
+        except shapely.errors.GEOSException:
+            continue
+        if right(cut):
+            return cut
+    raise ValueError("the overlay of the split does not hold")  # (kept unsplit)
+
+
+def _union(geoms: list):
+    """Return the union of polygons (an overlay only for two or more non-empty)."""
+    geoms = [g for g in geoms if not shapely.is_empty(g)]
+    if not geoms:
+        return EMPTY_POLYGON
+    if len(geoms) == 1:
+        return geoms[0]
+    return _overlay(shapely.union_all, np.array(geoms, dtype=object))
+
+
+def _cells_union(cells: np.ndarray):
+    """Return the union of Voronoi cells (a coverage: edges shared exactly).
+
+    ``coverage_union_all`` only drops the shared edges, far faster than an
+    overlay; checked by area (a coverage's union has the sum of its areas),
+    else the overlay.
+    """
+    if not len(cells):
+        return EMPTY_POLYGON
+    if len(cells) == 1:
+        return cells[0]
+    try:
+        union = shapely.coverage_union_all(cells)
+        total = float(shapely.area(cells).sum())
+        if abs(shapely.area(union) - total) <= 1e-9 * total:
+            return union
+    except shapely.errors.GEOSException:
+        pass
+    return _overlay(shapely.union_all, cells)
+
+
+def _voronoi_cells(sites: np.ndarray, frame) -> np.ndarray:
+    """Return the Voronoi cell of each site (distinct), clipped to ``frame``."""
+    if len(sites) == 1:
+        return np.array([frame], dtype=object)
+    points = shapely.multipoints(sites)
+    try:
+        diagram = shapely.voronoi_polygons(points, extend_to=frame, ordered=True)
+        return np.asarray(shapely.get_parts(diagram), dtype=object)
+    except (shapely.errors.UnsupportedGEOSVersionError, TypeError):  # GEOS < 3.12
+        diagram = shapely.voronoi_polygons(points, extend_to=frame)
+    cells = np.asarray(shapely.get_parts(diagram), dtype=object)
+    site, cell = shapely.STRtree(cells).query(shapely.points(sites), predicate="within")
+    out = np.empty(len(sites), dtype=object)
+    out[site] = cells[cell]
+    return out
+
+
+def _corner(poly, site: np.ndarray) -> tuple[float, float]:
+    """Return the directions from ``site`` into ``poly``: ``(start, sweep)`` angles.
+
+    The corner at a vertex (the rings oriented with the interior on their left),
+    a half-turn on an edge, the full turn inside.
+    """
+    best = (np.inf, 0.0, 2 * np.pi)
+    parts = shapely.get_parts(poly)
+    for part in parts[shapely.get_type_id(parts) == 3]:
+        part = shapely.geometry.polygon.orient(part, 1.0)
+        for ring in (part.exterior, *part.interiors):
+            xy = shapely.get_coordinates(ring)
+            at = np.flatnonzero((xy[:-1] == site).all(axis=1))
+            if len(at):
+                i = at[0]
+                after, before = xy[i + 1] - site, xy[i - 1 if i else -2] - site
+                a1 = float(np.arctan2(after[1], after[0]))
+                a2 = float(np.arctan2(before[1], before[0]))
+                return a1, (a2 - a1) % (2 * np.pi) or 2 * np.pi
+            a, edge = xy[:-1], xy[1:] - xy[:-1]
+            length2 = np.maximum((edge**2).sum(axis=1), 1e-300)
+            t = np.clip(((site - a) * edge).sum(axis=1) / length2, 0.0, 1.0)
+            dist = np.hypot(*(a + t[:, None] * edge - site).T)
+            k = int(np.argmin(dist))
+            if dist[k] < best[0]:
+                normal = float(np.arctan2(edge[k, 0], -edge[k, 1]))  # left of the edge
+                best = (dist[k], normal - np.pi / 2, np.pi)
+    scale = max(float(np.abs(site).max()), 1.0)
+    return best[1:] if best[0] <= 1e-12 * scale else (0.0, 2 * np.pi)
+
+
+def _angles(geoms, sites: np.ndarray, groups: list) -> dict:
+    """Choose, per location of several groups, a distinct direction for each group.
+
+    Each direction points into the group's polygon at the location; the pair of
+    groups then halves the location's Voronoi cell along the bisector of their
+    two directions, so every group keeps a corner there (the location is a
+    boundary vertex of each), whatever the number of groups.
+    """
+    out = {}
+    for site, members in zip(sites, groups, strict=True):
+        corners = sorted(
+            ((_corner(geoms[g], site), g) for g in members), key=lambda c: c[0][1]
+        )
+        chosen: dict[int, float] = {}
+        for (start, sweep), g in corners:
+            candidates = start + sweep * np.array(
+                [0.5, 0.25, 0.75, 0.125, 0.375, 0.625, 0.875]
+            )
+            taken = np.array(list(chosen.values()))
+            if len(taken):
+                gap = np.abs(
+                    (candidates[:, None] - taken[None, :] + np.pi) % (2 * np.pi) - np.pi
+                )
+                candidates = candidates[np.argsort(-gap.min(axis=1), kind="stable")]
+            chosen[g] = float(candidates[0])
+        out[tuple(site.tolist())] = chosen
+    return out
+
+
+def _half_plane(site: np.ndarray, alpha_g: float, alpha_h: float, cell):
+    """Return the half-plane over ``cell`` of group g at a location of g and h.
+
+    Bounded by the line through ``site`` that bisects the directions chosen for
+    the two groups (:func:`_angles`), on the side of g's; ``site`` is one of its
+    vertices, exactly.
+    """
+    ug = np.array([np.cos(alpha_g), np.sin(alpha_g)])
+    uh = np.array([np.cos(alpha_h), np.sin(alpha_h)])
+    along = ug + uh
+    if np.hypot(*along) < 1e-9:  # opposite directions
+        along = np.array([-ug[1], ug[0]])
+    v = along / np.hypot(*along)
+    n = np.array([-v[1], v[0]])
+    if float(np.dot(n, ug)) < 0:
+        n = -n
+    x0, y0, x1, y1 = shapely.bounds(cell)
+    r = 4 * max(float(np.hypot(x1 - x0, y1 - y0)), 1e-300)
+    ring = [
+        site,
+        site + r * v,
+        site + r * v + r * n,
+        site - r * v + r * n,
+        site - r * v,
+    ]
+    return shapely.Polygon(ring)
+
+
+def _overlay(op, *geoms):
+    """Run a GEOS overlay; on a robustness failure, again on repaired inputs.
+
+    Last, with snap-rounding to a grid of :data:`_GRID_RTOL` of the extent
+    (vertices may move by that much; the guarantee is checked afterwards).
+    """
+    try:
+        return _areal(op(*geoms))
+    except shapely.errors.GEOSException:
+        pass
+    fixed = [
+        _areal(shapely.make_valid(shapely.remove_repeated_points(g))) for g in geoms
+    ]
+    try:
+        return _areal(op(*fixed))
+    except shapely.errors.GEOSException:
+        pass
+    bounds = np.array([shapely.bounds(g) for g in np.ravel(fixed)]).reshape(-1, 4)
+    scale = max(float(np.nanmax(np.abs(bounds))) if bounds.size else 1.0, 1e-300)
+    return _areal(op(*fixed, grid_size=_GRID_RTOL * scale))
+
+
+def _areal(geom):
+    """Keep the polygons of an overlay's result (not the lines where they touch)."""
+    if isinstance(geom, np.ndarray):
+        return np.array([_areal(g) for g in geom], dtype=object).reshape(geom.shape)
+    if geom is None or shapely.get_type_id(geom) in (3, 6):
+        return geom
+    parts = shapely.get_parts(geom)
+    parts = parts[(shapely.get_type_id(parts) == 3) & (shapely.area(parts) > 0)]
+    if not len(parts):
+        return EMPTY_POLYGON
+    return parts[0] if len(parts) == 1 else shapely.multipolygons(parts)
+
+
+def _without_crumbs(split, before):
+    """Drop parts of ``split`` that are float noise (tiny, next to nothing)."""
+    parts = shapely.get_parts(split)
+    if len(parts) <= 1:
+        return split if not shapely.is_empty(split) else EMPTY_POLYGON
+    area = shapely.area(parts)
+    keep = area > _CRUMB_RTOL * shapely.area(before)
+    if keep.all():
+        return split
+    parts = parts[keep]
+    return parts[0] if len(parts) == 1 else shapely.multipolygons(parts)
+
+
+def _neighbours(geoms: np.ndarray, touching: np.ndarray, inner=None) -> np.ndarray:
+    """Count, per group, the groups whose polygon shares a boundary line with it.
+
+    ``touching``: the pairs that intersected before the split (the split only
+    takes area away, so no other pair can share a boundary after it), and
+    ``inner``: those that overlapped, which the split leaves sharing the line
+    that divides their overlap (counted without a test).
+    """
+    count = np.zeros(len(geoms), dtype=np.int64)
+    if not len(touching):
+        return count
+    inner = np.zeros(len(touching), dtype=bool) if inner is None else inner
+    a, b = geoms[touching[~inner, 0]], geoms[touching[~inner, 1]]
+    meet = inner.copy()
+    meet[~inner] = shapely.relate_pattern(a, b, "****1****")
+    np.add.at(count, touching[meet, 0], 1)
+    np.add.at(count, touching[meet, 1], 1)
+    return count

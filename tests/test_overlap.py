@@ -1,0 +1,408 @@
+"""``overlap="split"`` (issue #38): neighbours' hulls that do not overlap.
+
+Every check here is independent of the code under test: shapely's ``covers``,
+``contains_properly``, ``is_valid`` and pairwise intersections of the returned
+polygons, against the input points.
+"""
+
+from __future__ import annotations
+
+import itertools
+import warnings
+from pathlib import Path
+
+import geopandas as gpd
+import numpy as np
+import pandas as pd
+import pytest
+import shapely
+from cli_runner import run as run_cli
+from compat import requires_dask
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import geoalpha
+from geoalpha import datasets
+from geoalpha.errors import InvalidInputError, SharedLocationWarning
+
+LANSING = Path(__file__).parent / "data" / "lansing_trees_spatstat.csv"
+
+pytestmark = pytest.mark.filterwarnings(
+    "ignore::geoalpha.errors.DegenerateGroupWarning",
+    "ignore::geoalpha.errors.DroppedRowsWarning",
+    "ignore::geoalpha.errors.SharedLocationWarning",
+    "ignore::geoalpha.errors.OutlierWarning",
+    "ignore::geoalpha.errors.CRSWarning",
+)
+
+
+def four_counts(hulls, points, by, outliers=None) -> dict:
+    """The goals' four counts, by brute force over the returned polygons.
+
+    ``intersection``: the sum of the pairwise intersection areas over the total
+    hull area; ``foreign``: points strictly inside another group's polygon;
+    ``uncovered``: points not covered by their own group's polygon; ``invalid``:
+    invalid polygons. Rows left out by ``outliers=`` count in neither point count
+    (outside their own hull by choice, they may lie inside a neighbour's).
+    """
+    hulls = hulls.to_crs(points.crs) if points.crs is not None else hulls
+    geoms = list(hulls.geometry)
+    keys = list(hulls[by])
+    total = sum(g.area for g in geoms)
+    # Snap-rounded to 1e-12 of the coordinates: GEOS's float overlay can report
+    # an intersection where there is none (0.49 between two split polygons that
+    # a Monte Carlo count and the snap-rounded overlay both find disjoint).
+    grid = 1e-12 * max(np.abs(np.asarray(hulls.total_bounds)).max(), 1e-300)
+    overlap = sum(
+        shapely.intersection(a, b, grid_size=grid).area
+        for a, b in itertools.combinations(geoms, 2)
+    )
+    own = dict(zip(keys, geoms, strict=True))
+    pts = np.asarray(points.geometry.array, dtype=object)
+    mine = np.array([own.get(k, shapely.Polygon()) for k in points[by]], dtype=object)
+    uncovered = ~shapely.covers(mine, pts)
+    if outliers is not None:
+        uncovered &= ~outliers
+    tree = shapely.STRtree(np.array(geoms, dtype=object))
+    p, h = tree.query(pts, predicate="within")  # candidates; then strictly inside
+    foreign = [
+        i
+        for i, j in zip(p.tolist(), h.tolist(), strict=True)
+        if keys[j] != points[by].iloc[i]
+        and shapely.contains_properly(geoms[j], pts[i])
+        and (outliers is None or not outliers[i])
+    ]
+    return {
+        "intersection": overlap / total if total else 0.0,
+        "foreign": len(foreign),
+        "uncovered": int(uncovered.sum()),
+        "invalid": int((~shapely.is_valid(np.array(geoms, dtype=object))).sum()),
+    }
+
+
+def assert_clean(counts: dict) -> None:
+    assert counts["intersection"] <= 1e-9, counts
+    assert counts["foreign"] == 0, counts
+    assert counts["uncovered"] == 0, counts
+    assert counts["invalid"] == 0, counts
+
+
+def interleaved(n_groups=4, per_group=40, seed=0, spread=1.0, crs=None):
+    """Clusters whose centres are closer than their spread: their hulls overlap."""
+    rng = np.random.default_rng(seed)
+    centres = rng.uniform(0, spread, (n_groups, 2))
+    xy = np.concatenate(
+        [c + rng.normal(0, 0.6 * spread, (per_group, 2)) for c in centres]
+    )
+    group = np.repeat([f"g{i}" for i in range(n_groups)], per_group)
+    return gpd.GeoDataFrame(
+        {"g": group}, geometry=gpd.points_from_xy(xy[:, 0], xy[:, 1]), crs=crs
+    )
+
+
+# --- the option -----------------------------------------------------------------
+
+
+def test_keep_is_the_default_and_has_no_split_columns():
+    pts = interleaved()
+    kept = geoalpha.hull(pts, "g", crs=None)
+    assert (
+        kept.columns.tolist()
+        == geoalpha.hull(pts, "g", crs=None, overlap="keep").columns.tolist()
+    )
+    assert "area_ceded_m2" not in kept and "neighbours" not in kept
+    assert four_counts(kept, pts, "g")["intersection"] > 0.01  # they do overlap
+
+
+def test_unknown_value_names_the_option():
+    with pytest.raises(
+        InvalidInputError, match=r"overlap must be one of 'keep', 'split'; got 'merge'"
+    ):
+        geoalpha.hull(interleaved(), "g", crs=None, overlap="merge")
+
+
+def test_split_columns_say_what_was_ceded_and_to_how_many():
+    pts = interleaved(n_groups=3, seed=2)
+    kept = geoalpha.hull(pts, "g", crs=None)
+    split = geoalpha.hull(pts, "g", crs=None, overlap="split")
+    assert split.columns.tolist()[-3:] == ["area_ceded", "neighbours", "geometry"]
+    assert "unit" in split and "area_m2" not in split
+    # crs=None: the areas are planar, in the coordinates' units (area, area_ceded)
+    ceded = split["area_ceded"].to_numpy()
+    before = kept.geometry.area.to_numpy()
+    after = split.geometry.area.to_numpy()
+    np.testing.assert_allclose(split["area"], after, rtol=1e-12)
+    np.testing.assert_allclose(ceded, before - after, rtol=1e-9, atol=1e-12)
+    assert (ceded > 0).all()
+    # the optimum is the group's own: alpha and radius as without the split
+    assert split["alpha"].tolist() == kept["alpha"].tolist()
+    assert split["radius"].tolist() == kept["radius"].tolist()
+    # every pair overlapped: after the split each shares a boundary with the 2 others
+    assert split["neighbours"].tolist() == [2, 2, 2]
+    # what one group ceded the others got: the union is the same ground
+    assert shapely.union_all(split.geometry).area == pytest.approx(
+        shapely.union_all(kept.geometry).area, rel=1e-9
+    )
+    assert_clean(four_counts(split, pts, "g"))
+
+
+def test_single_group_is_a_no_op():
+    pts = interleaved(n_groups=1)
+    kept = geoalpha.hull(pts, "g", crs=None)
+    split = geoalpha.hull(pts, "g", crs=None, overlap="split")
+    assert split.geometry.iloc[0].equals_exact(kept.geometry.iloc[0], 0)
+    assert split["area_ceded"].tolist() == [0.0]
+    assert split["neighbours"].tolist() == [0]
+    assert geoalpha.hull(pts, None, crs=None, overlap="split")[
+        "neighbours"
+    ].tolist() == [0]
+
+
+def test_disjoint_groups_are_left_as_they_are():
+    pts = interleaved(n_groups=3, spread=1.0, seed=1)
+    far = pts.copy()
+    shift = {"g0": 0.0, "g1": 100.0, "g2": 200.0}
+    far["geometry"] = gpd.points_from_xy(
+        pts.geometry.x + pts["g"].map(shift), pts.geometry.y
+    )
+    kept = geoalpha.hull(far, "g", crs=None)
+    split = geoalpha.hull(far, "g", crs=None, overlap="split")
+    assert split.geom_equals_exact(kept, 0).all()
+    assert split["area_ceded"].tolist() == [0.0, 0.0, 0.0]
+    assert split["neighbours"].tolist() == [0, 0, 0]
+
+
+def test_a_group_cut_through_gets_several_parts_and_n_parts_says_so():
+    # A band of group "b" crosses the middle of group "a"'s square.
+    a = [(x, y) for x in np.linspace(0, 10, 11) for y in (0, 1, 2, 8, 9, 10)]
+    b = [(x, y) for x in np.linspace(-1, 11, 25) for y in (4.5, 5.0, 5.5)]
+    xy = np.array(a + b, dtype=float)
+    pts = gpd.GeoDataFrame(
+        {"g": ["a"] * len(a) + ["b"] * len(b)},
+        geometry=gpd.points_from_xy(xy[:, 0], xy[:, 1]),
+    )
+    split = geoalpha.hull(pts, "g", crs=None, method="convex", overlap="split")
+    parts = dict(zip(split["g"], split["n_parts"], strict=True))
+    assert parts == {"a": 2, "b": 1}
+    assert split.geometry.iloc[0].geom_type == "MultiPolygon"
+    assert_clean(four_counts(split, pts, "g"))
+
+
+def test_a_location_of_two_groups_is_a_boundary_vertex_of_both():
+    pts = interleaved(n_groups=2, seed=3, per_group=30)
+    # the same coordinates in both groups, inside both hulls
+    shared = shapely.Point(0.5, 0.5)
+    extra = gpd.GeoDataFrame({"g": ["g0", "g1"]}, geometry=[shared, shared])
+    pts = pd.concat([pts, extra], ignore_index=True)
+    kept = geoalpha.hull(pts, "g", crs=None, method="convex")
+    assert all(shapely.contains_properly(g, shared) for g in kept.geometry)
+    with pytest.warns(
+        SharedLocationWarning, match=r"1 location\(s\).*\(0\.5, 0\.5\).*'g0'.*'g1'"
+    ):
+        split = geoalpha.hull(pts, "g", crs=None, method="convex", overlap="split")
+    for g in split.geometry:
+        assert g.covers(shared) and not g.contains_properly(shared)
+        assert shared.coords[0] in {tuple(c) for c in shapely.get_coordinates(g)}
+    assert_clean(four_counts(split, pts, "g"))
+
+
+# --- the four counts on random interleaved clusters -------------------------------
+
+
+@settings(
+    max_examples=40,
+    deadline=None,
+    suppress_health_check=[HealthCheck.too_slow],
+)
+@given(
+    n_groups=st.integers(2, 6),
+    per_group=st.integers(3, 40),
+    seed=st.integers(0, 2**32 - 1),
+    method=st.sampled_from(["alpha", "convex", "concave", "knn"]),
+    holes=st.booleans(),
+    grid=st.booleans(),
+)
+def test_random_interleaved_clusters_have_no_overlap(
+    n_groups, per_group, seed, method, holes, grid
+):
+    pts = interleaved(n_groups, per_group, seed)
+    if grid:  # coordinates on a grid: shared locations, collinear runs, duplicates
+        xy = np.round(shapely.get_coordinates(pts.geometry) * 4) / 4
+        pts["geometry"] = gpd.points_from_xy(xy[:, 0], xy[:, 1])
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        split = geoalpha.hull(
+            pts, "g", crs=None, method=method, holes=holes, overlap="split"
+        )
+    named = [str(w.message) for w in caught]
+    named = [m for m in named if "still overlap" in m or "kept their hull" in m]
+    counts = four_counts(split, pts, "g")
+    # Where GEOS's float overlay cannot cut a pair (about 1 % of such random
+    # draws), the groups are named in a warning: never a silent overlap.
+    if named:
+        assert counts["uncovered"] == counts["invalid"] == 0, counts
+    else:
+        assert_clean(counts)
+
+
+@pytest.mark.parametrize("method", ["alpha", "convex", "concave", "knn"])
+def test_every_method_in_metres_from_lon_lat(method):
+    pts = interleaved(n_groups=5, per_group=50, seed=7, spread=0.05, crs=4326)
+    pts["geometry"] = gpd.points_from_xy(pts.geometry.x - 3.0, pts.geometry.y + 52.0)
+    pts = pts.set_crs(4326, allow_override=True)
+    kept = geoalpha.hull(pts, "g", method=method)
+    assert four_counts(kept, pts, "g")["intersection"] > 1e-3
+    split = geoalpha.hull(pts, "g", method=method, overlap="split")
+    assert_clean(four_counts(split, pts, "g"))
+    assert (split["area_ceded_m2"] > 0).sum() >= 2
+    # area_m2 and area_ceded_m2 are on the ellipsoid: they add up to the unsplit area
+    np.testing.assert_allclose(
+        split["area_m2"] + split["area_ceded_m2"], kept["area_m2"], rtol=1e-9
+    )
+
+
+@pytest.mark.parametrize(
+    "options",
+    [
+        {"outliers": 0.05},
+        {"grow": 50.0},
+        {"holes": True},
+        {"crs": "sphere"},
+        {"components": 2},
+        {"degenerate": "buffer", "buffer": 3000.0},
+    ],
+    ids=lambda o: ",".join(f"{k}={v}" for k, v in o.items()),
+)
+def test_with_the_other_options(options):
+    pts = interleaved(n_groups=5, per_group=50, seed=11, spread=0.05, crs=4326)
+    pts["geometry"] = gpd.points_from_xy(pts.geometry.x + 10.0, pts.geometry.y + 45.0)
+    pts = pts.set_crs(4326, allow_override=True)
+    # two groups of two points: degenerate, their buffers take part too
+    few = gpd.GeoDataFrame(
+        {"g": ["d1", "d1", "d2", "d2"]},
+        geometry=gpd.points_from_xy([10.02, 10.021, 10.03, 10.0301], [45.02] * 4),
+        crs=4326,
+    )
+    pts = pd.concat([pts, few], ignore_index=True)
+    split = geoalpha.hull(pts, "g", overlap="split", **options)
+    left_out = geoalpha.outlier_rows(pts, "g", overlap="split", **options)
+    assert_clean(four_counts(split, pts, "g", outliers=np.asarray(left_out)))
+    if "grow" in options:  # grown: every point strictly inside its own polygon
+        own = dict(zip(split["g"], split.geometry, strict=True))
+        inside = [
+            own[k].contains_properly(p)
+            for k, p in zip(pts["g"], pts.geometry, strict=True)
+        ]
+        assert all(inside)
+
+
+def test_lon_lat_with_crs_none_splits_in_degrees():
+    pts = interleaved(n_groups=4, per_group=40, seed=5, spread=0.05, crs=4326)
+    split = geoalpha.hull(pts, "g", crs=None, overlap="split")
+    assert_clean(four_counts(split, pts, "g"))
+    # planar areas in square degrees: area (unit "degree²"), as the CLI says
+    np.testing.assert_allclose(split["area"], split.geometry.area, rtol=1e-12)
+
+
+# --- real data --------------------------------------------------------------------
+
+
+def test_us_airports_by_state():
+    gdf = datasets.load("us_airports")
+    gdf = gdf[gdf["state"].notna()].reset_index(drop=True)
+    kept = geoalpha.hull(gdf, "state")
+    before = four_counts(kept, gdf, "state")
+    assert before["intersection"] > 0 and before["foreign"] > 0
+    split = geoalpha.hull(gdf, "state", overlap="split")
+    assert_clean(four_counts(split, gdf, "state"))
+    assert (split["area_ceded_m2"] > 0).sum() >= 9  # at least one side of 9 pairs
+
+
+@pytest.mark.parametrize("name", ["uk_clusters", "stats19", "lansing"], ids=str)
+def test_real_datasets_have_no_overlap(name):
+    if name == "lansing":
+        frame = pd.read_csv(LANSING)
+        pts = gpd.GeoDataFrame(
+            frame, geometry=gpd.points_from_xy(frame["x"], frame["y"])
+        )
+        by, crs = "species", None
+    else:
+        pts = datasets.load(name)
+        by, crs = (
+            {"uk_clusters": "Cluster", "stats19": "Local_Authority_(Highway)"}[name],
+            "auto",
+        )
+    split = geoalpha.hull(pts, by, crs=crs, overlap="split")
+    assert_clean(four_counts(split, pts, by))
+    if name == "lansing":  # the species interleave: every one gave and got area
+        assert (split["area_ceded"] > 0).all()  # (planar: no CRS)
+        assert (split["neighbours"] == len(split) - 1).all()
+
+
+# --- the other faces: dask, the command ---------------------------------------
+
+
+@requires_dask
+@pytest.mark.parametrize("npartitions", [1, 4])
+def test_dask_splits_in_a_second_pass_as_hull_does(npartitions):
+    import dask_geopandas
+
+    gdf = datasets.load("us_airports")
+    gdf = gdf[gdf["state"].notna()].reset_index(drop=True)
+    shuffled = gdf.sample(frac=1.0, random_state=3)  # states spread over partitions
+    ddf = dask_geopandas.from_geopandas(shuffled, npartitions=npartitions, sort=False)
+    lazy = geoalpha.hull(ddf, "state", overlap="split")
+    assert lazy._meta.columns.tolist()[-3:] == [
+        "area_ceded_m2",
+        "neighbours",
+        "geometry",
+    ]
+    got = lazy.compute(scheduler="sync")
+    eager = geoalpha.hull(shuffled, "state", overlap="split")
+    assert got["state"].tolist() == eager["state"].tolist()
+    # the same polygons, vertex for vertex (a ring may start elsewhere)
+    same = shapely.equals_exact(
+        shapely.normalize(np.asarray(got.geometry.array)),
+        shapely.normalize(np.asarray(eager.geometry.array)),
+        tolerance=0,
+    )
+    assert same.all()
+    for column in ("area_m2", "area_ceded_m2"):
+        np.testing.assert_allclose(got[column], eager[column], rtol=1e-9)
+    for column in ("neighbours", "n_parts"):
+        assert got[column].tolist() == eager[column].tolist()
+    assert_clean(four_counts(got, gdf, "state"))
+
+
+def test_the_command_splits_with_overlap_split(tmp_path):
+    out = tmp_path / "states.gpkg"
+    source = str(datasets.path("us_airports"))
+    result = run_cli(
+        "hull", source, str(out), "--by", "state", "--overlap", "split"
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    written = gpd.read_file(out)
+    assert {"area_ceded_m2", "neighbours"} <= set(written.columns)
+    gdf = datasets.load("us_airports")
+    assert_clean(four_counts(written, gdf[gdf["state"].notna()], "state"))
+    bad = run_cli("hull", source, str(out), "--overlap", "merge")
+    assert bad.exit_code != 0
+    assert "Invalid value for '--overlap'" in bad.output
+
+
+@requires_dask
+@pytest.mark.parametrize("by", ["g", None])
+def test_dask_split_with_one_group_or_a_renamed_geometry(by):
+    import dask_geopandas
+
+    pts = interleaved(n_groups=3, per_group=30, seed=9).rename_geometry("geom")
+    ddf = dask_geopandas.from_geopandas(pts, npartitions=3)
+    lazy = geoalpha.hull(ddf, by, crs=None, overlap="split")
+    got = lazy.compute(scheduler="sync")
+    eager = geoalpha.hull(pts, by, crs=None, overlap="split")
+    assert got.geometry.name == eager.geometry.name == "geom"
+    assert got.dtypes.to_dict() == lazy._meta.dtypes.to_dict()
+    assert got.geom_equals(eager).all()
+    assert got["neighbours"].tolist() == eager["neighbours"].tolist()
+    if by is None:
+        assert got["neighbours"].tolist() == [0] and got["area_ceded"].sum() == 0
