@@ -286,13 +286,7 @@ mod tests {
             .chain(&square)
             .copied()
             .collect();
-        let options = Options {
-            holes: false,
-            components: 1,
-            curve: false,
-            max_union_nodes: crate::spectrum::MAX_UNION_NODES,
-            sphere: false,
-        };
+        let options = Options::DEFAULT;
         let input = Input {
             xy: &xy,
             out: None,

@@ -508,7 +508,7 @@ proptest! {
             let q = p[i % p.len()];
             all.push([q[0] + f64::from(dx) * 1e-8, q[1] + f64::from(dy) * 1e-8]);
         }
-        let options = Options { holes, components: 1, curve: false, max_union_nodes: MAX_UNION_NODES, sphere: false };
+        let options = Options { holes, components: 1, curve: false, max_union_nodes: MAX_UNION_NODES, sphere: false, ..Options::DEFAULT };
         let best = solve(&all, None, None, 0, &options);
         prop_assert_eq!(best.reason, 0);
         for (i, &q) in all.iter().enumerate() {
@@ -561,7 +561,7 @@ proptest! {
         let scale = 2f64.powi(k);
         let mut all: Vec<Xy> = p.iter().map(|q| [q[0] * scale, q[1] * scale]).collect();
         all.extend(extras.iter().map(|q| [q[0] * scale, q[1] * scale]));
-        let options = Options { holes, components: 1, curve: false, max_union_nodes: MAX_UNION_NODES, sphere: false };
+        let options = Options { holes, components: 1, curve: false, max_union_nodes: MAX_UNION_NODES, sphere: false, ..Options::DEFAULT };
         let res = solve(&all, None, None, 0, &options);
         prop_assert_eq!(res.reason, 0);
         prop_assert_eq!(res.n_distinct as usize, p.len());
@@ -586,7 +586,7 @@ proptest! {
         ),
         holes in any::<bool>(),
     ) {
-        let options = Options { holes, components: 1, curve: false, max_union_nodes: MAX_UNION_NODES, sphere: false };
+        let options = Options { holes, components: 1, curve: false, max_union_nodes: MAX_UNION_NODES, sphere: false, ..Options::DEFAULT };
         let res = solve(&p, None, None, 0, &options);
         prop_assert!(res.reason <= 3, "reason {}", res.reason);
         prop_assert_eq!(res.reason == 0, !res.polygons.is_empty());
