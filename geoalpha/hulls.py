@@ -191,7 +191,9 @@ def explain(gdf, by=None, **options):
         ``area_m2_without_1`` and ``rows_without_1`` (the optimum with one
         location, a distinct point with all its rows, left out, and those
         rows' labels); ``suspicious`` (what :class:`SuspiciousHullWarning`
-        flags); the critical triangle as ``geometry``.
+        flags); the critical triangle as ``geometry``. With ``crs=None`` on
+        input not in metres, ``area_without_1`` and ``unit`` instead of
+        ``area_m2_without_1``, as :func:`hull`.
 
     Raises
     ------
@@ -252,7 +254,8 @@ def curve(
         ``k``, ``radius``, ``alpha``, ``area_m2``, ``n_parts`` and ``left_out``
         (the index labels of the rows left out), each row the exact outlier
         optimum with at most ``k`` rows (locations) left out. ``k = 0`` is
-        :func:`hull`'s result.
+        :func:`hull`'s result. With ``crs=None`` on input not in metres,
+        ``area`` and ``unit`` instead of ``area_m2``, as :func:`hull`.
 
     Raises
     ------

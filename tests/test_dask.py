@@ -516,6 +516,25 @@ def test_accessor_explain_and_curve_are_the_functions(clusters):
         )
 
 
+def test_explain_and_curve_without_by_and_with_crs_none(clusters):
+    some = clusters[clusters["Cluster"] < 3]
+    ddf = spread(some, 3)
+    eager = ddf.compute()
+    assert len(assert_same_table(geoalpha.explain(ddf), geoalpha.explain(eager))) == 1
+    # planar areas in degrees: named area and unit, as hull() does
+    lazy = geoalpha.explain(ddf, by="Cluster", crs=None)
+    assert "area_m2_without_1" not in lazy.columns
+    got = assert_same_table(lazy, geoalpha.explain(eager, by="Cluster", crs=None))
+    assert set(got["unit"]) == {"degree"}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", OutlierWarning)
+        lazy = geoalpha.curve(ddf, by="Cluster", crs=None, max_left_out=1)
+        got = assert_same_table(
+            lazy, geoalpha.curve(eager, by="Cluster", crs=None, max_left_out=1)
+        )
+    assert "area_m2" not in got.columns and set(got["unit"]) == {"degree"}
+
+
 def test_explain_and_curve_errors_as_eager(clusters):
     ddf = spread(clusters, 2)
     eager = clusters.head(50)

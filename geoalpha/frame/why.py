@@ -88,6 +88,22 @@ def _first_alternatives(alt, n_groups: int) -> np.ndarray:
     return first
 
 
+def _in_unit(frame, ran: Ran, suffix: str):
+    """Say the unit of planar areas not in metres, as the hull table does.
+
+    With ``crs=None`` on input not in metres, :func:`geoalpha.hull` writes
+    ``area`` and ``unit`` (:func:`~.schema.with_area_unit`); ``area_m2{suffix}``
+    then becomes ``area{suffix}``, followed by the same ``unit``.
+    """
+    if "unit" not in ran.table.columns:
+        return frame
+    unit = ran.table["unit"].iloc[0] if len(ran.table) else ""  # (no row)
+    name = f"area{suffix}"
+    frame = frame.rename(columns={f"area_m2{suffix}": name})
+    frame.insert(list(frame.columns).index(name) + 1, "unit", unit)
+    return frame
+
+
 def explain_table(ran: Ran):
     """Build :func:`geoalpha.explain`'s GeoDataFrame from a run with ``explain``."""
     import geopandas as gpd
@@ -151,7 +167,7 @@ def explain_table(ran: Ran):
         "rows_without_1": rows_1,
         "suspicious": np.asarray(why.suspicious, dtype=bool)[kept] & ~degenerate,
     }
-    frame = pd.DataFrame({**_keys(ran, kept), **values})
+    frame = _in_unit(pd.DataFrame({**_keys(ran, kept), **values}), ran, "_without_1")
     return gpd.GeoDataFrame(frame, geometry=geometry, crs=ran.points.crs)
 
 
@@ -219,7 +235,7 @@ def curve_table(ran: Ran, max_left_out: int, unit: str):
         "n_parts": parts.astype(np.int64),
         "left_out": left_out,
     }
-    return pd.DataFrame({**_keys(ran, kept, sizes), **columns})
+    return _in_unit(pd.DataFrame({**_keys(ran, kept, sizes), **columns}), ran, "")
 
 
 def why_options(options: dict, caller: str) -> Options:
