@@ -26,6 +26,12 @@ from geoalpha.frame.schema import (
     result_geometry_name,
     with_area_unit,
 )
+from geoalpha.frame.why import (
+    curve_frame,
+    curve_options,
+    explain_frame,
+    why_options,
+)
 from geoalpha.options import Options
 from geoalpha.registration import ColumnHint, attach
 
@@ -384,7 +390,7 @@ def _why_partition(part, by, crs, meta, geometry, source_crs, table, checked=Non
     return out.astype(dict(dtypes))
 
 
-def _dask_options(ddf, opts: Options):
+def _dask_options(opts: Options) -> Options:
     """Refuse what dask cannot do (as :func:`hull`); return the partitions' options."""
     if opts.n_jobs not in (None, 1):
         raise InvalidInputError(
@@ -467,8 +473,6 @@ class _Explain:
         self.opts = opts
 
     def __call__(self, frame, crs, by):
-        from geoalpha.frame.why import explain_frame
-
         opts = dataclasses.replace(self.opts, crs=crs)
         # With ``by``, the dataset's bad rows were reported once (``checked``).
         return explain_frame(frame, by, opts, checks=False, rows=by is None)
@@ -482,8 +486,6 @@ class _Curve(_Explain):
         self.max_left_out, self.unit = max_left_out, unit
 
     def __call__(self, frame, crs, by):
-        from geoalpha.frame.why import curve_frame
-
         opts = dataclasses.replace(self.opts, crs=crs)
         return curve_frame(
             frame, by, opts, self.max_left_out, self.unit, checks=False, rows=by is None
@@ -526,10 +528,8 @@ def explain(ddf, by=None, *, npartitions: int | None = None, **options):
     >>> len(why), why["limited_by"].iloc[0]
     (691, 'coverage')
     """
-    from geoalpha.frame.why import why_options
-
     ddf = _frame(ddf, "explain()")
-    opts = _dask_options(ddf, why_options(options, "explain()"))
+    opts = _dask_options(why_options(options, "explain()"))
     return _per_group(ddf, by, npartitions, opts, _Explain(opts), "radius", [])
 
 
@@ -582,11 +582,9 @@ def curve(
     >>> table.compute()["k"].tolist()[:3]
     [0, 1, 2]
     """
-    from geoalpha.frame.why import curve_options
-
     ddf = _frame(ddf, "curve()")
     opts, k, unit = curve_options(options, max_left_out, outlier_unit)
-    opts = _dask_options(ddf, opts)
+    opts = _dask_options(opts)
     return _per_group(ddf, by, npartitions, opts, _Curve(opts, k, unit), "k", ["k"])
 
 
