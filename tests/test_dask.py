@@ -516,6 +516,27 @@ def test_accessor_explain_and_curve_are_the_functions(clusters):
         )
 
 
+def test_explain_and_curve_sort_false_keep_the_partitions(clusters):
+    some = clusters[clusters["Cluster"] < 60]
+    ddf = spread(some, 3)
+    eager = geoalpha.explain(ddf.compute(), by="Cluster", suspicious=False)
+    lazy = geoalpha.explain(ddf, by="Cluster", sort=False, suspicious=False)
+    assert lazy.npartitions == 3  # not gathered into one
+    got = lazy.compute().sort_values("Cluster").reset_index(drop=True)
+    assert got["Cluster"].tolist() == eager["Cluster"].tolist()
+    assert got["critical_rows"].tolist() == eager["critical_rows"].tolist()
+    np.testing.assert_array_equal(got["radius"], eager["radius"])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", OutlierWarning)
+        table = geoalpha.curve(ddf, by="Cluster", sort=False, max_left_out=1)
+        got = table.compute().sort_values(["Cluster", "k"], kind="stable")
+        want = geoalpha.curve(ddf.compute(), by="Cluster", max_left_out=1)
+    assert (
+        got[["Cluster", "k"]].values.tolist() == want[["Cluster", "k"]].values.tolist()
+    )
+    assert got["left_out"].tolist() == want["left_out"].tolist()
+
+
 def test_explain_and_curve_without_by_and_with_crs_none(clusters):
     some = clusters[clusters["Cluster"] < 3]
     ddf = spread(some, 3)
