@@ -328,15 +328,27 @@ def _explain_targets(target: dict, params: dict, points_layer: bool) -> dict:
     return sides
 
 
-def _explain_frames(why, points, left_out, unit: str | None) -> dict:
+def _explain_frames(why, points, left_out, metres: str | None) -> dict:
     """Return the ``why`` and ``left_out`` layers as files can hold them.
 
-    With a planar ``unit`` (as the hulls' ``area`` and ``unit``), the area
-    column is ``area_without_1``, in square ``unit``.
+    With a planar unit, explain()'s area column is ``area_without_1`` and
+    ``unit`` says it (as the hulls' ``area``); with ``--unit`` (``metres``)
+    the radii, alpha and area are in metres, as the hulls.
     """
     why = why.copy()
-    if unit is not None:
-        why = why.rename(columns={"area_m2_without_1": "area_without_1"})
+    if metres is not None:
+        factor = METRES_PER_UNIT[metres]
+        for column in ("radius", "radius_without_1"):
+            why[column] = why[column] * factor
+        why["alpha"] = why["alpha"] / factor
+        planar = "area_without_1" in why.columns  # (--unit: no CRS, so always)
+        area = "area_without_1" if planar else "area_m2_without_1"
+        why["area_m2_without_1"] = why.pop(area) * factor**2
+        why = why.drop(columns="unit", errors="ignore")
+        # back in explain()'s order: the area after radius_without_1
+        order = [c for c in why.columns if c != "area_m2_without_1"]
+        order.insert(order.index("radius_without_1") + 1, "area_m2_without_1")
+        why = why[order]
     for column in ("critical_rows", "rows_without_1"):  # lists of labels: text
         why[column] = [", ".join(map(str, labels)) for labels in why[column]]
     return {"why": why, "left_out": points[left_out.to_numpy()]}
@@ -516,7 +528,7 @@ def _run(
         hulls = _in_metres(hulls, METRES_PER_UNIT[metres])
         unit = None
     if sides is not None:
-        explained = _explain_frames(why, points, left_out, unit)
+        explained = _explain_frames(why, points, left_out, metres)
     table = with_area_unit(hulls, unit)  # say the unit instead of a wrong "m2"
     bar.start("write")
     mappings, created = {}, []

@@ -35,6 +35,12 @@ from geoalpha.frame.schema import (
     result_geometry_name,
     with_area_unit,
 )
+from geoalpha.frame.why import (
+    curve_frame,
+    curve_options,
+    explain_frame,
+    why_options,
+)
 from geoalpha.options import Options
 from geoalpha.registration import ColumnHint, attach
 
@@ -47,7 +53,7 @@ except ImportError as err:  # pragma: no cover - the dask extra is installed in 
         'pip install "geoalpha[dask]"'
     ) from err
 
-__all__ = ["DaskAlphaAccessor", "hull", "register"]
+__all__ = ["DaskAlphaAccessor", "curve", "explain", "hull", "register"]
 
 _EXTENT = ["west", "east", "west360", "east360", "south", "north"]
 #: Column carrying each row's position in ``ddf.compute()`` through the shuffle.
@@ -483,8 +489,231 @@ def _second_pass(out, grouped, names: list, opts: Options, ddf, meta):
 hull.__signature__ = _options.signature(hull)
 
 
+def _restored(part, geometry: str, source_crs):
+    """Return a shuffled partition as the eager input: its rows, order and points."""
+    if _ROW in part.columns:  # (as in _hull_partition)
+        part = part.sort_values(_ROW, kind="stable")
+        geoms = _from_shuffle(part, geometry)
+        part = part.drop(columns=[_ROW, _X, _Y, _POINT])
+        part[geometry] = gpd.GeoSeries(geoms, index=part.index, crs=source_crs)
+    return gpd.GeoDataFrame(part, geometry=geometry, crs=source_crs)
+
+
+def _why_partition(part, by, crs, meta, geometry, source_crs, table, checked=None):
+    """Return ``table(partition, crs)`` (explain's or curve's) in ``meta``'s dtypes."""
+    if len(part) == 0:
+        return meta
+    out = table(_restored(part, geometry, source_crs), crs, by)
+    # lists of labels stay objects; dask may store text as pyarrow strings
+    dtypes = meta.dtypes
+    if isinstance(meta, gpd.GeoDataFrame):  # (explain's; curve's is a DataFrame)
+        dtypes = dtypes.drop(meta._geometry_column_name)
+    return out.astype(dict(dtypes))
+
+
+def _dask_options(opts: Options) -> Options:
+    """Refuse what dask cannot do (as :func:`hull`); return the partitions' options."""
+    if opts.n_jobs not in (None, 1):
+        raise InvalidInputError(
+            f"n_jobs={opts.n_jobs!r} does not apply to dask-geopandas input: dask "
+            "spreads the partitions over its workers (choose them with the scheduler "
+            "or a distributed.Client)"
+        )
+    if opts.progress:
+        raise InvalidInputError(
+            "progress=True does not apply to dask-geopandas input; use "
+            "dask.diagnostics.ProgressBar or distributed.progress"
+        )
+    return dataclasses.replace(opts, progress=False, n_jobs=1)
+
+
+def _frame(ddf, caller: str):
+    """Return ``ddf`` as a dask-geopandas GeoDataFrame, or refuse it."""
+    if isinstance(ddf, dask_geopandas.GeoSeries):
+        ddf = ddf.to_frame(name="geometry")
+    if not isinstance(ddf, dask_geopandas.GeoDataFrame):
+        raise InvalidInputError(
+            f"geoalpha.dask.{caller} needs a dask_geopandas.GeoDataFrame or "
+            f"GeoSeries; got {type(ddf).__name__}"
+        )
+    return ddf
+
+
+def _per_group(ddf, by, npartitions, opts: Options, table, first: str, order: list):
+    """Run ``table(partition, crs, by)`` on every group of ``ddf`` as :func:`hull` does.
+
+    One shuffle by ``by``, one CRS decision, the input checks once; ``meta``
+    is ``table`` of the empty frame (the eager code). ``first``: the first
+    column after the keys; ``order``: the columns after the keys that order
+    a group's rows (with ``sort=True``).
+    """
+    names = _key_names(ddf, by)
+    meta = table(ddf._meta, opts.crs, by)  # the eager checks of the options too
+    checked = _checks(ddf, names, by, opts)
+    crs, source = opts.crs, ddf.crs
+    geographic = source is not None and parse_crs(source).is_geographic
+    if gcrs.auto_mode(crs) == "auto" and geographic:
+        extents = ddf.map_partitions(
+            _extent, names, opts.dropna, meta=pd.DataFrame(columns=_EXTENT, dtype=float)
+        )
+        crs = dask.delayed(_decide_crs)(extents, source)
+    if names:
+        rows = _for_shuffle(ddf._meta, ddf.geometry.name)
+        plain = ddf.map_partitions(_for_shuffle, ddf.geometry.name, meta=rows)
+        grouped = plain.shuffle(on=names, npartitions=npartitions)
+    else:
+        grouped = ddf.repartition(npartitions=1)
+    out = grouped.map_partitions(
+        _why_partition,
+        by,
+        crs,
+        meta,
+        ddf.geometry.name,
+        source,
+        table,
+        checked,  # the partitions wait for it: its errors name every bad row
+        meta=meta,
+        enforce_metadata=False,
+    )
+    keys = list(meta.columns[: meta.columns.get_loc(first)])
+    if opts.sort:
+        out = out.repartition(npartitions=1).map_partitions(
+            _finish, keys + order, checked, meta=meta, enforce_metadata=False
+        )
+    elif checked is not None:  # the result depends on the checks, not the tables
+        out = out.map_partitions(
+            _finish, [], checked, meta=meta, enforce_metadata=False
+        )
+    return out
+
+
+class _Explain:
+    """explain()'s table of a partition (a class: picklable for distributed)."""
+
+    def __init__(self, opts: Options):
+        self.opts = opts
+
+    def __call__(self, frame, crs, by):
+        opts = dataclasses.replace(self.opts, crs=crs)
+        # With ``by``, the dataset's bad rows were reported once (``checked``).
+        return explain_frame(frame, by, opts, checks=False, rows=by is None)
+
+
+class _Curve(_Explain):
+    """curve()'s table of a partition."""
+
+    def __init__(self, opts: Options, max_left_out: int, unit: str):
+        super().__init__(opts)
+        self.max_left_out, self.unit = max_left_out, unit
+
+    def __call__(self, frame, crs, by):
+        opts = dataclasses.replace(self.opts, crs=crs)
+        return curve_frame(
+            frame, by, opts, self.max_left_out, self.unit, checks=False, rows=by is None
+        )
+
+
+def explain(ddf, by=None, *, npartitions: int | None = None, **options):
+    """Why each group's hull got its radius, on a dask-geopandas frame (lazy).
+
+    :func:`geoalpha.explain` on each partition of a shuffle by ``by``, as
+    :func:`hull` runs :func:`geoalpha.hull` (see :doc:`/dask`); also
+    ``ddf.alpha.explain(by=...)``.
+
+    Parameters
+    ----------
+    ddf, by, npartitions, **options
+        As for :func:`hull` (``method="alpha"``).
+
+    Returns
+    -------
+    dask_geopandas.GeoDataFrame
+        Lazy; its ``.compute()`` equals ``geoalpha.explain(ddf.compute(),
+        by, ...)`` (with ``sort=True``).
+
+    Raises
+    ------
+    InvalidInputError
+        As :func:`hull`; for ``method`` other than ``"alpha"``.
+
+    .. versionadded:: 0.5.0
+
+    Examples
+    --------
+    >>> import dask_geopandas
+    >>> import geoalpha
+    >>> from geoalpha import datasets
+    >>> points = datasets.load("uk_clusters")
+    >>> ddf = dask_geopandas.from_geopandas(points, npartitions=4)
+    >>> why = geoalpha.explain(ddf, by="Cluster", suspicious=False).compute()
+    >>> len(why), why["limited_by"].iloc[0]
+    (691, 'coverage')
+    """
+    ddf = _frame(ddf, "explain()")
+    opts = _dask_options(why_options(options, "explain()"))
+    return _per_group(ddf, by, npartitions, opts, _Explain(opts), "radius", [])
+
+
+explain.__signature__ = _options.signature(explain)
+
+
+def curve(
+    ddf,
+    by=None,
+    *,
+    max_left_out: int = 5,
+    outlier_unit: str = "rows",
+    npartitions: int | None = None,
+    **options,
+):
+    """Compute the exact optima with 0 .. ``max_left_out`` out, on dask (lazy).
+
+    :func:`geoalpha.curve` on each partition of a shuffle by ``by``, as
+    :func:`hull` runs :func:`geoalpha.hull` (see :doc:`/dask`); also
+    ``ddf.alpha.curve(by=...)``.
+
+    Parameters
+    ----------
+    ddf, by, npartitions
+        As for :func:`hull`.
+    max_left_out, outlier_unit, **options
+        As for :func:`geoalpha.curve`.
+
+    Returns
+    -------
+    dask.dataframe.DataFrame
+        Lazy; its ``.compute()`` equals ``geoalpha.curve(ddf.compute(), by,
+        ...)`` (with ``sort=True``).
+
+    Raises
+    ------
+    InvalidInputError
+        As :func:`geoalpha.curve` and :func:`hull`.
+
+    .. versionadded:: 0.5.0
+
+    Examples
+    --------
+    >>> import dask_geopandas
+    >>> import geoalpha
+    >>> from geoalpha import datasets
+    >>> points = datasets.load("uk_clusters")
+    >>> ddf = dask_geopandas.from_geopandas(points, npartitions=4)
+    >>> table = geoalpha.curve(ddf, by="Cluster", max_left_out=2, suspicious=False)
+    >>> table.compute()["k"].tolist()[:3]
+    [0, 1, 2]
+    """
+    ddf = _frame(ddf, "curve()")
+    opts, k, unit = curve_options(options, max_left_out, outlier_unit)
+    opts = _dask_options(opts)
+    return _per_group(ddf, by, npartitions, opts, _Curve(opts, k, unit), "k", ["k"])
+
+
 class DaskAlphaAccessor(ColumnHint):
-    """``ddf.alpha.hull(...)``: :func:`hull` on a dask-geopandas frame (lazy)."""
+    """``ddf.alpha.hull(...)``, ``.explain(...)``, ``.curve(...)``: lazy, on dask.
+
+    :func:`hull`, :func:`explain` and :func:`curve` on a dask-geopandas frame.
+    """
 
     def __init__(self, obj):
         self._obj = obj
@@ -492,6 +721,14 @@ class DaskAlphaAccessor(ColumnHint):
     @functools.wraps(hull)
     def hull(self, by=None, **options):  # noqa: D102 - documented by hull
         return hull(self._obj, by, **options)
+
+    @functools.wraps(explain)
+    def explain(self, by=None, **options):  # noqa: D102 - documented by explain
+        return explain(self._obj, by, **options)
+
+    @functools.wraps(curve)
+    def curve(self, by=None, **options):  # noqa: D102 - documented by curve
+        return curve(self._obj, by, **options)
 
 
 def register(name: str = "alpha") -> None:

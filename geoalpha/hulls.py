@@ -9,9 +9,16 @@ from typing import Any, NamedTuple
 import pandas as pd
 
 from geoalpha import options as _options
-from geoalpha.errors import InvalidInputError, OutlierWarning, setting, spelled
+from geoalpha.errors import InvalidInputError, OutlierWarning
 from geoalpha.frame.pipeline import as_frame, run, run_all
 from geoalpha.frame.schema import RESULT_COLUMNS
+from geoalpha.frame.why import (
+    curve_frame,
+    curve_options,
+    explain_asked,
+    explain_frame,
+    why_options,
+)
 from geoalpha.options import DEGENERATE_POLICIES, METHODS, Options
 
 __all__ = [
@@ -156,13 +163,7 @@ def _eager_options(gdf, options, caller: str) -> Options:
         raise InvalidInputError(
             f"{caller} needs an eager GeoDataFrame; call .compute() first"
         )
-    opts = Options.from_kwargs(options, caller=caller)
-    if opts.method != "alpha":
-        raise InvalidInputError(
-            f"{caller} explains the optimal alpha shape: use it with "
-            f"{setting('method', 'alpha')}; got {setting('method', opts.method)}"
-        )
-    return opts
+    return why_options(options, caller)
 
 
 def explain(gdf, by=None, **options):
@@ -174,7 +175,9 @@ def explain(gdf, by=None, **options):
     Parameters
     ----------
     gdf, by, **options
-        As for :func:`hull` (``method="alpha"``).
+        As for :func:`hull` (``method="alpha"``). A
+        ``dask_geopandas.GeoDataFrame`` gives a lazy result: see
+        :func:`geoalpha.dask.explain`.
 
     Returns
     -------
@@ -188,13 +191,14 @@ def explain(gdf, by=None, **options):
         ``area_m2_without_1`` and ``rows_without_1`` (the optimum with one
         location, a distinct point with all its rows, left out, and those
         rows' labels); ``suspicious`` (what :class:`SuspiciousHullWarning`
-        flags); the critical triangle as ``geometry``.
+        flags); the critical triangle as ``geometry``. With ``crs=None`` on
+        input not in metres, ``area_without_1`` and ``unit`` instead of
+        ``area_m2_without_1``, as :func:`hull`.
 
     Raises
     ------
     InvalidInputError
-        As :func:`hull`; for ``method`` other than ``"alpha"`` and for a
-        dask-geopandas frame.
+        As :func:`hull`; for ``method`` other than ``"alpha"``.
 
     .. versionadded:: 0.5.0
 
@@ -210,15 +214,12 @@ def explain(gdf, by=None, **options):
     >>> round(why["radius_without_1"].item(), 4)
     2.3214
     """
+    if _is_dask(gdf):
+        from geoalpha.dask import explain as dask_explain
+
+        return dask_explain(gdf, by, **options)  # which checks the options
     opts = _eager_options(gdf, options, "explain()")
-    from geoalpha.frame.why import explain_table
-
-    asked = dict(explain=True, max_left_out=1, left_out_unit="locations")
-    if not opts.outliers and opts.search == "exact" and opts.alpha is None:
-        from geoalpha.kernel import SUSPICIOUS_FACTOR
-
-        asked["suspicious_factor"] = SUSPICIOUS_FACTOR
-    return explain_table(run_all(as_frame(gdf), by, opts, **asked))
+    return explain_frame(as_frame(gdf), by, opts)
 
 
 explain.__signature__ = _options.signature(explain)
@@ -235,7 +236,8 @@ def curve(
     Parameters
     ----------
     gdf, by
-        As for :func:`hull`.
+        As for :func:`hull`. A ``dask_geopandas.GeoDataFrame`` gives a lazy
+        result: see :func:`geoalpha.dask.curve`.
     max_left_out : int, default 5
         The largest ``k``; a group keeps at least 3 locations, so a smaller
         group's curve stops earlier (with an :class:`OutlierWarning`).
@@ -252,7 +254,8 @@ def curve(
         ``k``, ``radius``, ``alpha``, ``area_m2``, ``n_parts`` and ``left_out``
         (the index labels of the rows left out), each row the exact outlier
         optimum with at most ``k`` rows (locations) left out. ``k = 0`` is
-        :func:`hull`'s result.
+        :func:`hull`'s result. With ``crs=None`` on input not in metres,
+        ``area`` and ``unit`` instead of ``area_m2``, as :func:`hull`.
 
     Raises
     ------
@@ -272,30 +275,14 @@ def curve(
     >>> table[["k", "n_parts", "left_out"]].values.tolist()
     [[0, 1, []], [1, 1, [5]], [2, 1, [5]]]
     """
-    import numbers
+    if _is_dask(gdf):
+        from geoalpha.dask import curve as dask_curve
 
-    from geoalpha.options import META
-
-    if (
-        isinstance(max_left_out, bool)
-        or not isinstance(max_left_out, numbers.Integral)
-        or max_left_out < 0
-    ):
-        raise InvalidInputError(
-            f"{spelled('max_left_out')} must be an integer >= 0; got {max_left_out!r}"
+        return dask_curve(
+            gdf, by, max_left_out=max_left_out, outlier_unit=outlier_unit, **options
         )
-    unit = META["outlier_unit"].check("outlier_unit", outlier_unit)
-    opts = _eager_options(gdf, options, "curve()")
-    if opts.outliers:
-        raise InvalidInputError(
-            "curve() leaves out k = 0 .. max_left_out itself: use it without "
-            f"outliers; got {setting('outliers', opts.outliers)}"
-        )
-    from geoalpha.frame.why import curve_table
-
-    asked = dict(max_left_out=int(max_left_out), left_out_unit=unit)
-    ran = run_all(as_frame(gdf), by, opts, **asked)
-    return curve_table(ran, int(max_left_out), unit)
+    opts, k, unit = curve_options(options, max_left_out, outlier_unit)
+    return curve_frame(as_frame(gdf), by, opts, k, unit)
 
 
 class Explained(NamedTuple):
@@ -350,13 +337,8 @@ def hull_and_why(gdf, by=None, **options) -> Explained:
     opts = _eager_options(gdf, options, "explain()")
     from geoalpha.frame.why import explain_table
 
-    asked = dict(explain=True, max_left_out=1, left_out_unit="locations")
-    if not opts.outliers and opts.search == "exact" and opts.alpha is None:
-        from geoalpha.kernel import SUSPICIOUS_FACTOR
-
-        asked["suspicious_factor"] = SUSPICIOUS_FACTOR
     frame = as_frame(gdf)
-    ran = run_all(frame, by, opts, **asked)
+    ran = run_all(frame, by, opts, **explain_asked(opts))
     left_out = pd.Series(ran.left_out, index=frame.index, name="outlier")
     return Explained(ran.table, explain_table(ran), left_out)
 

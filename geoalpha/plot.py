@@ -105,11 +105,13 @@ def plot_curve(curve, why=None, *, max_groups: int = 24, columns: int = 4):
     plt = _pyplot()
     keys = _key_columns(curve, "k")
     flagged = _flagged_keys(why, keys)
+    # planar areas not in metres (crs=None): ``area`` in square ``unit``
+    column = "area_m2" if "area_m2" in curve.columns else "area"
     groups = []
     for key, rows in curve.groupby(keys, sort=False) if keys else [((), curve)]:
         key = key if isinstance(key, tuple) else (key,)
         rows = rows.sort_values("k")
-        area = rows["area_m2"].to_numpy(dtype=float)
+        area = rows[column].to_numpy(dtype=float)
         drop = 1 - area[-1] / area[0] if area.size and area[0] > 0 else 0.0
         groups.append((key not in flagged, -drop, _name(key), rows))
     groups.sort(key=lambda g: g[:3])
@@ -120,10 +122,12 @@ def plot_curve(curve, why=None, *, max_groups: int = 24, columns: int = 4):
     fig, axes = plt.subplots(
         nrows, ncols, figsize=(3.2 * ncols, 2.6 * nrows), squeeze=False
     )
-    big = bool(n) and max(g[3]["area_m2"].max() for g in shown) >= 1e6
+    big = bool(n) and max(g[3][column].max() for g in shown) >= 1e6
     scale, unit = (1e-6, "km²") if big else (1.0, "m²")
+    if column == "area":
+        scale, unit = 1.0, f"{curve['unit'].iloc[0] if len(curve) else 'unit'}²"
     for ax, (not_flagged, _, name, rows) in zip(axes.flat, shown, strict=False):
-        ax.plot(rows["k"], rows["area_m2"] * scale, marker="o", color="C0")
+        ax.plot(rows["k"], rows[column] * scale, marker="o", color="C0")
         ax.set_title(name + ("" if not_flagged else " (flagged)"))
         if not not_flagged:
             ax.title.set_color("C3")

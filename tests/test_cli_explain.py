@@ -223,3 +223,44 @@ def test_explain_planar_input_names_the_area_without_m2(tmp_path):
     assert 0 < why["area_without_1"].item() <= 16
     hulls = gpd.read_file(out, layer="plane")
     assert hulls["unit"].item() == "coordinate unit"
+
+
+@pytest.mark.parametrize("unit, factor", [("km", 1000.0), ("ft", 0.3048)])
+def test_explain_with_unit_writes_why_in_metres_as_the_hulls(tmp_path, unit, factor):
+    # --unit: planar coordinates in km (ft); the hulls and 'why' in m and m²
+    path = tmp_path / "plane.csv"
+    square = [(0, 0), (4, 0), (4, 4), (0, 4), (2, 3.5), (30, 30)]
+    pd.DataFrame(square, columns=["x", "y"]).to_csv(path, index=False)
+    out = tmp_path / "plane.gpkg"
+    args = ("hull", path, out, "--crs-in", "none", "--unit", unit, "--explain")
+    result = run(*args)
+    assert result.exit_code == 0, result.stderr
+    why = gpd.read_file(out, layer="why")
+    hulls = gpd.read_file(out, layer="plane")
+    assert "unit" not in why.columns and "area_without_1" not in why.columns
+    assert "area_m2" in hulls.columns and "unit" not in hulls.columns
+    # the same run in the coordinates' own unit, as numbers to convert
+    plain = tmp_path / "plain.gpkg"
+    assert run("hull", path, plain, "--crs-in", "none", "--explain").exit_code == 0
+    own = gpd.read_file(plain, layer="why")
+    assert why["radius"].item() == pytest.approx(own["radius"].item() * factor)
+    assert why["radius"].item() == pytest.approx(hulls["radius"].item())
+    assert why["alpha"].item() == pytest.approx(hulls["alpha"].item())
+    assert why["radius_without_1"].item() == pytest.approx(
+        own["radius_without_1"].item() * factor
+    )
+    assert why["area_m2_without_1"].item() == pytest.approx(
+        own["area_without_1"].item() * factor**2
+    )
+    # the far point left out: inside the 4 x 4 square, in m²
+    assert 0 < why["area_m2_without_1"].item() <= 16 * factor**2
+    assert why.columns.tolist()[:8] == [
+        "radius",
+        "alpha",
+        "limited_by",
+        "critical_rows",
+        "radius_without_1",
+        "area_m2_without_1",
+        "rows_without_1",
+        "suspicious",
+    ]

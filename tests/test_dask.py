@@ -24,13 +24,21 @@ from geopandas.testing import assert_geodataframe_equal
 
 require_for_module(HAS_DASK, "geoalpha[dask] (dask-geopandas, distributed)")
 
+import dask  # noqa: E402
+import dask.dataframe  # noqa: E402
 import dask_geopandas  # noqa: E402
 import distributed  # noqa: E402
 
 import geoalpha  # noqa: E402
 import geoalpha.dask  # noqa: E402
 from geoalpha import datasets  # noqa: E402
-from geoalpha.errors import CRSWarning, GroupingWarning, InvalidInputError  # noqa: E402
+from geoalpha.errors import (  # noqa: E402
+    CRSWarning,
+    GroupingWarning,
+    InvalidInputError,
+    OutlierWarning,
+    SuspiciousHullWarning,
+)
 
 pytestmark = pytest.mark.filterwarnings(
     "ignore::geoalpha.errors.DegenerateGroupWarning",
@@ -393,6 +401,185 @@ def test_progress_bar_does_not_apply(clusters, capsys):
     assert "geoalpha hull" not in capsys.readouterr().err
 
 
+# --- explain() and curve(): per partition, as the eager calls (#35) -----------------
+
+#: The columns of explain()/curve() that hold lists of index labels.
+LISTS = ["critical_rows", "rows_without_1", "left_out"]
+
+
+def assert_same_table(lazy, eager):
+    """``lazy.compute()`` is ``eager``: values, order, dtypes, labels as lists."""
+    got = lazy.compute()
+    assert got.dtypes.to_dict() == lazy._meta.dtypes.to_dict()
+    assert list(got.columns) == list(eager.columns)
+    lists = [c for c in LISTS if c in eager.columns]
+    for column in lists:  # lists of the input's index labels, element by element
+        assert got[column].tolist() == eager[column].tolist(), column
+    if isinstance(eager, gpd.GeoDataFrame):
+        assert got.crs == eager.crs
+        # the critical triangles, exactly (None for a degenerate group)
+        assert got.geometry.to_wkb().tolist() == eager.geometry.to_wkb().tolist()
+        got, eager = pd.DataFrame(got), pd.DataFrame(eager)
+        lists.append("geometry")
+    pd.testing.assert_frame_equal(
+        got.drop(columns=lists), eager.drop(columns=lists), check_dtype=False
+    )
+    return got
+
+
+def with_hawaii_like(airports) -> gpd.GeoDataFrame:
+    """The airports and 50 rows of Hawaii geocoded at one spot 700 km west."""
+    wrong = gpd.GeoDataFrame(
+        {"state": ["HI"] * 50, "iata": [f"Z{i:02d}" for i in range(50)]},
+        geometry=shapely.points(np.full((50, 2), (-168.02, 24.86))),
+        crs=4326,
+        index=pd.RangeIndex(9000, 9050),
+    )
+    return pd.concat([airports, wrong])
+
+
+@pytest.fixture(scope="module")
+def hawaii(airports):
+    return with_hawaii_like(airports)
+
+
+def test_explain_is_lazy_and_equals_the_eager_table(clusters):
+    ddf = spread(clusters, 5)
+    lazy = geoalpha.explain(ddf, by="Cluster", suspicious=False)
+    assert isinstance(lazy, dask_geopandas.GeoDataFrame)
+    assert lazy.crs == clusters.crs
+    eager = geoalpha.explain(ddf.compute(), by="Cluster", suspicious=False)
+    got = assert_same_table(lazy, eager)
+    assert len(got) == 691 and set(got["limited_by"]) <= {
+        "coverage",
+        "connection",
+        "degenerate",
+    }
+    # the critical triangles' corners are the input's rows, by their labels
+    named = got.loc[got["limited_by"] == "coverage", "critical_rows"]
+    assert all(set(rows) <= set(clusters.index) for rows in named)
+
+
+def test_explain_names_the_hawaii_like_location_as_eager(hawaii):
+    ddf = spread(hawaii, 4)
+    with dask.config.set(scheduler="sync"):  # the partitions' warnings, here
+        with pytest.warns(SuspiciousHullWarning, match="group 'HI'"):
+            lazy = geoalpha.explain(ddf, by="state")
+            got = lazy.compute()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", SuspiciousHullWarning)
+        eager = geoalpha.explain(ddf.compute(), by="state")
+    assert_same_table(lazy, eager)
+    hi = got[got["state"] == "HI"].iloc[0]
+    assert hi["suspicious"] and hi["limited_by"] == "coverage"
+    assert sorted(hi["rows_without_1"]) == list(range(9000, 9050))
+    assert hi["radius_without_1"] < hi["radius"] / 4
+    assert (
+        got.loc[got["state"] != "HI", "suspicious"].sum()
+        == eager.loc[eager["state"] != "HI", "suspicious"].sum()
+    )
+
+
+@pytest.mark.parametrize("unit", ["rows", "locations"])
+def test_curve_is_lazy_and_equals_the_eager_table(hawaii, unit):
+    ddf = spread(hawaii, 3)
+    kwargs = dict(by="state", max_left_out=3, outlier_unit=unit, suspicious=False)
+    lazy = geoalpha.curve(ddf, **kwargs)
+    assert isinstance(lazy, dask.dataframe.DataFrame)
+    assert not isinstance(lazy, dask_geopandas.GeoDataFrame)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", OutlierWarning)  # groups of < 4 places
+        eager = geoalpha.curve(ddf.compute(), **kwargs)
+        got = assert_same_table(lazy, eager)
+    hi = got[got["state"] == "HI"].set_index("k")
+    assert hi.index.tolist() == [0, 1, 2, 3]
+    if unit == "locations":  # one location out: its 50 rows, and a smaller area
+        assert sorted(hi.loc[1, "left_out"]) == list(range(9000, 9050))
+        assert hi.loc[1, "area_m2"] < hi.loc[0, "area_m2"] / 2
+    else:  # 3 of the 50 rows out cannot move the far location
+        assert hi.loc[3, "radius"] == pytest.approx(hi.loc[0, "radius"], rel=1e-12)
+
+
+def test_accessor_explain_and_curve_are_the_functions(clusters):
+    some = clusters[clusters["Cluster"] < 40]
+    ddf = spread(some, 2)
+    eager = ddf.compute()
+    assert_same_table(
+        ddf.alpha.explain(by="Cluster", suspicious=False),
+        geoalpha.explain(eager, by="Cluster", suspicious=False),
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", OutlierWarning)
+        assert_same_table(
+            ddf.alpha.curve(by="Cluster", max_left_out=2, suspicious=False),
+            geoalpha.curve(eager, by="Cluster", max_left_out=2, suspicious=False),
+        )
+
+
+def test_explain_and_curve_sort_false_keep_the_partitions(clusters):
+    some = clusters[clusters["Cluster"] < 60]
+    ddf = spread(some, 3)
+    eager = geoalpha.explain(ddf.compute(), by="Cluster", suspicious=False)
+    lazy = geoalpha.explain(ddf, by="Cluster", sort=False, suspicious=False)
+    assert lazy.npartitions == 3  # not gathered into one
+    got = lazy.compute().sort_values("Cluster").reset_index(drop=True)
+    assert got["Cluster"].tolist() == eager["Cluster"].tolist()
+    assert got["critical_rows"].tolist() == eager["critical_rows"].tolist()
+    np.testing.assert_array_equal(got["radius"], eager["radius"])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", OutlierWarning)
+        table = geoalpha.curve(ddf, by="Cluster", sort=False, max_left_out=1)
+        got = table.compute().sort_values(["Cluster", "k"], kind="stable")
+        want = geoalpha.curve(ddf.compute(), by="Cluster", max_left_out=1)
+    assert (
+        got[["Cluster", "k"]].values.tolist() == want[["Cluster", "k"]].values.tolist()
+    )
+    assert got["left_out"].tolist() == want["left_out"].tolist()
+
+
+def test_explain_and_curve_without_by_and_with_crs_none(clusters):
+    some = clusters[clusters["Cluster"] < 3]
+    ddf = spread(some, 3)
+    eager = ddf.compute()
+    assert len(assert_same_table(geoalpha.explain(ddf), geoalpha.explain(eager))) == 1
+    # planar areas in degrees: named area and unit, as hull() does
+    lazy = geoalpha.explain(ddf, by="Cluster", crs=None)
+    assert "area_m2_without_1" not in lazy.columns
+    got = assert_same_table(lazy, geoalpha.explain(eager, by="Cluster", crs=None))
+    assert set(got["unit"]) == {"degree"}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", OutlierWarning)
+        lazy = geoalpha.curve(ddf, by="Cluster", crs=None, max_left_out=1)
+        got = assert_same_table(
+            lazy, geoalpha.curve(eager, by="Cluster", crs=None, max_left_out=1)
+        )
+    assert "area_m2" not in got.columns and set(got["unit"]) == {"degree"}
+
+
+def test_explain_and_curve_errors_as_eager(clusters):
+    ddf = spread(clusters, 2)
+    eager = clusters.head(50)
+    for call, kwargs, match in [
+        (geoalpha.explain, dict(method="convex"), "use it with method='alpha'"),
+        (geoalpha.curve, dict(max_left_out=-1), "max_left_out must be an integer"),
+        (geoalpha.curve, dict(outlier_unit="sites"), "outlier_unit must be one of"),
+        (geoalpha.curve, dict(outliers=2), "use it without outliers"),
+    ]:
+        with pytest.raises(InvalidInputError, match=match):
+            call(eager, by="Cluster", **kwargs)
+        with pytest.raises(InvalidInputError, match=match):  # at the call, not compute
+            call(ddf, by="Cluster", **kwargs)
+    with pytest.raises(InvalidInputError, match="no column 'nope'"):
+        ddf.alpha.explain(by="nope")
+    with pytest.raises(InvalidInputError, match="dask spreads the partitions"):
+        ddf.alpha.curve(by="Cluster", n_jobs=2)
+    bad = clusters.copy()
+    bad.geometry = bad.to_crs(27700).buffer(10.0).to_crs(4326)
+    lazy = geoalpha.explain(spread(bad, 2), by="Cluster")
+    with pytest.raises(InvalidInputError, match="needs point geometries"):
+        lazy.compute()
+
+
 # --- a real cluster -------------------------------------------------------------
 
 
@@ -420,6 +607,25 @@ def test_local_cluster_gives_the_eager_hulls(client, clusters, airports, mixed):
         eager = geoalpha.hull(ddf.compute(), by=by)
         assert_geodataframe_equal(got, eager, check_dtype=False)
         assert got.geom_equals_exact(eager, tolerance=0).all()
+
+
+def test_local_cluster_gives_the_eager_explain_and_curve(client, hawaii):
+    ddf = spread(hawaii, 4)
+    eager = ddf.compute()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", (SuspiciousHullWarning, OutlierWarning))
+        why = geoalpha.explain(ddf, by="state")
+        got = client.compute(why).result()
+        want = geoalpha.explain(eager, by="state")
+        table = client.compute(geoalpha.curve(ddf, by="state", max_left_out=2)).result()
+        curve = geoalpha.curve(eager, by="state", max_left_out=2)
+    assert got["rows_without_1"].tolist() == want["rows_without_1"].tolist()
+    assert got["critical_rows"].tolist() == want["critical_rows"].tolist()
+    assert got["suspicious"].tolist() == want["suspicious"].tolist()
+    np.testing.assert_array_equal(got["radius_without_1"], want["radius_without_1"])
+    assert got.geometry.to_wkb().tolist() == want.geometry.to_wkb().tolist()
+    assert table["left_out"].tolist() == curve["left_out"].tolist()
+    np.testing.assert_array_equal(table["area_m2"], curve["area_m2"])
 
 
 # --- imports --------------------------------------------------------------------------

@@ -108,6 +108,16 @@ def test_plot_curve_one_group_without_by():
     assert [ax.get_title() for ax in fig.axes] == ["all points"]
 
 
+def test_plot_curve_of_planar_degrees_says_the_unit(with_hawaii):
+    # crs=None on lon/lat: the curve has area and unit (degree), not area_m2
+    curve = quiet(geoalpha.curve, with_hawaii, by="state", crs=None, max_left_out=2)
+    fig = geoalpha.plot_curve(curve)
+    assert {ax.get_ylabel() for ax in fig.axes} == {"area (degree²)"}
+    hi = fig.axes[[ax.get_title() for ax in fig.axes].index("HI")]
+    want = curve.loc[curve["state"] == "HI", "area"].to_numpy()
+    np.testing.assert_array_equal(hi.lines[0].get_ydata(), want)
+
+
 def test_plot_curve_refuses_another_table():
     with pytest.raises(InvalidInputError, match=r"expected a table of geoalpha\.curve"):
         geoalpha.plot_curve(pd.DataFrame({"a": [1]}))

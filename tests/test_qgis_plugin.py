@@ -671,11 +671,21 @@ def test_qgis_process_crs_none_writes_area_and_unit(qgis, installed, km_points):
         "FIELD=state",
         "CRS=none",
         f"OUTPUT={out.name}",
+        "WHY=km_why.gpkg",
     )
     got = gpd.read_file(out)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", geoalpha.GeoAlphaWarning)
         want = geoalpha.hull(km_points, by="state", crs=None)
+        explained = geoalpha.explain(km_points, by="state", crs=None)
+    # the layer WHY: explain()'s area_without_1 (km²) and unit, as the hulls
+    why = gpd.read_file(qgis.tmp / "km_why.gpkg").sort_values("state")
+    assert "area_m2_without_1" not in why.columns
+    assert set(why["unit"]) == {"coordinate unit"}
+    explained = explained.sort_values("state")
+    np.testing.assert_allclose(
+        why["area_without_1"], explained["area_without_1"], rtol=1e-12
+    )
     planar = [
         c for name in RESULT for c in ((name,), ("area", "unit"))[name == "area_m2"]
     ]

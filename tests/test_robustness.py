@@ -803,3 +803,33 @@ def test_points_outside_are_taken_in_in_linear_time(monkeypatch):
     assert fixed[0].is_valid
     assert shapely.covers(fixed[0], shapely.points(pts)).all()
     assert len(calls) <= guarantee.TAKE_IN_POINTS
+
+
+@pytest.mark.parametrize("npartitions", [1, 3, 11])
+def test_dask_explain_and_curve_take_every_family_of_group(npartitions):
+    # The same hostile groups per dask partition (some partitions hold only
+    # groups without a shape, or none): the eager tables, row for row (#35).
+    dask_geopandas = pytest.importorskip("dask_geopandas")
+    import geoalpha.dask  # noqa: F401
+
+    frame = hostile_frame().sample(frac=1, random_state=3)
+    lazy = dask_geopandas.from_geopandas(frame, npartitions=3, sort=False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        why = frame.alpha.explain(by="g")
+        curve = frame.alpha.curve(by="g", max_left_out=2, outlier_unit="locations")
+        got = lazy.alpha.explain(by="g", npartitions=npartitions).compute()
+        table = lazy.alpha.curve(
+            by="g", max_left_out=2, outlier_unit="locations", npartitions=npartitions
+        ).compute()
+    assert got["g"].tolist() == why["g"].tolist()
+    assert got["limited_by"].tolist() == why["limited_by"].tolist()
+    assert got["critical_rows"].tolist() == why["critical_rows"].tolist()
+    assert got["rows_without_1"].tolist() == why["rows_without_1"].tolist()
+    np.testing.assert_array_equal(got["radius"], why["radius"])
+    np.testing.assert_array_equal(got["radius_without_1"], why["radius_without_1"])
+    assert got.geometry.to_wkb().tolist() == why.geometry.to_wkb().tolist()
+    assert table[["g", "k"]].values.tolist() == curve[["g", "k"]].values.tolist()
+    assert table["left_out"].tolist() == curve["left_out"].tolist()
+    np.testing.assert_array_equal(table["radius"], curve["radius"])
+    np.testing.assert_array_equal(table["area_m2"], curve["area_m2"])

@@ -226,6 +226,50 @@ def test_limited_by_connection_outliers_and_given():
     )
 
 
+def test_planar_areas_not_in_metres_say_their_unit_as_hull():
+    # crs=None on lon/lat (and without CRS): no column area_m2 holding deg²
+    gdf = hawaii_like()
+    for data, unit in [
+        (gdf, "degree"),
+        (gdf.set_crs(None, allow_override=True), "coordinate unit"),
+    ]:
+        hulls = quiet(geoalpha.hull, data, by="state", crs=None)
+        why = quiet(geoalpha.explain, data, by="state", crs=None)
+        table = quiet(
+            geoalpha.curve,
+            data,
+            by="state",
+            crs=None,
+            max_left_out=1,
+            outlier_unit="locations",
+        )
+        assert set(hulls["unit"]) == set(why["unit"]) == set(table["unit"]) == {unit}
+        assert "area_m2_without_1" not in why.columns
+        assert list(why.columns[5:8]) == ["radius_without_1", "area_without_1", "unit"]
+        assert "area_m2" not in table.columns
+        assert list(table.columns[:6]) == [
+            "state",
+            "k",
+            "radius",
+            "alpha",
+            "area",
+            "unit",
+        ]
+        # k = 0 is hull()'s area; one location out is a hull of the others
+        zero = table[table["k"] == 0].set_index("state")["area"]
+        np.testing.assert_allclose(
+            zero, hulls.set_index("state").loc[zero.index, "area"], rtol=1e-12
+        )
+        hi = why.set_index("state").loc["HI"]
+        kept = data.drop(index=hi["rows_without_1"])
+        alone = quiet(geoalpha.hull, kept[kept["state"] == "HI"], crs=None)
+        assert hi["area_without_1"] == pytest.approx(alone["area"].item(), rel=1e-9)
+        assert hi["area_without_1"] < hulls.set_index("state").loc["HI", "area"] / 2
+    # in metres the names stay
+    why = quiet(geoalpha.explain, gdf.to_crs(32604), by="state", crs=None)
+    assert "area_m2_without_1" in why.columns and "unit" not in why.columns
+
+
 # --------------------------------------------------------------------------
 # The suspicious flag
 # --------------------------------------------------------------------------

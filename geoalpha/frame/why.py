@@ -2,22 +2,43 @@
 
 Both read what :func:`~.pipeline.run_all` made (the kernel's
 :class:`~geoalpha.kernel.Why`), one row per group or per group and ``k``
-(:doc:`/user_guide/why`).
+(:doc:`/user_guide/why`). The checks of their options and the runs that
+make them are here too, shared by the eager faces (``hulls``) and dask's
+partitions (``dask``).
 """
 
 from __future__ import annotations
 
 import itertools
+import numbers
 
 import numpy as np
 import pandas as pd
 import shapely
 
 from geoalpha import kernel
-from geoalpha.errors import OutlierWarning, first_n, setting, spelled, warn_user
-from geoalpha.frame.pipeline import Ran
+from geoalpha.errors import (
+    InvalidInputError,
+    OutlierWarning,
+    first_n,
+    setting,
+    spelled,
+    warn_user,
+)
+from geoalpha.frame.pipeline import Ran, run_all
+from geoalpha.options import META, Options
 
-__all__ = ["CURVE_COLUMNS", "EXPLAIN_COLUMNS", "curve_table", "explain_table"]
+__all__ = [
+    "CURVE_COLUMNS",
+    "EXPLAIN_COLUMNS",
+    "curve_frame",
+    "curve_options",
+    "curve_table",
+    "explain_asked",
+    "explain_frame",
+    "explain_table",
+    "why_options",
+]
 
 #: Columns of :func:`geoalpha.explain` after the group keys (then ``geometry``).
 EXPLAIN_COLUMNS = (
@@ -48,11 +69,15 @@ def _keys(ran: Ran, kept: np.ndarray, repeat=None) -> dict:
     return dict(zip(ran.groups.names, columns, strict=True))
 
 
-def _label_lists(ran: Ran, positions: np.ndarray, offsets: np.ndarray) -> list:
-    """Index labels of the points ``positions[offsets[i]:offsets[i + 1]]``, per i."""
+def _label_lists(ran: Ran, positions: np.ndarray, offsets: np.ndarray) -> pd.Series:
+    """Index labels of the points ``positions[offsets[i]:offsets[i + 1]]``, per i.
+
+    A Series of lists (object dtype), on a range index.
+    """
     labels = ran.points.labels[np.asarray(positions, dtype=np.int64)].tolist()
     cuts = np.asarray(offsets, dtype=np.int64).tolist()
-    return [labels[a:b] for a, b in itertools.pairwise(cuts)]
+    # an object column even with no row (dask's meta is the table of no row)
+    return pd.Series([labels[a:b] for a, b in itertools.pairwise(cuts)], dtype=object)
 
 
 def _first_alternatives(alt, n_groups: int) -> np.ndarray:
@@ -61,6 +86,22 @@ def _first_alternatives(alt, n_groups: int) -> np.ndarray:
     ones = np.flatnonzero(alt.k == 1)
     first[alt.group[ones][::-1]] = ones[::-1]  # the first of each group wins
     return first
+
+
+def _in_unit(frame, ran: Ran, suffix: str):
+    """Say the unit of planar areas not in metres, as the hull table does.
+
+    With ``crs=None`` on input not in metres, :func:`geoalpha.hull` writes
+    ``area`` and ``unit`` (:func:`~.schema.with_area_unit`); ``area_m2{suffix}``
+    then becomes ``area{suffix}``, followed by the same ``unit``.
+    """
+    if "unit" not in ran.table.columns:
+        return frame
+    unit = ran.table["unit"].iloc[0] if len(ran.table) else ""  # (no row)
+    name = f"area{suffix}"
+    frame = frame.rename(columns={f"area_m2{suffix}": name})
+    frame.insert(list(frame.columns).index(name) + 1, "unit", unit)
+    return frame
 
 
 def explain_table(ran: Ran):
@@ -126,7 +167,7 @@ def explain_table(ran: Ran):
         "rows_without_1": rows_1,
         "suspicious": np.asarray(why.suspicious, dtype=bool)[kept] & ~degenerate,
     }
-    frame = pd.DataFrame({**_keys(ran, kept), **values})
+    frame = _in_unit(pd.DataFrame({**_keys(ran, kept), **values}), ran, "_without_1")
     return gpd.GeoDataFrame(frame, geometry=geometry, crs=ran.points.crs)
 
 
@@ -194,4 +235,60 @@ def curve_table(ran: Ran, max_left_out: int, unit: str):
         "n_parts": parts.astype(np.int64),
         "left_out": left_out,
     }
-    return pd.DataFrame({**_keys(ran, kept, sizes), **columns})
+    return _in_unit(pd.DataFrame({**_keys(ran, kept, sizes), **columns}), ran, "")
+
+
+def why_options(options: dict, caller: str) -> Options:
+    """Check the options of ``explain()``/``curve()`` (eager and dask): alpha only."""
+    opts = Options.from_kwargs(options, caller=caller)
+    if opts.method != "alpha":
+        raise InvalidInputError(
+            f"{caller} explains the optimal alpha shape: use it with "
+            f"{setting('method', 'alpha')}; got {setting('method', opts.method)}"
+        )
+    return opts
+
+
+def explain_asked(opts: Options) -> dict:
+    """Return what ``explain()`` asks of the kernel beyond ``hull()``."""
+    asked = dict(explain=True, max_left_out=1, left_out_unit="locations")
+    if not opts.outliers and opts.search == "exact" and opts.alpha is None:
+        asked["suspicious_factor"] = kernel.SUSPICIOUS_FACTOR
+    return asked
+
+
+def explain_frame(frame, by, opts: Options, **run):
+    """Return ``explain()``'s table of a GeoDataFrame (dask: of a partition).
+
+    ``run``: :func:`~geoalpha.frame.pipeline.run_all`'s ``checks``/``rows``.
+    """
+    return explain_table(run_all(frame, by, opts, **run, **explain_asked(opts)))
+
+
+def curve_options(options: dict, max_left_out, outlier_unit) -> tuple:
+    """Check ``curve()``'s arguments (also dask's): ``(Options, K, unit)``."""
+    if (
+        isinstance(max_left_out, bool)
+        or not isinstance(max_left_out, numbers.Integral)
+        or max_left_out < 0
+    ):
+        raise InvalidInputError(
+            f"{spelled('max_left_out')} must be an integer >= 0; got {max_left_out!r}"
+        )
+    unit = META["outlier_unit"].check("outlier_unit", outlier_unit)
+    opts = why_options(options, "curve()")
+    if opts.outliers:
+        raise InvalidInputError(
+            "curve() leaves out k = 0 .. max_left_out itself: use it without "
+            f"outliers; got {setting('outliers', opts.outliers)}"
+        )
+    return opts, int(max_left_out), unit
+
+
+def curve_frame(frame, by, opts: Options, max_left_out: int, unit: str, **run):
+    """Return ``curve()``'s table of a GeoDataFrame (dask: of a partition).
+
+    ``run``: :func:`~geoalpha.frame.pipeline.run_all`'s ``checks``/``rows``.
+    """
+    asked = dict(max_left_out=max_left_out, left_out_unit=unit)
+    return curve_table(run_all(frame, by, opts, **run, **asked), max_left_out, unit)

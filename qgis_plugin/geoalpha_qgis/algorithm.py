@@ -80,6 +80,18 @@ _WHY_FIELDS = {
     "rows_without_1": QVariant.String,
     "suspicious": QVariant.Bool,
 }
+#: A planar computation not in metres (CRS=none): the area in square ``unit``.
+_PLANAR_WHY_FIELDS = {
+    "radius": QVariant.Double,
+    "alpha": QVariant.Double,
+    "limited_by": QVariant.String,
+    "critical_rows": QVariant.String,
+    "radius_without_1": QVariant.Double,
+    "area_without_1": QVariant.Double,
+    "unit": QVariant.String,
+    "rows_without_1": QVariant.String,
+    "suspicious": QVariant.Bool,
+}
 _CHUNK = 1000  # features between progress reports and cancellation checks
 _PLAIN = (str, int, float, bool)  # attribute types that need no conversion
 
@@ -119,7 +131,7 @@ def _help() -> str:
             "the critical triangle whose circumradius is the optimal radius, with",
             "the fields of <code>geoalpha.explain()</code>: "
             + ", ".join(_WHY_FIELDS)
-            + "; the rows are",
+            + " (with CRS=none not in metres: area_without_1 and unit); the rows are",
             "given as feature ids of the input layer. <b>Rows left out</b>",
             "(LEFT_OUT, optional): the input features the hulls leave out",
             "(OUTLIERS), with all their fields. Both need METHOD=alpha.</p>",
@@ -564,7 +576,9 @@ class OptimalAlphaHulls(QgsProcessingAlgorithm):
         fields = QgsFields()
         for name in names:
             fields.append(QgsField(hull_fields.field(name)))
-        for name, kind in _WHY_FIELDS.items():
+        # explain()'s columns: area_without_1 and unit with CRS=none not in m
+        why_fields = _PLANAR_WHY_FIELDS if "unit" in why.columns else _WHY_FIELDS
+        for name, kind in why_fields.items():
             fields.append(QgsField(name, kind))
         sink, dest_id = self.parameterAsSink(
             parameters,
@@ -585,7 +599,7 @@ class OptimalAlphaHulls(QgsProcessingAlgorithm):
                 seen.get(_python_value(values[name]), values[name])
                 for seen, name in zip(originals, names, strict=True)
             ]
-            for name in _WHY_FIELDS:
+            for name in why_fields:
                 value = values[name]
                 if isinstance(value, list):  # row labels: the features' ids
                     value = ", ".join(str(fids[label]) for label in value)
