@@ -393,13 +393,7 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
     >>> hulls.geom_equals_exact(points.alpha.hull(by="Cluster"), 0).all()
     np.True_
     """
-    if isinstance(ddf, dask_geopandas.GeoSeries):
-        ddf = ddf.to_frame(name="geometry")
-    if not isinstance(ddf, dask_geopandas.GeoDataFrame):
-        raise InvalidInputError(
-            "geoalpha.dask.hull() needs a dask_geopandas.GeoDataFrame or GeoSeries; "
-            f"got {type(ddf).__name__}"
-        )
+    ddf = _frame(ddf, "hull()")
     opts = Options.from_kwargs(options)
     if opts.n_jobs not in (None, 1):
         raise InvalidInputError(
@@ -428,21 +422,8 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
         meta_each = with_area_unit(meta_each, planar_unit(ddf._meta.crs, opts.crs))
     if names:  # the eager checks of the options, on the (empty) meta frame
         run(ddf._meta, by, opts, checks=False)
-    checked = _checks(ddf, names, by, opts)
-    crs, source = opts.crs, ddf.crs
-    geographic = source is not None and parse_crs(source).is_geographic
-    if gcrs.auto_mode(crs) == "auto" and geographic:
-        extents = ddf.map_partitions(
-            _extent, names, opts.dropna, meta=pd.DataFrame(columns=_EXTENT, dtype=float)
-        )
-        crs = dask.delayed(_decide_crs)(extents, source)
-
-    if names:
-        rows = _for_shuffle(ddf._meta, ddf.geometry.name)
-        plain = ddf.map_partitions(_for_shuffle, ddf.geometry.name, meta=rows)
-        grouped = plain.shuffle(on=names, npartitions=npartitions)
-    else:
-        grouped = ddf.repartition(npartitions=1)
+    grouped, crs, checked = _shuffled(ddf, names, by, opts, npartitions)
+    source = ddf.crs
     out = grouped.map_partitions(
         _hull_partition,
         by,
@@ -539,16 +520,13 @@ def _frame(ddf, caller: str):
     return ddf
 
 
-def _per_group(ddf, by, npartitions, opts: Options, table, first: str, order: list):
-    """Run ``table(partition, crs, by)`` on every group of ``ddf`` as :func:`hull` does.
+def _shuffled(ddf, names: list, by, opts: Options, npartitions):
+    """Shuffle the rows by ``names``; check them once; decide the CRS once.
 
-    One shuffle by ``by``, one CRS decision, the input checks once; ``meta``
-    is ``table`` of the empty frame (the eager code). ``first``: the first
-    column after the keys; ``order``: the columns after the keys that order
-    a group's rows (with ``sort=True``).
+    Returns ``(grouped, crs, checked)``: the partitions (each group in one),
+    the computation CRS (lazy where ``crs="auto"`` decides it from every
+    partition's extent) and the lazy checks of the bad rows (or None).
     """
-    names = _key_names(ddf, by)
-    meta = table(ddf._meta, opts.crs, by)  # the eager checks of the options too
     checked = _checks(ddf, names, by, opts)
     crs, source = opts.crs, ddf.crs
     geographic = source is not None and parse_crs(source).is_geographic
@@ -563,6 +541,21 @@ def _per_group(ddf, by, npartitions, opts: Options, table, first: str, order: li
         grouped = plain.shuffle(on=names, npartitions=npartitions)
     else:
         grouped = ddf.repartition(npartitions=1)
+    return grouped, crs, checked
+
+
+def _per_group(ddf, by, npartitions, opts: Options, table, first: str, order: list):
+    """Run ``table(partition, crs, by)`` on every group of ``ddf`` as :func:`hull` does.
+
+    One shuffle by ``by``, one CRS decision, the input checks once; ``meta``
+    is ``table`` of the empty frame (the eager code). ``first``: the first
+    column after the keys; ``order``: the columns after the keys that order
+    a group's rows (with ``sort=True``).
+    """
+    names = _key_names(ddf, by)
+    meta = table(ddf._meta, opts.crs, by)  # the eager checks of the options too
+    grouped, crs, checked = _shuffled(ddf, names, by, opts, npartitions)
+    source = ddf.crs
     out = grouped.map_partitions(
         _why_partition,
         by,
