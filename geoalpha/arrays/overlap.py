@@ -127,7 +127,7 @@ def split_overlaps(
     >>> hulls = np.array([shapely.box(0, 0, 2, 2), shapely.box(1, 0, 3, 2)])
     >>> out = split_overlaps(hulls, xy.astype(float), codes)
     >>> [round(g.area, 6) for g in out.geometry], out.neighbours.tolist()
-    [[1.5, 1.5], [1, 1]]
+    ([3.0, 3.0], [1, 1])
     """
     geoms = np.asarray(geoms, dtype=object)
     n = len(geoms)
