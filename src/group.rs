@@ -218,8 +218,21 @@ pub fn solve(
         let [a, b, c] = t.map(|v| scaled[v as usize]);
         orient(a, b, c).abs() / 2.0 / s / s
     };
+    // Merged points are taken in where they are, not where spade put them
+    // (a coordinate below 2^-142 beside a 0 is placed at 0): scaled exactly.
+    let exact: Vec<Xy> = points
+        .iter()
+        .map(|p| [p[0] * s + 0.0, p[1] * s + 0.0])
+        .collect();
     finish(
-        res, &mesh, &radius, &scaled, &area_of, alpha, budget, options,
+        res,
+        &mesh,
+        &radius,
+        (&scaled, &exact),
+        &area_of,
+        alpha,
+        budget,
+        options,
     )
 }
 
@@ -265,13 +278,14 @@ pub fn triangulated(
 }
 
 /// The optimum (or given alpha), shape, area and rings of a triangulated group
-/// (`ring_points`: the points every triangle is counter-clockwise in).
+/// (`ring_points`: the points every triangle is counter-clockwise in, and
+/// the same points as exactly as they are, in which merged points are taken in).
 #[allow(clippy::too_many_arguments)]
 pub fn finish(
     mut res: Solved,
     mesh: &Mesh,
     radius: &[f64],
-    ring_points: &[Xy],
+    (ring_points, exact): (&[Xy], &[Xy]),
     area_of: &(dyn Fn(&[u32; 3]) -> f64 + Sync),
     alpha: Option<f64>,
     budget: u64,
@@ -417,7 +431,7 @@ pub fn finish(
     match trace(ring_points, mesh, &label, n_pieces) {
         Some(mut polygons) => {
             // Merged near-duplicates become vertices (coverage by construction).
-            take_in(ring_points, &mesh.rep, &mut polygons);
+            take_in(exact, &mesh.rep, &mut polygons);
             res.polygons = polygons
         }
         None => res.reason = Reason::Rings as u8,

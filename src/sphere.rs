@@ -283,7 +283,14 @@ pub fn solve(
     };
     let copy = res.clone();
     let planar = finish(
-        copy, &mesh, &radius, &scaled, &area_of, alpha, budget, options,
+        copy,
+        &mesh,
+        &radius,
+        (&scaled, &scaled),
+        &area_of,
+        alpha,
+        budget,
+        options,
     );
     // Below the bound the planar mesh gives the spherical answer (module doc).
     let bound = EARTH_RADIUS * (std::f64::consts::PI - local.theta_max) / 2.0 * (1.0 - 1e-9);
@@ -307,7 +314,14 @@ pub fn solve(
     let g = Frame::of(&local.gnomonic).scale;
     let gnomonic: Vec<Xy> = local.gnomonic.iter().map(|p| p.map(|x| x * g)).collect();
     finish(
-        res, &mesh, &radius, &gnomonic, &area_of, alpha, budget, options,
+        res,
+        &mesh,
+        &radius,
+        (&gnomonic, &gnomonic),
+        &area_of,
+        alpha,
+        budget,
+        options,
     )
 }
 

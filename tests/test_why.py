@@ -93,10 +93,9 @@ def test_curve_and_outliers_match_the_reference(unit, holes, data):
         alpha, _ = reference.outlier_optimum_from_curve(ref, components, k)
         assert 1.0 / radius == pytest.approx(alpha, rel=1e-9, abs=0), k
         # What is left out is within the budget, in the unit's terms.
-        left = p[left_out]
-        count = len(left)
-        if unit == "locations" and count:
-            count = len(reference.merge_near(left))
+        count = len(left_out)
+        if unit == "locations" and count:  # locations of the whole group
+            count = len(np.unique(reference.near_labels(p)[left_out]))
         assert count <= k
         if k:  # the same optimum as hull(outliers=k, outlier_unit=unit)
             res = alpha_shapes(
@@ -465,3 +464,23 @@ def test_a_curve_in_rows_of_a_flagged_group_keeps_its_radius_until_the_location(
     )
     assert sorted(in_locations["left_out"].iloc[1]) == list(range(9000, 9050))
     assert in_locations["radius"].iloc[1] < hi["radius"].iloc[0] / 4
+
+
+def test_two_rows_at_one_location_left_out_are_one_location():
+    # Hypothesis found it (the ci profile): leaving out the location (0, 0),
+    # which holds two rows, is one location left out, not two.
+    p = np.array([[0.0, 0.0], [0.0, 0.0], [0.0, 0.0005], [0.0, 0.001], [1.5, 1.5]])
+    curve = quiet(
+        geoalpha.curve,
+        planar(p),
+        max_left_out=4,
+        outlier_unit="locations",
+        crs=None,
+        suspicious=False,
+    )
+    assert curve["k"].tolist() == [0, 1]
+    assert sorted(curve["left_out"].iloc[1]) == [0, 1]
+    hulls = quiet(
+        geoalpha.hull, planar(p), outliers=1, outlier_unit="locations", crs=None
+    )
+    assert hulls["n_outliers"].tolist() == [2]  # rows: the location's two
