@@ -5,7 +5,8 @@
   ``geoalpha/dask.py`` (importing it without dask-geopandas is an ImportError
   by design; its doctests become one skipped item) and
   ``geoalpha/frame/progress.py`` (its examples draw a bar with tqdm,
-  ``geoalpha[progress]``). With ``GEOALPHA_TEST_ALL=1`` (CI, which installs
+  ``geoalpha[progress]``) and ``geoalpha/plot.py`` (matplotlib,
+  ``geoalpha[plot]``). With ``GEOALPHA_TEST_ALL=1`` (CI, which installs
   every extra) a missing extra fails these items instead.
 - The notebooks run (nbmake, 600 s per cell) only when nbmake is installed,
   and carry the ``notebook`` marker, which ``python -m pytest`` deselects (the
@@ -37,6 +38,10 @@ NEEDS = {
     "geoalpha/frame/progress.py": (
         _missing("tqdm"),
         'geoalpha[progress] (pip install "geoalpha[progress]")',
+    ),
+    "geoalpha/plot.py": (
+        _missing("matplotlib"),
+        'geoalpha[plot] (pip install "geoalpha[plot]")',
     ),
 }
 

@@ -629,7 +629,7 @@ def explain(ddf, by=None, *, npartitions: int | None = None, **options):
     InvalidInputError
         As :func:`hull`; for ``method`` other than ``"alpha"``.
 
-    .. versionadded:: 0.5.0
+    .. versionadded:: 0.3.0
 
     Examples
     --------
@@ -683,7 +683,7 @@ def curve(
     InvalidInputError
         As :func:`geoalpha.curve` and :func:`hull`.
 
-    .. versionadded:: 0.5.0
+    .. versionadded:: 0.3.0
 
     Examples
     --------

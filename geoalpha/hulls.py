@@ -200,7 +200,7 @@ def explain(gdf, by=None, **options):
     InvalidInputError
         As :func:`hull`; for ``method`` other than ``"alpha"``.
 
-    .. versionadded:: 0.5.0
+    .. versionadded:: 0.3.0
 
     Examples
     --------
@@ -263,7 +263,7 @@ def curve(
         ``max_left_out`` not an integer >= 0, an unknown ``outlier_unit``,
         ``outliers`` given, or as :func:`explain`.
 
-    .. versionadded:: 0.5.0
+    .. versionadded:: 0.3.0
 
     Examples
     --------
@@ -320,7 +320,7 @@ def hull_and_why(gdf, by=None, **options) -> Explained:
     InvalidInputError
         As :func:`explain`.
 
-    .. versionadded:: 0.5.0
+    .. versionadded:: 0.3.0
 
     Examples
     --------

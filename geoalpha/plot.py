@@ -89,7 +89,7 @@ def plot_curve(curve, why=None, *, max_groups: int = 24, columns: int = 4):
         ``curve`` is not a table of :func:`geoalpha.curve`; ``why`` lacks its
         key columns.
 
-    .. versionadded:: 0.5.0
+    .. versionadded:: 0.3.0
 
     Examples
     --------
@@ -175,7 +175,7 @@ def plot_why(why, hulls=None, points=None, *, ax=None):
     InvalidInputError
         ``why`` is not a table of :func:`geoalpha.explain`.
 
-    .. versionadded:: 0.5.0
+    .. versionadded:: 0.3.0
 
     Examples
     --------

@@ -61,7 +61,7 @@ FENCE = re.compile(r"^```(?P<lang>[^\n]*)\n(?P<code>.*?)^```[ \t]*$", re.S | re.
 INLINE = re.compile(r"`((?:python -m )?pip install [^`]+)`")
 SUITE = re.compile(r"\bpython -m pytest\b")
 #: A downloaded wheel's file name (not in the clone: .ci/run installs its own).
-WHEEL_FILE = re.compile(r"\bgeoalpha-[\w.]+\.whl\b")
+WHEEL_FILE = re.compile(r"\bgeoalpha-[\w.-]+\.whl\b")
 #: What a block's pytest command becomes: collected in this process (-n 0).
 COLLECT = "python -m pytest --collect-only -q -n 0"
 #: pip's warning for `.[name]` when the project has no extra `name`.
