@@ -157,15 +157,6 @@ def outlier_rows(gdf, by=None, **options):
     return pd.Series(left_out, index=frame.index, name="outlier")
 
 
-def _eager_options(gdf, options, caller: str) -> Options:
-    """Check ``options`` for ``explain()``/``curve()``: the alpha shape, eagerly."""
-    if _is_dask(gdf):
-        raise InvalidInputError(
-            f"{caller} needs an eager GeoDataFrame; call .compute() first"
-        )
-    return why_options(options, caller)
-
-
 def explain(gdf, by=None, **options):
     """Why each group's hull got its radius: the critical triangle and the alternative.
 
@@ -218,8 +209,7 @@ def explain(gdf, by=None, **options):
         from geoalpha.dask import explain as dask_explain
 
         return dask_explain(gdf, by, **options)  # which checks the options
-    opts = _eager_options(gdf, options, "explain()")
-    return explain_frame(as_frame(gdf), by, opts)
+    return explain_frame(as_frame(gdf), by, why_options(options, "explain()"))
 
 
 explain.__signature__ = _options.signature(explain)
@@ -334,7 +324,11 @@ def hull_and_why(gdf, by=None, **options) -> Explained:
     >>> int(hulls["n_outliers"].item()), why["limited_by"].item(), left_out.tolist()
     (1, 'outliers', [False, False, False, False, False, True])
     """
-    opts = _eager_options(gdf, options, "explain()")
+    if _is_dask(gdf):
+        raise InvalidInputError(
+            "hull_and_why() needs an eager GeoDataFrame; call .compute() first"
+        )
+    opts = why_options(options, "explain()")
     from geoalpha.frame.why import explain_table
 
     frame = as_frame(gdf)
