@@ -32,11 +32,12 @@ __all__ = [
     "REASONS",
     "REPAIR_RTOL",
     "SUSPICIOUS_FACTOR",
+    "THIN",
     "TIE_RTOL",
+    "AlphaShapes",
     "Alternatives",
     "Compiled",
     "Reason",
-    "Solved",
     "Why",
     "check_points",
     "cores",
@@ -77,20 +78,28 @@ ANTIMERIDIAN_SNAP = 1e-9
 
 
 class Reason(enum.IntEnum):
-    """Why a group has no shape (``OK``: it has one): the kernel's codes.
+    """Why a group has no shape (``OK``: it has one), the one definition of the codes.
 
-    The compiled kernel exports its names (``_kernel.REASONS``), which a test
-    compares with these; ``GUARANTEE`` is Python's own (the guarantee stage).
+    The compiled kernel exports the names of its codes (``_kernel.REASONS``),
+    which a test compares with these; ``GUARANTEE`` is Python's own (the
+    guarantee stage found no valid polygon holding the group's points in the
+    output coordinates); ``HEMISPHERE`` is ``crs="sphere"``'s refusal (a point
+    beyond ``MAX_SPHERE_DEGREES`` of its group's centre).
     """
 
     OK = 0
-    FEW = 1
-    COLLINEAR = 2
-    COLLINEAR_OUT = 3
-    RINGS = 4
-    GUARANTEE = 5
-    HEMISPHERE = 6
+    FEW = 1  #: fewer than 3 distinct points
+    COLLINEAR = 2  #: all points on a line
+    COLLINEAR_OUT = 3  #: all points on a line in the output coordinates
+    RINGS = 4  #: no rings could be traced
+    GUARANTEE = 5  #: no valid polygon holding its points in the output coordinates
+    HEMISPHERE = 6  #: too wide for the sphere's kernel
     FAILED = 7  #: the kernel failed on this group; the other groups are unaffected
+
+
+#: The reasons of a group too thin for any shape: fewer than 3 distinct points,
+#: or all on a line (in the computation or the output coordinates).
+THIN = (Reason.FEW, Reason.COLLINEAR, Reason.COLLINEAR_OUT)
 
 
 #: What limits a group's radius, by the kernel's code (``_kernel.LIMITED_BY``):
@@ -102,13 +111,14 @@ LIMITED_BY: dict[int, str] = {code: name for name, code in _kernel.LIMITED_BY}
 #: radius by at least this factor (:doc:`/user_guide/why` justifies it).
 SUSPICIOUS_FACTOR = 4.0
 
-#: Why a group has no shape, by the kernel's reason code (0: it has one).
-REASONS: dict[int, str] = {
-    1: "fewer than 3 distinct points",
-    2: "all points on a line",
-    3: "all points on a line in the output coordinates",
-    4: "no rings could be traced",
-    7: "the kernel failed on this group (a bug: please report it with its points)",
+#: Why a group has no shape, worded, by the kernel's :class:`Reason` (OK: it has one).
+REASONS: dict[Reason, str] = {
+    Reason.FEW: "fewer than 3 distinct points",
+    Reason.COLLINEAR: "all points on a line",
+    Reason.COLLINEAR_OUT: "all points on a line in the output coordinates",
+    Reason.RINGS: "no rings could be traced",
+    Reason.FAILED: "the kernel failed on this group (a bug: please report it with "
+    "its points)",
 }
 
 #: The geometry of a group with no shape.
@@ -258,35 +268,80 @@ def radius_of_alpha(alpha) -> np.ndarray:
         return np.where(alpha > 0, (1.0 / alpha) * (1.0 + ALPHA_RTOL), np.inf)
 
 
-class Solved(NamedTuple):
-    """What the kernel returns.
+class AlphaShapes(NamedTuple):
+    """One entry per group (:doc:`/user_guide/arrays`): the one result record.
 
-    Per group: ``reason`` (0, or a key of :data:`REASONS`), ``alpha``, ``n_distinct``,
-    ``n_parts``, ``area``, ``n_outliers`` (rows), ``whole`` (every triangle in the
-    shape), ``capped`` (the outlier search hit its node budget), ``geometry``. Per
-    point, sorted by group (``order[i]``: input row of sorted point ``i``): ``codes``,
-    ``rep`` (sorted index of its representative), ``left_out``, ``on_ring`` (its
-    output coordinates are a ring vertex's), ``coords`` (output coordinates). ``curve``:
-    the validity curves when asked, ``(values, valid, offsets)``.
+    :func:`solve` makes it; :func:`geoalpha.alpha_shapes` returns it (as
+    ``geoalpha.AlphaShapes``), and every stage of :func:`geoalpha.hull`
+    hands it on updated (``_replace``) down to the table.
+
+    Attributes
+    ----------
+    alpha : ndarray of float
+        The alpha used (the optimum unless given), in 1/unit of the coordinates;
+        ``nan`` for degenerate groups, 0 means the convex hull.
+    geometry : ndarray of object
+        Polygon, MultiPolygon (several pieces) or empty Polygon.
+    n_points, n_distinct : ndarray of int
+        Input points of the group (duplicates included), and distinct points.
+    n_parts : ndarray of int
+        Edge-connected pieces of the shape.
+    area : ndarray of float
+        In the units of ``points`` squared, whatever ``coords`` the geometry has.
+    degenerate : ndarray of bool
+        The group has no shape (``reason`` is not ``OK``), never one that misses
+        a point.
+    n_outliers : ndarray of int
+        Rows of the group left out of the shape (``outliers=``), else 0.
+    outlier : ndarray of bool, shape (n,)
+        Per input point: left out (duplicates of a left-out point too).
+    gave_up, capped : ndarray of bool
+        ``search="bisect"`` stopped at ``max_iterations`` with alpha 0; the piece
+        search of ``outliers=`` stopped at :data:`geoalpha.kernel.MAX_UNION_NODES`.
+    reason : ndarray of int
+        Why a group is degenerate (a :class:`~geoalpha.kernel.Reason`), 0 if not.
+
+    Notes
+    -----
+    The other fields are for the stages of :func:`geoalpha.hull` (None where
+    not made): ``certain`` (per point: a vertex of its group's polygon in the
+    output coordinates, or covered by construction there while that polygon
+    is the one made; not tested again), ``rep`` (per point: the row of its
+    representative, itself unless merged as a near-duplicate; None when none
+    was merged), ``whole`` (the shape is every triangle), ``curve`` (the
+    validity curves ``(values, valid, offsets)``, when asked), ``why``
+    (:class:`Why`, what :attr:`~geoalpha.options.Request.explain` asked);
+    and, added by the frame's stages, ``labels`` (the ``method`` column),
+    ``made`` (the polygons :func:`~geoalpha.frame.pipeline.compute` made),
+    ``keep`` (the groups that get a row), ``unsplit``, ``neighbours`` and
+    ``ceded`` (``overlap="split"``) and ``planar_area`` (``area`` in the
+    computation CRS, kept when ``area`` becomes ``area_m2``).
     """
 
-    order: np.ndarray
-    codes: np.ndarray
-    reason: np.ndarray
     alpha: np.ndarray
+    geometry: np.ndarray
+    n_points: np.ndarray
     n_distinct: np.ndarray
     n_parts: np.ndarray
     area: np.ndarray
-    n_outliers: np.ndarray
-    whole: np.ndarray
-    capped: np.ndarray
-    rep: np.ndarray
-    left_out: np.ndarray
-    on_ring: np.ndarray
-    coords: np.ndarray
-    geometry: np.ndarray
-    curve: tuple[np.ndarray, np.ndarray, np.ndarray] | None
-    why: Why
+    degenerate: np.ndarray
+    n_outliers: np.ndarray | None = None
+    outlier: np.ndarray | None = None
+    gave_up: np.ndarray | None = None
+    capped: np.ndarray | None = None
+    reason: np.ndarray | None = None
+    certain: np.ndarray | None = None
+    rep: np.ndarray | None = None
+    whole: np.ndarray | None = None
+    curve: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+    why: Why | None = None
+    labels: np.ndarray | None = None
+    made: np.ndarray | None = None
+    keep: np.ndarray | None = None
+    unsplit: np.ndarray | None = None
+    neighbours: np.ndarray | None = None
+    ceded: np.ndarray | None = None
+    planar_area: np.ndarray | None = None
 
 
 class Alternatives(NamedTuple):
@@ -328,8 +383,6 @@ class Why(NamedTuple):
     alternatives: Alternatives
 
 
-_PER_GROUP = ("reason", "alpha", "n_distinct", "n_parts", "area")
-_PER_GROUP += ("n_outliers", "whole", "capped")
 #: Results that are point indices (shifted when groups run in chunks).
 _INDICES = ("rep", "ring_vertex", "last_vertex", "alt_rows")
 
@@ -406,9 +459,8 @@ def solve(
     request: Request = DEFAULT_REQUEST,
     *,
     out: np.ndarray | None = None,
-    alpha: np.ndarray | None = None,
     progress=None,
-) -> Solved:
+) -> AlphaShapes:
     """Run the kernel on every group and build the polygons.
 
     Parameters
@@ -418,17 +470,20 @@ def solve(
         group codes ``0 .. n_groups - 1`` (:func:`group_codes`), and how many.
     request : Request
         What to compute (:meth:`geoalpha.options.Options.request`): holes,
-        components, outliers, the sphere, the curves, why, the alternatives.
+        components, outliers, a given alpha (one, or one per group, >= 0)
+        instead of the optimum, the sphere, the curves, why, the alternatives.
     out : ndarray of shape (n, 2), optional
         The points in the output coordinates (polygons, collinearity).
-    alpha : ndarray of shape (n_groups,), optional
-        A given alpha per group (>= 0) instead of the optimum.
     progress : object with ``update(n)``, optional
         Advanced in about 20 steps.
 
     Returns
     -------
-    Solved
+    AlphaShapes
+        As the kernel made it: ``reason`` as it says (a group of reason
+        ``RINGS`` may be ``whole``), ``alpha``, ``area`` and the polygons of
+        degenerate groups not yet cleared, ``gave_up`` all False; per point
+        (input order): ``outlier``, ``certain``, ``rep``.
 
     Examples
     --------
@@ -448,35 +503,43 @@ def solve(
         sxy, sout, order = _kernel.sort_groups(
             sxy, codes, n_groups, out_xy=sout, threads=n_threads
         )
+    alpha = request.alpha
+    if alpha is not None:  # one per group
+        alpha = np.broadcast_to(np.asarray(alpha, dtype=float), (n_groups,))
+        alpha = np.ascontiguousarray(alpha)
     budget = None
     if request.budget_kind == "count" and alpha is None:
         budget = np.full(n_groups, int(request.outliers), dtype=np.int64)
     res = _run(
-        sxy,
-        sout,
-        offsets,
-        None if alpha is None else np.ascontiguousarray(alpha, dtype=float),
-        budget,
-        progress,
-        Compiled(request, n_threads, alpha is None),
+        sxy, sout, offsets, alpha, budget, progress, Compiled(request, n_threads)
     )
     coords = sxy if sout is None else sout
     # A point is on a ring when its coordinates are a ring vertex's: it is
     # one (a merged near-duplicate taken in), or it has its representative's.
-    on_ring = np.zeros(n, dtype=bool)
-    on_ring[res["ring_vertex"]] = True
+    # In the computation coordinates a point with its representative's
+    # coordinates is covered too: the kernel's rings hold every distinct point.
+    certain = np.zeros(n, dtype=bool)
+    certain[res["ring_vertex"]] = True
     rep = res["rep"]
     point = np.ascontiguousarray(coords, float).reshape(n, 2).view(complex)[:, 0]
-    on_ring |= on_ring[rep] & (point == point[rep])
-    return Solved(
-        order=order,
-        codes=np.repeat(np.arange(n_groups), sizes),
-        **{k: res[k] for k in _PER_GROUP},
-        rep=res["rep"],
-        left_out=res["left_out"],
-        on_ring=on_ring,
-        coords=coords,
+    same = point == point[rep]
+    certain |= same if out is None else certain[rep] & same
+    return AlphaShapes(
+        alpha=res["alpha"],
         geometry=_geometries(coords, res, n_groups),
+        n_points=sizes,
+        n_distinct=res["n_distinct"].astype(np.int64),
+        n_parts=res["n_parts"].astype(np.int64),
+        area=res["area"],
+        degenerate=res["reason"] != Reason.OK,
+        n_outliers=res["n_outliers"].astype(np.int64),
+        outlier=_in_input_order(res["left_out"], order, False),
+        gave_up=np.zeros(n_groups, dtype=bool),
+        capped=res["capped"],
+        reason=res["reason"].astype(np.int64),
+        certain=_in_input_order(certain, order, True),
+        rep=_rows_of_representatives(rep, order),
+        whole=res["whole"],
         curve=(res["curve_value"], res["curve_valid"], res["curve_offsets"])
         if request.curve
         else None,
@@ -484,20 +547,37 @@ def solve(
     )
 
 
+def _in_input_order(flags: np.ndarray, order: np.ndarray, usual: bool) -> np.ndarray:
+    """Per-point flags of the sorted points, in input order (all ``usual``: no work)."""
+    out = np.full(len(flags), usual, dtype=bool)
+    if (flags != usual).any():
+        out[order] = flags
+    return out
+
+
+def _rows_of_representatives(rep: np.ndarray, order: np.ndarray) -> np.ndarray | None:
+    """Per input row, the row of its representative; None when no point was merged."""
+    if not (rep != np.arange(len(rep))).any():
+        return None
+    rows = np.empty(len(rep), dtype=np.int64)
+    rows[order] = order[rep]
+    return rows
+
+
 class Compiled:
     """A :class:`~geoalpha.options.Request` as the compiled kernel reads it.
 
     Its attributes are those of ``Request`` in ``src/lib.rs`` (``threads`` from
-    ``n_jobs``; ``fraction`` only for the optimum, ``optimum=False`` at a given
-    alpha).
+    ``n_jobs``; ``fraction`` only for the optimum, not at a given alpha).
 
     Examples
     --------
-    >>> Compiled(Request(outliers=0.1), 1, True).fraction
+    >>> Compiled(Request(outliers=0.1), 1).fraction
     0.1
     """
 
-    def __init__(self, request: Request, n_threads: int, optimum: bool):
+    def __init__(self, request: Request, n_threads: int):
+        optimum = request.alpha is None
         self.holes = bool(request.holes)
         self.components = int(request.components)
         self.curve = bool(request.curve)

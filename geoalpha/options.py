@@ -443,6 +443,8 @@ class Options:
             outliers=self.outliers,
             outlier_unit=self.outlier_unit,
             n_jobs=self.n_jobs,
+            search=self.search,
+            max_iterations=self.max_iterations,
             **asked,
         )
 
@@ -468,8 +470,11 @@ class Request:
 
     Attributes
     ----------
-    holes, components, outliers, outlier_unit, n_jobs
+    holes, components, outliers, outlier_unit, n_jobs, search, max_iterations
         As the options of :func:`geoalpha.hull` (checked).
+    alpha : float or ndarray of shape (G,), optional
+        A given alpha (>= 0; one for every group, or one per group) instead of
+        the optimum; None: the optimum (``search`` finds it).
     sphere : bool
         Longitudes/latitudes computed on the sphere.
     curve : bool
@@ -495,6 +500,9 @@ class Request:
     outliers: int | float = 0
     outlier_unit: str = "rows"
     n_jobs: int | None = None
+    search: str = "exact"
+    max_iterations: int = 10_000
+    alpha: Any = None  # float | ndarray | None (a per-group array: not hashed)
     sphere: bool = False
     curve: bool = False
     explain: bool = False

@@ -565,7 +565,7 @@ def test_merged_points_off_the_shape_are_vertices_of_the_kernel_polygon():
     p = np.r_[[[0, 0], [1000, 0], [0, 1000]], chain]
     res = kernel.solve(p, np.zeros(len(p), dtype=np.int64), 1, Request(n_jobs=1))
     assert res.n_distinct.tolist() == [4]
-    assert res.on_ring.all()
+    assert res.certain.all()
     ring = shapely.get_coordinates(res.geometry[0])
     assert len(ring) == len(p) + 1
     assert res.geometry[0].is_valid

@@ -180,7 +180,7 @@ from geoalpha.kernel import DEFAULT_REQUEST, Compiled
 
 
 def R(**kw):  # the request of the compiled call, with some attributes changed
-    request = Compiled(DEFAULT_REQUEST, 0, True)
+    request = Compiled(DEFAULT_REQUEST, 0)
     request.__dict__.update(kw)
     return request
 
@@ -277,7 +277,7 @@ signal.signal(signal.SIGINT, signal.default_int_handler)
 from geoalpha import _kernel
 from geoalpha.kernel import DEFAULT_REQUEST, Compiled
 
-request = Compiled(DEFAULT_REQUEST, 2, True)
+request = Compiled(DEFAULT_REQUEST, 2)
 xy = np.random.default_rng(1).uniform(0, 1000, (3_000_000, 2))
 print("start", flush=True)
 start = time.perf_counter()

@@ -767,7 +767,7 @@ def test_the_kernel_refuses_coordinates_not_in_row_order():
     # x0 x1 ... y0 y1 ...: read as pairs it would be other points.
     xy = np.array([[0.0, 0.0], [4.0, 0.0], [4.0, 3.0], [0.0, 3.0]])
     offsets = np.array([0, 4], dtype=np.int64)
-    request = geoalpha.kernel.Compiled(Request(n_jobs=1), 1, True)
+    request = geoalpha.kernel.Compiled(Request(n_jobs=1), 1)
     done = geoalpha._kernel.alpha_shapes(xy, offsets, request)
     assert done["area"].tolist() == [12.0]
     with pytest.raises(ValueError, match=r"^xy must be C-contiguous$"):

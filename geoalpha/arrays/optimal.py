@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from typing import Literal, NamedTuple
+import dataclasses
+from typing import Literal
 
 import numpy as np
 import shapely
@@ -12,7 +13,6 @@ from geoalpha.arrays import guarantee
 from geoalpha.arrays.lonlat import restore_longitudes
 from geoalpha.arrays.search import bisect_alpha, ladder_alpha
 from geoalpha.arrays.sphere import (
-    REFUSED,
     close_around_poles,
     follow_arcs,
     refused_message,
@@ -27,6 +27,7 @@ from geoalpha.errors import (
     setting,
     warn_user,
 )
+from geoalpha.kernel import AlphaShapes, Reason
 from geoalpha.options import Request
 from geoalpha.options import check as check_options
 
@@ -34,49 +35,6 @@ __all__ = ["AlphaShapes", "alpha_shape", "alpha_shapes", "optimal_alpha"]
 
 #: The values of ``search=`` (:data:`geoalpha.options.SEARCHES`), as a type.
 Search = Literal["exact", "ladder", "bisect"]
-
-
-class AlphaShapes(NamedTuple):
-    """Result of :func:`alpha_shapes`, one entry per group (:doc:`/user_guide/arrays`).
-
-    Attributes
-    ----------
-    alpha : ndarray of float
-        The alpha used (the optimum unless given), in 1/unit of the coordinates;
-        ``nan`` for degenerate groups, 0 means the convex hull.
-    geometry : ndarray of object
-        Polygon, MultiPolygon (several pieces) or empty Polygon.
-    n_points, n_distinct : ndarray of int
-        Input points of the group (duplicates included), and distinct points.
-    n_parts : ndarray of int
-        Edge-connected pieces of the shape.
-    area : ndarray of float
-        In the units of ``points`` squared, whatever ``coords`` the geometry has.
-    degenerate : ndarray of bool
-        The group has no shape (``reason`` > 0), never one that misses a point.
-    n_outliers : ndarray of int
-        Rows of the group left out of the shape (``outliers=``), else 0.
-    outlier : ndarray of bool, shape (n,)
-        Per input point: left out (duplicates of a left-out point too).
-    gave_up, capped : ndarray of bool
-        ``search="bisect"`` stopped at ``max_iterations`` with alpha 0; the piece
-        search of ``outliers=`` stopped at :data:`geoalpha.kernel.MAX_UNION_NODES`.
-    reason : ndarray of int
-        Why a group is degenerate, 0 if not.
-    """
-
-    alpha: np.ndarray
-    geometry: np.ndarray
-    n_points: np.ndarray
-    n_distinct: np.ndarray
-    n_parts: np.ndarray
-    area: np.ndarray
-    degenerate: np.ndarray
-    n_outliers: np.ndarray | None = None
-    outlier: np.ndarray | None = None
-    gave_up: np.ndarray | None = None
-    capped: np.ndarray | None = None
-    reason: np.ndarray | None = None
 
 
 def alpha_shapes(
@@ -130,7 +88,7 @@ def alpha_shapes(
     -------
     AlphaShapes
         Degenerate groups are flagged in ``degenerate``, without a warning
-        (but a group the kernel failed on, reason 7, warns with its rows).
+        (but a group the kernel failed on, reason ``FAILED``, warns with its rows).
 
     Raises
     ------
@@ -189,36 +147,33 @@ def alpha_shapes(
         raise InvalidInputError(str(err)) from err
     if sphere and coords is None:
         coords, _, _, polar = sphere_output(xy, codes, n_groups)
-    search, max_iterations = checked.pop("search"), checked.pop("max_iterations")
-    raw = solve_checked(
-        xy,
-        codes,
-        n_groups,
-        Request(sphere=bool(sphere), **checked),
-        alpha=None if alpha is None else _given_alpha(alpha, n_groups),
-        search=search,
-        max_iterations=max_iterations,
-        out=coords,
-        progress=progress,
-        polar=polar,
-        name_groups=name_groups,
+    given = None if alpha is None else _given_alpha(alpha, n_groups)
+    request = Request(sphere=bool(sphere), alpha=given, **checked)
+    res = solve_checked(
+        xy, codes, n_groups, request, out=coords, progress=progress, polar=polar
     )
+    refused = np.flatnonzero(res.reason == Reason.HEMISPHERE)
+    if len(refused):
+        raise InvalidInputError(
+            refused_message(_named(refused, name_groups), len(refused))
+        )
+    warn_searches(res, request, name_groups)
     # Around a pole a valid polygon may have any number of parts.
     limit = np.where(polar, np.inf, components) if np.any(polar) else components
     out_xy = xy if coords is None else coords
-    _warn_failed(raw.shapes.reason, codes, name_groups)
-    return _verified(raw, out_xy, codes, limit if alpha is None else None)
+    _warn_failed(res.reason, codes, name_groups)
+    return _verified(res, out_xy, codes, limit if alpha is None else None)
 
 
 def _warn_failed(reason, codes, name_groups) -> None:
-    """Warn about the groups the kernel failed on (reason 7), naming their rows."""
-    failed = np.flatnonzero(reason == kernel.Reason.FAILED)
+    """Warn about the groups the kernel failed on (``FAILED``), naming their rows."""
+    failed = np.flatnonzero(reason == Reason.FAILED)
     if len(failed):
         rows = np.flatnonzero(np.isin(codes, failed))
         warn_user(
             f"the kernel failed on {len(failed)} group(s) "
             f"({_named(failed, name_groups)}; rows at positions {first_n(rows)}): "
-            f"they have no shape (reason {int(kernel.Reason.FAILED)}, degenerate), "
+            f"they have no shape (reason {int(Reason.FAILED)}, degenerate), "
             "the other groups are unaffected; this is a bug, please report it "
             "with these points",
             DegenerateGroupWarning,
@@ -230,8 +185,13 @@ def _named(which: np.ndarray, name_groups) -> str:
     return f"codes {first_n(which)}" if name_groups is None else name_groups(which)
 
 
-def _warn_search(res: AlphaShapes, max_iterations, components, name_groups) -> None:
-    """Warn about the groups the bisection gave up on or the outlier search capped."""
+def warn_searches(res: AlphaShapes, request: Request, name_groups) -> None:
+    """Warn about the groups the bisection gave up on or the outlier search capped.
+
+    ``res``: from :func:`solve_checked` with ``request``; ``name_groups``: as
+    for :func:`alpha_shapes`.
+    """
+    max_iterations, components = request.max_iterations, request.components
     if res.gave_up.any():
         warn_user(
             f"{setting('search', 'bisect')} did not converge within "
@@ -284,153 +244,101 @@ def _searched_alpha(curve, n_groups: int, search: str, max_iterations: int):
     return bisect_alpha(valid, n_groups, max_iterations=max_iterations)[:2]
 
 
-class Unverified(NamedTuple):
-    """What :func:`solve_checked` returns: the kernel's shapes, before the guarantee."""
-
-    #: per group; ``degenerate`` and ``reason`` by the kernel's reasons only
-    shapes: AlphaShapes
-    #: per point: a vertex of its group's polygon in the output coordinates, or
-    #: covered by construction there while that polygon is valid (not tested)
-    certain: np.ndarray
-    #: why each group got its radius, and its alternatives (what ``request`` asked)
-    why: kernel.Why
-    #: per point: the row of its representative (itself unless merged as a
-    #: near-duplicate); None when no point was merged
-    rep: np.ndarray | None = None
-
-
 def solve_checked(
     xy: np.ndarray,
     codes: np.ndarray,
     n_groups: int,
     request: Request,
     *,
-    alpha: np.ndarray | None,
-    search: str = "exact",
-    max_iterations: int = 10_000,
     out: np.ndarray | None = None,
     progress=None,
     polar=None,
-    name_groups=None,
-    refuse: bool = True,
-) -> Unverified:
+) -> AlphaShapes:
     """:func:`alpha_shapes` on checked inputs, without the guarantee: one kernel call.
 
     Trusts its inputs (checked as :func:`alpha_shapes` does; ``request``:
-    :meth:`geoalpha.options.Options.request`); the caller enforces the
-    guarantee (:func:`geoalpha.arrays.guarantee.enforce`). Raises for the
-    groups the sphere refuses (``refuse=False``: they are degenerate, reason
-    :data:`~geoalpha.arrays.sphere.REFUSED`, for the caller to word); warns
-    about the searches that gave up. With ``request.sphere``, ``out`` is given
-    (the output longitudes and latitudes).
+    :meth:`geoalpha.options.Options.request`, with ``alpha`` and ``search``);
+    the caller enforces the guarantee
+    (:func:`geoalpha.arrays.guarantee.enforce`), words the groups the sphere
+    refused (``Reason.HEMISPHERE``: degenerate) and warns about the searches
+    that gave up (:func:`warn_searches`). With ``request.sphere``, ``out`` is
+    given (the output longitudes and latitudes) and ``polar`` (per group:
+    around a pole) may be.
     """
-    import dataclasses
-
-    rows = np.bincount(codes, minlength=n_groups)
     gave_up = np.zeros(n_groups, dtype=bool)
     try:
-        if alpha is None and search != "exact":
+        if request.alpha is None and request.search != "exact":
             asked = dataclasses.replace(request, curve=True, outliers=0)
             curve = kernel.solve(xy, codes, n_groups, asked, out=out).curve
-            alpha, gave_up = _searched_alpha(curve, n_groups, search, max_iterations)
-        res = kernel.solve(
-            xy, codes, n_groups, request, out=out, alpha=alpha, progress=progress
-        )
+            alpha, gave_up = _searched_alpha(
+                curve, n_groups, request.search, request.max_iterations
+            )
+            request = dataclasses.replace(request, alpha=alpha)
+        res = kernel.solve(xy, codes, n_groups, request, out=out, progress=progress)
     except ValueError as err:  # what the kernel refuses (e.g. |coordinate| > 1e100)
         raise InvalidInputError(str(err)) from err
+    out_xy = xy if out is None else out
     if request.sphere:
-        res = _on_the_sphere(res, polar, name_groups, refuse)
-    shapes, certain = _shapes(res, rows, gave_up, out is not None)
-    _warn_search(shapes, max_iterations, request.components, name_groups)
-    rep = None
-    if (res.rep != np.arange(len(res.rep))).any():  # rows merged into others
-        rep = np.empty(len(res.rep), dtype=np.int64)
-        rep[res.order] = res.order[res.rep]
-    return Unverified(shapes, certain, res.why, rep)
+        res = _on_the_sphere(res, out_xy, codes, polar)
+    return _finished(res, out_xy, codes, gave_up)
 
 
-def _on_the_sphere(
-    res: kernel.Solved, polar, name_groups, refuse: bool = True
-) -> kernel.Solved:
-    """Refuse groups too wide for the sphere; unfold the others, close polar ones."""
-    refused = np.flatnonzero(res.reason == REFUSED)
-    if len(refused) and refuse:
-        raise InvalidInputError(
-            refused_message(_named(refused, name_groups), len(refused))
-        )
+def _on_the_sphere(res: AlphaShapes, out_xy, codes, polar) -> AlphaShapes:
+    """Unfold the groups' polygons in lon/lat and close the polar ones."""
     polar = np.zeros(len(res.reason), bool) if polar is None else np.asarray(polar)
     geometry = res.geometry.copy()
     # Long edges of a shape concave on the sphere can fold in lon/lat.
-    folded = np.flatnonzero((res.reason == 0) & ~shapely.is_valid(geometry) & ~polar)
+    ok = res.reason == Reason.OK
+    folded = np.flatnonzero(ok & ~shapely.is_valid(geometry) & ~polar)
     geometry[folded] = follow_arcs(geometry[folded])
     if polar.any():
         which = np.flatnonzero(polar)
         geometry[which] = restore_longitudes(
-            close_around_poles(geometry[which]), which, *res.coords.T, res.codes
+            close_around_poles(geometry[which]), which, *out_xy.T, codes
         )
     # Their vertices moved (cut at +-180, shifted): test every point.
-    return res._replace(geometry=geometry, on_ring=res.on_ring & ~polar[res.codes])
+    return res._replace(geometry=geometry, certain=res.certain & ~polar[codes])
 
 
-def _shapes(res: kernel.Solved, rows, gave_up, elsewhere: bool):
-    """Return the kernel's result per group and, per point, whether it is certain."""
+def _finished(res: AlphaShapes, out_xy, codes, gave_up) -> AlphaShapes:
+    """Clear what degenerate groups have; a ``whole`` group without rings: its hull."""
     geometry = res.geometry.copy()
-    reason = res.reason.astype(np.int64)
-    n_parts = res.n_parts.astype(np.int64)
-    # A group without rings (reason 4) whose shape is every triangle: its convex hull.
-    whole = np.flatnonzero((res.reason == kernel.Reason.RINGS) & res.whole)
+    reason, n_parts = res.reason, res.n_parts
+    # A group without rings (RINGS) whose shape is every triangle: its convex hull.
+    whole = np.flatnonzero((reason == Reason.RINGS) & res.whole)
     if len(whole):
-        take = np.isin(res.codes, whole)
-        hulls = guarantee.convex_hulls(res.coords[take], res.codes[take], len(rows))
+        take = np.isin(codes, whole)
+        hulls = guarantee.convex_hulls(out_xy[take], codes[take], len(reason))
         geometry[whole] = hulls[whole]
-        reason[whole] = kernel.Reason.OK
+        reason, n_parts = reason.copy(), n_parts.copy()
+        reason[whole] = Reason.OK
         n_parts[whole] = 1
-    degenerate = reason != 0
+    degenerate = reason != Reason.OK
     geometry[degenerate] = guarantee.EMPTY_POLYGON
-    # With exact predicates the kernel's rings are valid and hold every distinct
-    # point in the computation coordinates; in other output coordinates only
-    # the ring vertices are certain. A near-duplicate merged into its
-    # representative is certain where the kernel took it in as a vertex.
-    certain = res.on_ring
-    if not elsewhere:
-        point = np.ascontiguousarray(res.coords, float).view(complex)[:, 0]  # x + yi
-        certain = certain | (point == point[res.rep])
-    back = np.ones(len(certain), dtype=bool)  # in input order (usually all True)
-    if not certain.all():
-        back[res.order] = certain
-    outlier = np.zeros(len(certain), dtype=bool)  # (usually none)
-    if res.left_out.any():
-        outlier[res.order] = res.left_out
-    shapes = AlphaShapes(
+    return res._replace(
         alpha=np.where(degenerate, np.nan, res.alpha),  # (the given one, if any)
         geometry=geometry,
-        n_points=rows,
-        n_distinct=res.n_distinct.astype(np.int64),
         n_parts=np.where(degenerate, 0, n_parts),
         area=np.where(degenerate, 0.0, res.area),
         degenerate=degenerate,
-        n_outliers=res.n_outliers.astype(np.int64),
-        outlier=outlier,
         gave_up=gave_up & ~degenerate,
         capped=res.capped & ~degenerate,
         reason=reason,
     )
-    return shapes, back
 
 
-def _verified(raw: Unverified, out_xy, codes, components) -> AlphaShapes:
-    """Enforce the guarantee (``components``: None at a given alpha) on ``raw``."""
-    res = raw.shapes
+def _verified(res: AlphaShapes, out_xy, codes, components) -> AlphaShapes:
+    """Enforce the guarantee (``components``: None at a given alpha) on ``res``."""
     # At a given alpha only alpha 0 (the convex hull) holds every point; and a
     # near-duplicate merged into a point the shape covers is covered, as at
     # the optimum (so an optimal alpha fed back gives the optimal shape).
     cover = True if components is not None else res.alpha == 0
     exempt = res.outlier if res.outlier.any() else None
-    if components is None and raw.rep is not None:
-        merged = raw.rep != np.arange(len(raw.rep))
+    if components is None and res.rep is not None:
+        merged = res.rep != np.arange(len(res.rep))
         held = np.zeros(len(merged), dtype=bool)
         held[merged] = guarantee.covered(
-            res.geometry, out_xy[raw.rep[merged]], codes[merged]
+            res.geometry, out_xy[res.rep[merged]], codes[merged]
         )
         if held.any():  # their groups' shapes are not empty
             free = ~cover[codes] & ~held  # not merged into a covered point
@@ -444,7 +352,7 @@ def _verified(raw: Unverified, out_xy, codes, components) -> AlphaShapes:
         ~res.degenerate,
         cover=cover,
         components=components,
-        test=~raw.certain,
+        test=~res.certain,
         exempt=exempt,
     )
     # A repair that took in a just-missed point may have covered one left out.
@@ -459,7 +367,7 @@ def _verified(raw: Unverified, out_xy, codes, components) -> AlphaShapes:
         n_outliers=np.bincount(codes[outlier], minlength=len(failed)),
         gave_up=res.gave_up & ~failed,
         capped=res.capped & ~failed,
-        reason=np.where(failed, kernel.Reason.GUARANTEE, res.reason),
+        reason=np.where(failed, Reason.GUARANTEE, res.reason),
     )
 
 
@@ -488,12 +396,12 @@ def _as_xy(points):
 def _one_group(points, **kwargs) -> AlphaShapes:
     """:func:`alpha_shapes` of one group, warning when it has no shape."""
     res = alpha_shapes(_as_xy(points), None, n_groups=1, **kwargs)
-    if res.degenerate[0] and res.reason[0] != kernel.Reason.FAILED:  # (that one warned)
+    if res.degenerate[0] and res.reason[0] != Reason.FAILED:  # (that one warned)
         why = (
             "are fewer than 3 or all collinear (within "
             f"{np.format_float_scientific(kernel.NEAR_RTOL, trim='-', exp_digits=1)}"
             " of their extent of a line; points closer than that are one)"
-            if res.reason[0] in (1, 2, 3)
+            if res.reason[0] in kernel.THIN
             else "got no valid polygon holding all of them (float64 could not "
             "build one: near-duplicates or slivers where pieces touch)"
         )

@@ -18,7 +18,6 @@ from geoalpha.errors import setting
 __all__ = [
     "EARTH_RADIUS",
     "MAX_SPHERE_DEGREES",
-    "REFUSED",
     "close_around_poles",
     "follow_arcs",
     "polar_groups",
@@ -30,8 +29,6 @@ __all__ = [
 EARTH_RADIUS: float = _kernel.EARTH_RADIUS
 #: Largest angle (degrees) from a group's centre to one of its points.
 MAX_SPHERE_DEGREES: float = _kernel.MAX_SPHERE_DEGREES
-#: The kernel's reason code of a group it refuses on the sphere.
-REFUSED = 6
 
 
 def refused_message(names: str, count: int) -> str:

@@ -25,9 +25,9 @@ from geoalpha.arrays.guarantee import (
     left_outside,
     repair_invalid,
 )
-from geoalpha.arrays.optimal import solve_checked
+from geoalpha.arrays.optimal import solve_checked, warn_searches
 from geoalpha.arrays.overlap import split_overlaps
-from geoalpha.arrays.sphere import MAX_SPHERE_DEGREES, REFUSED
+from geoalpha.arrays.sphere import MAX_SPHERE_DEGREES
 from geoalpha.crs_parsing import is_sphere, parse_crs
 from geoalpha.errors import (
     AntimeridianWarning,
@@ -55,11 +55,11 @@ from geoalpha.frame.schema import (
     with_area_unit,
 )
 from geoalpha.frame.sphere import SphereProjection
+from geoalpha.kernel import AlphaShapes, Reason
 from geoalpha.options import Options, Request
 
 __all__ = [
     "Groups",
-    "Hulls",
     "Points",
     "RowReport",
     "area_ceded",
@@ -113,33 +113,6 @@ class Points(NamedTuple):
     crs: Any  #: the CRS of ``coords`` (the frame's; None when it has none)
 
 
-class Hulls(NamedTuple):
-    """Output of :func:`compute` and :func:`degenerate_policy`, one entry a group."""
-
-    geometry: np.ndarray  #: in the output coordinates
-    #: in the computation CRS until :func:`area_m2` (on the WGS84 ellipsoid)
-    area: np.ndarray
-    alpha: np.ndarray
-    labels: np.ndarray  #: the ``method`` column
-    degenerate: np.ndarray  #: no shape (fewer than 3 distinct points, a line)
-    outlier: np.ndarray  #: per point: left out of its group's hull (outliers=)
-    #: why a group has no shape: 0, a code of :data:`geoalpha.kernel.REASONS`,
-    #: or 5 (no valid polygon holding its points in the output coordinates)
-    reason: np.ndarray
-    #: the polygons :func:`compute` made, and per point whether it is a ring
-    #: vertex of its group's (not tested by :func:`guarantee` while it is that)
-    made: np.ndarray
-    certain: np.ndarray
-    keep: np.ndarray | None = None  #: groups that get a row (None: all)
-    #: why each group got its radius (the kernel's :class:`~geoalpha.kernel.Why`)
-    why: kernel.Why | None = None
-    #: ``overlap="split"`` (else None): the polygons before the split, the groups
-    #: each shares a boundary line with, and the area each gave to neighbours
-    unsplit: np.ndarray | None = None
-    neighbours: np.ndarray | None = None
-    ceded: np.ndarray | None = None
-
-
 class Ran(NamedTuple):
     """Everything :func:`run_all` made: the table and what explain/curve read."""
 
@@ -148,9 +121,9 @@ class Ran(NamedTuple):
     groups: Groups
     points: Points
     proj: Any  #: the :class:`~.crs.Projection`
-    hulls: Hulls
-    #: each group's shape's area in the computation CRS (as the alternatives')
-    planar_area: np.ndarray
+    #: the result record as the last stage left it (``area``: ``area_m2``;
+    #: ``planar_area``: in the computation CRS, as the alternatives')
+    hulls: AlphaShapes
 
 
 def run(frame, by, options: Options, *, checks: bool = True, rows: bool = True):
@@ -211,15 +184,16 @@ def _stages(frame, by, options, bar: progress.Phases, checks, rows, asked) -> Ra
     hulls = degenerate_policy(hulls, groups, points, proj, options)
     hulls = split_overlaps_stage(hulls, groups, points, proj, options)
     warn_output_crs(hulls, groups, points, proj)
-    planar_area = hulls.area
-    hulls = hulls._replace(area=area_m2(hulls, grown, proj, options))
+    hulls = hulls._replace(
+        area=area_m2(hulls, grown, proj, options), planar_area=hulls.area
+    )
     hulls = area_ceded(hulls, proj, options)
     name = result_geometry_name(frame, groups.names)
     out = table(groups, points, proj, hulls, crs, name)
     # Planar areas in another unit than metres: ``area`` and ``unit``, as the CLI.
     out = with_area_unit(out, planar_unit(crs, options.crs))
     left_out = report_outliers(hulls, groups, points, len(frame), options)
-    return Ran(out, left_out, groups, points, proj, hulls, planar_area)
+    return Ran(out, left_out, groups, points, proj, hulls)
 
 
 def _quoted(value) -> str:
@@ -579,7 +553,7 @@ def compute(
     options: Options,
     names: Callable[[np.ndarray], str] | None = None,
     **asked,
-) -> Hulls:
+) -> AlphaShapes:
     """Compute the shape of every group, by ``method``, in the output coordinates.
 
     ``"alpha"``, ``"convex"``: one kernel call, the others :mod:`~.arrays.comparison`
@@ -599,46 +573,39 @@ def compute(
         optimum = alpha is None and options.search == "exact"
         if options.suspicious and optimum and not options.outliers:
             asked.setdefault("suspicious_factor", kernel.SUSPICIOUS_FACTOR)
-        raw = solve_checked(
+        request = options.request(
+            sphere=sphere, alpha=None if alpha is None else float(alpha), **asked
+        )
+        res = solve_checked(
             proj.lonlat if sphere else proj.xy,
             points.codes,
             n_groups,
-            options.request(sphere=sphere, **asked),
-            alpha=None if alpha is None else np.full(n_groups, alpha),
-            search=options.search,
-            max_iterations=options.max_iterations,
+            request,
             # None: the output coordinates are the computation's (projected input)
             out=proj.out if sphere or proj.out is not proj.xy else None,
             progress=bar,
             polar=getattr(proj, "polar", None),
-            name_groups=names,
-            refuse=False,  # too wide for the sphere: degenerate, named (below)
-        )
-        res = raw.shapes
+        )  # too wide for the sphere: degenerate (HEMISPHERE), worded below
+        warn_searches(res, request, names)
         geometry = res.geometry
         if method == "convex" and not sphere:  # (the sphere's is the kernel's)
             convex = convex_hulls(proj.out, points.codes, n_groups)
             geometry = np.where(res.degenerate, geometry, convex)
         # "ladder"/"bisect" name the search that gave the alpha
         exact = method == "convex" or options.search == "exact"
-        return Hulls(
-            geometry=geometry,
-            area=res.area,  # area_m2 (on the ellipsoid) comes at the end
-            alpha=res.alpha,
+        return res._replace(
+            geometry=geometry,  # area_m2 (on the ellipsoid) comes at the end
             labels=np.full(n_groups, method if exact else options.search, dtype=object),
-            degenerate=res.degenerate,
-            outlier=res.outlier,
-            reason=res.reason,
             made=res.geometry,
-            certain=raw.certain,
-            why=raw.why,
         )
     finally:
         if bar is not None:  # groups of 1-2 points are done too: the phase ends full
             bar.update(n_groups)
 
 
-def _comparison(points, proj, n_groups: int, options: Options, names, bar) -> Hulls:
+def _comparison(
+    points, proj, n_groups: int, options: Options, names, bar
+) -> AlphaShapes:
     """:func:`compute` for ``"concave"`` and ``"knn"``: no alpha, no kernel sweep."""
     kw = {"holes": options.holes, "ratio": options.ratio, "k": options.k, "bar": bar}
     made = comparison_hulls(
@@ -653,26 +620,29 @@ def _comparison(points, proj, n_groups: int, options: Options, names, bar) -> Hu
             "(the 'method' column says so)",
             GeoAlphaWarning,
         )
-    return Hulls(
-        geometry=made.geometry,
-        area=made.area,
+    return AlphaShapes(
         alpha=np.full(n_groups, np.nan),
-        labels=made.labels,
+        geometry=made.geometry,
+        n_points=points.n_points,
+        n_distinct=None,  # (not counted by the comparison methods)
+        n_parts=None,  # (the table counts the final polygon's)
+        area=made.area,
         degenerate=made.degenerate,
         outlier=np.zeros(len(points.codes), dtype=bool),
         reason=_reasons(made.degenerate, points, proj),
-        made=made.geometry,
         certain=np.zeros(len(points.codes), dtype=bool),
+        labels=made.labels,
+        made=made.geometry,
     )
 
 
 def degenerate_policy(
-    hulls: Hulls,
+    hulls: AlphaShapes,
     groups: Groups,
     points: Points,
     proj: gcrs.Projection,
     options: Options,
-) -> Hulls:
+) -> AlphaShapes:
     """Apply ``degenerate=`` to groups without a shape (or point); warn about them."""
     n_points = points.n_points
     degenerate = hulls.degenerate | (n_points == 0)
@@ -719,7 +689,7 @@ def degenerate_policy(
         done = f"they were dropped ({n_points[which].sum()} rows)"
     distinct = _distinct_points(points, which)
     why = _why_degenerate(hulls.reason, which, groups, n_points, proj.wide, distinct)
-    far = which[hulls.reason[which] == REFUSED]
+    far = which[hulls.reason[which] == Reason.HEMISPHERE]
     if len(far):
         why = _too_wide_for_the_sphere(far, groups, points, proj) + (
             f"; {why}" if why else ""
@@ -742,9 +712,9 @@ def _why_degenerate(
     reason, which, groups: Groups, n_points, wide, distinct=None
 ) -> str:
     """Word why the groups ``which`` have no shape, from their reason codes."""
-    which = which[reason[which] != REFUSED]  # (worded by _too_wide_for_the_sphere)
-    thin = np.isin(reason[which], (1, 2, 3)) | (n_points[which] == 0)
-    failed = ~thin & (reason[which] == kernel.Reason.FAILED)
+    which = which[reason[which] != Reason.HEMISPHERE]  # (_too_wide_for_the_sphere)
+    thin = np.isin(reason[which], kernel.THIN) | (n_points[which] == 0)
+    failed = ~thin & (reason[which] == Reason.FAILED)
     reasons = []
     if failed.any():
         reasons.append(
@@ -814,7 +784,10 @@ def _too_wide_for_the_sphere(far, groups: Groups, points: Points, proj) -> str:
 
 
 def _reasons(degenerate, points: Points, proj: gcrs.Projection) -> np.ndarray:
-    """Reason codes (the kernel's 1-3, else 5) of groups a comparison left bare."""
+    """Reasons (:data:`~geoalpha.kernel.THIN`, else ``GUARANTEE``) of bare groups.
+
+    The groups a comparison method left without a shape.
+    """
     which = np.flatnonzero(degenerate)
     reason = np.zeros(len(degenerate), dtype=np.int64)
     if not len(which):
@@ -826,13 +799,11 @@ def _reasons(degenerate, points: Points, proj: gcrs.Projection) -> np.ndarray:
         (proj.lonlat if sphere else proj.xy)[sel],
         code,
         len(which),
-        Request(sphere=sphere),
+        Request(sphere=sphere, alpha=0.0),
         out=proj.out[sel],
-        alpha=np.zeros(len(which)),
     )
-    thin = (kernel.Reason.FEW, kernel.Reason.COLLINEAR, kernel.Reason.COLLINEAR_OUT)
     reason[which] = np.where(
-        np.isin(res.reason, thin), res.reason, kernel.Reason.GUARANTEE
+        np.isin(res.reason, kernel.THIN), res.reason, Reason.GUARANTEE
     )
     return reason
 
@@ -865,7 +836,9 @@ def _buffer_in_output(geometry, sel, codes, proj: gcrs.Projection) -> np.ndarray
     return redo
 
 
-def split_at_antimeridian(hulls: Hulls, points: Points, proj: gcrs.Projection) -> Hulls:
+def split_at_antimeridian(
+    hulls: AlphaShapes, points: Points, proj: gcrs.Projection
+) -> AlphaShapes:
     """Split the hulls across +-180 degrees there (RFC 7946), input longitudes back."""
     which = np.flatnonzero(proj.crossing & ~hulls.degenerate)
     if not len(which):
@@ -892,12 +865,12 @@ def _valid(geoms: np.ndarray) -> np.ndarray:
 
 
 def guarantee(
-    hulls: Hulls,
+    hulls: AlphaShapes,
     groups: Groups,
     points: Points,
     proj: gcrs.Projection,
     options: Options,
-) -> Hulls:
+) -> AlphaShapes:
     """Check every group's polygon once, in the output CRS: repaired, or degenerate.
 
     See :func:`geoalpha.arrays.guarantee.enforce`. Not checked: rows left out,
@@ -951,9 +924,7 @@ def guarantee(
         alpha=np.where(failed, np.nan, hulls.alpha),
         degenerate=hulls.degenerate | failed,
         reason=np.where(
-            failed & (hulls.reason == kernel.Reason.OK),
-            kernel.Reason.GUARANTEE,
-            hulls.reason,
+            failed & (hulls.reason == Reason.OK), Reason.GUARANTEE, hulls.reason
         ),
         outlier=outlier,
     )
@@ -972,7 +943,7 @@ def _beyond_the_line(geometry, points: Points, crossing) -> np.ndarray:
     return beyond
 
 
-def warn_output_crs(hulls: Hulls, groups: Groups, points: Points, proj) -> None:
+def warn_output_crs(hulls: AlphaShapes, groups: Groups, points: Points, proj) -> None:
     """Warn about the groups split at +-180 degrees and those wider than 180."""
     if proj.crossing.any():
         split = proj.crossing & ~hulls.degenerate
@@ -1008,7 +979,10 @@ def warn_output_crs(hulls: Hulls, groups: Groups, points: Points, proj) -> None:
 
 
 def area_m2(
-    hulls: Hulls, before_split: np.ndarray, proj: gcrs.Projection, options: Options
+    hulls: AlphaShapes,
+    before_split: np.ndarray,
+    proj: gcrs.Projection,
+    options: Options,
 ) -> np.ndarray:
     """Return ``area_m2``: geodesic, on the WGS84 ellipsoid, whatever ``crs=``.
 
@@ -1027,7 +1001,7 @@ def table(
     groups: Groups,
     points: Points,
     proj: gcrs.Projection,
-    hulls: Hulls,
+    hulls: AlphaShapes,
     crs,
     geometry_name: str = "geometry",
 ):
@@ -1060,12 +1034,12 @@ def table(
 
 
 def split_overlaps_stage(
-    hulls: Hulls,
+    hulls: AlphaShapes,
     groups: Groups,
     points: Points,
     proj: gcrs.Projection,
     options: Options,
-) -> Hulls:
+) -> AlphaShapes:
     """``overlap="split"``: split the overlaps of groups' polygons by nearest point.
 
     In the output coordinates, on the final polygons (degenerate buffers too),
@@ -1146,7 +1120,9 @@ def warn_split(split, groups: Groups) -> None:
     )
 
 
-def area_ceded(hulls: Hulls, proj: gcrs.Projection, options: Options) -> Hulls:
+def area_ceded(
+    hulls: AlphaShapes, proj: gcrs.Projection, options: Options
+) -> AlphaShapes:
     """``area_ceded_m2`` of ``overlap="split"``: the area given to neighbours.
 
     The area of the polygon before the split minus that after (as ``area_m2``:
@@ -1171,8 +1147,8 @@ def area_ceded(hulls: Hulls, proj: gcrs.Projection, options: Options) -> Hulls:
 
 
 def grow(
-    hulls: Hulls, points: Points, proj: gcrs.Projection, options: Options
-) -> Hulls:
+    hulls: AlphaShapes, points: Points, proj: gcrs.Projection, options: Options
+) -> AlphaShapes:
     """Buffer the hulls (not degenerate buffers) by ``grow`` metres, in metres."""
     distance = options.grow
     if not distance:
@@ -1206,7 +1182,7 @@ def grow(
     return hulls._replace(geometry=geometry, area=area)
 
 
-def suspicious_groups(hulls: Hulls, points: Points) -> list[dict]:
+def suspicious_groups(hulls: AlphaShapes, points: Points) -> list[dict]:
     """Return the flagged groups (:class:`SuspiciousHullWarning`), one dict each.
 
     Keys: ``group`` (code), ``rows`` (positions of the location's rows among
@@ -1241,7 +1217,9 @@ def _amount(value: float) -> str:
     return f"{value:,.0f}" if abs(value) >= 100 else f"{value:.4g}"
 
 
-def warn_suspicious(hulls: Hulls, groups: Groups, points: Points, options) -> None:
+def warn_suspicious(
+    hulls: AlphaShapes, groups: Groups, points: Points, options
+) -> None:
     """Warn about the groups one location forces far beyond their other points."""
     flagged = suspicious_groups(hulls, points) if options.suspicious else []
     if not flagged:
@@ -1276,7 +1254,7 @@ def warn_suspicious(hulls: Hulls, groups: Groups, points: Points, options) -> No
 
 
 def report_outliers(
-    hulls: Hulls, groups: Groups, points: Points, n_rows: int, options: Options
+    hulls: AlphaShapes, groups: Groups, points: Points, n_rows: int, options: Options
 ) -> np.ndarray:
     """Warn about the rows left out (``outliers=``) and return them as a row mask."""
     left_out = np.zeros(n_rows, dtype=bool)

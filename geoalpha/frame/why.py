@@ -143,7 +143,7 @@ def explain_table(ran: Ran):
     # area_m2 of a hull is geodesic, the kernel's planar: scale the alternative
     # by the group's ratio of the two (the CRS's areal scale where it is).
     with np.errstate(divide="ignore", invalid="ignore"):
-        scale = np.where(ran.planar_area > 0, hulls.area / ran.planar_area, 1.0)
+        scale = np.where(hulls.planar_area > 0, hulls.area / hulls.planar_area, 1.0)
     radius_1 = np.full(len(kept), np.nan)
     area_1 = np.full(len(kept), np.nan)
     radius_1[ok] = alt.radius[i]
@@ -191,7 +191,7 @@ def curve_table(ran: Ran, max_left_out: int, unit: str):
     zero_parts = table["n_parts"].to_numpy().astype(np.int64)
     k = np.concatenate([np.zeros(len(kept), dtype=np.int64), alt.k[use]])[order]
     radius = np.concatenate([table["radius"].to_numpy(), alt.radius[use]])[order]
-    area = np.concatenate([ran.planar_area[kept], alt.area[use]])[order]
+    area = np.concatenate([hulls.planar_area[kept], alt.area[use]])[order]
     parts = np.concatenate([zero_parts, alt.n_parts[use]])[order]
     n_left = np.concatenate(
         [np.zeros(len(kept), np.int64), np.diff(alt.row_offsets)[use]]
@@ -208,7 +208,7 @@ def curve_table(ran: Ran, max_left_out: int, unit: str):
     src = np.concatenate(src or [[]]).astype(np.int64)
     left_out = _label_lists(ran, alt.rows[src], offsets)
     with np.errstate(divide="ignore", invalid="ignore"):
-        scale = np.where(ran.planar_area > 0, hulls.area / ran.planar_area, 1.0)
+        scale = np.where(hulls.planar_area > 0, hulls.area / hulls.planar_area, 1.0)
     owner = owner[order]
     short = np.flatnonzero(sizes - 1 < max_left_out)
     if len(short):
