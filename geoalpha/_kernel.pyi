@@ -31,7 +31,8 @@ MAX_UNION_NODES: Final[int]
 #: The sphere's radius with ``sphere=True`` (metres): WGS84's authalic radius.
 EARTH_RADIUS: Final[float]
 #: With ``sphere=True``, a group with a point farther than this (degrees) from
-#: its centre (the normalised mean of its unit vectors) is refused (reason 6).
+#: its centre (the normalised mean of its unit vectors) is refused (reason 6,
+#: ``geoalpha.kernel.Reason.HEMISPHERE``).
 MAX_SPHERE_DEGREES: Final[float]
 
 #: The reason codes by name: ``[("OK", 0), ("FEW", 1), ...]`` (``kernel.Reason``).
@@ -48,8 +49,9 @@ class Request(Protocol):
     threads: int  #: threads to spread the groups over (0 or above the cores: all)
     max_union_nodes: int  #: node budget of the best union (``MAX_UNION_NODES``)
     sphere: bool  #: ``xy`` is lon/lat in degrees, computed on the sphere
-    locations: bool  #: ``budget``/``fraction`` count locations, not rows
+    locations: bool  #: ``count``/``fraction`` count locations, not rows
     fraction: float  #: the budget as a fraction in [0, 1) of each group's unit
+    count: int  #: the budget as a count (>= 0), the same for every group
     explain: bool  #: the critical triangle, ``limited_by``, the points covered last
     max_left_out: int  #: the outlier optima for k = 1..max_left_out
     left_out_locations: bool  #: those k count locations (else rows)
@@ -62,7 +64,6 @@ def alpha_shapes(
     *,
     out_xy: npt.NDArray[np.float64] | None = None,
     alpha: npt.NDArray[np.float64] | None = None,
-    budget: npt.NDArray[np.int64] | None = None,
 ) -> dict[str, np.ndarray]:
     """Optimal (or given-alpha) alpha shapes of every group, in one call.
 
@@ -85,20 +86,17 @@ def alpha_shapes(
     alpha : ndarray of float64, shape (G,), optional
         A given alpha per group (>= 0; 0 is the convex hull) instead of the
         optimum.
-    budget : ndarray of int64, shape (G,), optional
-        Rows (locations) each group may leave out (the outlier optimum where
-        > 0); ``request.fraction`` instead makes it a fraction of each group's.
 
     Returns
     -------
     dict of ndarray
-        Per group (G): ``reason`` (uint8: 0 a shape, 1 fewer than 3 distinct
-        points, 2 collinear (on a great circle with ``sphere``), 3 collinear in
-        ``out_xy``, 4 no rings, 6 a point beyond ``MAX_SPHERE_DEGREES`` of
-        the group's centre, 7 the kernel failed on this group: a panic
-        inside it, caught, the other groups unaffected), ``alpha``,
-        ``n_distinct``, ``n_parts``, ``area``, ``n_outliers`` (rows),
-        ``whole``, ``capped``,
+        Per group (G): ``reason`` (uint8, ``geoalpha.kernel.Reason``: 0 a
+        shape, 1 fewer than 3 distinct points, 2 collinear (on a great circle
+        with ``sphere``), 3 collinear in ``out_xy``, 4 no rings, 6 a point
+        beyond ``MAX_SPHERE_DEGREES`` of the group's centre, 7 the kernel
+        failed on this group: a panic inside it, caught, the other groups
+        unaffected), ``alpha``, ``n_distinct``, ``n_parts``, ``area``,
+        ``n_outliers`` (rows), ``whole``, ``capped``,
         ``limited_by`` (uint8, ``LIMITED_BY``), ``suspicious``; ``critical``
         (3 per group: point indices of the critical triangle, -1 without);
         ``last_vertex``/``last_offsets`` (the points covered last). Per point

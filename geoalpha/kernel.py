@@ -387,7 +387,7 @@ class Why(NamedTuple):
 _INDICES = ("rep", "ring_vertex", "last_vertex", "alt_rows")
 
 
-def _run(xy, out, offsets, alpha, budget, progress, request) -> dict:
+def _run(xy, out, offsets, alpha, progress, request) -> dict:
     """Run the kernel on all groups: one call, or about 20 runs of groups with a bar."""
     n_groups = len(offsets) - 1
     cuts = [0, n_groups]
@@ -402,7 +402,6 @@ def _run(xy, out, offsets, alpha, budget, progress, request) -> dict:
             request,
             out_xy=None if out is None else out[a:b],
             alpha=None if alpha is None else alpha[g0:g1],
-            budget=None if budget is None else budget[g0:g1],
         )
         parts.append((a, res))
         if progress is not None:
@@ -507,12 +506,7 @@ def solve(
     if alpha is not None:  # one per group
         alpha = np.broadcast_to(np.asarray(alpha, dtype=float), (n_groups,))
         alpha = np.ascontiguousarray(alpha)
-    budget = None
-    if request.budget_kind == "count" and alpha is None:
-        budget = np.full(n_groups, int(request.outliers), dtype=np.int64)
-    res = _run(
-        sxy, sout, offsets, alpha, budget, progress, Compiled(request, n_threads)
-    )
+    res = _run(sxy, sout, offsets, alpha, progress, Compiled(request, n_threads))
     coords = sxy if sout is None else sout
     # A point is on a ring when its coordinates are a ring vertex's: it is
     # one (a merged near-duplicate taken in), or it has its representative's.
@@ -568,7 +562,8 @@ class Compiled:
     """A :class:`~geoalpha.options.Request` as the compiled kernel reads it.
 
     Its attributes are those of ``Request`` in ``src/lib.rs`` (``threads`` from
-    ``n_jobs``; ``fraction`` only for the optimum, not at a given alpha).
+    ``n_jobs``; ``fraction`` or ``count``, the outlier budget, only for the
+    optimum, not at a given alpha).
 
     Examples
     --------
@@ -586,6 +581,8 @@ class Compiled:
         self.sphere = bool(request.sphere)
         self.locations = request.locations
         self.fraction = request.fraction if optimum else 0.0
+        count = optimum and request.budget_kind == "count"
+        self.count = int(request.outliers) if count else 0
         self.explain = bool(request.explain)
         self.max_left_out = int(request.max_left_out)
         self.left_out_locations = request.left_out_locations

@@ -26,8 +26,9 @@ pub struct Input<'a> {
     pub offsets: &'a [i64],
     /// A given alpha per group (instead of the optimum).
     pub alpha: Option<&'a [f64]>,
-    /// Rows each group may leave out.
-    pub budget: Option<&'a [i64]>,
+    /// Rows (or locations) every group may leave out: a count, the same for
+    /// all (0: none, or `options.fraction` of each group's).
+    pub count: i64,
     /// The options of every group.
     pub options: Options,
 }
@@ -70,10 +71,11 @@ pub struct Output {
 
 fn check(input: &Input) -> Result<usize, String> {
     let (n, off) = (input.xy.len(), input.offsets);
-    for (name, values) in [("offsets", Some(off)), ("budget", input.budget)] {
-        if values.is_some_and(|v| v.iter().any(|&x| x < 0)) {
-            return Err(format!("{name} must be >= 0"));
-        }
+    if off.iter().any(|&x| x < 0) {
+        return Err("offsets must be >= 0".into());
+    }
+    if input.count < 0 {
+        return Err(format!("count must be >= 0; got {}", input.count));
     }
     if off.first() != Some(&0) || off.last() != Some(&(n as i64)) {
         return Err(format!(
@@ -89,15 +91,10 @@ fn check(input: &Input) -> Result<usize, String> {
             "out_xy must have one row per point ({n}); got {got}"
         ));
     }
-    for (name, len) in [
-        ("alpha", input.alpha.map(<[f64]>::len)),
-        ("budget", input.budget.map(<[i64]>::len)),
-    ] {
-        if let Some(len) = len.filter(|&len| len != groups) {
-            return Err(format!(
-                "{name} must have one value per group ({groups}); got {len}"
-            ));
-        }
+    if let Some(len) = input.alpha.map(<[f64]>::len).filter(|&len| len != groups) {
+        return Err(format!(
+            "alpha must have one value per group ({groups}); got {len}"
+        ));
     }
     let bad_alpha = |x: &f64| !(x.is_finite() && *x >= 0.0);
     if input.alpha.is_some_and(|a| a.iter().any(bad_alpha)) {
@@ -184,7 +181,7 @@ pub fn run(input: &Input) -> Result<Output, String> {
                     &input.xy[a..b],
                     input.out.map(|o| &o[a..b]),
                     input.alpha.map(|x| x[g]),
-                    input.budget.map_or(0, |x| x[g] as u64),
+                    input.count as u64,
                     &input.options,
                 )
             }))
@@ -292,7 +289,7 @@ mod tests {
             out: None,
             offsets: &[0, 5, 10, 15],
             alpha: None,
-            budget: None,
+            count: 0,
             options,
         };
         FAIL_GROUP.store(1, Ordering::Relaxed);

@@ -107,7 +107,7 @@ macro_rules! dict_of {
 }
 
 /// What `alpha_shapes` is asked, the same for every group: the attributes
-/// of one Python object (`geoalpha.kernel.Request`; `geoalpha/_kernel.pyi`).
+/// of one Python object (`geoalpha.kernel.Compiled`; `geoalpha/_kernel.pyi`).
 #[derive(FromPyObject)]
 struct Request {
     holes: bool,
@@ -118,6 +118,7 @@ struct Request {
     sphere: bool,
     locations: bool,
     fraction: f64,
+    count: i64,
     explain: bool,
     max_left_out: usize,
     left_out_locations: bool,
@@ -127,7 +128,7 @@ struct Request {
 /// Optimal (or given-alpha) alpha shapes of every group, in one call (the
 /// arguments and the arrays returned: `geoalpha/_kernel.pyi`).
 #[pyfunction(name = "alpha_shapes")]
-#[pyo3(signature = (xy, offsets, request, *, out_xy=None, alpha=None, budget=None))]
+#[pyo3(signature = (xy, offsets, request, *, out_xy=None, alpha=None))]
 fn py_alpha_shapes<'py>(
     py: Python<'py>,
     xy: PyReadonlyArray2<'py, f64>,
@@ -135,7 +136,6 @@ fn py_alpha_shapes<'py>(
     request: Request,
     out_xy: Option<PyReadonlyArray2<'py, f64>>,
     alpha: Option<PyReadonlyArray1<'py, f64>>,
-    budget: Option<PyReadonlyArray1<'py, i64>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let r = request;
     let input = Input {
@@ -143,7 +143,7 @@ fn py_alpha_shapes<'py>(
         out: out_xy.as_ref().map(|o| points("out_xy", o)).transpose()?,
         offsets: offsets.as_slice()?,
         alpha: alpha.as_ref().map(|a| a.as_slice()).transpose()?,
-        budget: budget.as_ref().map(|b| b.as_slice()).transpose()?,
+        count: r.count,
         options: Options {
             holes: r.holes,
             components: r.components,

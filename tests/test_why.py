@@ -412,6 +412,96 @@ def test_the_reason_codes_are_the_kernels():
     )
 
 
+def test_python_names_the_reason_codes_never_numbers_them():
+    # Issue #35 item 6: a reason compared with a bare number (reason == 5,
+    # np.isin(reason, (1, 2, 3))) or a second definition of a code (the
+    # sphere's REFUSED = 6) drifts from kernel.Reason, the one definition.
+    from pathlib import Path
+
+    root = Path(geoalpha.__file__).parent
+    compared = re.compile(r"reason[\w\[\]\.]*\s*(?:==|!=|>=|<=|>|<)\s*\d")
+    listed = re.compile(r"reason[\w\[\]\.]*\s*(?:,|in)\s*\(\s*\d")
+    found = [
+        f"{path.relative_to(root)}:{n}: {line.strip()}"
+        for path in sorted(root.rglob("*.py"))
+        for n, line in enumerate(path.read_text("utf-8").splitlines(), 1)
+        if not line.lstrip().startswith("#")
+        and (compared.search(line) or listed.search(line) or "REFUSED =" in line)
+    ]
+    assert not found, found
+
+
+def test_the_spine_signatures_stay_short():
+    # Issue #35 item 6: options were re-spelled at every boundary (15, 12 and
+    # 11 parameters; 12, 7 and 6 before this record): the request goes down
+    # as one value, so these must not grow again.
+    import inspect
+
+    from geoalpha import _kernel
+    from geoalpha.arrays import optimal
+
+    def count(f):
+        return len(inspect.signature(f).parameters)
+
+    assert count(optimal.solve_checked) <= 7
+    assert count(kernel.solve) <= 6
+    assert count(_kernel.alpha_shapes) <= 5
+
+
+def test_one_record_flows_from_the_kernel_to_the_table(monkeypatch):
+    # The kernel's record is what alpha_shapes returns and what every stage
+    # of hull() hands on (updated, never converted), down to the table.
+    from geoalpha.frame import pipeline
+    from geoalpha.options import Options
+
+    assert geoalpha.AlphaShapes is kernel.AlphaShapes
+    xy = np.array([[0, 0], [4, 0], [4, 4], [0, 4], [2, 3.5], [9, 9], [9, 10]])
+    res = alpha_shapes(xy, [0, 0, 0, 0, 0, 1, 1])
+    assert type(res) is geoalpha.AlphaShapes
+    assert res.reason.tolist() == [kernel.Reason.OK, kernel.Reason.FEW]
+    stages = (
+        "compute",
+        "grow",
+        "split_at_antimeridian",
+        "guarantee",
+        "degenerate_policy",
+        "split_overlaps_stage",
+        "area_ceded",
+    )
+    made = {}
+
+    def recorded(name, stage):
+        def run(*args, **kwargs):
+            out = stage(*args, **kwargs)
+            made[name] = type(out)
+            return out
+
+        return run
+
+    for name in stages:
+        monkeypatch.setattr(pipeline, name, recorded(name, getattr(pipeline, name)))
+    frame = gpd.GeoDataFrame(
+        {"g": [0, 0, 0, 0, 0, 1, 1, 2, 2, 2]},
+        geometry=shapely.points(np.r_[xy, [[3, 1], [6, 1], [3, 5]]]),
+        crs="EPSG:32631",
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the degenerate group 1
+        ran = pipeline.run_all(frame, "g", Options(overlap="split", grow=0.5))
+    assert made == dict.fromkeys(stages, geoalpha.AlphaShapes)
+    record = ran.hulls
+    assert type(record) is geoalpha.AlphaShapes
+    assert record.reason.tolist() == [kernel.Reason.OK, kernel.Reason.FEW, 0]
+    np.testing.assert_array_equal(ran.table["alpha"], record.alpha)
+    np.testing.assert_array_equal(ran.table["area_m2"], record.area)
+    assert ran.table["method"].tolist() == ["alpha", "buffer", "alpha"]
+    assert record.labels.tolist() == ["alpha", "buffer", "alpha"]
+    assert record.unsplit is not None and record.ceded is not None
+    # grown by 0.5 m: the planar areas kept beside the geodesic ones are larger
+    # than the kernel's (15 m² for group 0)
+    assert record.planar_area[0] > 15.0
+
+
 def test_the_accessor_has_explain_and_curve():
     gdf = planar([(0, 0), (4, 0), (4, 4), (0, 4), (2, 3.5), (30, 30)])
     a = quiet(gdf.alpha.explain, crs=None)
