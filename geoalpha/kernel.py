@@ -304,9 +304,10 @@ class AlphaShapes(NamedTuple):
     Notes
     -----
     The other fields are for the stages of :func:`geoalpha.hull` (None where
-    not made): ``certain`` (per point: a vertex of its group's polygon in the
-    output coordinates, or covered by construction there while that polygon
-    is the one made; not tested again), ``rep`` (per point: the row of its
+    not made, and in what :func:`geoalpha.alpha_shapes` returns): ``certain``
+    (per point: a vertex of its group's polygon in the output coordinates, or
+    covered by construction there while that polygon is the one made; not
+    tested again), ``rep`` (per point: the row of its
     representative, itself unless merged as a near-duplicate; None when none
     was merged), ``whole`` (the shape is every triangle), ``curve`` (the
     validity curves ``(values, valid, offsets)``, when asked), ``why``

@@ -36,6 +36,10 @@ __all__ = ["AlphaShapes", "alpha_shape", "alpha_shapes", "optimal_alpha"]
 #: The values of ``search=`` (:data:`geoalpha.options.SEARCHES`), as a type.
 Search = Literal["exact", "ladder", "bisect"]
 
+#: The fields of the record after the documented ones (after ``reason``): they
+#: serve the stages of ``hull()`` and are None in what :func:`alpha_shapes` returns.
+_FOR_THE_STAGES = AlphaShapes._fields[AlphaShapes._fields.index("reason") + 1 :]
+
 
 def alpha_shapes(
     points,
@@ -88,7 +92,8 @@ def alpha_shapes(
     -------
     AlphaShapes
         Degenerate groups are flagged in ``degenerate``, without a warning
-        (but a group the kernel failed on, reason ``FAILED``, warns with its rows).
+        (but a group the kernel failed on, reason ``FAILED``, warns with its
+        rows); the fields after ``reason`` (for :func:`geoalpha.hull`) are None.
 
     Raises
     ------
@@ -162,7 +167,8 @@ def alpha_shapes(
     limit = np.where(polar, np.inf, components) if np.any(polar) else components
     out_xy = xy if coords is None else coords
     _warn_failed(res.reason, codes, name_groups)
-    return _verified(res, out_xy, codes, limit if alpha is None else None)
+    res = _verified(res, out_xy, codes, limit if alpha is None else None)
+    return res._replace(**dict.fromkeys(_FOR_THE_STAGES, None))
 
 
 def _warn_failed(reason, codes, name_groups) -> None:
