@@ -88,7 +88,7 @@ pub struct Options {
     /// `outliers=` counts locations (distinct points, 1 each), not rows.
     pub locations: bool,
     /// `outliers=` as a fraction of each group's rows (or locations), in
-    /// `[0, 1)`; 0: the per-group `budget` counts instead.
+    /// `[0, 1)`; 0: the count of `batch::Input` (each group's `budget`) instead.
     pub fraction: f64,
     /// Say why: the critical triangle, what limits the radius, the points
     /// covered last.
