@@ -1,6 +1,6 @@
 """Type stub of geoalpha's compiled kernel (the Rust crate at the repository root).
 
-Call it through :func:`geoalpha.kernel.solve`, which checks the input once,
+Call it through :func:`geoalpha._core.solve`, which checks the input once,
 has the points sorted by group (:func:`sort_groups`, unless they are already)
 and builds the polygons from the rings.
 """
@@ -40,7 +40,7 @@ REASONS: Final[list[tuple[str, int]]]
 LIMITED_BY: Final[list[tuple[str, int]]]
 
 class Request(Protocol):
-    """What :func:`alpha_shapes` reads of ``request`` (``geoalpha.kernel.Compiled``)."""
+    """What :func:`alpha_shapes` reads of ``request`` (``geoalpha._core.Compiled``)."""
 
     holes: bool  #: keep holes (the shape is the solid triangles) or fill them
     components: int  #: largest number of edge-connected pieces (>= 1)

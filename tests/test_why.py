@@ -32,7 +32,9 @@ from geoalpha import (
     SuspiciousHullWarning,
     alpha_shapes,
     datasets,
-    kernel,
+)
+from geoalpha import (
+    _core as kernel,
 )
 
 SHARED = "/work/shared/data/lansing_trees_spatstat.csv"

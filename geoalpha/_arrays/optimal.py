@@ -7,17 +7,19 @@ from typing import Literal, NamedTuple
 import numpy as np
 import shapely
 
-from geoalpha import kernel
-from geoalpha.arrays import guarantee
-from geoalpha.arrays.lonlat import restore_longitudes
-from geoalpha.arrays.search import bisect_alpha, ladder_alpha
-from geoalpha.arrays.sphere import (
+from geoalpha import _core as kernel
+from geoalpha._arrays import guarantee
+from geoalpha._arrays.lonlat import restore_longitudes
+from geoalpha._arrays.search import bisect_alpha, ladder_alpha
+from geoalpha._arrays.sphere import (
     REFUSED,
     close_around_poles,
     follow_arcs,
     refused_message,
     sphere_output,
 )
+from geoalpha._options import Request
+from geoalpha._options import check as check_options
 from geoalpha.errors import (
     DegenerateGroupWarning,
     InvalidInputError,
@@ -27,12 +29,10 @@ from geoalpha.errors import (
     setting,
     warn_user,
 )
-from geoalpha.options import Request
-from geoalpha.options import check as check_options
 
 __all__ = ["AlphaShapes", "alpha_shape", "alpha_shapes", "optimal_alpha"]
 
-#: The values of ``search=`` (:data:`geoalpha.options.SEARCHES`), as a type.
+#: The values of ``search=`` (:data:`geoalpha._options.SEARCHES`), as a type.
 Search = Literal["exact", "ladder", "bisect"]
 
 
@@ -60,7 +60,7 @@ class AlphaShapes(NamedTuple):
         Per input point: left out (duplicates of a left-out point too).
     gave_up, capped : ndarray of bool
         ``search="bisect"`` stopped at ``max_iterations`` with alpha 0; the piece
-        search of ``outliers=`` stopped at :data:`geoalpha.kernel.MAX_UNION_NODES`.
+        search of ``outliers=`` stopped at :data:`geoalpha._core.MAX_UNION_NODES`.
     reason : ndarray of int
         Why a group is degenerate, 0 if not.
     """
@@ -124,7 +124,7 @@ def alpha_shapes(
         in 1/metre, areas in square metres (:doc:`/user_guide/sphere`).
     polar : array_like of bool, shape (n_groups,), optional
         With ``sphere``: the groups around a pole (default: without ``coords``,
-        as :func:`~geoalpha.arrays.sphere.sphere_output` finds them).
+        as :func:`~geoalpha._arrays.sphere.sphere_output` finds them).
 
     Returns
     -------
@@ -317,10 +317,10 @@ def solve_checked(
     """:func:`alpha_shapes` on checked inputs, without the guarantee: one kernel call.
 
     Trusts its inputs (checked as :func:`alpha_shapes` does; ``request``:
-    :meth:`geoalpha.options.Options.request`); the caller enforces the
-    guarantee (:func:`geoalpha.arrays.guarantee.enforce`). Raises for the
+    :meth:`geoalpha._options.Options.request`); the caller enforces the
+    guarantee (:func:`geoalpha._arrays.guarantee.enforce`). Raises for the
     groups the sphere refuses (``refuse=False``: they are degenerate, reason
-    :data:`~geoalpha.arrays.sphere.REFUSED`, for the caller to word); warns
+    :data:`~geoalpha._arrays.sphere.REFUSED`, for the caller to word); warns
     about the searches that gave up. With ``request.sphere``, ``out`` is given
     (the output longitudes and latitudes).
     """

@@ -16,8 +16,8 @@ import numpy as np
 import shapely
 
 from geoalpha import _kernel
+from geoalpha._options import Request
 from geoalpha.errors import first_n
-from geoalpha.options import Request
 
 __all__ = [
     "ALPHA_RTOL",
@@ -417,7 +417,7 @@ def solve(
         Checked points (:func:`check_points`) in the computation CRS, their
         group codes ``0 .. n_groups - 1`` (:func:`group_codes`), and how many.
     request : Request
-        What to compute (:meth:`geoalpha.options.Options.request`): holes,
+        What to compute (:meth:`geoalpha._options.Options.request`): holes,
         components, outliers, the sphere, the curves, why, the alternatives.
     out : ndarray of shape (n, 2), optional
         The points in the output coordinates (polygons, collinearity).
@@ -485,7 +485,7 @@ def solve(
 
 
 class Compiled:
-    """A :class:`~geoalpha.options.Request` as the compiled kernel reads it.
+    """A :class:`~geoalpha._options.Request` as the compiled kernel reads it.
 
     Its attributes are those of ``Request`` in ``src/lib.rs`` (``threads`` from
     ``n_jobs``; ``fraction`` only for the optimum, ``optimum=False`` at a given
