@@ -4,7 +4,7 @@
   extra to install as the reason, when that extra is missing:
   ``geoalpha/dask.py`` (importing it without dask-geopandas is an ImportError
   by design; its doctests become one skipped item) and
-  ``geoalpha/frame/progress.py`` (its examples draw a bar with tqdm,
+  ``geoalpha/_frame/progress.py`` (its examples draw a bar with tqdm,
   ``geoalpha[progress]``) and ``geoalpha/plot.py`` (matplotlib,
   ``geoalpha[plot]``). With ``GEOALPHA_TEST_ALL=1`` (CI, which installs
   every extra) a missing extra fails these items instead.
@@ -35,7 +35,7 @@ NEEDS = {
         _missing("dask_geopandas", "distributed"),
         'geoalpha[dask] (pip install "geoalpha[dask]")',
     ),
-    "geoalpha/frame/progress.py": (
+    "geoalpha/_frame/progress.py": (
         _missing("tqdm"),
         'geoalpha[progress] (pip install "geoalpha[progress]")',
     ),

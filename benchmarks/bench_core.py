@@ -218,7 +218,7 @@ def geoalpha_api():
     optimal_alpha = getattr(geoalpha, "optimal_alpha", None)
     if alpha_shapes is None or optimal_alpha is None:
         try:  # written but not yet exported from the package
-            from geoalpha.arrays.optimal import alpha_shapes, optimal_alpha
+            from geoalpha._arrays.optimal import alpha_shapes, optimal_alpha
         except ImportError:
             return None
     return alpha_shapes, optimal_alpha

@@ -186,7 +186,7 @@ def main(argv=None) -> int:
     import shapely
     import sqlalchemy
 
-    from geoalpha.io.postgis import read_postgis
+    from geoalpha._io.postgis import read_postgis
 
     lonlat, metric = load_points()
     ids, left_out = triangulable(metric)

@@ -3,6 +3,11 @@
 Importing geoalpha registers the ``.alpha`` accessor on GeoPandas frames (as
 soon as geopandas is imported). The public functions are loaded on first use,
 so that ``import geoalpha`` and ``geoalpha --help`` stay fast.
+
+Everything a user calls is a name of this module (:data:`__all__`), plus
+:mod:`geoalpha.dask` (the ``dask`` extra) and :mod:`geoalpha.datasets`. The
+modules whose names start with an underscore are internal: their names may
+change in any release (``docs/architecture.md`` is their map).
 """
 
 from __future__ import annotations
@@ -13,10 +18,13 @@ from typing import TYPE_CHECKING
 
 from geoalpha.errors import (
     AntimeridianWarning,
+    CRSWarning,
+    DatabaseError,
     DegenerateGroupWarning,
     DroppedRowsWarning,
     GeoAlphaError,
     GeoAlphaWarning,
+    GroupingWarning,
     InvalidInputError,
     OutlierWarning,
     SearchWarning,
@@ -25,51 +33,72 @@ from geoalpha.errors import (
 )
 
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs
-    from geoalpha.arrays.optimal import (
+    from geoalpha import datasets
+    from geoalpha._accessor import AlphaAccessor
+    from geoalpha._arrays.optimal import (
         AlphaShapes,
         alpha_shape,
         alpha_shapes,
         optimal_alpha,
     )
-    from geoalpha.hulls import curve, explain, hull, outlier_rows
+    from geoalpha._hulls import curve, explain, hull, outlier_rows
+    from geoalpha._io.files import read_points, write_hulls
+    from geoalpha._io.postgis import read_postgis, write_postgis
     from geoalpha.plot import plot_curve, plot_why
 
-__all__ = [
+#: What users call: the first ten are the everyday ones (the README's).
+__all__ = [  # noqa: RUF022 - by use, not alphabetical
+    "hull",
+    "explain",
+    "curve",
+    "outlier_rows",
+    "alpha_shapes",
+    "optimal_alpha",
+    "read_points",
+    "write_hulls",
+    "datasets",
+    "__version__",
+    # the rest
+    "AlphaAccessor",
     "AlphaShapes",
+    "alpha_shape",
+    "plot_curve",
+    "plot_why",
+    "read_postgis",
+    "write_postgis",
+    # errors and warnings
+    "GeoAlphaError",
+    "InvalidInputError",
+    "DatabaseError",
+    "GeoAlphaWarning",
     "AntimeridianWarning",
+    "CRSWarning",
     "DegenerateGroupWarning",
     "DroppedRowsWarning",
-    "GeoAlphaError",
-    "GeoAlphaWarning",
-    "InvalidInputError",
+    "GroupingWarning",
     "OutlierWarning",
     "SearchWarning",
     "SharedLocationWarning",
     "SuspiciousHullWarning",
-    "__version__",
-    "alpha_shape",
-    "alpha_shapes",
-    "curve",
-    "explain",
-    "hull",
-    "optimal_alpha",
-    "outlier_rows",
-    "plot_curve",
-    "plot_why",
 ]
 
 #: Public names loaded on first use, and the module that defines each.
 _LAZY = {
-    "AlphaShapes": "geoalpha.arrays.optimal",
-    "alpha_shape": "geoalpha.arrays.optimal",
-    "alpha_shapes": "geoalpha.arrays.optimal",
-    "optimal_alpha": "geoalpha.arrays.optimal",
-    "curve": "geoalpha.hulls",
-    "explain": "geoalpha.hulls",
-    "hull": "geoalpha.hulls",
-    "outlier_rows": "geoalpha.hulls",
+    "AlphaAccessor": "geoalpha._accessor",
+    "AlphaShapes": "geoalpha._arrays.optimal",
+    "alpha_shape": "geoalpha._arrays.optimal",
+    "alpha_shapes": "geoalpha._arrays.optimal",
+    "optimal_alpha": "geoalpha._arrays.optimal",
+    "curve": "geoalpha._hulls",
+    "explain": "geoalpha._hulls",
+    "hull": "geoalpha._hulls",
+    "outlier_rows": "geoalpha._hulls",
     "plot_curve": "geoalpha.plot",
     "plot_why": "geoalpha.plot",
+    "read_points": "geoalpha._io.files",
+    "write_hulls": "geoalpha._io.files",
+    "read_postgis": "geoalpha._io.postgis",
+    "write_postgis": "geoalpha._io.postgis",
 }
 
 
@@ -83,8 +112,8 @@ def __getattr__(name: str):
             value = "0+unknown"
     elif name in _LAZY:
         value = getattr(importlib.import_module(_LAZY[name]), name)
-    elif name == "datasets":  # ``from geoalpha import datasets``: in io since 0.3
-        return importlib.import_module("geoalpha.io.datasets")
+    elif name == "datasets":  # ``from geoalpha import datasets``: a module since 0.3
+        return importlib.import_module("geoalpha.datasets")
     else:
         raise AttributeError(f"module 'geoalpha' has no attribute {name!r}")
     globals()[name] = value
@@ -118,13 +147,13 @@ class _RegisterOnImport:
             exec_module(module)
             if self in sys.meta_path:
                 sys.meta_path.remove(self)
-            importlib.import_module("geoalpha.accessor").register()
+            importlib.import_module("geoalpha._accessor").register()
 
         spec.loader.exec_module = exec_and_register
         return spec
 
 
 if "geopandas" in sys.modules:
-    importlib.import_module("geoalpha.accessor").register()
+    importlib.import_module("geoalpha._accessor").register()
 elif not any(isinstance(f, _RegisterOnImport) for f in sys.meta_path):
     sys.meta_path.insert(0, _RegisterOnImport())

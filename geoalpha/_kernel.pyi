@@ -1,6 +1,6 @@
 """Type stub of geoalpha's compiled kernel (the Rust crate at the repository root).
 
-Call it through :func:`geoalpha.kernel.solve`, which checks the input once,
+Call it through :func:`geoalpha._core.solve`, which checks the input once,
 has the points sorted by group (:func:`sort_groups`, unless they are already)
 and builds the polygons from the rings.
 """
@@ -32,7 +32,7 @@ MAX_UNION_NODES: Final[int]
 EARTH_RADIUS: Final[float]
 #: With ``sphere=True``, a group with a point farther than this (degrees) from
 #: its centre (the normalised mean of its unit vectors) is refused (reason 6,
-#: ``geoalpha.kernel.Reason.HEMISPHERE``).
+#: ``geoalpha._core.Reason.HEMISPHERE``).
 MAX_SPHERE_DEGREES: Final[float]
 
 #: The reason codes by name: ``[("OK", 0), ("FEW", 1), ...]`` (``kernel.Reason``).
@@ -41,7 +41,7 @@ REASONS: Final[list[tuple[str, int]]]
 LIMITED_BY: Final[list[tuple[str, int]]]
 
 class Request(Protocol):
-    """What :func:`alpha_shapes` reads of ``request`` (``geoalpha.kernel.Compiled``)."""
+    """What :func:`alpha_shapes` reads of ``request`` (``geoalpha._core.Compiled``)."""
 
     holes: bool  #: keep holes (the shape is the solid triangles) or fill them
     components: int  #: largest number of edge-connected pieces (>= 1)
@@ -90,7 +90,7 @@ def alpha_shapes(
     Returns
     -------
     dict of ndarray
-        Per group (G): ``reason`` (uint8, ``geoalpha.kernel.Reason``: 0 a
+        Per group (G): ``reason`` (uint8, ``geoalpha._core.Reason``: 0 a
         shape, 1 fewer than 3 distinct points, 2 collinear (on a great circle
         with ``sphere``), 3 collinear in ``out_xy``, 4 no rings, 6 a point
         beyond ``MAX_SPHERE_DEGREES`` of the group's centre, 7 the kernel

@@ -14,13 +14,12 @@ import numpy as np
 import pandas as pd
 import shapely
 
-from geoalpha import options as _options
-from geoalpha.arrays.overlap import overlapping_pairs, split_overlaps
-from geoalpha.crs_parsing import crs_name, parse_crs
-from geoalpha.errors import InvalidInputError, did_you_mean
-from geoalpha.frame import crs as gcrs
-from geoalpha.frame.checks import check_distortion, check_grouping, computation_crs
-from geoalpha.frame.pipeline import (
+from geoalpha import _options as _options
+from geoalpha._arrays.overlap import overlapping_pairs, split_overlaps
+from geoalpha._crs_parsing import crs_name, parse_crs
+from geoalpha._frame import crs as gcrs
+from geoalpha._frame.checks import check_distortion, check_grouping, computation_crs
+from geoalpha._frame.pipeline import (
     Groups,
     group,
     merge_reports,
@@ -29,20 +28,21 @@ from geoalpha.frame.pipeline import (
     run,
     warn_split,
 )
-from geoalpha.frame.schema import (
+from geoalpha._frame.schema import (
     empty_result,
     planar_unit,
     result_geometry_name,
     with_area_unit,
 )
-from geoalpha.frame.why import (
+from geoalpha._frame.why import (
     curve_frame,
     curve_options,
     explain_frame,
     why_options,
 )
-from geoalpha.options import Options
-from geoalpha.registration import ColumnHint, attach
+from geoalpha._options import Options
+from geoalpha._registration import ColumnHint, attach
+from geoalpha.errors import InvalidInputError, did_you_mean
 
 try:
     import dask
@@ -53,7 +53,7 @@ except ImportError as err:  # pragma: no cover - the dask extra is installed in 
         'pip install "geoalpha[dask]"'
     ) from err
 
-__all__ = ["DaskAlphaAccessor", "curve", "explain", "hull", "register"]
+__all__ = ["DaskAlphaAccessor", "curve", "explain", "hull"]
 
 _EXTENT = ["west", "east", "west360", "east360", "south", "north"]
 #: Column carrying each row's position in ``ddf.compute()`` through the shuffle.
@@ -142,7 +142,7 @@ def _keys(part, names: list, dropna: bool) -> pd.DataFrame:
 
 
 def _rows(part, names: list, options: Options) -> pd.DataFrame:
-    """Return the :class:`~geoalpha.frame.pipeline.RowReport` of a partition."""
+    """Return the :class:`~geoalpha._frame.pipeline.RowReport` of a partition."""
     report = row_report(part, names, dropna=options.dropna, vertices=options.vertices)
     return pd.DataFrame({"report": pd.Series([report], dtype=object)})
 

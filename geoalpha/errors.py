@@ -10,8 +10,8 @@ import warnings
 from collections.abc import Iterable, Mapping
 from typing import Any
 
+#: The exceptions and warnings; the helpers below are geoalpha's own.
 __all__ = [
-    "FLAGS",
     "AntimeridianWarning",
     "CRSWarning",
     "DatabaseError",
@@ -25,11 +25,6 @@ __all__ = [
     "SearchWarning",
     "SharedLocationWarning",
     "SuspiciousHullWarning",
-    "did_you_mean",
-    "first_n",
-    "setting",
-    "spelled",
-    "warn_user",
 ]
 
 #: The ``geoalpha`` command's flag of each keyword while it runs
@@ -83,7 +78,7 @@ class SuspiciousHullWarning(GeoAlphaWarning):
     """One location forces a group's shape far beyond its other points.
 
     Leaving that location (a distinct point, with all its rows) out divides the
-    group's optimal radius by at least :data:`geoalpha.kernel.SUSPICIOUS_FACTOR`
+    group's optimal radius by at least :data:`geoalpha._core.SUSPICIOUS_FACTOR`
     (:doc:`/user_guide/why`); ``suspicious=False`` turns the check off.
     """
 

@@ -9,8 +9,8 @@ bytes. The ZIP itself needs only the standard library.
 
 Before zipping, :func:`write_options` (re)writes the plugin's
 ``hull_options.json``, the options of ``geoalpha.hull()`` as the plugin offers
-them, from :class:`geoalpha.options.Options` (the one definition: defaults,
-choices, bounds, help), and the result columns of :mod:`geoalpha.frame.schema`; it
+them, from :class:`geoalpha._options.Options` (the one definition: defaults,
+choices, bounds, help), and the result columns of :mod:`geoalpha._frame.schema`; it
 imports this checkout's geoalpha (with numpy and pandas). The file is
 committed, so that the plugin works from a checkout; ``tests/test_qgis_plugin.py``
 checks it is up to date.
@@ -70,15 +70,15 @@ def options_spec() -> dict:
     -------
     dict
         ``{"options": {name: {...}}, "left_out": LEFT_OUT, "result_columns":
-        geoalpha.frame.schema.DTYPES}``; each option has its ``kind``, ``default``,
+        geoalpha._frame.schema.DTYPES}``; each option has its ``kind``, ``default``,
         ``choices``, ``low``, ``high``, ``low_open``, ``optional`` and
         ``help`` (the command's help text, with the flags said as the plugin's
         parameters: ``METHOD=concave``).
     """
     sys.path.insert(0, str(ROOT))
     try:
-        from geoalpha.frame.schema import DTYPES  # needs numpy and pandas
-        from geoalpha.options import FIELDS
+        from geoalpha._frame.schema import DTYPES  # needs numpy and pandas
+        from geoalpha._options import FIELDS
     finally:
         sys.path.pop(0)
     flags = {}

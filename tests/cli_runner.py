@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from click.testing import CliRunner
 
-from geoalpha.cli import main
+from geoalpha._cli import main
 
 
 def run(*args, **kwargs):

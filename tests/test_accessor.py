@@ -17,7 +17,7 @@ from geopandas.testing import assert_geodataframe_equal
 
 import geoalpha
 from geoalpha import datasets
-from geoalpha.accessor import AlphaAccessor, register
+from geoalpha._accessor import AlphaAccessor, register
 from geoalpha.errors import DegenerateGroupWarning, InvalidInputError
 
 pytestmark = pytest.mark.filterwarnings(
@@ -140,7 +140,7 @@ def test_register_again_does_not_warn():
 )
 def test_import_geoalpha_registers_the_accessor(code):
     check = (
-        "; from geoalpha.accessor import AlphaAccessor; "
+        "; from geoalpha._accessor import AlphaAccessor; "
         "assert gpd.GeoDataFrame.alpha is AlphaAccessor; "
         "assert gpd.GeoSeries.alpha is AlphaAccessor"
     )

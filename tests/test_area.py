@@ -17,7 +17,7 @@ from reference import AREA_ATOL, AREA_RTOL, ellipsoid_areas
 
 import geoalpha
 from geoalpha import _kernel, datasets
-from geoalpha.arrays.area import geodesic_areas
+from geoalpha._arrays.area import geodesic_areas
 from geoalpha.errors import AntimeridianWarning
 
 A, F = 6_378_137.0, 1 / 298.257223563  # WGS84

@@ -146,7 +146,7 @@ def test_the_suggested_crs_is_cheap_at_a_million_points():
 
     import pyproj
 
-    from geoalpha.frame.checks import _suggestion
+    from geoalpha._frame.checks import _suggestion
 
     rng = np.random.default_rng(37)
     lon, lat = rng.uniform(-7.5, 1.5, 1_000_000), rng.uniform(50, 58, 1_000_000)

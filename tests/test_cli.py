@@ -1,4 +1,4 @@
-"""The ``geoalpha`` command (geoalpha.cli), driven through click's CliRunner."""
+"""The ``geoalpha`` command (geoalpha._cli), driven through click's CliRunner."""
 
 from __future__ import annotations
 
@@ -37,7 +37,7 @@ def points_csv(tmp_path):
 
 @pytest.fixture
 def fake_hull(monkeypatch):
-    """Stand in for geoalpha.hulls.hull: convex hulls, and a record of the call."""
+    """Stand in for geoalpha._hulls.hull: convex hulls, and a record of the call."""
     calls = []
 
     def hull(gdf, by=None, **options):
@@ -62,9 +62,9 @@ def fake_hull(monkeypatch):
         out["method"] = "convex"
         return out
 
-    module = types.ModuleType("geoalpha.hulls")
+    module = types.ModuleType("geoalpha._hulls")
     module.hull = hull
-    monkeypatch.setitem(sys.modules, "geoalpha.hulls", module)
+    monkeypatch.setitem(sys.modules, "geoalpha._hulls", module)
     return calls
 
 
@@ -347,7 +347,9 @@ def test_geoalpha_errors_from_hull_are_one_line(monkeypatch, points_csv, tmp_pat
     def hull(*args, **kwargs):
         raise InvalidInputError("hull() needs point geometries;\ngot 3 LineString")
 
-    monkeypatch.setitem(sys.modules, "geoalpha.hulls", types.SimpleNamespace(hull=hull))
+    monkeypatch.setitem(
+        sys.modules, "geoalpha._hulls", types.SimpleNamespace(hull=hull)
+    )
     result = run("hull", points_csv, tmp_path / "h.gpkg")
     assert result.exit_code == 1
     assert result.stderr == ("Error: hull() needs point geometries; got 3 LineString\n")
@@ -357,7 +359,7 @@ def test_unexpected_errors_name_their_type(monkeypatch, points_csv, tmp_path):
     def broken(*args, **kwargs):
         raise ZeroDivisionError("division by zero")
 
-    monkeypatch.setattr("geoalpha.io.files.read_input_points", broken)
+    monkeypatch.setattr("geoalpha._io.files.read_input_points", broken)
     result = run("hull", points_csv, tmp_path / "h.gpkg")
     assert result.exit_code == 1
     assert result.stderr == (
@@ -479,7 +481,7 @@ def test_hull_of_polygon_vertices_with_more_options(points_csv, tmp_path):
 
 
 def _csv_points(path):
-    from geoalpha.io.files import read_points
+    from geoalpha._io.files import read_points
 
     return read_points(path)
 

@@ -18,8 +18,8 @@ import shapely
 from cli_runner import run
 
 from geoalpha import datasets
-from geoalpha.io.files import check_output, remove_stale_staging, write_hulls
-from geoalpha.io.redact import redact, secrets_in
+from geoalpha._io.files import check_output, remove_stale_staging, write_hulls
+from geoalpha._io.redact import redact, secrets_in
 
 REPO = Path(__file__).resolve().parents[1]
 GROUP = "Local_Authority_(Highway)"
@@ -73,7 +73,9 @@ def racing_hull(monkeypatch):
         out["crs_used"], out["method"] = "EPSG:32630", "alpha"
         return out
 
-    monkeypatch.setitem(sys.modules, "geoalpha.hulls", types.SimpleNamespace(hull=hull))
+    monkeypatch.setitem(
+        sys.modules, "geoalpha._hulls", types.SimpleNamespace(hull=hull)
+    )
     return state
 
 
@@ -193,7 +195,7 @@ def test_only_staging_folders_of_dead_processes_are_removed(tmp_path):
     assert finished.returncode == 0
     dead = subprocess.Popen([sys.executable, "-c", "pass"])
     dead.wait(timeout=60)
-    from geoalpha.io.files import _host_tag
+    from geoalpha._io.files import _host_tag
 
     host = _host_tag()
     stale = tmp_path / f".h.gpkg.geoalpha-{host}-{dead.pid}-abc"
@@ -326,7 +328,7 @@ def test_secrets_stay_out_of_warnings_and_summaries(tmp_path, monkeypatch):
         warnings.warn(f"slow server for {kwargs} {args[0]}", UserWarning, stacklevel=1)
         raise RuntimeError(f"lost connection to {args[0]}")
 
-    monkeypatch.setattr("geoalpha.io.files.read_input_points", read)
+    monkeypatch.setattr("geoalpha._io.files.read_input_points", read)
     source = f"PG:dbname=gis password={SECRET}"
     result = run("-v", "hull", source, tmp_path / "h.gpkg")
     assert result.exit_code == 1
@@ -382,7 +384,7 @@ def test_known_secrets_are_redacted_out_of_context():
 
 _LONG_TOKEN = """
 import sys
-from geoalpha.io.redact import redact
+from geoalpha._io.redact import redact
 
 secret = sys.argv[1]
 token = "Ab1" * 1_700_000  # 5 MB of letters and digits: one field of a CSV
@@ -456,7 +458,7 @@ def test_log_records_are_redacted(tmp_path, monkeypatch):
         logging.getLogger("pyogrio").warning("opening %s", args[0])
         raise OSError("cannot open it")
 
-    monkeypatch.setattr("geoalpha.io.files.read_input_points", read)
+    monkeypatch.setattr("geoalpha._io.files.read_input_points", read)
     for _ in range(2):  # the second run logs to its own stderr too
         result = run("hull", f"PG:dbname=gis password={SECRET}", tmp_path / "h.gpkg")
         assert result.exit_code == 1

@@ -20,8 +20,8 @@ from reference import ellipsoid_areas
 
 import geoalpha
 from geoalpha import datasets
+from geoalpha._io.files import read_points
 from geoalpha.errors import CRSWarning, DegenerateGroupWarning, InvalidInputError
-from geoalpha.io.files import read_points
 
 GROUP = "Local_Authority_(Highway)"
 PYTHON_TERMS = re.compile(
@@ -335,7 +335,7 @@ def test_many_degenerate_groups_build_no_transformer_per_group(monkeypatch):
 
 
 def test_laea_pipeline_back_equals_the_database_transform():
-    from geoalpha.frame import crs as gcrs
+    from geoalpha._frame import crs as gcrs
 
     laea = "+proj=laea +lat_0=62 +lon_0=-153 +datum=WGS84 +units=m +no_defs"
     x = np.array([-5e5, 0.0, 3e5])

@@ -11,8 +11,8 @@ from cli_runner import run
 from compat import requires_matplotlib, requires_tqdm
 
 from geoalpha import datasets
+from geoalpha._io.files import read_points
 from geoalpha.errors import InvalidInputError
-from geoalpha.io.files import read_points
 
 GROUP = "Local_Authority_(Highway)"
 

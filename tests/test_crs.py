@@ -1,4 +1,4 @@
-"""Tests of geoalpha.frame.crs: parsing, lon/lat checks, antimeridian, metric CRSs."""
+"""Tests of geoalpha._frame.crs: parsing, lon/lat checks, antimeridian, metric CRSs."""
 
 from __future__ import annotations
 
@@ -13,10 +13,10 @@ from hypothesis import strategies as st
 from shapely.geometry import MultiPolygon, Polygon, box
 
 from geoalpha import datasets
-from geoalpha.arrays.lonlat import crosses_antimeridian, unwrap_lon
-from geoalpha.crs_parsing import crs_name, parse_crs
+from geoalpha._arrays.lonlat import crosses_antimeridian, unwrap_lon
+from geoalpha._crs_parsing import crs_name, parse_crs
+from geoalpha._frame.crs import check_lonlat, metric_crs, split_antimeridian
 from geoalpha.errors import InvalidInputError
-from geoalpha.frame.crs import check_lonlat, metric_crs, split_antimeridian
 
 GEOD = pyproj.Geod(ellps="WGS84")
 

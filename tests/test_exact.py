@@ -27,10 +27,12 @@ from geoalpha import (
     DegenerateGroupWarning,
     alpha_shape,
     alpha_shapes,
-    kernel,
     optimal_alpha,
 )
-from geoalpha.options import Request
+from geoalpha import (
+    _core as kernel,
+)
+from geoalpha._options import Request
 
 # --------------------------------------------------------------------------
 # Point-set strategies (coordinates in metres of some metric CRS)

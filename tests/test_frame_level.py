@@ -167,8 +167,8 @@ KEY_COLUMNS = {
 def test_grouping_by_one_column_numbers_groups_as_pandas_groupby(column, sort, dropna):
     # hull() numbers the groups of one plain column without building a
     # GroupBy; the codes and the key table must be pandas' own.
-    from geoalpha.frame import pipeline
-    from geoalpha.options import Options
+    from geoalpha._frame import pipeline
+    from geoalpha._options import Options
 
     frame = gpd.GeoDataFrame(
         {"k": KEY_COLUMNS[column]},

@@ -24,7 +24,7 @@ import shapely
 from cli_runner import run
 
 from geoalpha import datasets
-from geoalpha.io.files import check_output, geopackage_layers, write_hulls
+from geoalpha._io.files import check_output, geopackage_layers, write_hulls
 
 REPO = Path(__file__).resolve().parents[1]
 GROUP = "Local_Authority_(Highway)"
@@ -207,7 +207,7 @@ def test_a_geopackage_that_changed_while_writing_is_left_as_it_is(both, monkeypa
 KILLED_WRITER = """
 import sys, time, pathlib
 import geopandas as gpd, shapely
-from geoalpha.io.files import write_hulls
+from geoalpha._io.files import write_hulls
 to_file = gpd.GeoDataFrame.to_file
 def slow(self, filename, *args, **kwargs):
     to_file(self, filename, *args, **kwargs)
@@ -307,7 +307,7 @@ def test_a_rename_across_mount_points_goes_through_a_copy(both, monkeypatch):
 
 
 def test_a_layer_that_appears_while_computing_is_not_replaced(both, monkeypatch):
-    import geoalpha.io.files as files
+    import geoalpha._io.files as files
 
     check = files._check_target
 

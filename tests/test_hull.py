@@ -23,7 +23,7 @@ from reference import AREA_ATOL
 from shapely.geometry import LineString, Point, Polygon
 
 import geoalpha
-import geoalpha.frame.progress
+import geoalpha._frame.progress
 from geoalpha import datasets
 from geoalpha.errors import (
     AntimeridianWarning,
@@ -879,7 +879,7 @@ def test_a_group_at_the_pole_is_named_for_what_failed_and_its_buffer_holds_it():
     lat = [-89.999989498677, -89.999997874933, -89.999995882057, -89.999992339958]
     pole = frame(np.column_stack([lon, lat]), ["pole"] * 4, "EPSG:4326")
     xy = np.column_stack([lon, lat])
-    assert geoalpha.kernel.solve(xy, np.zeros(4, dtype=np.int64), 1).reason[0] == 0
+    assert geoalpha._core.solve(xy, np.zeros(4, dtype=np.int64), 1).reason[0] == 0
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         hulls = geoalpha.hull(pole, by="g")
@@ -1147,7 +1147,7 @@ def test_progress_bar_by_default_on_a_terminal_from_many_groups(small, monkeypat
             return True
 
     for tty, least, shown in [(True, 2, True), (True, 3, False), (False, 2, False)]:
-        monkeypatch.setattr(geoalpha.frame.progress, "PROGRESS_MIN_GROUPS", least)
+        monkeypatch.setattr(geoalpha._frame.progress, "PROGRESS_MIN_GROUPS", least)
         stderr = Terminal() if tty else io.StringIO()
         monkeypatch.setattr(sys, "stderr", stderr)
         geoalpha.hull(small, by="g")  # progress=None

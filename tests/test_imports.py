@@ -26,23 +26,24 @@ if not PACKAGE.is_dir():  # the installed package (CI tests the wheel)
     PACKAGE = Path(geoalpha.__file__).parent
 
 #: The layer of every module outside the packages named after their layer
-#: (``geoalpha/frame/``, ``geoalpha/arrays/``, ``geoalpha/io/``).
+#: (``geoalpha/_frame/``, ``geoalpha/_arrays/``, ``geoalpha/_io/``).
 LAYER_OF = {
     "__init__": "faces",
     "__main__": "faces",
-    "cli": "faces",
-    "hulls": "faces",
-    "accessor": "faces",
-    "registration": "faces",
+    "_cli": "faces",
+    "_hulls": "faces",
+    "_accessor": "faces",
+    "_registration": "faces",
     "dask": "faces",
     "plot": "faces",
-    "kernel": "kernel",
+    "_core": "kernel",
     "_kernel": "kernel",
-    "options": "base",
+    "_options": "base",
     "errors": "base",
-    "crs_parsing": "base",
+    "_crs_parsing": "base",
+    "datasets": "io",
 }
-PACKAGES = {"frame": "frame", "arrays": "arrays", "io": "io"}
+PACKAGES = {"_frame": "frame", "_arrays": "arrays", "_io": "io"}
 LAYERS = ("faces", "frame", "arrays", "kernel", "base", "io")
 
 #: (layer, layers it never imports, why). Data flows down: faces -> frame ->
@@ -60,11 +61,11 @@ RULES = [
 ]
 #: Inside the base: ``errors`` imports nothing of ours, ``crs_parsing`` only
 #: ``errors``; ``_kernel`` (compiled) imports nothing of ours.
-BOTTOM = {"errors": set(), "crs_parsing": {"errors"}, "_kernel": set()}
+BOTTOM = {"errors": set(), "_crs_parsing": {"errors"}, "_kernel": set()}
 #: Numeric code: numpy/scipy only.
-NUMERIC = ("arrays.search",)
+NUMERIC = ("_arrays.search",)
 #: Imported by ``geoalpha --help``: the standard library (and click) only.
-LIGHT = ("__init__", "cli", "options", "errors", "io", "io.datasets")
+LIGHT = ("__init__", "_cli", "_options", "errors", "_io", "datasets")
 HEAVY = {"numpy", "scipy", "pandas", "shapely", "geopandas", "pyproj", "pyogrio"}
 
 
@@ -76,7 +77,7 @@ def _name(path: Path) -> str:
 
 
 def layer(name: str) -> str:
-    """Return the layer of the module ``name`` (``"frame.crs"``, ``"cli"``)."""
+    """Return the layer of the module ``name`` (``"_frame.crs"``, ``"_cli"``)."""
     return PACKAGES.get(name.split(".")[0]) or LAYER_OF[name]
 
 
@@ -118,7 +119,7 @@ def _imports(name: str, tree: ast.Module, modules) -> list[tuple[str, str, int]]
                     found.append((f"geoalpha.{sub}", "", node.lineno))
                 else:
                     found.append((base, alias.name, node.lineno))
-    for node in ast.walk(tree):  # modules loaded on first use (geoalpha, geoalpha.io)
+    for node in ast.walk(tree):  # modules loaded on first use (geoalpha, geoalpha._io)
         if isinstance(node, ast.Assign) and isinstance(node.value, ast.Dict):
             found += [
                 (v.value, "", node.lineno)
@@ -196,7 +197,7 @@ def test_no_import_cycle():
     _, edges = _edges()
     graph: dict[str, set[str]] = {}
     for a, b, _, _ in edges:
-        if a != b and not (a == "__main__" and b == "cli"):
+        if a != b and not (a == "__main__" and b == "_cli"):
             graph.setdefault(a, set()).add(b)
     state: dict[str, int] = {}
     cycles = []
@@ -286,10 +287,10 @@ def _inside_function(tree: ast.Module, line: int) -> bool:
 def test_the_rules_see_an_import_hidden_in_a_function():
     """The checks above can fail: a lazy import of the frame breaks a rule."""
     modules = _modules()
-    tree = ast.parse("def f():\n    from geoalpha.frame import pipeline\n")
-    found = _imports("kernel", tree, modules)
-    assert found == [("geoalpha.frame.pipeline", "", 2)]
-    assert layer("frame.pipeline") in RULES[0][1]
+    tree = ast.parse("def f():\n    from geoalpha._frame import pipeline\n")
+    found = _imports("_core", tree, modules)
+    assert found == [("geoalpha._frame.pipeline", "", 2)]
+    assert layer("_frame.pipeline") in RULES[0][1]
 
 
 def _table_modules() -> list[str]:
@@ -325,7 +326,7 @@ def test_geoalpha_help_and_version_import_nothing_heavy():
     code = (
         "import sys\n"
         "from click.testing import CliRunner\n"
-        "from geoalpha.cli import main\n"
+        "from geoalpha._cli import main\n"
         "for args in (['--help'], ['--version'], ['hull', '--help']):\n"
         "    assert CliRunner().invoke(main, args).exit_code == 0, args\n"
         f"heavy = {sorted(HEAVY)!r}\n"
@@ -344,19 +345,59 @@ def test_geoalpha_help_and_version_import_nothing_heavy():
     assert done.returncode == 0, done.stderr
 
 
-def test_public_paths_keep_working():
-    """The names users import from the documented paths, after the moves of #25."""
-    import geoalpha
-    import geoalpha.hulls
-    import geoalpha.io
-    from geoalpha import datasets
-    from geoalpha.io.postgis import read_postgis, write_postgis
+#: The public modules: every other module's name starts with an underscore.
+PUBLIC_MODULES = {"__init__", "__main__", "dask", "datasets", "errors", "plot"}
 
-    assert callable(geoalpha.hull) and geoalpha.hull is geoalpha.hulls.hull
-    assert callable(geoalpha.io.read_points) and callable(geoalpha.io.write_hulls)
-    assert callable(datasets.load)
-    assert callable(read_postgis) and callable(write_postgis)
-    assert all(hasattr(geoalpha, name) for name in geoalpha.__all__)
+
+def test_the_public_surface_is_small_and_resolves():
+    """``geoalpha.__all__``: what users call, about 40 names at most, each loaded."""
+    import geoalpha
+    from geoalpha import datasets
+
+    assert len(geoalpha.__all__) <= 40
+    assert len(set(geoalpha.__all__)) == len(geoalpha.__all__)
+    assert geoalpha.__all__[:4] == ["hull", "explain", "curve", "outlier_rows"]
+    for name in geoalpha.__all__:
+        value = getattr(geoalpha, name)
+        assert name == "__version__" or value.__doc__, name
+    assert callable(geoalpha.read_points) and callable(geoalpha.write_hulls)
+    assert callable(geoalpha.read_postgis) and callable(geoalpha.write_postgis)
+    assert geoalpha.datasets is datasets and callable(datasets.load)
+    for gone in ("hulls", "kernel", "options", "frame", "arrays", "io"):
+        assert gone not in geoalpha.__all__
+
+
+def test_internal_modules_are_private():
+    """Every module outside :data:`PUBLIC_MODULES` has a name with an underscore."""
+    public = {
+        name
+        for name in _modules()
+        if not any(part.startswith("_") for part in name.split("."))
+    }
+    assert public == PUBLIC_MODULES - {"__init__", "__main__"}
+
+
+@pytest.mark.skipif(
+    not (ROOT / "docs").is_dir(), reason="the docs are in the source checkout"
+)
+def test_the_api_reference_lists_the_public_names():
+    """docs/api/index.rst documents ``__all__`` and geoalpha.dask, nothing internal."""
+    import geoalpha
+
+    text = (ROOT / "docs" / "api" / "index.rst").read_text()
+    listed = re.findall(r"^   ([\w.]+)$", text, flags=re.M)
+    assert not [name for name in listed if "._" in name or name.startswith("_")]
+    top = {name for name in listed if "." not in name}
+    assert top == set(geoalpha.__all__) - {"__version__", "datasets"}
+    assert {name for name in listed if "." in name} <= {
+        "dask.hull",
+        "dask.DaskAlphaAccessor",
+        "dask.explain",
+        "dask.curve",
+        "datasets.load",
+        "datasets.path",
+        "datasets.DATASETS",
+    }
 
 
 @requires_dask

@@ -1,4 +1,4 @@
-"""Reading point files and writing hull files (geoalpha.io.files)."""
+"""Reading point files and writing hull files (geoalpha._io.files)."""
 
 from __future__ import annotations
 
@@ -11,8 +11,8 @@ from compat import requires_fiona, requires_pyarrow, requires_pyogrio
 from shapely import MultiPolygon, box
 
 from geoalpha import datasets
+from geoalpha._io.files import check_output, read_points, write_hulls
 from geoalpha.errors import InvalidInputError
-from geoalpha.io.files import check_output, read_points, write_hulls
 
 GROUP = "Local_Authority_(Highway)"
 

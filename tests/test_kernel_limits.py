@@ -19,7 +19,8 @@ import pytest
 import shapely
 
 import geoalpha
-from geoalpha import DegenerateGroupWarning, kernel
+from geoalpha import DegenerateGroupWarning
+from geoalpha import _core as kernel
 
 GOOD = np.array([[10, 10], [14, 10], [14, 14], [10, 14], [12, 13.5]], float)
 TRIANGLE = np.array([[0, 0], [1, 0], [0, 1]], float)
@@ -176,7 +177,7 @@ def test_a_huge_n_groups_is_refused_and_empty_groups_within_the_bound_work():
 _HOSTILE = r"""
 import numpy as np
 from geoalpha import _kernel as k
-from geoalpha.kernel import DEFAULT_REQUEST, Compiled
+from geoalpha._core import DEFAULT_REQUEST, Compiled
 
 
 def R(**kw):  # the request of the compiled call, with some attributes changed
@@ -275,7 +276,7 @@ import numpy as np
 # (a shell starts background jobs with SIGINT ignored, and children inherit it)
 signal.signal(signal.SIGINT, signal.default_int_handler)
 from geoalpha import _kernel
-from geoalpha.kernel import DEFAULT_REQUEST, Compiled
+from geoalpha._core import DEFAULT_REQUEST, Compiled
 
 request = Compiled(DEFAULT_REQUEST, 2)
 xy = np.random.default_rng(1).uniform(0, 1000, (3_000_000, 2))

@@ -15,7 +15,7 @@ import pytest
 from cli_runner import run
 from compat import requires_pyarrow
 
-from geoalpha.io.files import read_points
+from geoalpha._io.files import read_points
 
 # Two groups with an alpha shape, one of one point, and a blank key (row 7).
 ZIPS_CSV = """zip,state,lon,lat

@@ -1,4 +1,4 @@
-"""Tests of geoalpha.arrays.knn: the KNN concave hull (Moreira & Santos)."""
+"""Tests of geoalpha._arrays.knn: the KNN concave hull (Moreira & Santos)."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from shapely.geometry import box
 
 from geoalpha import datasets
-from geoalpha.arrays.knn import knn_hull
+from geoalpha._arrays.knn import knn_hull
 from geoalpha.errors import InvalidInputError
 
 

@@ -15,13 +15,13 @@ from cli_runner import run
 from compat import requires_dask
 
 import geoalpha
+from geoalpha._frame.schema import RESULT_COLUMNS
+from geoalpha._io.files import read_points
 from geoalpha.errors import (
     AntimeridianWarning,
     DegenerateGroupWarning,
     InvalidInputError,
 )
-from geoalpha.frame.schema import RESULT_COLUMNS
-from geoalpha.io.files import read_points
 
 #: One city on every continent and ocean: one group spanning the globe.
 CITIES = {

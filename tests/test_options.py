@@ -3,8 +3,8 @@
 The paths: the eager call, the accessor, ``n_jobs`` (through
 the kernel's threads), dask-geopandas (the function and the accessor) and
 the ``geoalpha hull`` command. Each option is set to a value that is not its
-default, and the test records the :class:`~geoalpha.options.Options` that the
-``compute`` stage of :mod:`geoalpha.frame.pipeline` receives.
+default, and the test records the :class:`~geoalpha._options.Options` that the
+``compute`` stage of :mod:`geoalpha._frame.pipeline` receives.
 """
 
 from __future__ import annotations
@@ -22,11 +22,11 @@ from click.testing import CliRunner
 from compat import HAS_DASK, requires_dask
 
 import geoalpha
-from geoalpha import kernel
-from geoalpha.cli import _flags, main
+from geoalpha import _core as kernel
+from geoalpha._cli import _flags, main
+from geoalpha._frame import pipeline
+from geoalpha._options import FIELDS, NAMES, Options, Request
 from geoalpha.errors import FLAGS, InvalidInputError, SearchWarning
-from geoalpha.frame import pipeline
-from geoalpha.options import FIELDS, NAMES, Options, Request
 
 #: A value that is not the default, for every option.
 NON_DEFAULT = {
@@ -386,7 +386,7 @@ def test_numpy_scalars_are_accepted_and_booleans_are_not_numbers():
 
 def test_a_number_option_keeps_ints_and_floats_apart():
     """What ``outliers=`` (a count or a fraction) will need: kind="number"."""
-    from geoalpha import options
+    from geoalpha import _options as options
 
     meta = options.OptionMeta(kind="number", low=0.0, doc="", flags=("--q",))
     assert meta.check("q", 3) == 3 and isinstance(meta.check("q", 3), int)
@@ -430,9 +430,9 @@ def test_the_array_api_defaults_are_those_of_options():
     """The array API (and the layers below) spell defaults out: those of Options."""
     import typing
 
-    from geoalpha.arrays import optimal, search
-    from geoalpha.frame import crs
-    from geoalpha.options import SEARCHES, defaults
+    from geoalpha._arrays import optimal, search
+    from geoalpha._frame import crs
+    from geoalpha._options import SEARCHES, defaults
 
     functions = (
         geoalpha.alpha_shapes,

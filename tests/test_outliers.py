@@ -44,7 +44,7 @@ from geoalpha import (
     datasets,
     optimal_alpha,
 )
-from geoalpha.arrays.budget import outlier_budget
+from geoalpha._arrays.budget import outlier_budget
 
 # --------------------------------------------------------------------------
 # Point sets with stray points
@@ -354,7 +354,7 @@ def test_zero_is_todays_result():
 def test_a_capped_union_search_is_warned(monkeypatch):
     # Two pieces allowed and a node budget of 1: the exact union search stops
     # at once and the group is named, never silently approximate.
-    from geoalpha import kernel
+    from geoalpha import _core as kernel
 
     monkeypatch.setattr(kernel, "MAX_UNION_NODES", 1)
     fan = np.array([[0, 0], [-2, 1], [-2, -1], [-3, 0], [2, 1], [2, -1], [3, 0]])

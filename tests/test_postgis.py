@@ -1,4 +1,4 @@
-"""PostGIS in and out (geoalpha.io.postgis and the command), on a real server.
+"""PostGIS in and out (geoalpha._io.postgis and the command), on a real server.
 
 The ``cluster`` fixture starts a throwaway PostgreSQL + PostGIS server
 (``tests/pgcluster.py``) when the server binaries are installed. Without them
@@ -25,8 +25,8 @@ from cli_runner import run
 
 import geoalpha
 from geoalpha import datasets
+from geoalpha._io.postgis import parse_table, read_postgis, redact, write_postgis
 from geoalpha.errors import DatabaseError, InvalidInputError
-from geoalpha.io.postgis import parse_table, read_postgis, redact, write_postgis
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -378,7 +378,7 @@ def test_killed_run_leaves_no_half_table(db, cluster):
     script = textwrap.dedent(
         f"""
         import sys, time
-        import geoalpha.io.postgis as pg
+        import geoalpha._io.postgis as pg
         from geoalpha import datasets
         def pause(*args):  # after the rename, before the commit
             print("renamed", flush=True)

@@ -29,9 +29,9 @@ import shapely
 
 import geoalpha
 from geoalpha import datasets
-from geoalpha.frame.schema import DTYPES, RESULT_COLUMNS
-from geoalpha.frame.why import EXPLAIN_COLUMNS
-from geoalpha.options import META, NAMES, Options
+from geoalpha._frame.schema import DTYPES, RESULT_COLUMNS
+from geoalpha._frame.why import EXPLAIN_COLUMNS
+from geoalpha._options import META, NAMES, Options
 
 ROOT = Path(__file__).resolve().parents[1]
 PLUGIN_DIR = ROOT / "qgis_plugin"
@@ -500,7 +500,7 @@ def test_plugin_warns_when_shapely_needs_a_newer_geos_than_qgis():
 
 def test_options_file_is_generated_from_options():
     # The plugin's parameters are read from this file, which the plugin build
-    # writes from geoalpha.options.Options: it must be what the build writes now.
+    # writes from geoalpha._options.Options: it must be what the build writes now.
     committed = build_qgis_plugin.OPTIONS_FILE.read_text(encoding="utf-8")
     assert committed == build_qgis_plugin.options_text(), (
         "run python scripts/build_qgis_plugin.py"

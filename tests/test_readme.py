@@ -16,7 +16,7 @@ import pytest
 from click.testing import CliRunner
 from compat import require_for_module
 
-from geoalpha.cli import main
+from geoalpha._cli import main
 
 #: Packages of the optional extras that an example may need.
 OPTIONAL_MODULES = {

@@ -34,8 +34,8 @@ from geoalpha import (
     alpha_shapes,
     optimal_alpha,
 )
-from geoalpha.kernel import REPAIR_RTOL
-from geoalpha.options import Request
+from geoalpha._core import REPAIR_RTOL
+from geoalpha._options import Request
 
 TEN_SECONDS = datetime.timedelta(seconds=10)
 
@@ -527,8 +527,8 @@ def test_many_groups_one_bad_group_keeps_the_batch():
 
 
 def test_geoalpha_exports_the_tolerance():
-    assert geoalpha.kernel.NEAR_RTOL == 1e-9
-    assert geoalpha.kernel.TIE_RTOL == 1e-10
+    assert geoalpha._core.NEAR_RTOL == 1e-9
+    assert geoalpha._core.TIE_RTOL == 1e-10
 
 
 # --------------------------------------------------------------------------
@@ -657,7 +657,7 @@ def test_repairs_work_with_shapely_2_0(monkeypatch):
         return make_valid(geometry)
 
     monkeypatch.setattr(shapely, "make_valid", make_valid_2_0)
-    monkeypatch.setattr(geoalpha.arrays.guarantee, "_MAKE_VALID_METHOD", False)
+    monkeypatch.setattr(geoalpha._arrays.guarantee, "_MAKE_VALID_METHOD", False)
     for got, want in zip(run(), wanted, strict=True):
         assert got.geometry.is_valid.all()
         assert got["n_parts"].tolist() == want["n_parts"].tolist()
@@ -666,7 +666,7 @@ def test_repairs_work_with_shapely_2_0(monkeypatch):
     ring = [(0, 0), (4, 0), (4, 4), (1, 4), (1, 1), (3, 1), (3, 3), (0, 3)]
     pts = np.array(ring, dtype=float)
     codes, check = np.zeros(len(pts), dtype=int), np.ones(1, dtype=bool)
-    fixed, failed = geoalpha.arrays.guarantee.enforce(
+    fixed, failed = geoalpha._arrays.guarantee.enforce(
         np.array([shapely.Polygon(ring)]), pts, codes, check
     )
     assert not failed[0] and fixed[0].is_valid
@@ -680,7 +680,7 @@ def spoil_first_group(monkeypatch, make):
     it (a polygon other than the kernel's is tested point by point) and
     repair it or declare the group degenerate.
     """
-    from geoalpha.frame import pipeline
+    from geoalpha._frame import pipeline
 
     real = pipeline.compute
 
@@ -728,9 +728,9 @@ def test_enforce_takes_in_points_a_repair_left_out_even_when_not_asked_to_test()
     # point the repair left outside is taken in (not just reported).
     bow = shapely.Polygon([(0, 0), (2, 2), (2, 0), (0, 2)])  # self-crossing
     pts = np.array([[0, 0], [2, 2], [2, 0], [0, 2], [1, 0.2]])
-    repaired = geoalpha.arrays.guarantee.repair_invalid(np.array([bow]))[0]
+    repaired = geoalpha._arrays.guarantee.repair_invalid(np.array([bow]))[0]
     assert not repaired.covers(shapely.Point(1, 0.2))
-    fixed, failed = geoalpha.arrays.guarantee.enforce(
+    fixed, failed = geoalpha._arrays.guarantee.enforce(
         np.array([bow]),
         pts,
         np.zeros(len(pts), dtype=int),
@@ -767,7 +767,7 @@ def test_the_kernel_refuses_coordinates_not_in_row_order():
     # x0 x1 ... y0 y1 ...: read as pairs it would be other points.
     xy = np.array([[0.0, 0.0], [4.0, 0.0], [4.0, 3.0], [0.0, 3.0]])
     offsets = np.array([0, 4], dtype=np.int64)
-    request = geoalpha.kernel.Compiled(Request(n_jobs=1), 1)
+    request = geoalpha._core.Compiled(Request(n_jobs=1), 1)
     done = geoalpha._kernel.alpha_shapes(xy, offsets, request)
     assert done["area"].tolist() == [12.0]
     with pytest.raises(ValueError, match=r"^xy must be C-contiguous$"):
@@ -803,7 +803,7 @@ def test_points_outside_are_taken_in_in_linear_time(monkeypatch):
     # Issue #37 (item 2): at most TAKE_IN_POINTS points of a group are taken in
     # one at a time (each rebuilding the rings); the rest at once. 3,000 points
     # just outside one edge of a square were 3,000 rebuilds before.
-    from geoalpha.arrays import guarantee
+    from geoalpha._arrays import guarantee
 
     calls = []
     real = guarantee._take_in

@@ -1,4 +1,4 @@
-"""The result table: what :func:`geoalpha.frame.schema.result_frame` builds.
+"""The result table: what :func:`geoalpha._frame.schema.result_frame` builds.
 
 It makes the GeoDataFrame without going through ``set_geometry`` again; the
 table must be the one the public constructor gives, and behave as one.
@@ -13,7 +13,7 @@ import pytest
 import shapely
 from geopandas.testing import assert_geodataframe_equal
 
-from geoalpha.frame.schema import RESULT_COLUMNS, empty_result, result_frame
+from geoalpha._frame.schema import RESULT_COLUMNS, empty_result, result_frame
 
 VALUES = dict(
     alpha=[0.5, 0.25],

@@ -24,7 +24,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import QhullError
 
 from geoalpha import SearchWarning, alpha_shape, alpha_shapes, optimal_alpha
-from geoalpha.arrays.search import LADDER, bisect_alpha, ladder_alpha
+from geoalpha._arrays.search import LADDER, bisect_alpha, ladder_alpha
 from geoalpha.errors import InvalidInputError
 
 #: The seed paper's rungs, copied from the paper, not from geoalpha.

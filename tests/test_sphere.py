@@ -335,7 +335,7 @@ def test_radius_is_metres_on_the_sphere():
 
 
 def test_the_option_takes_sphere_in_any_case():
-    from geoalpha.options import Options
+    from geoalpha._options import Options
 
     assert Options.from_kwargs({"crs": " Sphere"}).crs == "sphere"
 

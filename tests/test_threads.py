@@ -18,8 +18,9 @@ from geopandas.testing import assert_geodataframe_equal
 from progress_output import assert_bar_covers
 
 import geoalpha
-from geoalpha import datasets, kernel
-from geoalpha.arrays.optimal import alpha_shapes
+from geoalpha import _core as kernel
+from geoalpha import datasets
+from geoalpha._arrays.optimal import alpha_shapes
 from geoalpha.errors import InvalidInputError, SearchWarning
 
 pytestmark = pytest.mark.filterwarnings(

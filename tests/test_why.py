@@ -32,7 +32,9 @@ from geoalpha import (
     SuspiciousHullWarning,
     alpha_shapes,
     datasets,
-    kernel,
+)
+from geoalpha import (
+    _core as kernel,
 )
 
 SHARED = "/work/shared/data/lansing_trees_spatstat.csv"
@@ -438,7 +440,7 @@ def test_the_spine_signatures_stay_short():
     import inspect
 
     from geoalpha import _kernel
-    from geoalpha.arrays import optimal
+    from geoalpha._arrays import optimal
 
     def count(f):
         return len(inspect.signature(f).parameters)
@@ -451,8 +453,8 @@ def test_the_spine_signatures_stay_short():
 def test_one_record_flows_from_the_kernel_to_the_table(monkeypatch):
     # The kernel's record is what alpha_shapes returns and what every stage
     # of hull() hands on (updated, never converted), down to the table.
-    from geoalpha.frame import pipeline
-    from geoalpha.options import Options
+    from geoalpha._frame import pipeline
+    from geoalpha._options import Options
 
     assert geoalpha.AlphaShapes is kernel.AlphaShapes
     xy = np.array([[0, 0], [4, 0], [4, 4], [0, 4], [2, 3.5], [9, 9], [9, 10]])

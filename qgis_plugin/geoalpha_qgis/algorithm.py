@@ -37,7 +37,7 @@ from . import dependencies
 
 #: The options of ``geoalpha.hull()`` the plugin offers (kind, default,
 #: choices, bounds, help) and those it leaves out, with why: written by
-#: ``scripts/build_qgis_plugin.py`` from ``geoalpha.options.Options``.
+#: ``scripts/build_qgis_plugin.py`` from ``geoalpha._options.Options``.
 SPEC = json.loads(
     (Path(__file__).resolve().parent / "hull_options.json").read_text("utf-8")
 )
@@ -66,7 +66,7 @@ LABELS = {
 }
 #: Options shown under the dialog's "Advanced Parameters".
 ADVANCED = ("alpha", "crs", "search", "max_iterations", "ratio", "k", "buffer")
-#: Output field type of each dtype of the result table (geoalpha.frame.schema).
+#: Output field type of each dtype of the result table (geoalpha._frame.schema).
 _FIELD_TYPES = {"f": QVariant.Double, "i": QVariant.Int, "u": QVariant.Int}
 #: The fields of the WHY layer after the group fields (``geoalpha.explain()``);
 #: lists of row labels become text of feature ids.
@@ -401,7 +401,7 @@ class OptimalAlphaHulls(QgsProcessingAlgorithm):
         names = self.parameterAsFields(parameters, self.FIELD, context)
         options = self._options(parameters, context)
         if QgsWkbTypes.geometryType(source.wkbType()) == QgsWkbTypes.NullGeometry:
-            from geoalpha.io.files import COORDINATE_NAMES
+            from geoalpha._io.files import COORDINATE_NAMES
 
             layer = self.parameterAsVectorLayer(parameters, self.INPUT, context)
             raise QgsProcessingException(_no_geometry(layer, source, COORDINATE_NAMES))
@@ -485,7 +485,7 @@ class OptimalAlphaHulls(QgsProcessingAlgorithm):
             warnings.simplefilter("always")
             try:
                 if explain:
-                    from geoalpha.hulls import hull_and_why
+                    from geoalpha._hulls import hull_and_why
 
                     result, why, left_out = hull_and_why(
                         frame, by=list(names) or None, progress=False, **options

@@ -1,5 +1,5 @@
 """The frame layer: the stages of :func:`geoalpha.hull` on a GeoDataFrame.
 
 Its modules: ``docs/architecture.md``. It calls the array API
-(:mod:`geoalpha.arrays`), never the faces above it.
+(:mod:`geoalpha._arrays`), never the faces above it.
 """

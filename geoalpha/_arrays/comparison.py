@@ -9,8 +9,8 @@ import numpy as np
 import pandas as pd
 import shapely
 
-from geoalpha.arrays.guarantee import EMPTY_POLYGON
-from geoalpha.arrays.knn import knn_hull
+from geoalpha._arrays.guarantee import EMPTY_POLYGON
+from geoalpha._arrays.knn import knn_hull
 from geoalpha.errors import InvalidInputError
 
 __all__ = ["ComparisonHulls", "comparison_hulls"]
@@ -73,7 +73,7 @@ def comparison_hulls(
 
     ``xy`` holds the points in metres, ``out`` in the output coordinates, one row
     per point of ``codes``; the polygons come back in ``out``'s, not yet checked
-    (:func:`geoalpha.arrays.guarantee.enforce`).
+    (:func:`geoalpha._arrays.guarantee.enforce`).
     """
     order = np.argsort(codes, kind="stable")
     sorted_xy, sc = xy[order], codes[order]

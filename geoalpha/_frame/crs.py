@@ -13,8 +13,8 @@ import numpy as np
 import pyproj
 import shapely
 
-from geoalpha.arrays.area import geodesic_areas as lonlat_areas
-from geoalpha.arrays.lonlat import (
+from geoalpha._arrays.area import geodesic_areas as lonlat_areas
+from geoalpha._arrays.lonlat import (
     check_codes,
     group_arcs,
     output_lonlat,
@@ -22,7 +22,7 @@ from geoalpha.arrays.lonlat import (
     row_positions,
     split_antimeridian,
 )
-from geoalpha.crs_parsing import (
+from geoalpha._crs_parsing import (
     crs_name,
     is_mercator,
     parse_crs,
@@ -320,7 +320,7 @@ def geodesic_areas(
 ) -> np.ndarray:
     """Return the areas (m²) on the WGS84 ellipsoid of polygons in ``source``.
 
-    :func:`geoalpha.arrays.area.geodesic_areas` of the vertices moved to EPSG:4326.
+    :func:`geoalpha._arrays.area.geodesic_areas` of the vertices moved to EPSG:4326.
 
     Parameters
     ----------
@@ -362,7 +362,7 @@ class Projection:
     xy : numpy.ndarray, shape (n, 2)
         Coordinates to compute in: metres (the input units with ``crs=None``).
     out, crossing, wide : numpy.ndarray
-        As :func:`~geoalpha.arrays.lonlat.output_lonlat` (for lon/lat input).
+        As :func:`~geoalpha._arrays.lonlat.output_lonlat` (for lon/lat input).
     names, unit : numpy.ndarray of str (n_groups,), str
         Each group's computation CRS (output table); unit of :attr:`xy` ("m").
 

@@ -15,7 +15,7 @@ import numpy as np
 import shapely
 from scipy.spatial import cKDTree
 
-from geoalpha.arrays.guarantee import EMPTY_POLYGON, covered, enforce
+from geoalpha._arrays.guarantee import EMPTY_POLYGON, covered, enforce
 
 __all__ = ["Split", "overlapping_pairs", "split_overlaps"]
 

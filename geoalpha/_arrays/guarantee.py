@@ -11,7 +11,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 import shapely
 
-from geoalpha import kernel
+from geoalpha import _core as kernel
 
 __all__ = [
     "EMPTY_POLYGON",
@@ -203,7 +203,7 @@ def _take_in_all(poly, xy):
     """Join the points of ``xy`` outside ``poly`` to it by thin strips, in one union.
 
     Each point's shortest line to the polygon, widened by
-    :data:`~geoalpha.kernel.REPAIR_RTOL` of the extent: O(k log k) for k points.
+    :data:`~geoalpha._core.REPAIR_RTOL` of the extent: O(k log k) for k points.
     """
     points = shapely.points(xy)
     points = points[~shapely.covers(poly, points)]

@@ -15,9 +15,9 @@ import numpy as np
 import pandas as pd
 import shapely
 
-from geoalpha import kernel
-from geoalpha.arrays.comparison import comparison_hulls
-from geoalpha.arrays.guarantee import (
+from geoalpha import _core as kernel
+from geoalpha._arrays.comparison import comparison_hulls
+from geoalpha._arrays.guarantee import (
     EMPTY_POLYGON,
     convex_hulls,
     covered,
@@ -25,10 +25,23 @@ from geoalpha.arrays.guarantee import (
     left_outside,
     repair_invalid,
 )
-from geoalpha.arrays.optimal import solve_checked, warn_searches
-from geoalpha.arrays.overlap import split_overlaps
-from geoalpha.arrays.sphere import MAX_SPHERE_DEGREES
-from geoalpha.crs_parsing import is_sphere, parse_crs
+from geoalpha._arrays.optimal import solve_checked, warn_searches
+from geoalpha._arrays.overlap import split_overlaps
+from geoalpha._arrays.sphere import MAX_SPHERE_DEGREES
+from geoalpha._core import AlphaShapes, Reason
+from geoalpha._crs_parsing import is_sphere, parse_crs
+from geoalpha._frame import crs as gcrs
+from geoalpha._frame import progress
+from geoalpha._frame.checks import check_distortion, check_grouping
+from geoalpha._frame.schema import (
+    planar_unit,
+    result_columns,
+    result_frame,
+    result_geometry_name,
+    with_area_unit,
+)
+from geoalpha._frame.sphere import SphereProjection
+from geoalpha._options import Options, Request
 from geoalpha.errors import (
     AntimeridianWarning,
     DegenerateGroupWarning,
@@ -44,19 +57,6 @@ from geoalpha.errors import (
     spelled,
     warn_user,
 )
-from geoalpha.frame import crs as gcrs
-from geoalpha.frame import progress
-from geoalpha.frame.checks import check_distortion, check_grouping
-from geoalpha.frame.schema import (
-    planar_unit,
-    result_columns,
-    result_frame,
-    result_geometry_name,
-    with_area_unit,
-)
-from geoalpha.frame.sphere import SphereProjection
-from geoalpha.kernel import AlphaShapes, Reason
-from geoalpha.options import Options, Request
 
 __all__ = [
     "Groups",
@@ -142,7 +142,7 @@ def run_all(
 ) -> Ran:
     """Run :func:`run`, returning every stage's result (:class:`Ran`).
 
-    ``asked``: more of the kernel (:class:`~geoalpha.options.Request`:
+    ``asked``: more of the kernel (:class:`~geoalpha._options.Request`:
     ``explain``, ``max_left_out``, ``left_out_unit``).
     """
     outer = progress.current()
@@ -558,7 +558,7 @@ def compute(
 
     ``"alpha"``, ``"convex"``: one kernel call, the others :mod:`~.arrays.comparison`
     (a shown bar counts groups done); ``names`` names groups (by code) in warnings;
-    ``asked``: more of the kernel (:meth:`~geoalpha.options.Options.request`). The
+    ``asked``: more of the kernel (:meth:`~geoalpha._options.Options.request`). The
     suspicious check runs at the exact optimum without outliers.
     """
     method = options.method
@@ -784,7 +784,7 @@ def _too_wide_for_the_sphere(far, groups: Groups, points: Points, proj) -> str:
 
 
 def _reasons(degenerate, points: Points, proj: gcrs.Projection) -> np.ndarray:
-    """Reasons (:data:`~geoalpha.kernel.THIN`, else ``GUARANTEE``) of bare groups.
+    """Reasons (:data:`~geoalpha._core.THIN`, else ``GUARANTEE``) of bare groups.
 
     The groups a comparison method left without a shape.
     """
@@ -873,7 +873,7 @@ def guarantee(
 ) -> AlphaShapes:
     """Check every group's polygon once, in the output CRS: repaired, or degenerate.
 
-    See :func:`geoalpha.arrays.guarantee.enforce`. Not checked: rows left out,
+    See :func:`geoalpha._arrays.guarantee.enforce`. Not checked: rows left out,
     coverage at a given ``alpha``, groups wider than 180 degrees of longitude, and
     a point at -180 degrees held at +180 (or the reverse; :func:`warn_output_crs`).
     """
@@ -1043,8 +1043,8 @@ def split_overlaps_stage(
     """``overlap="split"``: split the overlaps of groups' polygons by nearest point.
 
     In the output coordinates, on the final polygons (degenerate buffers too),
-    with :func:`geoalpha.arrays.overlap.split_overlaps`, which checks the split
-    polygons with the guarantee (:func:`~geoalpha.arrays.guarantee.enforce`).
+    with :func:`geoalpha._arrays.overlap.split_overlaps`, which checks the split
+    polygons with the guarantee (:func:`~geoalpha._arrays.guarantee.enforce`).
     Groups wider than 180 degrees of longitude (no faithful polygon) and dropped
     groups take no part. Warns about locations holding rows of two groups
     (:class:`~geoalpha.errors.SharedLocationWarning`).
@@ -1078,7 +1078,7 @@ def warn_split(split, groups: Groups) -> None:
 
     Parameters
     ----------
-    split : geoalpha.arrays.overlap.Split
+    split : geoalpha._arrays.overlap.Split
     groups : Groups
         Names the groups (its ``codes`` are not used).
     """

@@ -7,10 +7,10 @@ from typing import Any
 
 import numpy as np
 
-from geoalpha.arrays.sphere import sphere_output
-from geoalpha.crs_parsing import parse_crs
+from geoalpha._arrays.sphere import sphere_output
+from geoalpha._crs_parsing import parse_crs
+from geoalpha._frame import crs as gcrs
 from geoalpha.errors import InvalidInputError
-from geoalpha.frame import crs as gcrs
 
 __all__ = ["SphereProjection"]
 
@@ -27,7 +27,7 @@ class SphereProjection(gcrs.Projection):
     Parameters
     ----------
     coords, codes, n_groups, source, labels
-        As for :class:`geoalpha.frame.crs.Projection`.
+        As for :class:`geoalpha._frame.crs.Projection`.
 
     Raises
     ------

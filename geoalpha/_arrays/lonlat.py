@@ -7,8 +7,8 @@ from typing import Any
 import numpy as np
 import shapely
 
+from geoalpha._core import ANTIMERIDIAN_SNAP
 from geoalpha.errors import InvalidInputError, first_n
-from geoalpha.kernel import ANTIMERIDIAN_SNAP
 
 __all__ = [
     "check_codes",

@@ -9,9 +9,9 @@ from typing import Any
 import numpy as np
 import pyproj
 
-from geoalpha.crs_parsing import crs_name, is_mercator, is_sphere, parse_crs
+from geoalpha._crs_parsing import crs_name, is_mercator, is_sphere, parse_crs
+from geoalpha._frame.crs import auto_mode, metric_crs
 from geoalpha.errors import CRSWarning, GroupingWarning, setting, warn_user
-from geoalpha.frame.crs import auto_mode, metric_crs
 
 __all__ = [
     "AREA_TOLERANCE",
@@ -53,7 +53,7 @@ def area_scale(crs: Any, x: Any, y: Any, source_crs: Any) -> np.ndarray:
 
     Examples
     --------
-    >>> from geoalpha.frame.checks import area_scale
+    >>> from geoalpha._frame.checks import area_scale
     >>> float(area_scale("EPSG:3857", [-0.12], [51.5], "EPSG:4326")[0])
     2.58...
     >>> float(area_scale("EPSG:32630", [-3.0], [51.5], "EPSG:4326")[0])

@@ -62,7 +62,7 @@ def secrets_in(text: str) -> list[str]:
 
     Examples
     --------
-    >>> from geoalpha.io.redact import secrets_in
+    >>> from geoalpha._io.redact import secrets_in
     >>> secrets_in("PG:host=db password='s3 cret' dbname=gis")
     ['s3 cret']
     >>> secrets_in("postgresql://me:pw%40x@db/gis")
@@ -91,7 +91,7 @@ def redact(text: object, secrets: Iterable[str] = ()) -> str:
 
     Examples
     --------
-    >>> from geoalpha.io.redact import redact
+    >>> from geoalpha._io.redact import redact
     >>> redact("cannot open PG:host=db user=me password=secret dbname=gis")
     'cannot open PG:host=db user=me password=*** dbname=gis'
     >>> redact("cannot read https://me:secret@example.com/a.gpkg?token=abc&n=1")

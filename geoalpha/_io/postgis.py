@@ -10,8 +10,8 @@ import warnings
 from collections.abc import Iterator
 from typing import TYPE_CHECKING, Any
 
+from geoalpha._io.redact import redact as redact_text
 from geoalpha.errors import DatabaseError, InvalidInputError, first_n, setting
-from geoalpha.io.redact import redact as redact_text
 
 if TYPE_CHECKING:  # pragma: no cover
     import geopandas as gpd
@@ -41,7 +41,7 @@ def is_postgres_url(text: object) -> bool:
 
     Examples
     --------
-    >>> from geoalpha.io.postgis import is_postgres_url
+    >>> from geoalpha._io.postgis import is_postgres_url
     >>> is_postgres_url("postgresql://ga@127.0.0.1:5432/gadb")
     True
     >>> is_postgres_url("hulls.gpkg")
@@ -53,12 +53,12 @@ def is_postgres_url(text: object) -> bool:
 def redact(text: object) -> str:
     """Return ``text`` with every database password replaced by ``***``.
 
-    As :func:`geoalpha.io.redact.redact`, plus ``PGPASSWORD`` and the
+    As :func:`geoalpha._io.redact.redact`, plus ``PGPASSWORD`` and the
     passwords of the URLs read in this process.
 
     Examples
     --------
-    >>> from geoalpha.io.postgis import redact
+    >>> from geoalpha._io.postgis import redact
     >>> redact("cannot connect to postgresql://ga:p%40ss@db:5432/gadb")
     'cannot connect to postgresql://ga:***@db:5432/gadb'
     """
@@ -73,7 +73,7 @@ def parse_table(name: str) -> tuple[str | None, str]:
 
     Examples
     --------
-    >>> from geoalpha.io.postgis import parse_table
+    >>> from geoalpha._io.postgis import parse_table
     >>> parse_table("public.hulls")
     ('public', 'hulls')
     >>> parse_table("hulls")

@@ -12,7 +12,7 @@ import numpy as np
 import shapely
 
 from geoalpha import _kernel
-from geoalpha.arrays.lonlat import output_lonlat, snap_meridian
+from geoalpha._arrays.lonlat import output_lonlat, snap_meridian
 from geoalpha.errors import setting
 
 __all__ = [
@@ -89,7 +89,7 @@ def sphere_output(lonlat: np.ndarray, codes: np.ndarray, n_groups: int):
     """Output longitudes and latitudes of ``crs="sphere"``, and the polar groups.
 
     Returns ``(out, crossing, wide, polar)``: as
-    :func:`~geoalpha.arrays.lonlat.output_lonlat`, but the groups around a pole
+    :func:`~geoalpha._arrays.lonlat.output_lonlat`, but the groups around a pole
     (:func:`polar_groups`) keep their input longitudes and neither cross nor are wide.
 
     Examples

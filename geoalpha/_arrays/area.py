@@ -10,7 +10,8 @@ from collections.abc import Callable
 import numpy as np
 import shapely
 
-from geoalpha import _kernel, kernel
+from geoalpha import _core as kernel
+from geoalpha import _kernel
 
 __all__ = ["geodesic_areas"]
 

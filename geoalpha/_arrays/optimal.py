@@ -8,16 +8,19 @@ from typing import Literal
 import numpy as np
 import shapely
 
-from geoalpha import kernel
-from geoalpha.arrays import guarantee
-from geoalpha.arrays.lonlat import restore_longitudes
-from geoalpha.arrays.search import bisect_alpha, ladder_alpha
-from geoalpha.arrays.sphere import (
+from geoalpha import _core as kernel
+from geoalpha._arrays import guarantee
+from geoalpha._arrays.lonlat import restore_longitudes
+from geoalpha._arrays.search import bisect_alpha, ladder_alpha
+from geoalpha._arrays.sphere import (
     close_around_poles,
     follow_arcs,
     refused_message,
     sphere_output,
 )
+from geoalpha._core import AlphaShapes, Reason
+from geoalpha._options import Request
+from geoalpha._options import check as check_options
 from geoalpha.errors import (
     DegenerateGroupWarning,
     InvalidInputError,
@@ -27,13 +30,10 @@ from geoalpha.errors import (
     setting,
     warn_user,
 )
-from geoalpha.kernel import AlphaShapes, Reason
-from geoalpha.options import Request
-from geoalpha.options import check as check_options
 
 __all__ = ["AlphaShapes", "alpha_shape", "alpha_shapes", "optimal_alpha"]
 
-#: The values of ``search=`` (:data:`geoalpha.options.SEARCHES`), as a type.
+#: The values of ``search=`` (:data:`geoalpha._options.SEARCHES`), as a type.
 Search = Literal["exact", "ladder", "bisect"]
 
 #: The fields of the record after the documented ones (after ``reason``): they
@@ -86,7 +86,7 @@ def alpha_shapes(
         in 1/metre, areas in square metres (:doc:`/user_guide/sphere`).
     polar : array_like of bool, shape (n_groups,), optional
         With ``sphere``: the groups around a pole (default: without ``coords``,
-        as :func:`~geoalpha.arrays.sphere.sphere_output` finds them).
+        as :func:`~geoalpha._arrays.sphere.sphere_output` finds them).
 
     Returns
     -------
@@ -263,9 +263,9 @@ def solve_checked(
     """:func:`alpha_shapes` on checked inputs, without the guarantee: one kernel call.
 
     Trusts its inputs (checked as :func:`alpha_shapes` does; ``request``:
-    :meth:`geoalpha.options.Options.request`, with ``alpha`` and ``search``);
+    :meth:`geoalpha._options.Options.request`, with ``alpha`` and ``search``);
     the caller enforces the guarantee
-    (:func:`geoalpha.arrays.guarantee.enforce`), words the groups the sphere
+    (:func:`geoalpha._arrays.guarantee.enforce`), words the groups the sphere
     refused (``Reason.HEMISPHERE``: degenerate) and warns about the searches
     that gave up (:func:`warn_searches`). With ``request.sphere``, ``out`` is
     given (the output longitudes and latitudes) and ``polar`` (per group:

@@ -1,7 +1,7 @@
 """The tables of ``explain()`` and ``curve()``: why each group got its radius.
 
 Both read what :func:`~.pipeline.run_all` made (the kernel's
-:class:`~geoalpha.kernel.Why`), one row per group or per group and ``k``
+:class:`~geoalpha._core.Why`), one row per group or per group and ``k``
 (:doc:`/user_guide/why`). The checks of their options and the runs that
 make them are here too, shared by the eager faces (``hulls``) and dask's
 partitions (``dask``).
@@ -16,7 +16,9 @@ import numpy as np
 import pandas as pd
 import shapely
 
-from geoalpha import kernel
+from geoalpha import _core as kernel
+from geoalpha._frame.pipeline import Ran, run_all
+from geoalpha._options import META, Options
 from geoalpha.errors import (
     InvalidInputError,
     OutlierWarning,
@@ -25,8 +27,6 @@ from geoalpha.errors import (
     spelled,
     warn_user,
 )
-from geoalpha.frame.pipeline import Ran, run_all
-from geoalpha.options import META, Options
 
 __all__ = [
     "CURVE_COLUMNS",
@@ -260,7 +260,7 @@ def explain_asked(opts: Options) -> dict:
 def explain_frame(frame, by, opts: Options, **run):
     """Return ``explain()``'s table of a GeoDataFrame (dask: of a partition).
 
-    ``run``: :func:`~geoalpha.frame.pipeline.run_all`'s ``checks``/``rows``.
+    ``run``: :func:`~geoalpha._frame.pipeline.run_all`'s ``checks``/``rows``.
     """
     return explain_table(run_all(frame, by, opts, **run, **explain_asked(opts)))
 
@@ -288,7 +288,7 @@ def curve_options(options: dict, max_left_out, outlier_unit) -> tuple:
 def curve_frame(frame, by, opts: Options, max_left_out: int, unit: str, **run):
     """Return ``curve()``'s table of a GeoDataFrame (dask: of a partition).
 
-    ``run``: :func:`~geoalpha.frame.pipeline.run_all`'s ``checks``/``rows``.
+    ``run``: :func:`~geoalpha._frame.pipeline.run_all`'s ``checks``/``rows``.
     """
     asked = dict(max_left_out=max_left_out, left_out_unit=unit)
     return curve_table(run_all(frame, by, opts, **run, **asked), max_left_out, unit)

@@ -147,7 +147,7 @@ def _check_crs(value):
     if word == "sphere":
         return "sphere"
     if word not in ("auto", "auto-group"):
-        from geoalpha.crs_parsing import target_crs
+        from geoalpha._crs_parsing import target_crs
 
         target_crs(value)  # raises on anything but a projected CRS
     return value
@@ -213,7 +213,7 @@ class Options:
 
     Examples
     --------
-    >>> from geoalpha.options import Options
+    >>> from geoalpha._options import Options
     >>> Options(holes=True).holes, Options().method
     (True, 'alpha')
     >>> Options(method="magic")  # doctest: +ELLIPSIS
@@ -378,7 +378,7 @@ class Options:
         True,
         doc="Warn (:class:`SuspiciousHullWarning`) when leaving out one location\n"
         "would divide a group's optimal radius by at least\n"
-        ":data:`geoalpha.kernel.SUSPICIOUS_FACTOR` (:doc:`/user_guide/why`).",
+        ":data:`geoalpha._core.SUSPICIOUS_FACTOR` (:doc:`/user_guide/why`).",
         help="Warn when one location forces a group's shape far beyond its "
         "other points (leaving it out divides the radius several times over).",
     )
@@ -465,7 +465,7 @@ class Request:
     """What the kernel computes for every group: one value, passed down whole.
 
     Built by :meth:`Options.request` (or by the array API from its checked
-    arguments); :func:`geoalpha.kernel.solve` hands it to the compiled kernel,
+    arguments); :func:`geoalpha._core.solve` hands it to the compiled kernel,
     which reads its attributes (``src/lib.rs``, ``Request``).
 
     Attributes

@@ -16,8 +16,8 @@ import numpy as np
 import shapely
 
 from geoalpha import _kernel
+from geoalpha._options import Request
 from geoalpha.errors import first_n
-from geoalpha.options import Request
 
 __all__ = [
     "ALPHA_RTOL",
@@ -297,9 +297,9 @@ class AlphaShapes(NamedTuple):
         Per input point: left out (duplicates of a left-out point too).
     gave_up, capped : ndarray of bool
         ``search="bisect"`` stopped at ``max_iterations`` with alpha 0; the piece
-        search of ``outliers=`` stopped at :data:`geoalpha.kernel.MAX_UNION_NODES`.
+        search of ``outliers=`` stopped at :data:`geoalpha._core.MAX_UNION_NODES`.
     reason : ndarray of int
-        Why a group is degenerate (a :class:`~geoalpha.kernel.Reason`), 0 if not.
+        Why a group is degenerate (a :class:`~geoalpha._core.Reason`), 0 if not.
 
     Notes
     -----
@@ -311,9 +311,9 @@ class AlphaShapes(NamedTuple):
     representative, itself unless merged as a near-duplicate; None when none
     was merged), ``whole`` (the shape is every triangle), ``curve`` (the
     validity curves ``(values, valid, offsets)``, when asked), ``why``
-    (:class:`Why`, what :attr:`~geoalpha.options.Request.explain` asked);
+    (:class:`Why`, what :attr:`~geoalpha._options.Request.explain` asked);
     and, added by the frame's stages, ``labels`` (the ``method`` column),
-    ``made`` (the polygons :func:`~geoalpha.frame.pipeline.compute` made),
+    ``made`` (the polygons :func:`~geoalpha._frame.pipeline.compute` made),
     ``keep`` (the groups that get a row), ``unsplit``, ``neighbours`` and
     ``ceded`` (``overlap="split"``) and ``planar_area`` (``area`` in the
     computation CRS, kept when ``area`` becomes ``area_m2``).
@@ -469,7 +469,7 @@ def solve(
         Checked points (:func:`check_points`) in the computation CRS, their
         group codes ``0 .. n_groups - 1`` (:func:`group_codes`), and how many.
     request : Request
-        What to compute (:meth:`geoalpha.options.Options.request`): holes,
+        What to compute (:meth:`geoalpha._options.Options.request`): holes,
         components, outliers, a given alpha (one, or one per group, >= 0)
         instead of the optimum, the sphere, the curves, why, the alternatives.
     out : ndarray of shape (n, 2), optional
@@ -560,7 +560,7 @@ def _rows_of_representatives(rep: np.ndarray, order: np.ndarray) -> np.ndarray |
 
 
 class Compiled:
-    """A :class:`~geoalpha.options.Request` as the compiled kernel reads it.
+    """A :class:`~geoalpha._options.Request` as the compiled kernel reads it.
 
     Its attributes are those of ``Request`` in ``src/lib.rs`` (``threads`` from
     ``n_jobs``; ``fraction`` or ``count``, the outlier budget, only for the

@@ -8,18 +8,18 @@ from typing import Any, NamedTuple
 
 import pandas as pd
 
-from geoalpha import options as _options
-from geoalpha.errors import InvalidInputError, OutlierWarning
-from geoalpha.frame.pipeline import as_frame, run, run_all
-from geoalpha.frame.schema import RESULT_COLUMNS
-from geoalpha.frame.why import (
+from geoalpha import _options as _options
+from geoalpha._frame.pipeline import as_frame, run, run_all
+from geoalpha._frame.schema import RESULT_COLUMNS
+from geoalpha._frame.why import (
     curve_frame,
     curve_options,
     explain_asked,
     explain_frame,
     why_options,
 )
-from geoalpha.options import DEGENERATE_POLICIES, METHODS, Options
+from geoalpha._options import DEGENERATE_POLICIES, METHODS, Options
+from geoalpha.errors import InvalidInputError, OutlierWarning
 
 __all__ = [
     "DEGENERATE_POLICIES",
@@ -329,7 +329,7 @@ def hull_and_why(gdf, by=None, **options) -> Explained:
             "hull_and_why() needs an eager GeoDataFrame; call .compute() first"
         )
     opts = why_options(options, "explain()")
-    from geoalpha.frame.why import explain_table
+    from geoalpha._frame.why import explain_table
 
     frame = as_frame(gdf)
     ran = run_all(frame, by, opts, **explain_asked(opts))

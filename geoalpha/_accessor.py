@@ -5,8 +5,8 @@ from __future__ import annotations
 import functools
 import sys
 
-from geoalpha import hulls
-from geoalpha.registration import ColumnHint, attach
+from geoalpha import _hulls as hulls
+from geoalpha._registration import ColumnHint, attach
 
 __all__ = ["AlphaAccessor", "register"]
 
@@ -27,15 +27,15 @@ class AlphaAccessor(ColumnHint):
         self._obj = obj
 
     @functools.wraps(hulls.hull)
-    def hull(self, by=None, **options):  # noqa: D102 - documented by hulls.hull
+    def hull(self, by=None, **options):
         return hulls.hull(self._obj, by, **options)
 
     @functools.wraps(hulls.explain)
-    def explain(self, by=None, **options):  # noqa: D102 - documented by hulls.explain
+    def explain(self, by=None, **options):
         return hulls.explain(self._obj, by, **options)
 
     @functools.wraps(hulls.curve)
-    def curve(self, by=None, **options):  # noqa: D102 - documented by hulls.curve
+    def curve(self, by=None, **options):
         return hulls.curve(self._obj, by, **options)
 
 

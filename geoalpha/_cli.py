@@ -19,12 +19,12 @@ from pathlib import Path
 
 import click
 
+from geoalpha._frame.schema import RESULT_COLUMNS
+from geoalpha._io.postgis import is_postgres_url
+from geoalpha._io.redact import redact, secrets_in
+from geoalpha._options import META, defaults
+from geoalpha.datasets import DATASETS
 from geoalpha.errors import FLAGS, GeoAlphaError, InvalidInputError, did_you_mean
-from geoalpha.frame.schema import RESULT_COLUMNS
-from geoalpha.io.datasets import DATASETS
-from geoalpha.io.postgis import is_postgres_url
-from geoalpha.io.redact import redact, secrets_in
-from geoalpha.options import META, defaults
 
 __all__ = ["main"]
 
@@ -237,8 +237,8 @@ def _session(params: dict, size, points_layer=False, source=None) -> Iterator:
 
     ``source``: ``(INPUT, its --layer)``, which OUTPUT must not overwrite.
     """
-    from geoalpha.frame.progress import HULL_PHASES, hull_costs, phases
-    from geoalpha.io.files import check_not_input, check_output
+    from geoalpha._frame.progress import HULL_PHASES, hull_costs, phases
+    from geoalpha._io.files import check_not_input, check_output
 
     preview = params.pop("preview")
     explain = params.pop("explain", False)
@@ -295,7 +295,7 @@ def _explain_targets(target: dict, params: dict, points_layer: bool) -> dict:
     it), else ``<stem>_why<ext>`` and ``<stem>_left_out<ext>`` beside it, each
     checked as OUTPUT is (refused if it exists, without ``--overwrite``).
     """
-    from geoalpha.io.files import check_output
+    from geoalpha._io.files import check_output
 
     if params.get("method", "alpha") != "alpha":
         raise InvalidInputError(
@@ -361,7 +361,7 @@ def _write_explained(target: dict, sides: dict, layers: dict, created: list) -> 
     are added to ``created``, for :func:`_remove_created` should a later
     write fail.
     """
-    from geoalpha.io.files import write_hulls
+    from geoalpha._io.files import write_hulls
 
     mappings = {}
     for name, path in sides.items():
@@ -412,7 +412,7 @@ def _plural(n: int, noun: str) -> str:
 
 def _left_out(points, hulls, by: list[str], options: dict) -> str:
     """``"; 12 of 3,376 rows left out: 12 without a --by value ..."``, or ``""``."""
-    from geoalpha.frame.pipeline import row_report
+    from geoalpha._frame.pipeline import row_report
 
     left = len(points) - int(hulls["n_points"].sum())
     if left <= 0:
@@ -436,7 +436,7 @@ def _summary(
     import numpy as np
     import shapely
 
-    from geoalpha.crs_parsing import crs_name
+    from geoalpha._crs_parsing import crs_name
 
     columns = points.attrs.get("geoalpha_coordinates")
     where = f"columns {columns[0]}/{columns[1]}" if columns else "geometries"
@@ -507,16 +507,16 @@ def _run(
     With ``sides`` (``--explain``: :func:`_explain_targets`) also explain()'s
     table and the rows left out, from the same run.
     """
-    from geoalpha.frame.schema import planar_unit, with_area_unit
-    from geoalpha.io.files import write_hulls
+    from geoalpha._frame.schema import planar_unit, with_area_unit
+    from geoalpha._io.files import write_hulls
 
     key = None if not by else by[0] if len(by) == 1 else by
     if sides is None:
-        from geoalpha.hulls import hull
+        from geoalpha._hulls import hull
 
         hulls, explained = hull(points, by=key, **options), None
     else:
-        from geoalpha.hulls import hull_and_why
+        from geoalpha._hulls import hull_and_why
 
         hulls, why, left_out = hull_and_why(points, by=key, **options)
     if len(hulls) == 0:
@@ -813,7 +813,7 @@ def hull(
         geoalpha hull postgresql://ga@localhost/gis postgresql://ga@localhost/gis
             --layer public.trees --by species --output-layer public.tree_hulls
     """  # noqa: D301
-    from geoalpha.io.files import read_input_points
+    from geoalpha._io.files import read_input_points
 
     source = (input_path, options["layer"])
     with _session(options, _input_size(input_path), source=source) as run:

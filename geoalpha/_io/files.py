@@ -15,8 +15,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from geoalpha.errors import FLAGS, CRSWarning, InvalidInputError, did_you_mean
-from geoalpha.io.postgis import (
+from geoalpha._io.postgis import (
     check_postgis_output,
     is_postgres_url,
     one_line,
@@ -24,7 +23,8 @@ from geoalpha.io.postgis import (
     truncate_bytes,
     write_postgis,
 )
-from geoalpha.io.redact import redact, secrets_in
+from geoalpha._io.redact import redact, secrets_in
+from geoalpha.errors import FLAGS, CRSWarning, InvalidInputError, did_you_mean
 
 if TYPE_CHECKING:  # pragma: no cover
     import geopandas as gpd
@@ -97,7 +97,7 @@ def read_points(
     path : str or os.PathLike
         A vector file GDAL reads, GeoParquet, a table with two coordinate columns
         (CSV, Parquet without geometry metadata), or a ``postgresql://`` URL
-        (:func:`~geoalpha.io.postgis.read_postgis` of the table ``layer``).
+        (:func:`~geoalpha._io.postgis.read_postgis` of the table ``layer``).
     x, y : str, optional
         The coordinate columns of a table (tables only); by default the first
         pair of :data:`COORDINATE_NAMES` found, in any letter case.
@@ -137,7 +137,7 @@ def read_points(
     Examples
     --------
     >>> from geoalpha import datasets
-    >>> from geoalpha.io.files import read_points
+    >>> from geoalpha._io.files import read_points
     >>> gdf = read_points(datasets.path("stats19"))  # Longitude/Latitude found
     >>> gdf.crs.to_epsg(), gdf.geom_type.unique().tolist()
     (4326, ['Point'])
@@ -162,7 +162,7 @@ def read_input_points(
     text=(),
 ):
     """:func:`read_points`, PostGIS ``sql=``; ``planar_if_missing``: no CRS is ok."""
-    from geoalpha.crs_parsing import crs_name, parse_crs
+    from geoalpha._crs_parsing import crs_name, parse_crs
 
     source = os.fspath(path)
     shown = redact(source)
@@ -477,7 +477,7 @@ def _check_lonlat(xs, ys, crs, source: str, x: str, y: str) -> None:
     """Refuse lon/lat out of range; warn when projected values look like lon/lat."""
     import numpy as np
 
-    from geoalpha.crs_parsing import crs_name
+    from geoalpha._crs_parsing import crs_name
 
     if crs is None:
         return
@@ -530,7 +530,7 @@ def write_hulls(
         What to write, usually the result of :func:`geoalpha.hull`.
     path : str or os.PathLike
         Output file, in the format of its extension (:data:`WRITE_FORMATS`), or
-        a ``postgresql://`` URL (:func:`geoalpha.io.postgis.write_postgis`).
+        a ``postgresql://`` URL (:func:`geoalpha._io.postgis.write_postgis`).
     layer : str, optional
         GeoPackage layer name (``.gpkg`` only); default the file name without
         extension, or ``"hulls"``. Required for a URL: ``schema.table``. An
@@ -727,7 +727,7 @@ def check_output(
 
     Examples
     --------
-    >>> from geoalpha.io.files import check_output
+    >>> from geoalpha._io.files import check_output
     >>> check_output("hulls.csv")  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     geoalpha.errors.InvalidInputError: cannot tell the output format of hulls.csv: ...
