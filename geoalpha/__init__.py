@@ -41,6 +41,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs
         alpha_shapes,
         optimal_alpha,
     )
+    from geoalpha._core import Reason
     from geoalpha._hulls import curve, explain, hull, outlier_rows
     from geoalpha._io.files import read_points, write_hulls
     from geoalpha._io.postgis import read_postgis, write_postgis
@@ -61,6 +62,7 @@ __all__ = [  # noqa: RUF022 - by use, not alphabetical
     # the rest
     "AlphaAccessor",
     "AlphaShapes",
+    "Reason",
     "alpha_shape",
     "plot_curve",
     "plot_why",
@@ -86,6 +88,7 @@ __all__ = [  # noqa: RUF022 - by use, not alphabetical
 _LAZY = {
     "AlphaAccessor": "geoalpha._accessor",
     "AlphaShapes": "geoalpha._arrays.optimal",
+    "Reason": "geoalpha._core",
     "alpha_shape": "geoalpha._arrays.optimal",
     "alpha_shapes": "geoalpha._arrays.optimal",
     "optimal_alpha": "geoalpha._arrays.optimal",
