@@ -96,6 +96,7 @@ def split_overlaps(
     codes: np.ndarray,
     *,
     check: np.ndarray | None = None,
+    known: np.ndarray | None = None,
     n_jobs: int | None = 1,
 ) -> Split:
     """Give each part of every overlap to the group of the nearest input point.
@@ -109,6 +110,10 @@ def split_overlaps(
         group's polygon covers take part (rows left out by ``outliers=`` do not).
     check : ndarray of bool, shape (G,), optional
         The groups that take part (default: every non-empty polygon).
+    known : ndarray of bool, shape (k,), optional
+        Points already known to be covered by their group's polygon (the
+        pipeline's guarantee has checked them); only the others are tested
+        (default: every point of a group that overlaps another is tested).
     n_jobs : int or None, default 1
         Threads of the point tests.
 
@@ -151,6 +156,9 @@ def split_overlaps(
     involved[pairs.ravel()] = True
     at = np.flatnonzero(involved[codes])  # the points of groups that overlap
     own = np.zeros(len(codes), dtype=bool)
+    if known is not None:
+        own[at] = known[at]
+        at = at[~own[at]]  # only those not known yet are tested
     own[at] = covered(geoms, xy[at], codes[at], n_jobs=n_jobs)
     take = np.flatnonzero(own)
     order = take[np.argsort(codes[take], kind="stable")]
@@ -160,9 +168,14 @@ def split_overlaps(
     shared, shared_groups = [], []
     angles = _angles(geoms, *_shared_locations(xy[take], codes[take]))
     overlaps = _overlay(shapely.intersection, geoms[pairs[:, 0]], geoms[pairs[:, 1]])
-    for (g, h), overlap in zip(pairs.tolist(), overlaps, strict=True):
-        pg = xy[order[starts[g] : starts[g + 1]]]
-        ph = xy[order[starts[h] : starts[h + 1]]]
+    boxes = shapely.bounds(overlaps)  # widened by float noise of the overlay
+    boxes += np.array([-1, -1, 1, 1]) * _SLACK * max(float(np.abs(xy).max()), 1e-300)
+    foreign: dict[int, list] = {}
+    for (g, h), overlap, box in zip(pairs.tolist(), overlaps, boxes, strict=True):
+        ig, ih = order[starts[g] : starts[g + 1]], order[starts[h] : starts[h + 1]]
+        pg, ph = xy[ig], xy[ih]
+        foreign.setdefault(g, []).append(ih[_in_box(ph, box)])
+        foreign.setdefault(h, []).append(ig[_in_box(pg, box)])
         try:
             lose_g, lose_h, both = _split_pair(overlap, pg, ph, g, h, angles)
         except (shapely.errors.GEOSException, ValueError):  # pragma: no cover
@@ -173,34 +186,47 @@ def split_overlaps(
         if len(both):
             shared.append(both)
             shared_groups.append(np.tile([g, h], (len(both), 1)))
-    out = geoms.copy()
     changed = np.flatnonzero(involved)
-    for g in changed:
-        try:
-            mine = xy[order[starts[g] : starts[g + 1]]]
-            out[g] = _without_crumbs(_cut(geoms[g], losses[g], mine), geoms[g])
-        except (shapely.errors.GEOSException, ValueError):  # pragma: no cover
-            broken[g] = True
-    # The guarantee on the split polygons: valid, covering their own points.
-    mask = np.zeros(n, dtype=bool)
-    mask[changed] = True
-    out = _carve(out, xy, codes, own, mask)
-    fixed, failed = enforce(out, xy, codes, mask, exempt=~own, n_jobs=n_jobs)
-    failed |= broken
+    mine = {g: xy[order[starts[g] : starts[g + 1]]] for g in changed}
+    near = {g: np.concatenate(foreign[g]) for g in changed}
+
+    def settle(which: np.ndarray, careful: bool):
+        """Cut, carve and check the groups ``which``: their polygons, failed."""
+        out, bad = geoms.copy(), broken.copy()
+        for g in which:
+            try:
+                cut = _cut(geoms[g], losses[g], mine[g], careful=careful)
+                out[g] = _without_crumbs(cut, geoms[g])
+            except (shapely.errors.GEOSException, ValueError):  # pragma: no cover
+                bad[g] = True
+        out = _carve(out, xy, {g: near[g] for g in which}, mine)
+        # The guarantee on the split polygons: valid, covering their own points.
+        mask = np.zeros(n, dtype=bool)
+        mask[which] = True
+        fixed, failed = enforce(out, xy, codes, mask, exempt=~own, n_jobs=n_jobs)
+        return fixed, (failed | bad) & mask
+
+    # Fast: each cut checked by area; every split pair checked at the end. The
+    # groups that failed and those of a pair that still overlaps are cut again
+    # with the careful checks and fallbacks of :func:`_cut`.
+    fixed, failed = settle(changed, careful=False)
     out = np.where(failed, geoms, fixed)
+    left = _still_overlap(out[pairs[:, 0]], out[pairs[:, 1]])
+    redo = np.flatnonzero(failed & ~broken)
+    redo = np.union1d(redo, pairs[left].ravel())
+    if len(redo):
+        fixed, again = settle(redo, careful=True)
+        out[redo] = np.where(again[redo], geoms[redo], fixed[redo])
+        failed[redo] = again[redo]
+        left = _still_overlap(out[pairs[:, 0]], out[pairs[:, 1]])
+    still = pairs[left]
+    mask = involved
     if shared:  # each location once per pair of groups
         both = np.concatenate(
             [np.concatenate(shared), np.concatenate(shared_groups)], axis=1
         )
         both = np.unique(both, axis=0)
         shared, shared_groups = [both[:, :2]], [both[:, 2:].astype(np.int64)]
-    a, b = out[pairs[:, 0]], out[pairs[:, 1]]
-    grid = _GRID_RTOL * max(float(np.abs(shapely.total_bounds(a)).max()), 1e-300)
-    try:  # snap-rounded: the float overlay can report an overlap that is not
-        left = shapely.area(shapely.intersection(a, b, grid_size=grid))
-    except shapely.errors.GEOSException:  # pragma: no cover
-        left = shapely.area(_overlay(shapely.intersection, a, b))
-    still = pairs[left > 1e-9 * np.maximum(shapely.area(a), shapely.area(b))]
     return Split(
         out,
         mask & ~failed,
@@ -212,6 +238,30 @@ def split_overlaps(
         failed,
         still,
     )
+
+
+def _still_overlap(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Whether the polygons of each pair overlap by more than 1e-9 of the larger.
+
+    The float overlay first (fast); the pairs it finds overlapping (it can
+    report an overlap that is not, around edges nearly along each other) or
+    cannot compute are measured again by snap-rounded overlay (robust).
+    """
+    limit = 1e-9 * np.maximum(shapely.area(a), shapely.area(b))
+    try:
+        suspect = shapely.area(shapely.intersection(a, b)) > limit
+    except shapely.errors.GEOSException:
+        suspect = np.ones(len(a), dtype=bool)
+    if not suspect.any():
+        return suspect
+    a, b = a[suspect], b[suspect]
+    grid = _GRID_RTOL * max(float(np.abs(shapely.total_bounds(a)).max()), 1e-300)
+    try:
+        left = shapely.area(shapely.intersection(a, b, grid_size=grid))
+    except shapely.errors.GEOSException:  # pragma: no cover
+        left = shapely.area(_overlay(shapely.intersection, a, b))
+    suspect[suspect] = left > limit[suspect]
+    return suspect
 
 
 def _split_pair(overlap, pg: np.ndarray, ph: np.ndarray, g: int, h: int, angles):
@@ -236,8 +286,7 @@ def _split_pair(overlap, pg: np.ndarray, ph: np.ndarray, g: int, h: int, angles)
     pad = max(float(np.hypot(x1 - x0, y1 - y0)), reach, 1e-300)
     frame = shapely.box(x0 - pad, y0 - pad, x1 + pad, y1 + pad)
     cells = _voronoi_cells(sites, frame)
-    shapely.prepare(overlap)
-    meets = shapely.intersects(overlap, cells)  # only these cells matter
+    meets = _boxes_meet(shapely.bounds(cells), (x0, y0, x1, y1))  # cells that matter
     mixed = has.all(axis=1) & meets
     # One side's cells are joined (the side with fewer); the other side loses
     # the rest of the overlap, so that the two share one cut exactly.
@@ -256,7 +305,7 @@ def _split_pair(overlap, pg: np.ndarray, ph: np.ndarray, g: int, h: int, angles)
     return lose_g, lose_h, sites[mixed]
 
 
-def _carve(geoms, xy, codes, own, changed) -> np.ndarray:
+def _carve(geoms, xy, foreign: dict, mine: dict) -> np.ndarray:
     """Cut a point out of a neighbour's polygon that holds it strictly inside.
 
     Not expected (each point's Voronoi cell goes to its group), but float
@@ -266,41 +315,55 @@ def _carve(geoms, xy, codes, own, changed) -> np.ndarray:
     polygon, so that the point is strictly inside no polygon but its own. At a
     location of both groups the disc leaves the other group's own point out too:
     the guarantee's check then takes it back in as a vertex, on the boundary.
+
+    ``foreign[g]``: the indices (into ``xy``) of the other groups' points that
+    can be strictly inside g's polygon (those in the boxes of g's overlaps: a
+    point strictly inside g's split polygon is in g's hull and in its own
+    group's, so in their overlap); ``mine[g]``: g's own points.
     """
-    at = np.flatnonzero(own & changed[codes])
-    if not len(at):
-        return geoms
-    usable = np.flatnonzero(changed & ~shapely.is_empty(geoms))
-    p, k = shapely.STRtree(geoms[usable]).query(
-        shapely.points(xy[at]), predicate="within"
-    )
-    poly = usable[k]
-    foreign = codes[at[p]] != poly
-    if not foreign.any():
-        return geoms
-    p, poly = at[p[foreign]], poly[foreign]
-    strict = shapely.contains_properly(geoms[poly], shapely.points(xy[p]))
-    if not strict.any():
-        return geoms
     geoms = geoms.copy()
-    for g in np.unique(poly[strict]):
-        pts = xy[p[strict & (poly == g)]]
-        mine = np.unique(xy[own & (codes == g)], axis=0)
+    for g, near in foreign.items():
+        poly = geoms[g]
+        if not len(near) or shapely.is_empty(poly):
+            continue
+        shapely.prepare(poly)
+        # (for a point, contains is contains_properly: in the interior)
+        pts = xy[near[shapely.contains_xy(poly, xy[near, 0], xy[near, 1])]]
+        if not len(pts):
+            continue
+        own = np.unique(mine[g], axis=0)
         gap = np.full(len(pts), np.inf)
-        if len(mine) > 1:  # a location of g's own too (shared): the next one
-            dist, _ = cKDTree(mine).query(pts, k=2)
+        if len(own) > 1:  # a location of g's own too (shared): the next one
+            dist, _ = cKDTree(own).query(pts, k=2)
             gap = np.where(dist[:, 0] > 0, dist[:, 0], dist[:, 1])
-        elif len(mine):
-            gap = np.hypot(*(pts - mine[0]).T)
+        elif len(own):
+            gap = np.hypot(*(pts - own[0]).T)
             gap[gap == 0] = np.inf
-        x0, y0, x1, y1 = shapely.bounds(geoms[g])
+        x0, y0, x1, y1 = shapely.bounds(poly)
         extent = max(x1 - x0, y1 - y0, 1e-300)
         radius = np.minimum(gap / 2, _CARVE_RTOL * extent)
         keep = radius > 0
         if keep.any():
             discs = shapely.buffer(shapely.points(pts[keep]), radius[keep], quad_segs=2)
-            geoms[g] = _overlay(shapely.difference, geoms[g], shapely.union_all(discs))
+            geoms[g] = _overlay(shapely.difference, poly, shapely.union_all(discs))
     return geoms
+
+
+def _boxes_meet(bounds: np.ndarray, box) -> np.ndarray:
+    """Whether each box of ``bounds`` (rows ``x0, y0, x1, y1``) meets ``box``."""
+    x0, y0, x1, y1 = box
+    return (
+        (bounds[:, 0] <= x1)
+        & (bounds[:, 2] >= x0)
+        & (bounds[:, 1] <= y1)
+        & (bounds[:, 3] >= y0)
+    )
+
+
+def _in_box(xy: np.ndarray, box) -> np.ndarray:
+    """Whether each point is in the box ``(x0, y0, x1, y1)`` (its edges too)."""
+    x0, y0, x1, y1 = box
+    return (xy[:, 0] >= x0) & (xy[:, 0] <= x1) & (xy[:, 1] >= y0) & (xy[:, 1] <= y1)
 
 
 def _candidates(xy: np.ndarray, bounds) -> tuple[np.ndarray, float]:
@@ -353,17 +416,23 @@ def _shared_locations(xy: np.ndarray, codes: np.ndarray):
     return sx[starts[shared]], groups
 
 
-def _cut(poly, losses: list, points: np.ndarray):
+def _cut(poly, losses: list, points: np.ndarray, careful: bool = True):
     """Return ``poly`` without the union of ``losses`` (parts of it), checked.
 
     A float overlay can misjudge an edge nearly along another (a loss whose
     ring nearly touches itself): return the polygon whole, drop a piece of a
-    loss, or take away more. Each result is checked: no loss left in it (by
-    snap-rounded overlay, which is robust), none of the group's ``points``
-    taken, no more than the losses' areas taken. Tried in turn: the union of
-    the losses taken away, the losses one by one, both snap-rounded to a grid of
-    :data:`_GRID_RTOL` of the coordinates; else ValueError (the group keeps
+    loss, or take away more. Each result is checked: none of the group's
+    ``points`` taken, no more than the losses' areas taken, and no loss left in
+    it (by snap-rounded overlay, which is robust). Tried in turn: the union of
+    the losses taken away, the losses one by one, both snap-rounded to a grid
+    of :data:`_GRID_RTOL` of the coordinates; else ValueError (the group keeps
     its hull, with a warning).
+
+    Not ``careful``, the first attempt's third check is made by area instead
+    (what is left must have the area of ``poly`` less the union's, within 1e-9
+    of it), which does not see an error of the union itself: the caller checks
+    the split pairs (:func:`_still_overlap`) and cuts the groups of a pair that
+    still overlaps again, carefully.
     """
     losses = np.array([g for g in losses if not shapely.is_empty(g)], dtype=object)
     if not len(losses):
@@ -374,21 +443,29 @@ def _cut(poly, losses: list, points: np.ndarray):
     x0, y0, x1, y1 = shapely.bounds(poly)
     reach = max(_CARVE_RTOL * max(x1 - x0, y1 - y0), 4 * grid)
 
-    def right(cut) -> bool:
+    def right(cut, lost=None) -> bool:
         if shapely.area(cut) < shapely.area(poly) - most - tol:
             return False
         if len(points):  # (one rounded just outside is taken back in later)
             out = points[~shapely.intersects_xy(cut, *points.T)]
             if len(out) and shapely.distance(cut, shapely.points(out)).max() > reach:
                 return False
+        if lost is not None:  # parts of poly: what is left has the rest's area
+            wanted = shapely.area(poly) - shapely.area(lost)
+            return bool(abs(shapely.area(cut) - wanted) <= tol)
         try:
             left = shapely.area(shapely.intersection(cut, losses, grid_size=grid))
         except shapely.errors.GEOSException:
             return False
         return bool(left.sum() <= tol)
 
-    def whole() -> object:
-        return _overlay(shapely.difference, poly, _union(list(losses)))
+    try:  # the losses' union taken away
+        lost = _union(list(losses))
+        cut = _overlay(shapely.difference, poly, lost)
+        if right(cut, None if careful else lost):
+            return cut
+    except shapely.errors.GEOSException:
+        pass
 
     def one_by_one() -> object:
         cut = poly
@@ -406,7 +483,7 @@ def _cut(poly, losses: list, points: np.ndarray):
             cut = _areal(shapely.difference(cut, loss, grid_size=grid))
         return cut
 
-    for attempt in (whole, one_by_one, snapped, snapped_one_by_one):
+    for attempt in (one_by_one, snapped, snapped_one_by_one):
         try:
             cut = attempt()
         except shapely.errors.GEOSException:
