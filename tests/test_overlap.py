@@ -23,6 +23,7 @@ from hypothesis import strategies as st
 
 import geoalpha
 from geoalpha import datasets
+from geoalpha.arrays import overlap as overlap_module
 from geoalpha.errors import InvalidInputError, SharedLocationWarning
 
 LANSING = Path(__file__).parent / "data" / "lansing_trees_spatstat.csv"
@@ -302,6 +303,66 @@ def test_lon_lat_with_crs_none_splits_in_degrees():
     assert_clean(four_counts(split, pts, "g"))
     # planar areas in square degrees: area (unit "degree²"), as the CLI says
     np.testing.assert_allclose(split["area"], split.geometry.area, rtol=1e-12)
+
+
+# --- how the split is made: its shortcuts checked by brute force -------------------
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    n=st.integers(2, 120),
+    seed=st.integers(0, 2**32 - 1),
+    spread=st.floats(0.05, 3.0),
+)
+def test_candidates_hold_the_nearest_point_of_every_location(n, seed, spread):
+    """Only the points that can be nearest to the overlap make Voronoi cells.
+
+    Brute force: for random locations of the overlap of two clusters' convex
+    hulls, the nearest of all points is as near as the nearest candidate.
+    """
+    rng = np.random.default_rng(seed)
+    a = rng.normal(0, 1, (n, 2))
+    b = rng.normal([spread, 0], 1, (n, 2))
+    both = np.concatenate([a, b])
+    hull_a = shapely.multipoints(a).convex_hull
+    hull_b = shapely.multipoints(b).convex_hull
+    overlap = shapely.intersection(hull_a, hull_b)
+    if overlap.area <= 0:
+        return
+    near, reach = overlap_module._candidates(both, overlap)
+    x0, y0, x1, y1 = overlap.bounds
+    where = rng.uniform([x0, y0], [x1, y1], (4000, 2))
+    where = where[shapely.contains_xy(overlap, where[:, 0], where[:, 1])]
+    where = np.concatenate([where, shapely.get_coordinates(overlap)])  # its corners
+    dist = np.hypot(*(where[:, None, :] - both[None, :, :]).transpose(2, 0, 1))
+    assert (dist[:, near].min(axis=1) == dist.min(axis=1)).all()
+    assert dist.min(axis=1).max() <= reach
+
+
+def test_a_wrong_union_of_losses_is_found_and_cut_again(monkeypatch):
+    """A float overlay that drops a piece is caught by the checks, not returned.
+
+    The union of a group's losses (the parts it gives to several neighbours)
+    made wrong on purpose, as GEOS's float overlay can: it drops all but the
+    first loss. The pairs left overlapping are found and their groups cut again
+    with the careful checks; the result is the one without the fault.
+    """
+    pts = interleaved(n_groups=5, per_group=60, seed=3)
+    right = geoalpha.hull(pts, "g", crs=None, overlap="split")
+    made = []
+
+    def wrong(geoms):
+        geoms = [g for g in geoms if not shapely.is_empty(g)]
+        made.append(len(geoms))
+        return geoms[0] if geoms else shapely.Polygon()
+
+    monkeypatch.setattr(overlap_module, "_union", wrong)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", geoalpha.GeoAlphaWarning)
+        split = geoalpha.hull(pts, "g", crs=None, overlap="split")
+    assert max(made) >= 2  # a group did give area to several neighbours
+    assert_clean(four_counts(split, pts, "g"))
+    np.testing.assert_allclose(split["area"], right["area"], rtol=1e-9)
 
 
 # --- real data --------------------------------------------------------------------

@@ -9,6 +9,7 @@ covered by its own group's polygon and is strictly inside no other
 
 from __future__ import annotations
 
+import itertools
 from typing import NamedTuple
 
 import numpy as np
@@ -272,9 +273,9 @@ def _split_pair(overlap, pg: np.ndarray, ph: np.ndarray, g: int, h: int, angles)
     """
     x0, y0, x1, y1 = shapely.bounds(overlap)
     both = np.concatenate([pg, ph])
-    if not len(both):
+    if not len(both) or shapely.is_empty(overlap):
         return EMPTY_POLYGON, EMPTY_POLYGON, np.zeros((0, 2))
-    near, reach = _candidates(both, (x0, y0, x1, y1))
+    near, reach = _candidates(both, overlap)
     label = np.r_[np.zeros(len(pg), dtype=np.int8), np.ones(len(ph), dtype=np.int8)]
     sites, inverse = _distinct(both[near])
     has = np.zeros((len(sites), 2), dtype=bool)
@@ -366,26 +367,36 @@ def _in_box(xy: np.ndarray, box) -> np.ndarray:
     return (xy[:, 0] >= x0) & (xy[:, 0] <= x1) & (xy[:, 1] >= y0) & (xy[:, 1] <= y1)
 
 
-def _candidates(xy: np.ndarray, bounds) -> tuple[np.ndarray, float]:
-    """Mark the points that can be nearest to some location of the box ``bounds``.
+def _candidates(xy: np.ndarray, overlap) -> tuple[np.ndarray, float]:
+    """Mark the points that can be nearest to some location of ``overlap``.
 
-    A grid of :data:`_GRID` x :data:`_GRID` cells over the box: from a location
-    in a cell, the nearest point is at most ``r`` = (the cell's centre's distance
-    to its nearest point) + (half the cell's diagonal) away; so a point farther
-    than the largest ``r`` from the box is nearer to none of its locations than
-    that one. Returns the mask and that distance.
+    A grid of :data:`_GRID` x :data:`_GRID` cells over its box, of which those
+    that meet the overlap count: from a location in a cell, the nearest point is
+    at most the cell's centre's distance to its nearest point plus half the
+    cell's diagonal away, so a point farther than that plus another half
+    diagonal from the centre is nearer to none of the cell's locations than that
+    one. Returns the mask and the largest such distance.
     """
-    x0, y0, x1, y1 = bounds
-    gx = x0 + (np.arange(_GRID) + 0.5) * (x1 - x0) / _GRID
-    gy = y0 + (np.arange(_GRID) + 0.5) * (y1 - y0) / _GRID
-    centres = np.stack(np.meshgrid(gx, gy), axis=-1).reshape(-1, 2)
-    nearest, _ = cKDTree(xy).query(centres)
-    half = float(np.hypot(x1 - x0, y1 - y0)) / (2 * _GRID)
+    x0, y0, x1, y1 = shapely.bounds(overlap)
+    xs, ys = np.linspace(x0, x1, _GRID + 1), np.linspace(y0, y1, _GRID + 1)
+    ix, iy = np.meshgrid(np.arange(_GRID), np.arange(_GRID))
+    ix, iy = ix.ravel(), iy.ravel()
+    shapely.prepare(overlap)
+    cells = shapely.box(xs[ix], ys[iy], xs[ix + 1], ys[iy + 1])
+    meet = shapely.intersects(overlap, cells)
+    if not meet.any():  # (float noise: a sliver between the grid lines)
+        meet[:] = True
+    ix, iy = ix[meet], iy[meet]
+    centres = np.stack([xs[ix] + xs[ix + 1], ys[iy] + ys[iy + 1]], axis=1) / 2
+    half = np.hypot(xs[ix + 1] - xs[ix], ys[iy + 1] - ys[iy]) / 2
+    tree = cKDTree(xy)
+    nearest, _ = tree.query(centres)
     scale = max(float(np.abs(xy).max()), 1e-300)
-    reach = (float(nearest.max()) + half) * (1 + _SLACK) + _SLACK * scale
-    dx = np.maximum(np.maximum(x0 - xy[:, 0], xy[:, 0] - x1), 0.0)
-    dy = np.maximum(np.maximum(y0 - xy[:, 1], xy[:, 1] - y1), 0.0)
-    return np.hypot(dx, dy) <= reach, reach
+    radius = (nearest + 2 * half) * (1 + _SLACK) + _SLACK * scale
+    found = tree.query_ball_point(centres, radius, return_sorted=False)
+    near = np.zeros(len(xy), dtype=bool)
+    near[np.fromiter(itertools.chain.from_iterable(found), dtype=np.int64)] = True
+    return near, float(radius.max())
 
 
 def _distinct(xy: np.ndarray):
@@ -400,6 +411,11 @@ def _distinct(xy: np.ndarray):
 
 def _shared_locations(xy: np.ndarray, codes: np.ndarray):
     """Return the locations holding points of several groups, and their groups."""
+    # Only an x held by two rows can be such a location (one sort, not three).
+    sx = np.sort(xy[:, 0])
+    twice = sx[1:][sx[1:] == sx[:-1]]
+    at = np.isin(xy[:, 0], twice)
+    xy, codes = xy[at], codes[at]
     if not len(xy):
         return np.zeros((0, 2)), []
     order = np.lexsort((codes, xy[:, 1], xy[:, 0]))
@@ -500,7 +516,14 @@ def _union(geoms: list):
         return EMPTY_POLYGON
     if len(geoms) == 1:
         return geoms[0]
-    return _overlay(shapely.union_all, np.array(geoms, dtype=object))
+    return _overlay(_union_all, np.array(geoms, dtype=object))
+
+
+def _union_all(geoms: np.ndarray, grid_size=None):
+    """``shapely.union_all``; by disjoint subsets where shapely has it (faster)."""
+    if grid_size is None and hasattr(shapely, "disjoint_subset_union_all"):
+        return shapely.disjoint_subset_union_all(geoms)  # shapely >= 2.1
+    return shapely.union_all(geoms, grid_size=grid_size)
 
 
 def _cells_union(cells: np.ndarray):
