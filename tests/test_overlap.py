@@ -365,6 +365,16 @@ def test_a_wrong_union_of_losses_is_found_and_cut_again(monkeypatch):
     np.testing.assert_allclose(split["area"], right["area"], rtol=1e-9)
 
 
+def test_threads_split_the_same_polygons():
+    """Pairs and groups are split on threads from 8 of each: the same result."""
+    pts = interleaved(n_groups=9, per_group=40, seed=21, spread=1.5)
+    serial = geoalpha.hull(pts, "g", crs=None, overlap="split", n_jobs=1)
+    threaded = geoalpha.hull(pts, "g", crs=None, overlap="split", n_jobs=2)
+    assert (serial["neighbours"] >= 2).sum() >= 8  # enough pairs for threads
+    assert shapely.equals_exact(serial.geometry.array, threaded.geometry.array).all()
+    assert_clean(four_counts(threaded, pts, "g"))
+
+
 # --- real data --------------------------------------------------------------------
 
 

@@ -10,12 +10,14 @@ covered by its own group's polygon and is strictly inside no other
 from __future__ import annotations
 
 import itertools
+from concurrent.futures import ThreadPoolExecutor
 from typing import NamedTuple
 
 import numpy as np
 import shapely
 from scipy.spatial import cKDTree
 
+from geoalpha import kernel
 from geoalpha.arrays.guarantee import EMPTY_POLYGON, covered, enforce
 
 __all__ = ["Split", "overlapping_pairs", "split_overlaps"]
@@ -24,6 +26,8 @@ __all__ = ["Split", "overlapping_pairs", "split_overlaps"]
 _SLACK = 1e-9
 #: Largest radius (of the polygon's extent) of a disc :func:`_carve` cuts out.
 _CARVE_RTOL = 1e-9
+#: Items (pairs, groups) from which :func:`_map` spreads them over threads.
+_THREAD_ITEMS = 8
 #: Cells per side of the grid that bounds the distance to the nearest point.
 _GRID = 16
 #: Grid of the last resort of :func:`_overlay`, relative to the coordinates.
@@ -116,7 +120,8 @@ def split_overlaps(
         pipeline's guarantee has checked them); only the others are tested
         (default: every point of a group that overlaps another is tested).
     n_jobs : int or None, default 1
-        Threads of the point tests.
+        Threads of the point tests, and of the pairs' splits and the groups'
+        cuts from 16 of them (None or -1: every core); the result is the same.
 
     Returns
     -------
@@ -172,16 +177,28 @@ def split_overlaps(
     boxes = shapely.bounds(overlaps)  # widened by float noise of the overlay
     boxes += np.array([-1, -1, 1, 1]) * _SLACK * max(float(np.abs(xy).max()), 1e-300)
     foreign: dict[int, list] = {}
-    for (g, h), overlap, box in zip(pairs.tolist(), overlaps, boxes, strict=True):
+    for (g, h), box in zip(pairs.tolist(), boxes, strict=True):
         ig, ih = order[starts[g] : starts[g + 1]], order[starts[h] : starts[h + 1]]
-        pg, ph = xy[ig], xy[ih]
-        foreign.setdefault(g, []).append(ih[_in_box(ph, box)])
-        foreign.setdefault(h, []).append(ig[_in_box(pg, box)])
+        foreign.setdefault(g, []).append(ih[_in_box(xy[ih], box)])
+        foreign.setdefault(h, []).append(ig[_in_box(xy[ig], box)])
+
+    def split_one(k: int):
+        g, h = pairs[k].tolist()
+        pg, ph = (
+            xy[order[starts[g] : starts[g + 1]]],
+            xy[order[starts[h] : starts[h + 1]]],
+        )
         try:
-            lose_g, lose_h, both = _split_pair(overlap, pg, ph, g, h, angles)
+            return _split_pair(overlaps[k], pg, ph, g, h, angles)
         except (shapely.errors.GEOSException, ValueError):  # pragma: no cover
+            return None
+
+    splits = _map(split_one, range(len(pairs)), n_jobs)
+    for (g, h), one in zip(pairs.tolist(), splits, strict=True):
+        if one is None:  # pragma: no cover
             broken[[g, h]] = True  # they keep their hulls (a warning says so)
             continue
+        lose_g, lose_h, both = one
         losses[g].append(lose_g)
         losses[h].append(lose_h)
         if len(both):
@@ -194,12 +211,19 @@ def split_overlaps(
     def settle(which: np.ndarray, careful: bool):
         """Cut, carve and check the groups ``which``: their polygons, failed."""
         out, bad = geoms.copy(), broken.copy()
-        for g in which:
+
+        def cut_one(g: int):
             try:
                 cut = _cut(geoms[g], losses[g], mine[g], careful=careful)
-                out[g] = _without_crumbs(cut, geoms[g])
+                return _without_crumbs(cut, geoms[g])
             except (shapely.errors.GEOSException, ValueError):  # pragma: no cover
+                return None
+
+        for g, cut in zip(which, _map(cut_one, which, n_jobs), strict=True):
+            if cut is None:  # pragma: no cover
                 bad[g] = True
+            else:
+                out[g] = cut
         out = _carve(out, xy, {g: near[g] for g in which}, mine)
         # The guarantee on the split polygons: valid, covering their own points.
         mask = np.zeros(n, dtype=bool)
@@ -212,14 +236,14 @@ def split_overlaps(
     # with the careful checks and fallbacks of :func:`_cut`.
     fixed, failed = settle(changed, careful=False)
     out = np.where(failed, geoms, fixed)
-    left = _still_overlap(out[pairs[:, 0]], out[pairs[:, 1]])
+    left = _still_overlap(out[pairs[:, 0]], out[pairs[:, 1]], n_jobs)
     redo = np.flatnonzero(failed & ~broken)
     redo = np.union1d(redo, pairs[left].ravel())
     if len(redo):
         fixed, again = settle(redo, careful=True)
         out[redo] = np.where(again[redo], geoms[redo], fixed[redo])
         failed[redo] = again[redo]
-        left = _still_overlap(out[pairs[:, 0]], out[pairs[:, 1]])
+        left = _still_overlap(out[pairs[:, 0]], out[pairs[:, 1]], n_jobs)
     still = pairs[left]
     mask = involved
     if shared:  # each location once per pair of groups
@@ -241,18 +265,23 @@ def split_overlaps(
     )
 
 
-def _still_overlap(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+def _still_overlap(a: np.ndarray, b: np.ndarray, n_jobs: int | None = 1) -> np.ndarray:
     """Whether the polygons of each pair overlap by more than 1e-9 of the larger.
 
-    The float overlay first (fast); the pairs it finds overlapping (it can
-    report an overlap that is not, around edges nearly along each other) or
-    cannot compute are measured again by snap-rounded overlay (robust).
+    The float overlay first (fast, on ``n_jobs`` threads); the pairs it finds
+    overlapping (it can report an overlap that is not, around edges nearly
+    along each other) or cannot compute are measured again by snap-rounded
+    overlay (robust).
     """
     limit = 1e-9 * np.maximum(shapely.area(a), shapely.area(b))
-    try:
-        suspect = shapely.area(shapely.intersection(a, b)) > limit
-    except shapely.errors.GEOSException:
-        suspect = np.ones(len(a), dtype=bool)
+
+    def float_area(k: int):
+        try:
+            return shapely.area(shapely.intersection(a[k], b[k]))
+        except shapely.errors.GEOSException:
+            return np.inf
+
+    suspect = np.array(_map(float_area, range(len(a)), n_jobs), dtype=float) > limit
     if not suspect.any():
         return suspect
     a, b = a[suspect], b[suspect]
@@ -348,6 +377,21 @@ def _carve(geoms, xy, foreign: dict, mine: dict) -> np.ndarray:
             discs = shapely.buffer(shapely.points(pts[keep]), radius[keep], quad_segs=2)
             geoms[g] = _overlay(shapely.difference, poly, shapely.union_all(discs))
     return geoms
+
+
+def _map(func, items, n_jobs: int | None) -> list:
+    """Return ``[func(item) for item in items]``, on threads from many items.
+
+    GEOS releases the GIL, so the pairs (or groups) are split in parallel; each
+    item is independent and the results come in order: the same for any
+    ``n_jobs``.
+    """
+    items = list(items)
+    workers = min(kernel.threads(n_jobs), len(items) // _THREAD_ITEMS)
+    if workers <= 1:
+        return [func(item) for item in items]
+    with ThreadPoolExecutor(workers) as pool:
+        return list(pool.map(func, items))
 
 
 def _boxes_meet(bounds: np.ndarray, box) -> np.ndarray:
