@@ -414,16 +414,18 @@ def _in_box(xy: np.ndarray, box) -> np.ndarray:
 def _candidates(xy: np.ndarray, overlap) -> tuple[np.ndarray, float]:
     """Mark the points that can be nearest to some location of ``overlap``.
 
-    A grid of :data:`_GRID` x :data:`_GRID` cells over its box, of which those
+    A grid of up to :data:`_GRID` x :data:`_GRID` cells over its box, of which those
     that meet the overlap count: from a location in a cell, the nearest point is
     at most the cell's centre's distance to its nearest point plus half the
     cell's diagonal away, so a point farther than that plus another half
     diagonal from the centre is nearer to none of the cell's locations than that
-    one. Returns the mask and the largest such distance.
+    one. Returns the mask and the largest such distance. Fewer points, fewer
+    cells: about 4 points a cell, at least 4 x 4.
     """
+    grid = int(np.clip(np.sqrt(len(xy) / 4), 4, _GRID))
     x0, y0, x1, y1 = shapely.bounds(overlap)
-    xs, ys = np.linspace(x0, x1, _GRID + 1), np.linspace(y0, y1, _GRID + 1)
-    ix, iy = np.meshgrid(np.arange(_GRID), np.arange(_GRID))
+    xs, ys = np.linspace(x0, x1, grid + 1), np.linspace(y0, y1, grid + 1)
+    ix, iy = np.meshgrid(np.arange(grid), np.arange(grid))
     ix, iy = ix.ravel(), iy.ravel()
     shapely.prepare(overlap)
     cells = shapely.box(xs[ix], ys[iy], xs[ix + 1], ys[iy + 1])
