@@ -316,7 +316,8 @@ def _split_pair(overlap, pg: np.ndarray, ph: np.ndarray, g: int, h: int, angles)
     pad = max(float(np.hypot(x1 - x0, y1 - y0)), reach, 1e-300)
     frame = shapely.box(x0 - pad, y0 - pad, x1 + pad, y1 + pad)
     cells = _voronoi_cells(sites, frame)
-    meets = _boxes_meet(shapely.bounds(cells), (x0, y0, x1, y1))  # cells that matter
+    shapely.prepare(overlap)
+    meets = shapely.intersects(overlap, cells)  # only these cells matter
     mixed = has.all(axis=1) & meets
     # One side's cells are joined (the side with fewer); the other side loses
     # the rest of the overlap, so that the two share one cut exactly.
@@ -392,17 +393,6 @@ def _map(func, items, n_jobs: int | None) -> list:
         return [func(item) for item in items]
     with ThreadPoolExecutor(workers) as pool:
         return list(pool.map(func, items))
-
-
-def _boxes_meet(bounds: np.ndarray, box) -> np.ndarray:
-    """Whether each box of ``bounds`` (rows ``x0, y0, x1, y1``) meets ``box``."""
-    x0, y0, x1, y1 = box
-    return (
-        (bounds[:, 0] <= x1)
-        & (bounds[:, 2] >= x0)
-        & (bounds[:, 1] <= y1)
-        & (bounds[:, 3] >= y0)
-    )
 
 
 def _in_box(xy: np.ndarray, box) -> np.ndarray:
