@@ -365,6 +365,25 @@ def test_a_wrong_union_of_losses_is_found_and_cut_again(monkeypatch):
     np.testing.assert_allclose(split["area"], right["area"], rtol=1e-9)
 
 
+def test_locations_of_several_groups_on_a_grid_split_cleanly():
+    """A draw of the property test above that once lost a group's corner.
+
+    Five clusters on a 0.25 grid: locations of three and more groups. Only the
+    Voronoi cells that meet the overlap take part (by their boxes, more cells
+    were halved at such locations and one group could not be cut).
+    """
+    pts = interleaved(5, 36, 1621149326)
+    xy = np.round(shapely.get_coordinates(pts.geometry) * 4) / 4
+    pts["geometry"] = gpd.points_from_xy(xy[:, 0], xy[:, 1])
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        split = geoalpha.hull(pts, "g", crs=None, method="concave", overlap="split")
+    named = [str(w.message) for w in caught]
+    assert not [m for m in named if "still overlap" in m or "kept their hull" in m]
+    assert any("location(s) hold rows of two groups" in m for m in named)
+    assert_clean(four_counts(split, pts, "g"))
+
+
 def test_threads_split_the_same_polygons():
     """Pairs and groups are split on threads from 8 of each: the same result."""
     pts = interleaved(n_groups=9, per_group=40, seed=21, spread=1.5)
