@@ -384,6 +384,20 @@ def test_locations_of_several_groups_on_a_grid_split_cleanly():
     assert_clean(four_counts(split, pts, "g"))
 
 
+def test_a_point_on_a_neighbours_edge_stays_out_of_its_split_polygon():
+    """Another draw: a point of g3 on g0's hull, the two hulls only touching.
+
+    Rounding of g0's cuts elsewhere left the point 3e-17 inside g0's polygon;
+    the points of every group that takes part are looked for in each split
+    polygon's box (not only those of its overlaps) and cut out.
+    """
+    pts = interleaved(5, 17, 2394791332)
+    xy = np.round(shapely.get_coordinates(pts.geometry) * 4) / 4
+    pts["geometry"] = gpd.points_from_xy(xy[:, 0], xy[:, 1])
+    split = geoalpha.hull(pts, "g", crs=None, method="concave", overlap="split")
+    assert_clean(four_counts(split, pts, "g"))
+
+
 def test_threads_split_the_same_polygons():
     """Pairs and groups are split on threads from 8 of each: the same result."""
     pts = interleaved(n_groups=9, per_group=40, seed=21, spread=1.5)

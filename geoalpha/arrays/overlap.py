@@ -174,13 +174,6 @@ def split_overlaps(
     shared, shared_groups = [], []
     angles = _angles(geoms, *_shared_locations(xy[take], codes[take]))
     overlaps = _overlay(shapely.intersection, geoms[pairs[:, 0]], geoms[pairs[:, 1]])
-    boxes = shapely.bounds(overlaps)  # widened by float noise of the overlay
-    boxes += np.array([-1, -1, 1, 1]) * _SLACK * max(float(np.abs(xy).max()), 1e-300)
-    foreign: dict[int, list] = {}
-    for (g, h), box in zip(pairs.tolist(), boxes, strict=True):
-        ig, ih = order[starts[g] : starts[g + 1]], order[starts[h] : starts[h + 1]]
-        foreign.setdefault(g, []).append(ih[_in_box(xy[ih], box)])
-        foreign.setdefault(h, []).append(ig[_in_box(xy[ig], box)])
 
     def split_one(k: int):
         g, h = pairs[k].tolist()
@@ -206,7 +199,7 @@ def split_overlaps(
             shared_groups.append(np.tile([g, h], (len(both), 1)))
     changed = np.flatnonzero(involved)
     mine = {g: xy[order[starts[g] : starts[g + 1]]] for g in changed}
-    near = {g: np.concatenate(foreign[g]) for g in changed}
+    near = _in_boxes(geoms, xy, codes, order, changed)
 
     def settle(which: np.ndarray, careful: bool):
         """Cut, carve and check the groups ``which``: their polygons, failed."""
@@ -348,9 +341,8 @@ def _carve(geoms, xy, foreign: dict, mine: dict) -> np.ndarray:
     the guarantee's check then takes it back in as a vertex, on the boundary.
 
     ``foreign[g]``: the indices (into ``xy``) of the other groups' points that
-    can be strictly inside g's polygon (those in the boxes of g's overlaps: a
-    point strictly inside g's split polygon is in g's hull and in its own
-    group's, so in their overlap); ``mine[g]``: g's own points.
+    may be strictly inside g's polygon (:func:`_in_boxes`); ``mine[g]``: g's
+    own points.
     """
     geoms = geoms.copy()
     for g, near in foreign.items():
@@ -395,10 +387,26 @@ def _map(func, items, n_jobs: int | None) -> list:
         return list(pool.map(func, items))
 
 
-def _in_box(xy: np.ndarray, box) -> np.ndarray:
-    """Whether each point is in the box ``(x0, y0, x1, y1)`` (its edges too)."""
-    x0, y0, x1, y1 = box
-    return (xy[:, 0] >= x0) & (xy[:, 0] <= x1) & (xy[:, 1] >= y0) & (xy[:, 1] <= y1)
+def _in_boxes(geoms, xy, codes, points: np.ndarray, which: np.ndarray) -> dict:
+    """Return, per group of ``which``, the ``points`` of other groups in its box.
+
+    The box of its polygon, widened by float noise (:data:`_SLACK` of the
+    coordinates): the points that may end up strictly inside its split polygon
+    (those of a neighbour's overlap, or on its boundary, where rounding of the
+    cut can move it). One sort by x, then a slice per group.
+    """
+    byx = points[np.argsort(xy[points, 0], kind="stable")]
+    sx = xy[byx, 0]
+    pad = _SLACK * max(float(np.abs(xy).max()) if len(xy) else 0.0, 1e-300)
+    out = {}
+    bounds = shapely.bounds(geoms[which])
+    for g, (x0, y0, x1, y1) in zip(which.tolist(), bounds, strict=True):
+        lo = np.searchsorted(sx, x0 - pad, side="left")
+        hi = np.searchsorted(sx, x1 + pad, side="right")
+        at = byx[lo:hi]
+        y = xy[at, 1]
+        out[g] = at[(y >= y0 - pad) & (y <= y1 + pad) & (codes[at] != g)]
+    return out
 
 
 def _candidates(xy: np.ndarray, overlap) -> tuple[np.ndarray, float]:
