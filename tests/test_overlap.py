@@ -351,7 +351,7 @@ def test_a_wrong_union_of_losses_is_found_and_cut_again(monkeypatch):
     right = geoalpha.hull(pts, "g", crs=None, overlap="split")
     made = []
 
-    def wrong(geoms):
+    def wrong(geoms, by_subsets=False):
         geoms = [g for g in geoms if not shapely.is_empty(g)]
         made.append(len(geoms))
         return geoms[0] if geoms else shapely.Polygon()
@@ -365,36 +365,38 @@ def test_a_wrong_union_of_losses_is_found_and_cut_again(monkeypatch):
     np.testing.assert_allclose(split["area"], right["area"], rtol=1e-9)
 
 
-def test_locations_of_several_groups_on_a_grid_split_cleanly():
-    """A draw of the property test above that once lost a group's corner.
+@pytest.mark.parametrize(
+    ("n_groups", "per_group", "seed", "method", "holes"),
+    [
+        (5, 36, 1621149326, "concave", False),
+        (5, 38, 1332666040, "knn", True),
+        (5, 17, 2394791332, "concave", False),
+    ],
+    ids=["cells-by-box", "union-by-subsets", "point-on-an-edge"],
+)
+def test_grid_draws_that_once_failed_split_cleanly(
+    n_groups, per_group, seed, method, holes
+):
+    """Draws of the property test above that faster shortcuts once broke.
 
-    Five clusters on a 0.25 grid: locations of three and more groups. Only the
-    Voronoi cells that meet the overlap take part (by their boxes, more cells
-    were halved at such locations and one group could not be cut).
+    Clusters on a 0.25 grid: locations of three and more groups, points on
+    hulls that only touch. Taking the Voronoi cells that meet the overlap's box
+    (not the overlap) lost a group's corner at such a location; the union of a
+    group's losses by disjoint subsets, in the careful second cut, left one
+    group uncut; looking for points strictly inside a split polygon only in its
+    overlaps' boxes missed a point of a touching hull left 3e-17 inside by
+    rounding. Each now splits without a warning and holds the four counts.
     """
-    pts = interleaved(5, 36, 1621149326)
+    pts = interleaved(n_groups, per_group, seed)
     xy = np.round(shapely.get_coordinates(pts.geometry) * 4) / 4
     pts["geometry"] = gpd.points_from_xy(xy[:, 0], xy[:, 1])
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        split = geoalpha.hull(pts, "g", crs=None, method="concave", overlap="split")
+        split = geoalpha.hull(
+            pts, "g", crs=None, method=method, holes=holes, overlap="split"
+        )
     named = [str(w.message) for w in caught]
     assert not [m for m in named if "still overlap" in m or "kept their hull" in m]
-    assert any("location(s) hold rows of two groups" in m for m in named)
-    assert_clean(four_counts(split, pts, "g"))
-
-
-def test_a_point_on_a_neighbours_edge_stays_out_of_its_split_polygon():
-    """Another draw: a point of g3 on g0's hull, the two hulls only touching.
-
-    Rounding of g0's cuts elsewhere left the point 3e-17 inside g0's polygon;
-    the points of every group that takes part are looked for in each split
-    polygon's box (not only those of its overlaps) and cut out.
-    """
-    pts = interleaved(5, 17, 2394791332)
-    xy = np.round(shapely.get_coordinates(pts.geometry) * 4) / 4
-    pts["geometry"] = gpd.points_from_xy(xy[:, 0], xy[:, 1])
-    split = geoalpha.hull(pts, "g", crs=None, method="concave", overlap="split")
     assert_clean(four_counts(split, pts, "g"))
 
 

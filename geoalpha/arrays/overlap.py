@@ -520,7 +520,7 @@ def _cut(poly, losses: list, points: np.ndarray, careful: bool = True):
         return bool(left.sum() <= tol)
 
     try:  # the losses' union taken away
-        lost = _union(list(losses))
+        lost = _union(list(losses), by_subsets=not careful)
         cut = _overlay(shapely.difference, poly, lost)
         if right(cut, None if careful else lost):
             return cut
@@ -553,20 +553,27 @@ def _cut(poly, losses: list, points: np.ndarray, careful: bool = True):
     raise ValueError("the overlay of the split does not hold")  # (kept unsplit)
 
 
-def _union(geoms: list):
-    """Return the union of polygons (an overlay only for two or more non-empty)."""
+def _union(geoms: list, by_subsets: bool = False):
+    """Return the union of polygons (an overlay only for two or more non-empty).
+
+    ``by_subsets``: by disjoint subsets where shapely has it (>= 2.1), faster
+    but in random grid draws less often right than the plain union (checked by
+    the caller).
+    """
     geoms = [g for g in geoms if not shapely.is_empty(g)]
     if not geoms:
         return EMPTY_POLYGON
     if len(geoms) == 1:
         return geoms[0]
-    return _overlay(_union_all, np.array(geoms, dtype=object))
+    subsets = by_subsets and hasattr(shapely, "disjoint_subset_union_all")
+    op = _union_by_subsets if subsets else shapely.union_all
+    return _overlay(op, np.array(geoms, dtype=object))
 
 
-def _union_all(geoms: np.ndarray, grid_size=None):
-    """``shapely.union_all``; by disjoint subsets where shapely has it (faster)."""
-    if grid_size is None and hasattr(shapely, "disjoint_subset_union_all"):
-        return shapely.disjoint_subset_union_all(geoms)  # shapely >= 2.1
+def _union_by_subsets(geoms: np.ndarray, grid_size=None):
+    """``shapely.disjoint_subset_union_all`` (snap-rounded: ``union_all``)."""
+    if grid_size is None:
+        return shapely.disjoint_subset_union_all(geoms)
     return shapely.union_all(geoms, grid_size=grid_size)
 
 
