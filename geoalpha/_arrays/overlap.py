@@ -9,12 +9,15 @@ covered by its own group's polygon and is strictly inside no other
 
 from __future__ import annotations
 
+import itertools
+from concurrent.futures import ThreadPoolExecutor
 from typing import NamedTuple
 
 import numpy as np
 import shapely
 from scipy.spatial import cKDTree
 
+from geoalpha import _core as kernel
 from geoalpha._arrays.guarantee import EMPTY_POLYGON, covered, enforce
 
 __all__ = ["Split", "overlapping_pairs", "split_overlaps"]
@@ -23,6 +26,8 @@ __all__ = ["Split", "overlapping_pairs", "split_overlaps"]
 _SLACK = 1e-9
 #: Largest radius (of the polygon's extent) of a disc :func:`_carve` cuts out.
 _CARVE_RTOL = 1e-9
+#: Items (pairs, groups) from which :func:`_map` spreads them over threads.
+_THREAD_ITEMS = 8
 #: Cells per side of the grid that bounds the distance to the nearest point.
 _GRID = 16
 #: Grid of the last resort of :func:`_overlay`, relative to the coordinates.
@@ -96,6 +101,7 @@ def split_overlaps(
     codes: np.ndarray,
     *,
     check: np.ndarray | None = None,
+    known: np.ndarray | None = None,
     n_jobs: int | None = 1,
 ) -> Split:
     """Give each part of every overlap to the group of the nearest input point.
@@ -109,8 +115,13 @@ def split_overlaps(
         group's polygon covers take part (rows left out by ``outliers=`` do not).
     check : ndarray of bool, shape (G,), optional
         The groups that take part (default: every non-empty polygon).
+    known : ndarray of bool, shape (k,), optional
+        Points already known to be covered by their group's polygon (the
+        pipeline's guarantee has checked them); only the others are tested
+        (default: every point of a group that overlaps another is tested).
     n_jobs : int or None, default 1
-        Threads of the point tests.
+        Threads of the point tests, and of the pairs' splits and the groups'
+        cuts from 16 of them (None or -1: every core); the result is the same.
 
     Returns
     -------
@@ -151,6 +162,9 @@ def split_overlaps(
     involved[pairs.ravel()] = True
     at = np.flatnonzero(involved[codes])  # the points of groups that overlap
     own = np.zeros(len(codes), dtype=bool)
+    if known is not None:
+        own[at] = known[at]
+        at = at[~own[at]]  # only those not known yet are tested
     own[at] = covered(geoms, xy[at], codes[at], n_jobs=n_jobs)
     take = np.flatnonzero(own)
     order = take[np.argsort(codes[take], kind="stable")]
@@ -160,47 +174,77 @@ def split_overlaps(
     shared, shared_groups = [], []
     angles = _angles(geoms, *_shared_locations(xy[take], codes[take]))
     overlaps = _overlay(shapely.intersection, geoms[pairs[:, 0]], geoms[pairs[:, 1]])
-    for (g, h), overlap in zip(pairs.tolist(), overlaps, strict=True):
-        pg = xy[order[starts[g] : starts[g + 1]]]
-        ph = xy[order[starts[h] : starts[h + 1]]]
+
+    def split_one(k: int):
+        g, h = pairs[k].tolist()
+        pg, ph = (
+            xy[order[starts[g] : starts[g + 1]]],
+            xy[order[starts[h] : starts[h + 1]]],
+        )
         try:
-            lose_g, lose_h, both = _split_pair(overlap, pg, ph, g, h, angles)
+            return _split_pair(overlaps[k], pg, ph, g, h, angles)
         except (shapely.errors.GEOSException, ValueError):  # pragma: no cover
+            return None
+
+    splits = _map(split_one, range(len(pairs)), n_jobs)
+    for (g, h), one in zip(pairs.tolist(), splits, strict=True):
+        if one is None:  # pragma: no cover
             broken[[g, h]] = True  # they keep their hulls (a warning says so)
             continue
+        lose_g, lose_h, both = one
         losses[g].append(lose_g)
         losses[h].append(lose_h)
         if len(both):
             shared.append(both)
             shared_groups.append(np.tile([g, h], (len(both), 1)))
-    out = geoms.copy()
     changed = np.flatnonzero(involved)
-    for g in changed:
-        try:
-            mine = xy[order[starts[g] : starts[g + 1]]]
-            out[g] = _without_crumbs(_cut(geoms[g], losses[g], mine), geoms[g])
-        except (shapely.errors.GEOSException, ValueError):  # pragma: no cover
-            broken[g] = True
-    # The guarantee on the split polygons: valid, covering their own points.
-    mask = np.zeros(n, dtype=bool)
-    mask[changed] = True
-    out = _carve(out, xy, codes, own, mask)
-    fixed, failed = enforce(out, xy, codes, mask, exempt=~own, n_jobs=n_jobs)
-    failed |= broken
+    mine = {g: xy[order[starts[g] : starts[g + 1]]] for g in changed}
+    near = _in_boxes(geoms, xy, codes, order, changed)
+
+    def settle(which: np.ndarray, careful: bool):
+        """Cut, carve and check the groups ``which``: their polygons, failed."""
+        out, bad = geoms.copy(), broken.copy()
+
+        def cut_one(g: int):
+            try:
+                cut = _cut(geoms[g], losses[g], mine[g], careful=careful)
+                return _without_crumbs(cut, geoms[g])
+            except (shapely.errors.GEOSException, ValueError):  # pragma: no cover
+                return None
+
+        for g, cut in zip(which, _map(cut_one, which, n_jobs), strict=True):
+            if cut is None:  # pragma: no cover
+                bad[g] = True
+            else:
+                out[g] = cut
+        out = _carve(out, xy, {g: near[g] for g in which}, mine)
+        # The guarantee on the split polygons: valid, covering their own points.
+        mask = np.zeros(n, dtype=bool)
+        mask[which] = True
+        fixed, failed = enforce(out, xy, codes, mask, exempt=~own, n_jobs=n_jobs)
+        return fixed, (failed | bad) & mask
+
+    # Fast: each cut checked by area; every split pair checked at the end. The
+    # groups that failed and those of a pair that still overlaps are cut again
+    # with the careful checks and fallbacks of :func:`_cut`.
+    fixed, failed = settle(changed, careful=False)
     out = np.where(failed, geoms, fixed)
+    left = _still_overlap(out[pairs[:, 0]], out[pairs[:, 1]], n_jobs)
+    redo = np.flatnonzero(failed & ~broken)
+    redo = np.union1d(redo, pairs[left].ravel())
+    if len(redo):
+        fixed, again = settle(redo, careful=True)
+        out[redo] = np.where(again[redo], geoms[redo], fixed[redo])
+        failed[redo] = again[redo]
+        left = _still_overlap(out[pairs[:, 0]], out[pairs[:, 1]], n_jobs)
+    still = pairs[left]
+    mask = involved
     if shared:  # each location once per pair of groups
         both = np.concatenate(
             [np.concatenate(shared), np.concatenate(shared_groups)], axis=1
         )
         both = np.unique(both, axis=0)
         shared, shared_groups = [both[:, :2]], [both[:, 2:].astype(np.int64)]
-    a, b = out[pairs[:, 0]], out[pairs[:, 1]]
-    grid = _GRID_RTOL * max(float(np.abs(shapely.total_bounds(a)).max()), 1e-300)
-    try:  # snap-rounded: the float overlay can report an overlap that is not
-        left = shapely.area(shapely.intersection(a, b, grid_size=grid))
-    except shapely.errors.GEOSException:  # pragma: no cover
-        left = shapely.area(_overlay(shapely.intersection, a, b))
-    still = pairs[left > 1e-9 * np.maximum(shapely.area(a), shapely.area(b))]
     return Split(
         out,
         mask & ~failed,
@@ -214,6 +258,35 @@ def split_overlaps(
     )
 
 
+def _still_overlap(a: np.ndarray, b: np.ndarray, n_jobs: int | None = 1) -> np.ndarray:
+    """Whether the polygons of each pair overlap by more than 1e-9 of the larger.
+
+    The float overlay first (fast, on ``n_jobs`` threads); the pairs it finds
+    overlapping (it can report an overlap that is not, around edges nearly
+    along each other) or cannot compute are measured again by snap-rounded
+    overlay (robust).
+    """
+    limit = 1e-9 * np.maximum(shapely.area(a), shapely.area(b))
+
+    def float_area(k: int):
+        try:
+            return shapely.area(shapely.intersection(a[k], b[k]))
+        except shapely.errors.GEOSException:
+            return np.inf
+
+    suspect = np.array(_map(float_area, range(len(a)), n_jobs), dtype=float) > limit
+    if not suspect.any():
+        return suspect
+    a, b = a[suspect], b[suspect]
+    grid = _GRID_RTOL * max(float(np.abs(shapely.total_bounds(a)).max()), 1e-300)
+    try:
+        left = shapely.area(shapely.intersection(a, b, grid_size=grid))
+    except shapely.errors.GEOSException:  # pragma: no cover
+        left = shapely.area(_overlay(shapely.intersection, a, b))
+    suspect[suspect] = left > limit[suspect]
+    return suspect
+
+
 def _split_pair(overlap, pg: np.ndarray, ph: np.ndarray, g: int, h: int, angles):
     """Split one overlap: the parts groups g and h lose, and their shared locations.
 
@@ -222,9 +295,9 @@ def _split_pair(overlap, pg: np.ndarray, ph: np.ndarray, g: int, h: int, angles)
     """
     x0, y0, x1, y1 = shapely.bounds(overlap)
     both = np.concatenate([pg, ph])
-    if not len(both):
+    if not len(both) or shapely.is_empty(overlap):
         return EMPTY_POLYGON, EMPTY_POLYGON, np.zeros((0, 2))
-    near, reach = _candidates(both, (x0, y0, x1, y1))
+    near, reach = _candidates(both, overlap)
     label = np.r_[np.zeros(len(pg), dtype=np.int8), np.ones(len(ph), dtype=np.int8)]
     sites, inverse = _distinct(both[near])
     has = np.zeros((len(sites), 2), dtype=bool)
@@ -256,7 +329,7 @@ def _split_pair(overlap, pg: np.ndarray, ph: np.ndarray, g: int, h: int, angles)
     return lose_g, lose_h, sites[mixed]
 
 
-def _carve(geoms, xy, codes, own, changed) -> np.ndarray:
+def _carve(geoms, xy, foreign: dict, mine: dict) -> np.ndarray:
     """Cut a point out of a neighbour's polygon that holds it strictly inside.
 
     Not expected (each point's Voronoi cell goes to its group), but float
@@ -266,63 +339,108 @@ def _carve(geoms, xy, codes, own, changed) -> np.ndarray:
     polygon, so that the point is strictly inside no polygon but its own. At a
     location of both groups the disc leaves the other group's own point out too:
     the guarantee's check then takes it back in as a vertex, on the boundary.
+
+    ``foreign[g]``: the indices (into ``xy``) of the other groups' points that
+    may be strictly inside g's polygon (:func:`_in_boxes`); ``mine[g]``: g's
+    own points.
     """
-    at = np.flatnonzero(own & changed[codes])
-    if not len(at):
-        return geoms
-    usable = np.flatnonzero(changed & ~shapely.is_empty(geoms))
-    p, k = shapely.STRtree(geoms[usable]).query(
-        shapely.points(xy[at]), predicate="within"
-    )
-    poly = usable[k]
-    foreign = codes[at[p]] != poly
-    if not foreign.any():
-        return geoms
-    p, poly = at[p[foreign]], poly[foreign]
-    strict = shapely.contains_properly(geoms[poly], shapely.points(xy[p]))
-    if not strict.any():
-        return geoms
     geoms = geoms.copy()
-    for g in np.unique(poly[strict]):
-        pts = xy[p[strict & (poly == g)]]
-        mine = np.unique(xy[own & (codes == g)], axis=0)
+    for g, near in foreign.items():
+        poly = geoms[g]
+        if not len(near) or shapely.is_empty(poly):
+            continue
+        shapely.prepare(poly)
+        # (for a point, contains is contains_properly: in the interior)
+        pts = xy[near[shapely.contains_xy(poly, xy[near, 0], xy[near, 1])]]
+        if not len(pts):
+            continue
+        own = np.unique(mine[g], axis=0)
         gap = np.full(len(pts), np.inf)
-        if len(mine) > 1:  # a location of g's own too (shared): the next one
-            dist, _ = cKDTree(mine).query(pts, k=2)
+        if len(own) > 1:  # a location of g's own too (shared): the next one
+            dist, _ = cKDTree(own).query(pts, k=2)
             gap = np.where(dist[:, 0] > 0, dist[:, 0], dist[:, 1])
-        elif len(mine):
-            gap = np.hypot(*(pts - mine[0]).T)
+        elif len(own):
+            gap = np.hypot(*(pts - own[0]).T)
             gap[gap == 0] = np.inf
-        x0, y0, x1, y1 = shapely.bounds(geoms[g])
+        x0, y0, x1, y1 = shapely.bounds(poly)
         extent = max(x1 - x0, y1 - y0, 1e-300)
         radius = np.minimum(gap / 2, _CARVE_RTOL * extent)
         keep = radius > 0
         if keep.any():
             discs = shapely.buffer(shapely.points(pts[keep]), radius[keep], quad_segs=2)
-            geoms[g] = _overlay(shapely.difference, geoms[g], shapely.union_all(discs))
+            geoms[g] = _overlay(shapely.difference, poly, shapely.union_all(discs))
     return geoms
 
 
-def _candidates(xy: np.ndarray, bounds) -> tuple[np.ndarray, float]:
-    """Mark the points that can be nearest to some location of the box ``bounds``.
+def _map(func, items, n_jobs: int | None) -> list:
+    """Return ``[func(item) for item in items]``, on threads from many items.
 
-    A grid of :data:`_GRID` x :data:`_GRID` cells over the box: from a location
-    in a cell, the nearest point is at most ``r`` = (the cell's centre's distance
-    to its nearest point) + (half the cell's diagonal) away; so a point farther
-    than the largest ``r`` from the box is nearer to none of its locations than
-    that one. Returns the mask and that distance.
+    GEOS releases the GIL, so the pairs (or groups) are split in parallel; each
+    item is independent and the results come in order: the same for any
+    ``n_jobs``.
     """
-    x0, y0, x1, y1 = bounds
-    gx = x0 + (np.arange(_GRID) + 0.5) * (x1 - x0) / _GRID
-    gy = y0 + (np.arange(_GRID) + 0.5) * (y1 - y0) / _GRID
-    centres = np.stack(np.meshgrid(gx, gy), axis=-1).reshape(-1, 2)
-    nearest, _ = cKDTree(xy).query(centres)
-    half = float(np.hypot(x1 - x0, y1 - y0)) / (2 * _GRID)
+    items = list(items)
+    workers = min(kernel.threads(n_jobs), len(items) // _THREAD_ITEMS)
+    if workers <= 1:
+        return [func(item) for item in items]
+    with ThreadPoolExecutor(workers) as pool:
+        return list(pool.map(func, items))
+
+
+def _in_boxes(geoms, xy, codes, points: np.ndarray, which: np.ndarray) -> dict:
+    """Return, per group of ``which``, the ``points`` of other groups in its box.
+
+    The box of its polygon, widened by float noise (:data:`_SLACK` of the
+    coordinates): the points that may end up strictly inside its split polygon
+    (those of a neighbour's overlap, or on its boundary, where rounding of the
+    cut can move it). One sort by x, then a slice per group.
+    """
+    byx = points[np.argsort(xy[points, 0], kind="stable")]
+    sx = xy[byx, 0]
+    pad = _SLACK * max(float(np.abs(xy).max()) if len(xy) else 0.0, 1e-300)
+    out = {}
+    bounds = shapely.bounds(geoms[which])
+    for g, (x0, y0, x1, y1) in zip(which.tolist(), bounds, strict=True):
+        lo = np.searchsorted(sx, x0 - pad, side="left")
+        hi = np.searchsorted(sx, x1 + pad, side="right")
+        at = byx[lo:hi]
+        y = xy[at, 1]
+        out[g] = at[(y >= y0 - pad) & (y <= y1 + pad) & (codes[at] != g)]
+    return out
+
+
+def _candidates(xy: np.ndarray, overlap) -> tuple[np.ndarray, float]:
+    """Mark the points that can be nearest to some location of ``overlap``.
+
+    A grid of up to :data:`_GRID` x :data:`_GRID` cells over its box, of which those
+    that meet the overlap count: from a location in a cell, the nearest point is
+    at most the cell's centre's distance to its nearest point plus half the
+    cell's diagonal away, so a point farther than that plus another half
+    diagonal from the centre is nearer to none of the cell's locations than that
+    one. Returns the mask and the largest such distance. Fewer points, fewer
+    cells: about 4 points a cell, at least 4 x 4.
+    """
+    grid = int(np.clip(np.sqrt(len(xy) / 4), 4, _GRID))
+    x0, y0, x1, y1 = shapely.bounds(overlap)
+    xs, ys = np.linspace(x0, x1, grid + 1), np.linspace(y0, y1, grid + 1)
+    ix, iy = np.meshgrid(np.arange(grid), np.arange(grid))
+    ix, iy = ix.ravel(), iy.ravel()
+    shapely.prepare(overlap)
+    cells = shapely.box(xs[ix], ys[iy], xs[ix + 1], ys[iy + 1])
+    meet = shapely.intersects(overlap, cells)
+    if not meet.any():  # (float noise: a sliver between the grid lines)
+        meet[:] = True
+    ix, iy = ix[meet], iy[meet]
+    centres = np.stack([xs[ix] + xs[ix + 1], ys[iy] + ys[iy + 1]], axis=1) / 2
+    half = np.hypot(xs[ix + 1] - xs[ix], ys[iy + 1] - ys[iy]) / 2
+    tree = cKDTree(xy)
+    nearest, _ = tree.query(centres)
     scale = max(float(np.abs(xy).max()), 1e-300)
-    reach = (float(nearest.max()) + half) * (1 + _SLACK) + _SLACK * scale
-    dx = np.maximum(np.maximum(x0 - xy[:, 0], xy[:, 0] - x1), 0.0)
-    dy = np.maximum(np.maximum(y0 - xy[:, 1], xy[:, 1] - y1), 0.0)
-    return np.hypot(dx, dy) <= reach, reach
+    radius = (nearest + 2 * half) * (1 + _SLACK) + _SLACK * scale
+    found = tree.query_ball_point(centres, radius, return_sorted=False)
+    near = np.zeros(len(xy), dtype=bool)
+    near[np.fromiter(itertools.chain.from_iterable(found), dtype=np.int64)] = True
+    return near, float(radius.max())
 
 
 def _distinct(xy: np.ndarray):
@@ -337,6 +455,11 @@ def _distinct(xy: np.ndarray):
 
 def _shared_locations(xy: np.ndarray, codes: np.ndarray):
     """Return the locations holding points of several groups, and their groups."""
+    # Only an x held by two rows can be such a location (one sort, not three).
+    sx = np.sort(xy[:, 0])
+    twice = sx[1:][sx[1:] == sx[:-1]]
+    at = np.isin(xy[:, 0], twice)
+    xy, codes = xy[at], codes[at]
     if not len(xy):
         return np.zeros((0, 2)), []
     order = np.lexsort((codes, xy[:, 1], xy[:, 0]))
@@ -353,17 +476,23 @@ def _shared_locations(xy: np.ndarray, codes: np.ndarray):
     return sx[starts[shared]], groups
 
 
-def _cut(poly, losses: list, points: np.ndarray):
+def _cut(poly, losses: list, points: np.ndarray, careful: bool = True):
     """Return ``poly`` without the union of ``losses`` (parts of it), checked.
 
     A float overlay can misjudge an edge nearly along another (a loss whose
     ring nearly touches itself): return the polygon whole, drop a piece of a
-    loss, or take away more. Each result is checked: no loss left in it (by
-    snap-rounded overlay, which is robust), none of the group's ``points``
-    taken, no more than the losses' areas taken. Tried in turn: the union of
-    the losses taken away, the losses one by one, both snap-rounded to a grid of
-    :data:`_GRID_RTOL` of the coordinates; else ValueError (the group keeps
+    loss, or take away more. Each result is checked: none of the group's
+    ``points`` taken, no more than the losses' areas taken, and no loss left in
+    it (by snap-rounded overlay, which is robust). Tried in turn: the union of
+    the losses taken away, the losses one by one, both snap-rounded to a grid
+    of :data:`_GRID_RTOL` of the coordinates; else ValueError (the group keeps
     its hull, with a warning).
+
+    Not ``careful``, the first attempt's third check is made by area instead
+    (what is left must have the area of ``poly`` less the union's, within 1e-9
+    of it), which does not see an error of the union itself: the caller checks
+    the split pairs (:func:`_still_overlap`) and cuts the groups of a pair that
+    still overlaps again, carefully.
     """
     losses = np.array([g for g in losses if not shapely.is_empty(g)], dtype=object)
     if not len(losses):
@@ -374,21 +503,29 @@ def _cut(poly, losses: list, points: np.ndarray):
     x0, y0, x1, y1 = shapely.bounds(poly)
     reach = max(_CARVE_RTOL * max(x1 - x0, y1 - y0), 4 * grid)
 
-    def right(cut) -> bool:
+    def right(cut, lost=None) -> bool:
         if shapely.area(cut) < shapely.area(poly) - most - tol:
             return False
         if len(points):  # (one rounded just outside is taken back in later)
             out = points[~shapely.intersects_xy(cut, *points.T)]
             if len(out) and shapely.distance(cut, shapely.points(out)).max() > reach:
                 return False
+        if lost is not None:  # parts of poly: what is left has the rest's area
+            wanted = shapely.area(poly) - shapely.area(lost)
+            return bool(abs(shapely.area(cut) - wanted) <= tol)
         try:
             left = shapely.area(shapely.intersection(cut, losses, grid_size=grid))
         except shapely.errors.GEOSException:
             return False
         return bool(left.sum() <= tol)
 
-    def whole() -> object:
-        return _overlay(shapely.difference, poly, _union(list(losses)))
+    try:  # the losses' union taken away
+        lost = _union(list(losses), by_subsets=not careful)
+        cut = _overlay(shapely.difference, poly, lost)
+        if right(cut, None if careful else lost):
+            return cut
+    except shapely.errors.GEOSException:
+        pass
 
     def one_by_one() -> object:
         cut = poly
@@ -406,7 +543,7 @@ def _cut(poly, losses: list, points: np.ndarray):
             cut = _areal(shapely.difference(cut, loss, grid_size=grid))
         return cut
 
-    for attempt in (whole, one_by_one, snapped, snapped_one_by_one):
+    for attempt in (one_by_one, snapped, snapped_one_by_one):
         try:
             cut = attempt()
         except shapely.errors.GEOSException:
@@ -416,14 +553,28 @@ def _cut(poly, losses: list, points: np.ndarray):
     raise ValueError("the overlay of the split does not hold")  # (kept unsplit)
 
 
-def _union(geoms: list):
-    """Return the union of polygons (an overlay only for two or more non-empty)."""
+def _union(geoms: list, by_subsets: bool = False):
+    """Return the union of polygons (an overlay only for two or more non-empty).
+
+    ``by_subsets``: by disjoint subsets where shapely has it (>= 2.1), faster
+    but in random grid draws less often right than the plain union (checked by
+    the caller).
+    """
     geoms = [g for g in geoms if not shapely.is_empty(g)]
     if not geoms:
         return EMPTY_POLYGON
     if len(geoms) == 1:
         return geoms[0]
-    return _overlay(shapely.union_all, np.array(geoms, dtype=object))
+    subsets = by_subsets and hasattr(shapely, "disjoint_subset_union_all")
+    op = _union_by_subsets if subsets else shapely.union_all
+    return _overlay(op, np.array(geoms, dtype=object))
+
+
+def _union_by_subsets(geoms: np.ndarray, grid_size=None):
+    """``shapely.disjoint_subset_union_all`` (snap-rounded: ``union_all``)."""
+    if grid_size is None:
+        return shapely.disjoint_subset_union_all(geoms)
+    return shapely.union_all(geoms, grid_size=grid_size)
 
 
 def _cells_union(cells: np.ndarray):

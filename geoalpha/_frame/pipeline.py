@@ -1052,8 +1052,19 @@ def split_overlaps_stage(
     if options.overlap != "split":
         return hulls
     check = ~proj.wide if hulls.keep is None else ~proj.wide & hulls.keep
+    # Covered, as :func:`guarantee` checked: the rows not left out of groups it
+    # checked (not degenerate, not across the antimeridian, not at a given
+    # alpha, where only alpha 0 holds every point). The others are tested.
+    checked = ~hulls.degenerate & ~proj.crossing
+    fixed = options.method == "alpha" and options.alpha is not None
+    known = None if fixed else ~hulls.outlier & checked[points.codes]
     split = split_overlaps(
-        hulls.geometry, points.coords, points.codes, check=check, n_jobs=options.n_jobs
+        hulls.geometry,
+        points.coords,
+        points.codes,
+        check=check,
+        known=known,
+        n_jobs=options.n_jobs,
     )
     warn_split(split, groups)
     area = hulls.area
