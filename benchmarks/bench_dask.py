@@ -93,10 +93,15 @@ def _max_rss() -> int:
 
 def profile(paths, client) -> None:
     """Print the dask run's task-stream time per task prefix (where time goes)."""
+    import time
+
     from distributed import get_task_stream
 
+    lazy(paths)  # warm: the workers' imports and caches are not the run's cost
     with get_task_stream(client) as ts:
+        start = time.perf_counter()
         lazy(paths)
+        wall = time.perf_counter() - start
     per: dict[str, float] = {}
     for task in ts.data:
         prefix = task["key"][0] if isinstance(task["key"], tuple) else task["key"]
@@ -105,6 +110,11 @@ def profile(paths, client) -> None:
             name = f"{prefix} [{part['action']}]"
             per[name] = per.get(name, 0.0) + part["stop"] - part["start"]
     total = sum(per.values())
+    workers = len(client.scheduler_info()["workers"])
+    print(
+        f"wall {wall:.2f} s; the workers busy {total:.2f} of {workers * wall:.2f} "
+        "worker seconds\n"
+    )
     print("| task prefix [action] | worker seconds | share |\n|---|---:|---:|")
     for name, seconds in sorted(per.items(), key=lambda kv: -kv[1])[:15]:
         print(f"| {name} | {seconds:.2f} | {seconds / total:.0%} |")
