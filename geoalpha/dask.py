@@ -283,7 +283,16 @@ def _hull_partition(
     # With ``by``, the dataset's bad rows were reported once (``checked``).
     opts = dataclasses.replace(options, crs=crs)
     out, _ = run(frame, by, opts, checks=False, rows=by is None, xy=xy)
-    return out.astype(dict(meta.dtypes.drop(meta.geometry.name)))
+    return _as_meta(out, meta.dtypes.drop(meta.geometry.name))
+
+
+def _as_meta(out, dtypes: pd.Series):
+    """Return ``out`` with ``dtypes`` (columns -> dtype): the columns that differ cast.
+
+    Text may be stored as pyarrow strings by dask; lists of labels stay objects.
+    """
+    cast = {c: t for c, t in dtypes.items() if out[c].dtype != t}
+    return out.astype(cast) if cast else out
 
 
 def _involved(table, names: list) -> pd.DataFrame:
@@ -545,7 +554,7 @@ def _why_partition(part, by, crs, meta, geometry, source_crs, table, checked=Non
     dtypes = meta.dtypes
     if isinstance(meta, gpd.GeoDataFrame):  # (explain's; curve's is a DataFrame)
         dtypes = dtypes.drop(meta._geometry_column_name)
-    return out.astype(dict(dtypes))
+    return _as_meta(out, dtypes)
 
 
 def _dask_options(opts: Options) -> Options:
@@ -592,6 +601,9 @@ def _shuffled(ddf, names: list, by, opts: Options, npartitions):
         extent=gcrs.auto_mode(crs) == "auto" and geographic,
         sample=computation_crs(source, crs)[0] is not None,
     )
+    used = list(dict.fromkeys([*names, geometry]))
+    if len(ddf.columns) > len(used):  # read and move only the columns hull() reads
+        ddf = ddf[used]
     # One pass over the input geometries (the points to floats); the checks,
     # the CRS decision and the shuffle read its columns.
     plain = ddf.map_partitions(
