@@ -275,11 +275,11 @@ def _nan_y_zero(xy: np.ndarray) -> np.ndarray:
 
 
 def _hull_partition(
-    part, by, crs, meta, geometry, source_crs, options: Options, checked=None
+    part, by, crs, meta, geometry, source_srs, options: Options, checked=None
 ):
     if len(part) == 0:
         return meta
-    frame, xy = _restored(part, geometry, source_crs)
+    frame, xy = _restored(part, geometry, _crs_of(source_srs))
     # With ``by``, the dataset's bad rows were reported once (``checked``).
     opts = dataclasses.replace(options, crs=crs)
     out, _ = run(frame, by, opts, checks=False, rows=by is None, xy=xy)
@@ -469,7 +469,7 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
     if names:  # the eager checks of the options, on the (empty) meta frame
         run(ddf._meta, by, opts, checks=False)
     grouped, crs, checked = _shuffled(ddf, names, by, opts, npartitions)
-    source = ddf.crs
+    source = _srs(ddf.crs)  # (each partition parses it once per worker)
     out = grouped.map_partitions(
         _hull_partition,
         by,
@@ -516,6 +516,22 @@ def _second_pass(out, grouped, names: list, opts: Options, ddf, meta):
 hull.__signature__ = _options.signature(hull)
 
 
+def _srs(crs) -> str | None:
+    """Return the text of a CRS (what pickling keeps of it), for :func:`_crs_of`."""
+    return None if crs is None else crs.srs
+
+
+@functools.lru_cache(maxsize=16)
+def _crs_of(srs: str | None):
+    """Return the CRS ``srs`` (:func:`_srs`), parsed once per process.
+
+    dask hands every task its own copy of a CRS argument, which parses its
+    text again (some 15 ms) where it is first used: the partitions take the
+    text and share one parsed CRS per worker.
+    """
+    return parse_crs(srs)
+
+
 def _geo(plain, geometry: str, source_crs, geoms=None):
     """Return :func:`_for_shuffle`'s rows as a GeoDataFrame (``geoms``: its geometries).
 
@@ -544,11 +560,11 @@ def _restored(part, geometry: str, source_crs):
     return _geo(part, geometry, source_crs, geoms), xy
 
 
-def _why_partition(part, by, crs, meta, geometry, source_crs, table, checked=None):
+def _why_partition(part, by, crs, meta, geometry, source_srs, table, checked=None):
     """Return ``table(partition, crs)`` (explain's or curve's) in ``meta``'s dtypes."""
     if len(part) == 0:
         return meta
-    frame, xy = _restored(part, geometry, source_crs)
+    frame, xy = _restored(part, geometry, _crs_of(source_srs))
     out = table(frame, crs, by, xy)
     # lists of labels stay objects; dask may store text as pyarrow strings
     dtypes = meta.dtypes
@@ -637,7 +653,7 @@ def _per_group(ddf, by, npartitions, opts: Options, table, first: str, order: li
     names = _key_names(ddf, by)
     meta = table(ddf._meta, opts.crs, by)  # the eager checks of the options too
     grouped, crs, checked = _shuffled(ddf, names, by, opts, npartitions)
-    source = ddf.crs
+    source = _srs(ddf.crs)  # (each partition parses it once per worker)
     out = grouped.map_partitions(
         _why_partition,
         by,
