@@ -28,6 +28,7 @@ from geoalpha.frame.pipeline import (
     report_rows,
     row_report,
     run,
+    scan_xy,
     warn_split,
 )
 from geoalpha.frame.schema import (
@@ -96,20 +97,18 @@ def _points_xy(plain) -> np.ndarray | None:
     return np.column_stack([x, plain[_Y].to_numpy(dtype=np.float64)])
 
 
-def _finite_xy(plain, geometry: str, names: list = (), dropna: bool = False):
+def _finite_xy(plain, geometry: str, keep=None, xy=None) -> np.ndarray:
     """Return the finite coordinates of the rows of a partition that hull() keeps.
 
-    ``plain``: the partition as :func:`_for_shuffle` wrote it.
+    ``plain``: the partition as :func:`_for_shuffle` wrote it; ``keep``: a row
+    mask (the rows with a key), or None; ``xy``: :func:`_points_xy` of it.
     """
-    keep = np.ones(len(plain), dtype=bool)
-    if names and dropna:
-        keep &= plain[names].notna().all(axis=1).to_numpy()
-    xy = _points_xy(plain)
+    keep = np.ones(len(plain), dtype=bool) if keep is None else keep
     if xy is not None:  # (a point's one coordinate pair: what get_coordinates reads)
         xy = xy[keep]
     else:
         geoms = _from_shuffle(plain, geometry)
-        keep &= ~(shapely.is_missing(geoms) | shapely.is_empty(geoms))
+        keep = keep & ~(shapely.is_missing(geoms) | shapely.is_empty(geoms))
         xy = shapely.get_coordinates(geoms[keep])
     return xy[np.isfinite(xy).all(axis=1)]  # hull() drops NaN rows, refuses inf
 
@@ -178,21 +177,30 @@ def _summary(plain, asked: _Asked) -> pd.DataFrame:
     :func:`_for_shuffle` read (the geometries are read again only where a
     row is not a 2D point).
     """
-    names, options = asked.names, asked.options
-    keys = report = sample = None
+    names, options, geometry = asked.names, asked.options, asked.geometry
+    keys = report = sample = keyed = None
     extent = [np.nan] * len(_EXTENT)
+    xy = _points_xy(plain)
     if names:
         keys = plain[names]
-        keys = (keys.dropna() if options.dropna else keys).drop_duplicates()
-        xy = _points_xy(plain)
-        frame = plain if xy is not None else _geo(plain, asked.geometry, None)
-        report = row_report(
-            frame, names, dropna=options.dropna, vertices=options.vertices, xy=xy
-        )
+        if options.dropna:  # (as groupby(dropna=True): a row missing one has none)
+            keyed = keys.notna().all(axis=1).to_numpy()
+            keys = keys[keyed]
+        keys = keys.drop_duplicates()
+        if xy is not None:
+            codes = np.zeros(len(plain), dtype=np.int64)
+            if keyed is not None:
+                codes[~keyed] = -1
+            report = scan_xy(plain.index, xy, codes)[0]
+        else:  # (row_report makes the same codes)
+            frame = _geo(plain, geometry, None)
+            report = row_report(
+                frame, names, dropna=options.dropna, vertices=options.vertices
+            )
     if asked.extent:
-        extent = _extent(_finite_xy(plain, asked.geometry, names, options.dropna))
+        extent = _extent(_finite_xy(plain, geometry, keyed, xy))
     if asked.sample:
-        sample = _sample(_finite_xy(plain, asked.geometry))
+        sample = _sample(_finite_xy(plain, geometry, None, xy))
     row = {"keys": [keys], "report": [report], "sample": [sample]}
     row.update((name, [value]) for name, value in zip(_EXTENT, extent, strict=True))
     return pd.DataFrame({c: pd.Series(row[c], dtype=_dtype(c)) for c in _SUMMARY})

@@ -482,9 +482,7 @@ def _report(n_rows: int, masks: dict, index: pd.Index, types: dict) -> RowReport
     )
 
 
-def row_report(
-    frame, by, *, dropna: bool, vertices: bool, xy: np.ndarray | None = None
-) -> RowReport:
+def row_report(frame, by, *, dropna: bool, vertices: bool) -> RowReport:
     """Return the :class:`RowReport` of ``frame`` before grouping (:func:`scan_rows`).
 
     Parameters
@@ -494,9 +492,6 @@ def row_report(
         row missing one has a missing key (as ``groupby(dropna=True)`` says).
     dropna, vertices : bool
         As for :func:`geoalpha.hull`.
-    xy : numpy.ndarray, optional
-        The rows' coordinates when every row is a 2D point (:func:`scan_xy`;
-        ``frame`` may then be a DataFrame: its geometries are not read).
 
     Returns
     -------
@@ -513,8 +508,6 @@ def row_report(
     codes = np.zeros(len(frame), dtype=np.int64)
     if by and dropna:
         codes[frame[by].isna().any(axis=1).to_numpy()] = -1
-    if xy is not None:
-        return scan_xy(frame.index, xy, codes)[0]
     return scan_rows(frame, codes, vertices)[0]
 
 
