@@ -223,6 +223,19 @@ def test_no_by_gives_one_hull(clusters):
     assert_same_hulls(geoalpha.hull(ddf), geoalpha.hull(ddf.compute()))
 
 
+def test_geometry_column_of_another_name_and_a_second_geometry(clusters):
+    # Only the keys and the active geometry move through the shuffle; the
+    # result names its geometry column after the input's, as the eager call.
+    gdf = clusters.rename_geometry("where").assign(
+        other=clusters.geometry.buffer(1.0), note="x"
+    )
+    ddf = spread(gdf, 3)
+    got = assert_same_hulls(
+        geoalpha.hull(ddf, by="Cluster"), geoalpha.hull(ddf.compute(), by="Cluster")
+    )
+    assert got.geometry.name == "where" and "other" not in got.columns
+
+
 def outcome(call):
     """What a user sees of ``call()``: ("error", message) or (result, dropped rows)."""
     with warnings.catch_warnings(record=True) as caught:
