@@ -236,11 +236,13 @@ def _for_shuffle(part, geometry: str, partition_info=None) -> pd.DataFrame:
     first = np.int64(number) << np.int64(_ROW_BITS)
     geoms = np.asarray(part[geometry].array, dtype=object)
     point = (shapely.get_type_id(geoms) == 0) & ~shapely.has_z(geoms)
-    point &= ~shapely.is_empty(geoms)
-    xy = np.full((len(geoms), 2), np.nan)
-    xy[point] = shapely.get_coordinates(geoms[point])
     wkb = np.full(len(geoms), None, dtype=object)
-    wkb[~point] = shapely.to_wkb(_nan_kept(geoms[~point]))  # None stays None
+    xy = shapely.get_coordinates(geoms) if point.all() else None
+    if xy is None or len(xy) < len(geoms):  # (an empty point has no coordinate)
+        point &= ~shapely.is_empty(geoms)
+        xy = np.full((len(geoms), 2), np.nan)
+        xy[point] = shapely.get_coordinates(geoms[point])
+        wkb[~point] = shapely.to_wkb(_nan_kept(geoms[~point]))  # None stays None
     out = pd.DataFrame(part, copy=False)
     out[geometry] = wkb
     out[_X], out[_Y], out[_POINT] = xy[:, 0], xy[:, 1], point
