@@ -19,6 +19,10 @@ every county spans every file. Keys are FIPS-like text (``"01234"``).
 Peak memory: the eager side's is the high-water mark of a fresh process that
 reads the files and computes the hulls once; the dask side's is the sum of
 the workers' high-water marks plus the client's (its process reads nothing).
+CPU: the least CPU seconds of a round, of every process (the eager process
+and its threads; the workers, and the client with the LocalCluster's
+scheduler): on a shared machine, less moved by the other load than the wall
+time. The header gives the 1-minute load average before and after.
 """
 
 from __future__ import annotations
@@ -86,6 +90,28 @@ bench_dask.eager([Path(p) for p in {paths!r}])
 """
 
 
+def _cpu(client=None) -> float:
+    """CPU seconds of this process (and its threads), plus the workers' with a client.
+
+    The scheduler of a ``LocalCluster`` runs in this process.
+    """
+    import time
+
+    workers = client.run(time.process_time).values() if client is not None else ()
+    return time.process_time() + sum(workers)
+
+
+def _counted(fn, cpu: list, client=None):
+    """``fn``, appending the CPU seconds of each call (:func:`_cpu`) to ``cpu``."""
+
+    def call():
+        start = _cpu(client)
+        fn()
+        cpu.append(_cpu(client) - start)
+
+    return call
+
+
 def _max_rss() -> int:
     """This process' high-water mark (``VmHWM``) in KiB."""
     return int(open("/proc/self/status").read().split("VmHWM:")[1].split()[0])
@@ -93,10 +119,15 @@ def _max_rss() -> int:
 
 def profile(paths, client) -> None:
     """Print the dask run's task-stream time per task prefix (where time goes)."""
+    import time
+
     from distributed import get_task_stream
 
+    lazy(paths)  # warm: the workers' imports and caches are not the run's cost
     with get_task_stream(client) as ts:
+        start = time.perf_counter()
         lazy(paths)
+        wall = time.perf_counter() - start
     per: dict[str, float] = {}
     for task in ts.data:
         prefix = task["key"][0] if isinstance(task["key"], tuple) else task["key"]
@@ -105,6 +136,11 @@ def profile(paths, client) -> None:
             name = f"{prefix} [{part['action']}]"
             per[name] = per.get(name, 0.0) + part["stop"] - part["start"]
     total = sum(per.values())
+    workers = len(client.scheduler_info()["workers"])
+    print(
+        f"wall {wall:.2f} s; the workers busy {total:.2f} of {workers * wall:.2f} "
+        "worker seconds\n"
+    )
     print("| task prefix [action] | worker seconds | share |\n|---|---:|---:|")
     for name, seconds in sorted(per.items(), key=lambda kv: -kv[1])[:15]:
         print(f"| {name} | {seconds:.2f} | {seconds / total:.0%} |")
@@ -123,8 +159,12 @@ def main(argv=None) -> None:
     args = parser.parse_args(argv)
     warnings.simplefilter("ignore", geoalpha.GeoAlphaWarning)
 
+    import os
+
     from distributed import Client, LocalCluster
 
+    load = [os.getloadavg()[0]]
+    cpu: dict[str, list[float]] = {"eager": [], "dask": []}
     with tempfile.TemporaryDirectory() as tmp:
         paths = make_data(Path(tmp), args.points, args.files, args.counties, args.seed)
         eager_peak = peak_memory_mb(_EAGER_PEAK.format(paths=[str(p) for p in paths]))
@@ -142,26 +182,36 @@ def main(argv=None) -> None:
                 a.geom_equals_exact(b.set_index(a.index), 0).all()
             )
             times = rounds(
-                {"eager": lambda: eager(paths), "dask": lambda: lazy(paths)},
+                {
+                    "eager": _counted(lambda: eager(paths), cpu["eager"]),
+                    "dask": _counted(lambda: lazy(paths), cpu["dask"], client),
+                },
                 args.repeat,
                 warm_up=False,
             )
             peaks = client.run(_max_rss)
+            load.append(os.getloadavg()[0])
         dask_peak = (sum(peaks.values()) + _max_rss()) / 1024
     best = {k: min(v) for k, v in times.items()}
+    used = {k: min(v) for k, v in cpu.items()}
     print(
         f"{args.points:,} points, {args.counties:,} counties, {args.files} "
         f"GeoParquet files, LocalCluster({args.workers} workers x 1 thread), "
-        f"best of {args.repeat}; results equal: {same}\n"
+        f"best of {args.repeat}; results equal: {same}; load average (1 min) "
+        f"{load[0]:.1f} before, {load[1]:.1f} after\n"
     )
-    print("| call | best | ratio | peak memory |\n|---|---:|---:|---:|")
+    print(
+        "| call | best | ratio | CPU (all processes) | peak memory |\n"
+        "|---|---:|---:|---:|---:|"
+    )
     print(
         f"| eager `hull()` | {fmt_time(best['eager'])} | 1.00x | "
-        f"{eager_peak:,.0f} MiB |"
+        f"{used['eager']:.2f} s | {eager_peak:,.0f} MiB |"
     )
     print(
         f"| dask `hull().compute()` | {fmt_time(best['dask'])} | "
-        f"{best['dask'] / best['eager']:.2f}x | {dask_peak:,.0f} MiB |"
+        f"{best['dask'] / best['eager']:.2f}x | {used['dask']:.2f} s "
+        f"({used['dask'] / used['eager']:.2f}x) | {dask_peak:,.0f} MiB |"
     )
 
 

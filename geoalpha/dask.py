@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+from typing import NamedTuple
 
 import geopandas as gpd
 import numpy as np
@@ -26,6 +27,7 @@ from geoalpha._frame.pipeline import (
     report_rows,
     row_report,
     run,
+    scan_xy,
     warn_split,
 )
 from geoalpha._frame.schema import (
@@ -83,30 +85,49 @@ def _key_names(frame, by) -> list:
     return names
 
 
-def _finite_xy(part, names: list = (), dropna: bool = False) -> np.ndarray:
-    """Return the finite coordinates of the rows of a partition that hull() keeps."""
-    geoms = np.asarray(part.geometry.array, dtype=object)
-    keep = ~(shapely.is_missing(geoms) | shapely.is_empty(geoms))
-    if names and dropna:
-        keep &= part[names].notna().all(axis=1).to_numpy()
-    xy = shapely.get_coordinates(geoms[keep])
+def _points_xy(plain) -> np.ndarray | None:
+    """Return the coordinates of :func:`_for_shuffle`'s rows if all are 2D points.
+
+    Else None (a row of another geometry, missing or empty: read it with
+    :func:`_from_shuffle`).
+    """
+    if not plain[_POINT].to_numpy(dtype=bool).all():
+        return None
+    x = plain[_X].to_numpy(dtype=np.float64)
+    return np.column_stack([x, plain[_Y].to_numpy(dtype=np.float64)])
+
+
+def _finite_xy(plain, geometry: str, keep=None, xy=None) -> np.ndarray:
+    """Return the finite coordinates of the rows of a partition that hull() keeps.
+
+    ``plain``: the partition as :func:`_for_shuffle` wrote it; ``keep``: a row
+    mask (the rows with a key), or None; ``xy``: :func:`_points_xy` of it.
+    """
+    keep = np.ones(len(plain), dtype=bool) if keep is None else keep
+    if xy is not None:  # (a point's one coordinate pair: what get_coordinates reads)
+        xy = xy[keep]
+    else:
+        geoms = _from_shuffle(plain, geometry)
+        keep = keep & ~(shapely.is_missing(geoms) | shapely.is_empty(geoms))
+        xy = shapely.get_coordinates(geoms[keep])
     return xy[np.isfinite(xy).all(axis=1)]  # hull() drops NaN rows, refuses inf
 
 
-def _extent(part, names: list, dropna: bool) -> pd.DataFrame:
-    """Longitude/latitude extent of a partition (``*360``: longitudes in [0, 360))."""
-    xy = _finite_xy(part, names, dropna)
-    row = [np.nan] * len(_EXTENT)
-    if len(xy):
-        lon, lat = xy[:, 0], xy[:, 1]
-        shifted = np.mod(lon, 360.0)
-        row = [lon.min(), lon.max(), shifted.min(), shifted.max(), lat.min(), lat.max()]
-    return pd.DataFrame([row], columns=_EXTENT)
+def _extent(xy: np.ndarray) -> list:
+    """Longitude/latitude extent of points (``*360``: longitudes in [0, 360))."""
+    if not len(xy):
+        return [np.nan] * len(_EXTENT)
+    lon, lat = xy[:, 0], xy[:, 1]
+    shifted = np.mod(lon, 360.0)
+    return [lon.min(), lon.max(), shifted.min(), shifted.max(), lat.min(), lat.max()]
 
 
-def _decide_crs(extents: pd.DataFrame, source_crs):
-    """Choose the partitions' ``crs``: the extreme points' UTM zone or "auto-group"."""
-    e = extents.dropna()
+def _decide_crs(summary: pd.DataFrame, source_crs):
+    """Choose the partitions' ``crs``: the extreme points' UTM zone or "auto-group".
+
+    ``summary``: :func:`_summary` of every partition (its extent columns).
+    """
+    e = summary[_EXTENT].astype(float).dropna()
     if e.empty:
         return "auto-group"
     lon = np.array([e.west.min(), e.east.max(), e.west360.min(), e.east360.max()])
@@ -127,71 +148,101 @@ def _decide_crs(extents: pd.DataFrame, source_crs):
 _SAMPLE = 1000
 
 
-def _sample(part) -> pd.DataFrame:
-    """Up to :data:`_SAMPLE` evenly spaced point coordinates of a partition."""
-    xy = _finite_xy(part)
+def _sample(xy: np.ndarray) -> np.ndarray:
+    """Up to :data:`_SAMPLE` evenly spaced points of ``xy``."""
     if len(xy) > _SAMPLE:
         xy = xy[np.linspace(0, len(xy) - 1, _SAMPLE).astype(np.intp)]
-    return pd.DataFrame(xy, columns=["x", "y"])
+    return xy
 
 
-def _keys(part, names: list, dropna: bool) -> pd.DataFrame:
-    """Return the distinct group keys of a partition."""
-    keys = part[names]
-    return (keys.dropna() if dropna else keys).drop_duplicates()
+class _Asked(NamedTuple):
+    """What :func:`_summary` reads of every partition (what the call needs)."""
+
+    names: list  #: the key columns: the distinct keys and the RowReport
+    options: Options
+    geometry: str
+    extent: bool  #: for the ``crs="auto"`` decision
+    sample: bool  #: for the distortion check
 
 
-def _rows(part, names: list, options: Options) -> pd.DataFrame:
-    """Return the :class:`~geoalpha._frame.pipeline.RowReport` of a partition."""
-    report = row_report(part, names, dropna=options.dropna, vertices=options.vertices)
-    return pd.DataFrame({"report": pd.Series([report], dtype=object)})
+#: The columns of :func:`_summary`'s row (objects: a table, a report, points).
+_SUMMARY = ["keys", "report", *_EXTENT, "sample"]
 
 
-def _check(keys, rows, sample, by, source_crs, crs) -> None:
+def _summary(plain, asked: _Asked) -> pd.DataFrame:
+    """One row about a partition, before the shuffle: what the checks read.
+
+    Its distinct keys and :class:`~geoalpha._frame.pipeline.RowReport` (with
+    ``names``), its extent, a sample of its points; from the coordinates
+    :func:`_for_shuffle` read (the geometries are read again only where a
+    row is not a 2D point).
+    """
+    names, options, geometry = asked.names, asked.options, asked.geometry
+    keys = report = sample = keyed = None
+    extent = [np.nan] * len(_EXTENT)
+    xy = _points_xy(plain)
+    if names:
+        keys = plain[names]
+        if options.dropna:  # (as groupby(dropna=True): a row missing one has none)
+            keyed = keys.notna().all(axis=1).to_numpy()
+            keys = keys[keyed]
+        keys = keys.drop_duplicates()
+        if xy is not None:
+            codes = np.zeros(len(plain), dtype=np.int64)
+            if keyed is not None:
+                codes[~keyed] = -1
+            report = scan_xy(plain.index, xy, codes)[0]
+        else:  # (row_report makes the same codes)
+            frame = _geo(plain, geometry, None)
+            report = row_report(
+                frame, names, dropna=options.dropna, vertices=options.vertices
+            )
+    if asked.extent:
+        extent = _extent(_finite_xy(plain, geometry, keyed, xy))
+    if asked.sample:
+        sample = _sample(_finite_xy(plain, geometry, None, xy))
+    row = {"keys": [keys], "report": [report], "sample": [sample]}
+    row.update((name, [value]) for name, value in zip(_EXTENT, extent, strict=True))
+    return pd.DataFrame({c: pd.Series(row[c], dtype=_dtype(c)) for c in _SUMMARY})
+
+
+def _dtype(column: str):
+    return float if column in _EXTENT else object
+
+
+def _check(summary, by, source_crs, crs, asked: _Asked) -> None:
     """Make the errors and warnings about the input, once, in the eager order."""
-    if keys is not None:  # and rows
-        report = merge_reports(rows["report"].tolist())
+    if asked.names:
+        keys = pd.concat(summary["keys"].tolist(), ignore_index=True)
+        report = merge_reports(summary["report"].tolist())
         check_grouping(len(keys.drop_duplicates()), report.n_rows, by)
         report_rows(report)
-    if sample is not None:
-        check_distortion(sample[["x", "y"]].to_numpy(), source_crs, crs)
-
-
-def _checks(ddf, names: list, by, options: Options):
-    """Return a lazy :func:`_check` of ``ddf``, or None when nothing can warn."""
-    keys = rows = sample = None
-    if names:
-        keys = ddf.map_partitions(
-            _keys, names, options.dropna, meta=ddf._meta[names], enforce_metadata=False
-        )
-        meta = pd.DataFrame({"report": pd.Series([], dtype=object)})
-        rows = ddf.map_partitions(
-            _rows, names, options, meta=meta, enforce_metadata=False
-        )
-    if computation_crs(ddf.crs, options.crs)[0] is not None:
-        meta = pd.DataFrame({"x": pd.Series(dtype=float), "y": pd.Series(dtype=float)})
-        sample = ddf.map_partitions(_sample, meta=meta)
-    if keys is None and sample is None:
-        return None
-    return dask.delayed(_check)(keys, rows, sample, by, ddf.crs, options.crs)
+    if asked.sample:
+        sample = np.concatenate([np.reshape(s, (-1, 2)) for s in summary["sample"]])
+        check_distortion(sample, source_crs, crs)
 
 
 def _for_shuffle(part, geometry: str, partition_info=None) -> pd.DataFrame:
     """Plain rows for the shuffle: 2D points as x/y, other geometries as WKB.
 
     Both are exact; a point's two floats cost far less than its WKB to write,
-    move and read back (the profile of ``benchmarks/bench_dask.py``). Plus
-    each row's position in ``ddf.compute()``.
+    move and read back, and the partitions after the shuffle take them as
+    they are, without building a geometry (the profile of
+    ``benchmarks/bench_dask.py``). Plus each row's position in
+    ``ddf.compute()``. The one pass over the input geometries: the checks
+    (:func:`_summary`) read these columns too.
     """
     number = partition_info["number"] if partition_info else 0
     first = np.int64(number) << np.int64(_ROW_BITS)
     geoms = np.asarray(part[geometry].array, dtype=object)
     point = (shapely.get_type_id(geoms) == 0) & ~shapely.has_z(geoms)
-    point &= ~shapely.is_empty(geoms)
-    xy = np.full((len(geoms), 2), np.nan)
-    xy[point] = shapely.get_coordinates(geoms[point])
     wkb = np.full(len(geoms), None, dtype=object)
-    wkb[~point] = shapely.to_wkb(_nan_kept(geoms[~point]))  # None stays None
+    xy = shapely.get_coordinates(geoms) if point.all() else None
+    if xy is None or len(xy) < len(geoms):  # (an empty point has no coordinate)
+        point &= ~shapely.is_empty(geoms)
+        xy = np.full((len(geoms), 2), np.nan)
+        xy[point] = shapely.get_coordinates(geoms[point])
+        wkb[~point] = shapely.to_wkb(_nan_kept(geoms[~point]))  # None stays None
     out = pd.DataFrame(part, copy=False)
     out[geometry] = wkb
     out[_X], out[_Y], out[_POINT] = xy[:, 0], xy[:, 1], point
@@ -234,23 +285,24 @@ def _nan_y_zero(xy: np.ndarray) -> np.ndarray:
 
 
 def _hull_partition(
-    part, by, crs, meta, geometry, source_crs, options: Options, checked=None
+    part, by, crs, meta, geometry, source_srs, options: Options, checked=None
 ):
     if len(part) == 0:
         return meta
-    if _ROW in part.columns:
-        # Back to the input order within every group: the triangulation works
-        # relative to a group's first point, so its last bits depend on it.
-        part = part.sort_values(_ROW, kind="stable")
-        geoms = _from_shuffle(part, geometry)
-        part = part.drop(columns=[_ROW, _X, _Y, _POINT])
-        part[geometry] = gpd.GeoSeries(geoms, index=part.index, crs=source_crs)
-    part = gpd.GeoDataFrame(part, geometry=geometry, crs=source_crs)
+    frame, xy = _restored(part, geometry, _crs_of(source_srs))
     # With ``by``, the dataset's bad rows were reported once (``checked``).
-    out, _ = run(
-        part, by, dataclasses.replace(options, crs=crs), checks=False, rows=by is None
-    )
-    return out.astype(dict(meta.dtypes.drop(meta.geometry.name)))
+    opts = dataclasses.replace(options, crs=crs)
+    out, _ = run(frame, by, opts, checks=False, rows=by is None, xy=xy)
+    return _as_meta(out, meta.dtypes.drop(meta.geometry.name))
+
+
+def _as_meta(out, dtypes: pd.Series):
+    """Return ``out`` with ``dtypes`` (columns -> dtype): the columns that differ cast.
+
+    Text may be stored as pyarrow strings by dask; lists of labels stay objects.
+    """
+    cast = {c: t for c, t in dtypes.items() if out[c].dtype != t}
+    return out.astype(cast) if cast else out
 
 
 def _involved(table, names: list) -> pd.DataFrame:
@@ -289,8 +341,12 @@ def _split_table(table, near, names: list, options: Options, source_crs, geometr
     geoms = np.asarray(table.geometry.array, dtype=object)
     if names and len(near):
         near = near.sort_values(_ROW, kind="stable")  # the eager order of the rows
-        points = _from_shuffle(near, geometry)
-        xy, at = shapely.get_coordinates(points, return_index=True)
+        xy = _points_xy(near)
+        if xy is not None:  # (get_coordinates: a point's one coordinate pair)
+            at = np.arange(len(near))
+        else:
+            points = _from_shuffle(near, geometry)
+            xy, at = shapely.get_coordinates(points, return_index=True)
     else:
         near, xy, at = near.iloc[:0], np.zeros((0, 2)), np.zeros(0, dtype=np.int64)
     if names and n and len(at):
@@ -423,7 +479,7 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
     if names:  # the eager checks of the options, on the (empty) meta frame
         run(ddf._meta, by, opts, checks=False)
     grouped, crs, checked = _shuffled(ddf, names, by, opts, npartitions)
-    source = ddf.crs
+    source = _srs(ddf.crs)  # (each partition parses it once per worker)
     out = grouped.map_partitions(
         _hull_partition,
         by,
@@ -470,26 +526,61 @@ def _second_pass(out, grouped, names: list, opts: Options, ddf, meta):
 hull.__signature__ = _options.signature(hull)
 
 
+def _srs(crs) -> str | None:
+    """Return the text of a CRS (what pickling keeps of it), for :func:`_crs_of`."""
+    return None if crs is None else crs.srs
+
+
+@functools.lru_cache(maxsize=16)
+def _crs_of(srs: str | None):
+    """Return the CRS ``srs`` (:func:`_srs`), parsed once per process.
+
+    dask hands every task its own copy of a CRS argument, which parses its
+    text again (some 15 ms) where it is first used: the partitions take the
+    text and share one parsed CRS per worker.
+    """
+    return parse_crs(srs)
+
+
+def _geo(plain, geometry: str, source_crs, geoms=None):
+    """Return :func:`_for_shuffle`'s rows as a GeoDataFrame (``geoms``: its geometries).
+
+    ``geoms`` None: read back from the shuffle's columns (:func:`_from_shuffle`).
+    """
+    if geoms is None:
+        geoms = _from_shuffle(plain, geometry)
+    frame = plain.drop(columns=[_ROW, _X, _Y, _POINT])
+    frame[geometry] = gpd.GeoSeries(geoms, index=frame.index, crs=source_crs)
+    return gpd.GeoDataFrame(frame, geometry=geometry, crs=source_crs)
+
+
 def _restored(part, geometry: str, source_crs):
-    """Return a shuffled partition as the eager input: its rows, order and points."""
-    if _ROW in part.columns:  # (as in _hull_partition)
-        part = part.sort_values(_ROW, kind="stable")
-        geoms = _from_shuffle(part, geometry)
-        part = part.drop(columns=[_ROW, _X, _Y, _POINT])
-        part[geometry] = gpd.GeoSeries(geoms, index=part.index, crs=source_crs)
-    return gpd.GeoDataFrame(part, geometry=geometry, crs=source_crs)
+    """Return a shuffled partition as the eager input: its rows, order and points.
+
+    Returns ``(frame, xy)``: when every row is a 2D point, ``xy`` holds their
+    coordinates and the frame's geometries are not built (None: the pipeline
+    reads ``xy``, :func:`~geoalpha._frame.pipeline.read_points`); else ``xy``
+    is None and the frame holds the geometries.
+    """
+    # Back to the input order within every group: the triangulation works
+    # relative to a group's first point, so its last bits depend on it.
+    part = part.sort_values(_ROW, kind="stable")
+    xy = _points_xy(part)
+    geoms = np.full(len(part), None, dtype=object) if xy is not None else None
+    return _geo(part, geometry, source_crs, geoms), xy
 
 
-def _why_partition(part, by, crs, meta, geometry, source_crs, table, checked=None):
+def _why_partition(part, by, crs, meta, geometry, source_srs, table, checked=None):
     """Return ``table(partition, crs)`` (explain's or curve's) in ``meta``'s dtypes."""
     if len(part) == 0:
         return meta
-    out = table(_restored(part, geometry, source_crs), crs, by)
+    frame, xy = _restored(part, geometry, _crs_of(source_srs))
+    out = table(frame, crs, by, xy)
     # lists of labels stay objects; dask may store text as pyarrow strings
     dtypes = meta.dtypes
     if isinstance(meta, gpd.GeoDataFrame):  # (explain's; curve's is a DataFrame)
         dtypes = dtypes.drop(meta._geometry_column_name)
-    return out.astype(dict(dtypes))
+    return _as_meta(out, dtypes)
 
 
 def _dask_options(opts: Options) -> Options:
@@ -527,20 +618,37 @@ def _shuffled(ddf, names: list, by, opts: Options, npartitions):
     the computation CRS (lazy where ``crs="auto"`` decides it from every
     partition's extent) and the lazy checks of the bad rows (or None).
     """
-    checked = _checks(ddf, names, by, opts)
-    crs, source = opts.crs, ddf.crs
+    crs, source, geometry = opts.crs, ddf.crs, ddf.geometry.name
     geographic = source is not None and parse_crs(source).is_geographic
-    if gcrs.auto_mode(crs) == "auto" and geographic:
-        extents = ddf.map_partitions(
-            _extent, names, opts.dropna, meta=pd.DataFrame(columns=_EXTENT, dtype=float)
+    asked = _Asked(
+        names=names,
+        options=opts,
+        geometry=geometry,
+        extent=gcrs.auto_mode(crs) == "auto" and geographic,
+        sample=computation_crs(source, crs)[0] is not None,
+    )
+    used = list(dict.fromkeys([*names, geometry]))
+    if len(ddf.columns) > len(used):  # read and move only the columns hull() reads
+        ddf = ddf[used]
+    # One pass over the input geometries (the points to floats); the checks,
+    # the CRS decision and the shuffle read its columns.
+    plain = ddf.map_partitions(
+        _for_shuffle, geometry, meta=_for_shuffle(ddf._meta, geometry)
+    )
+    checked = None
+    if names or asked.extent or asked.sample:
+        meta = pd.DataFrame({c: pd.Series(dtype=_dtype(c)) for c in _SUMMARY})
+        summary = plain.map_partitions(
+            _summary, asked, meta=meta, enforce_metadata=False
         )
-        crs = dask.delayed(_decide_crs)(extents, source)
+        if names or asked.sample:
+            checked = dask.delayed(_check)(summary, by, source, opts.crs, asked)
+        if asked.extent:
+            crs = dask.delayed(_decide_crs)(summary, source)
     if names:
-        rows = _for_shuffle(ddf._meta, ddf.geometry.name)
-        plain = ddf.map_partitions(_for_shuffle, ddf.geometry.name, meta=rows)
         grouped = plain.shuffle(on=names, npartitions=npartitions)
     else:
-        grouped = ddf.repartition(npartitions=1)
+        grouped = plain.repartition(npartitions=1)
     return grouped, crs, checked
 
 
@@ -555,7 +663,7 @@ def _per_group(ddf, by, npartitions, opts: Options, table, first: str, order: li
     names = _key_names(ddf, by)
     meta = table(ddf._meta, opts.crs, by)  # the eager checks of the options too
     grouped, crs, checked = _shuffled(ddf, names, by, opts, npartitions)
-    source = ddf.crs
+    source = _srs(ddf.crs)  # (each partition parses it once per worker)
     out = grouped.map_partitions(
         _why_partition,
         by,
@@ -586,10 +694,10 @@ class _Explain:
     def __init__(self, opts: Options):
         self.opts = opts
 
-    def __call__(self, frame, crs, by):
+    def __call__(self, frame, crs, by, xy=None):
         opts = dataclasses.replace(self.opts, crs=crs)
         # With ``by``, the dataset's bad rows were reported once (``checked``).
-        return explain_frame(frame, by, opts, checks=False, rows=by is None)
+        return explain_frame(frame, by, opts, checks=False, rows=by is None, xy=xy)
 
 
 class _Curve(_Explain):
@@ -599,10 +707,11 @@ class _Curve(_Explain):
         super().__init__(opts)
         self.max_left_out, self.unit = max_left_out, unit
 
-    def __call__(self, frame, crs, by):
+    def __call__(self, frame, crs, by, xy=None):
         opts = dataclasses.replace(self.opts, crs=crs)
+        k, unit = self.max_left_out, self.unit
         return curve_frame(
-            frame, by, opts, self.max_left_out, self.unit, checks=False, rows=by is None
+            frame, by, opts, k, unit, checks=False, rows=by is None, xy=xy
         )
 
 

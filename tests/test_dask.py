@@ -34,6 +34,7 @@ import geoalpha.dask  # noqa: E402
 from geoalpha import datasets  # noqa: E402
 from geoalpha.errors import (  # noqa: E402
     CRSWarning,
+    DroppedRowsWarning,
     GroupingWarning,
     InvalidInputError,
     OutlierWarning,
@@ -220,6 +221,57 @@ def test_mixed_geometries_through_the_shuffle_as_the_eager_call(mixed):
 def test_no_by_gives_one_hull(clusters):
     ddf = spread(clusters, 3)
     assert_same_hulls(geoalpha.hull(ddf), geoalpha.hull(ddf.compute()))
+
+
+def test_geometry_column_of_another_name_and_a_second_geometry(clusters):
+    # Only the keys and the active geometry move through the shuffle; the
+    # result names its geometry column after the input's, as the eager call.
+    gdf = clusters.rename_geometry("where").assign(
+        other=clusters.geometry.buffer(1.0), note="x"
+    )
+    ddf = spread(gdf, 3)
+    got = assert_same_hulls(
+        geoalpha.hull(ddf, by="Cluster"), geoalpha.hull(ddf.compute(), by="Cluster")
+    )
+    assert got.geometry.name == "where" and "other" not in got.columns
+
+
+def outcome(call):
+    """What a user sees of ``call()``: ("error", message) or (result, dropped rows)."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            result = call()
+        except InvalidInputError as err:
+            return "error", str(err)
+    # (the partitions' warnings about their groups are the partitions' own)
+    return result, [str(w.message) for w in caught if w.category is DroppedRowsWarning]
+
+
+@pytest.mark.parametrize("by", [None, "Cluster"])
+def test_points_read_as_floats_drop_and_refuse_the_eager_rows(clusters, by):
+    # Every row a 2D point: the partitions read the shuffled floats, never a
+    # geometry; NaN coordinates and missing keys are dropped and named as by
+    # the eager call, infinite ones refused naming the row.
+    bad = clusters.copy()
+    nan = [shapely.Point(np.nan, 51.5), shapely.Point(-0.1, np.nan)]
+    bad.loc[bad.index[[4, 900]], "geometry"] = nan
+    bad.loc[bad.index[[7]], "Cluster"] = None
+    ddf = spread(bad, 3)
+    got, shown = outcome(lambda: geoalpha.hull(ddf, by).compute(scheduler="sync"))
+    eager, eager_shown = outcome(lambda: geoalpha.hull(ddf.compute(), by))
+    assert shown == eager_shown and len(shown) == 1
+    dropped = 2 if by is None else 3
+    assert shown[0].startswith(f"hull() dropped {dropped} of {len(bad)} rows")
+    assert all(f"{row}" in shown[0] for row in (4, 900))
+    assert_geodataframe_equal(got, eager, check_dtype=False, check_index_type=False)
+    assert got.geom_equals_exact(eager, tolerance=0).all()
+    bad.loc[bad.index[[11]], "geometry"] = [shapely.Point(np.inf, 51.5)]
+    ddf = spread(bad, 3)
+    got = outcome(lambda: geoalpha.hull(ddf, by).compute(scheduler="sync"))
+    eager = outcome(lambda: geoalpha.hull(ddf.compute(), by))
+    assert got[0] == "error" and got == eager
+    assert "infinite values in 1 row(s) (index 11)" in got[1]
 
 
 def test_projected_input_and_forced_crs(clusters):

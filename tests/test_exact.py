@@ -672,3 +672,42 @@ def test_the_critical_triangle_has_the_optimal_radius(kind, holes, data):
     radius = reference.exact_circumradius(*corners)
     assert radius == pytest.approx(why["radius"].item(), rel=1e-12, abs=0)
     assert why["limited_by"].item() in ("coverage", "connection")
+
+
+@pytest.mark.parametrize("holes", [False, True], ids=["filled", "holes"])
+@examples(40)
+@given(data=st.data())
+def test_the_hull_from_coordinates_read_already_is_the_reference_optimum(holes, data):
+    # dask's partitions hand hull()'s pipeline the shuffled x/y instead of
+    # geometries (pipeline.run(xy=...)): the reference optimum of every group,
+    # and the table of the geometries' path, bit for bit.
+    import geopandas as gpd
+    from geopandas.testing import assert_geodataframe_equal
+
+    from geoalpha._frame.pipeline import run
+    from geoalpha._options import Options
+
+    sets = data.draw(
+        st.lists(st.one_of(*STRATEGIES.values()), min_size=1, max_size=3),
+        label="groups",
+    )
+    points = np.concatenate(sets)
+    codes = np.repeat(np.arange(len(sets)), [len(p) for p in sets])
+    order = np.array(data.draw(st.permutations(range(len(points))), label="order"))
+    xy, codes = np.ascontiguousarray(points[order]), codes[order]
+    frame = gpd.GeoDataFrame({"g": codes}, geometry=shapely.points(xy), crs=None)
+    bare = frame.set_geometry(gpd.GeoSeries([None] * len(frame), index=frame.index))
+    options = Options.from_kwargs({"crs": None, "holes": holes, "suspicious": False})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DegenerateGroupWarning)
+        table, _ = run(frame, "g", options)
+        got, _ = run(bare, "g", options, xy=xy)
+    assert_geodataframe_equal(got, table)
+    assert got.geom_equals_exact(table, tolerance=0).all()
+    for g, p in enumerate(sets):
+        tri = reference_triangulation(p)
+        if tri is None or not (same_triangulation(p, tri) and well_conditioned(tri)):
+            continue  # (check_against_reference's other branches: no reference)
+        a_ref, _ = reference.shapely_optimum(p, holes=holes)
+        assert got["alpha"].iloc[g] == pytest.approx(a_ref, rel=1e-9, abs=0)
+        event("a group compared with the reference")

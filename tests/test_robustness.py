@@ -19,6 +19,7 @@ import warnings
 
 import geopandas as gpd
 import numpy as np
+import pandas as pd
 import pytest
 import shapely
 import shapely.affinity
@@ -850,3 +851,73 @@ def test_dask_explain_and_curve_take_every_family_of_group(npartitions):
     assert table["left_out"].tolist() == curve["left_out"].tolist()
     np.testing.assert_array_equal(table["radius"], curve["radius"])
     np.testing.assert_array_equal(table["area_m2"], curve["area_m2"])
+
+
+# The coordinates read already (dask's partitions take the shuffled x/y):
+# the same rows kept, dropped and refused, the same hulls, bit for bit.
+
+#: A coordinate of every kind: NaN, infinities, subnormals, -0.0, huge, plain.
+ANY_FLOAT = st.floats(allow_nan=True, allow_infinity=True, allow_subnormal=True)
+
+
+@scaled_examples(200)
+@given(
+    rows=st.lists(st.tuples(ANY_FLOAT, ANY_FLOAT, st.booleans()), max_size=25),
+    seed=st.integers(0, 2**16),
+)
+def test_scan_xy_reads_the_rows_as_scan_rows(rows, seed):
+    from geoalpha._frame.pipeline import scan_rows, scan_xy
+
+    xy = np.array([r[:2] for r in rows], dtype=np.float64).reshape(-1, 2)
+    codes = np.where([r[2] for r in rows], -1, 0).astype(np.int64)
+    index = pd.Index(np.random.default_rng(seed).permutation(len(rows)) * 3 + 7)
+    frame = gpd.GeoDataFrame(
+        {"k": codes}, geometry=shapely.points(xy), index=index, crs=None
+    )
+    report, coords, which = scan_rows(frame, codes, vertices=False)
+    got_report, got_coords, got_which = scan_xy(frame.index, xy, codes)
+    assert got_report == report
+    np.testing.assert_array_equal(got_which, which)
+    np.testing.assert_array_equal(got_coords, coords)  # (NaN equals NaN here)
+
+
+@pytest.mark.parametrize("method", ["alpha", "convex", "concave", "knn"])
+@pytest.mark.parametrize("crs", ["EPSG:27700", "EPSG:4326", None])
+def test_hull_from_coordinates_read_already_is_the_hull_from_geometries(method, crs):
+    from geopandas.testing import assert_geodataframe_equal
+
+    from geoalpha._frame.pipeline import run
+    from geoalpha._options import Options
+
+    frame = hostile_frame()
+    if crs == "EPSG:4326":
+        frame = frame.to_crs(crs)
+    elif crs is None:
+        frame = frame.set_crs(None, allow_override=True)
+    nan = [shapely.Point(np.nan, 1.0), shapely.Point(2.0, np.nan)]  # (not empty)
+    frame.loc[[3, 70], "geometry"] = nan
+    frame.loc[[0, 8], "g"] = None  # dropped: a warning names them
+    frame.index = frame.index * 10 + 5  # labels that are not positions
+    xy = np.column_stack([shapely.get_x(frame.geometry), shapely.get_y(frame.geometry)])
+    bare = frame.set_geometry(gpd.GeoSeries([None] * len(frame), index=frame.index))
+    bare = bare.set_crs(frame.crs, allow_override=True)
+    options = Options.from_kwargs({"method": method, "crs": "auto" if crs else None})
+
+    def outcome(*args, **kwargs):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            table, left_out = run(*args, **kwargs)
+        shown = [(w.category, str(w.message)) for w in caught]
+        return table, left_out, shown
+
+    table, left_out, shown = outcome(frame, "g", options)
+    got, got_left_out, got_shown = outcome(bare, "g", options, xy=xy)
+    assert got_shown == shown
+    assert any("dropped 4 of" in message for _, message in shown)
+    assert_geodataframe_equal(got, table)
+    assert got.geom_equals_exact(table, tolerance=0).all()
+    np.testing.assert_array_equal(got_left_out, left_out)
+    for key, geom in zip(got["g"], got.geometry, strict=True):
+        mine = frame.geometry[frame["g"] == key].to_numpy()
+        mine = mine[np.isfinite(shapely.get_coordinates(mine)).all(axis=1)]
+        assert shapely.is_valid(geom) and shapely.covers(geom, mine).all(), key

@@ -76,6 +76,7 @@ __all__ = [
     "run",
     "run_all",
     "scan_rows",
+    "scan_xy",
     "split_at_antimeridian",
     "split_overlaps_stage",
     "suspicious_groups",
@@ -126,40 +127,58 @@ class Ran(NamedTuple):
     hulls: AlphaShapes
 
 
-def run(frame, by, options: Options, *, checks: bool = True, rows: bool = True):
+def run(
+    frame,
+    by,
+    options: Options,
+    *,
+    checks: bool = True,
+    rows: bool = True,
+    xy: np.ndarray | None = None,
+):
     """``hull(frame, by, **options)`` on an in-memory GeoDataFrame: every stage.
 
     Returns the result table and the row mask of :func:`geoalpha.outlier_rows`.
     ``checks=False`` leaves out the set-up warnings (:mod:`~.checks`),
-    ``rows=False`` the dropped rows' (:func:`geoalpha.dask.hull` makes them once).
+    ``rows=False`` the dropped rows' (:func:`geoalpha.dask.hull` makes them once);
+    ``xy``: the rows' coordinates, when every row is a 2D point read already
+    (:func:`read_points`).
     """
-    ran = run_all(frame, by, options, checks=checks, rows=rows)
+    ran = run_all(frame, by, options, checks=checks, rows=rows, xy=xy)
     return ran.table, ran.left_out
 
 
 def run_all(
-    frame, by, options: Options, *, checks: bool = True, rows: bool = True, **asked
+    frame,
+    by,
+    options: Options,
+    *,
+    checks: bool = True,
+    rows: bool = True,
+    xy: np.ndarray | None = None,
+    **asked,
 ) -> Ran:
     """Run :func:`run`, returning every stage's result (:class:`Ran`).
 
-    ``asked``: more of the kernel (:class:`~geoalpha._options.Request`:
-    ``explain``, ``max_left_out``, ``left_out_unit``).
+    ``xy`` as for :func:`run`; ``asked``: more of the kernel
+    (:class:`~geoalpha._options.Request`: ``explain``, ``max_left_out``,
+    ``left_out_unit``).
     """
     outer = progress.current()
     if outer is not None and options.progress is not False:
-        return _stages(frame, by, options, outer, checks, rows, asked)
+        return _stages(frame, by, options, outer, checks, rows, xy, asked)
     with progress.phases(progress.HULL_PHASES, options.progress) as bar:
-        return _stages(frame, by, options, bar, checks, rows, asked)
+        return _stages(frame, by, options, bar, checks, rows, xy, asked)
 
 
-def _stages(frame, by, options, bar: progress.Phases, checks, rows, asked) -> Ran:
+def _stages(frame, by, options, bar: progress.Phases, checks, rows, xy, asked) -> Ran:
     bar.estimate(progress.hull_costs(len(frame), 0, per_group_crs=False))  # 0: unknown
     bar.start("group")
     groups = group(frame, by, options)
     n_groups = groups.n_groups
     if checks:
         check_grouping(n_groups, len(frame), by)
-    points = read_points(frame, groups, options, warn=rows)
+    points = read_points(frame, groups, options, warn=rows, xy=xy)
     crs = points.crs  # (frame.crs builds a GeoSeries each time)
     # Guess whether groups get a metric CRS each: wide lon/lat, crs="auto".
     src = parse_crs(crs) if gcrs.auto_mode(options.crs) is not None else None
@@ -384,16 +403,57 @@ def scan_rows(frame, codes: np.ndarray, vertices: bool):
         coords, which, masks = _bad_rows(geoms, codes, vertices)
     bad = masks["non_point"]  # (geom_type names every row: only when needed)
     types = Counter(np.asarray(frame.geom_type)[bad].tolist()) if bad.any() else {}
-    report = RowReport(
-        n_rows=len(geoms),
+    return _report(len(geoms), masks, frame.index, types), coords, which
+
+
+def scan_xy(index: pd.Index, xy: np.ndarray, codes: np.ndarray):
+    """:func:`scan_rows` of rows that are all 2D points, from their coordinates.
+
+    The rows of a frame whose every geometry is a non-empty 2D point, given
+    as their ``(n, 2)`` coordinates ``xy`` (as :func:`shapely.get_coordinates`
+    reads them) and the frame's ``index``: the same report, coordinates and
+    rows as :func:`scan_rows` of the frame, without reading a geometry.
+    Dropped: a NaN coordinate, a missing key (``codes`` -1); refused
+    (:func:`report_rows`): an infinite coordinate.
+
+    Returns
+    -------
+    (RowReport, numpy.ndarray, numpy.ndarray)
+        As :func:`scan_rows`.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> xy = np.array([[0.0, 1.0], [np.nan, 2.0], [3.0, 4.0]])
+    >>> report, coords, which = scan_xy(pd.RangeIndex(3), xy, np.zeros(3, int))
+    >>> report.counts["missing"], report.labels["missing"], which.tolist()
+    (1, [1], [0, 2])
+    """
+    n = len(xy)
+    finite = np.isfinite(xy).all(axis=1)
+    if finite.all() and not (codes < 0).any():  # the usual case: every row kept
+        masks = dict.fromkeys(_ROW_KINDS, np.zeros(n, dtype=bool))
+        return _report(n, masks, index, {}), xy, np.arange(n)
+    missing = np.isnan(xy).any(axis=1)  # (as scan_rows: NaN before a missing key)
+    no_key = (codes < 0) & ~missing
+    infinite = ~finite & ~missing & ~no_key
+    which = np.flatnonzero(~(missing | no_key))
+    kinds = (np.zeros(n, dtype=bool), missing, no_key, infinite)
+    masks = dict(zip(_ROW_KINDS, kinds, strict=True))
+    return _report(n, masks, index, {}), xy[which], which
+
+
+def _report(n_rows: int, masks: dict, index: pd.Index, types: dict) -> RowReport:
+    """Return the :class:`RowReport` of the bad-row ``masks`` (by kind) of a frame."""
+    return RowReport(
+        n_rows=n_rows,
         counts={k: int(m.sum()) for k, m in masks.items()},
         labels={  # (taking an Index at no row costs more than the test)
-            k: frame.index[np.flatnonzero(m)[:_SHOWN]].tolist() if m.any() else []
+            k: index[np.flatnonzero(m)[:_SHOWN]].tolist() if m.any() else []
             for k, m in masks.items()
         },
         types=dict(types),
     )
-    return report, coords, which
 
 
 def row_report(frame, by, *, dropna: bool, vertices: bool) -> RowReport:
@@ -515,10 +575,22 @@ def report_rows(report: RowReport, *, warn: bool = True) -> None:
 
 
 def read_points(
-    frame, groups: Groups, options: Options, *, warn: bool = True
+    frame,
+    groups: Groups,
+    options: Options,
+    *,
+    warn: bool = True,
+    xy: np.ndarray | None = None,
 ) -> Points:
-    """Read the points that take part and their group codes; refuse or drop bad rows."""
-    report, coords, which = scan_rows(frame, groups.codes, options.vertices)
+    """Read the points that take part and their group codes; refuse or drop bad rows.
+
+    ``xy``: the rows' coordinates when every row is a 2D point, read already
+    (:func:`scan_xy`; the geometry column is then not read, only its CRS).
+    """
+    if xy is not None:
+        report, coords, which = scan_xy(frame.index, xy, groups.codes)
+    else:
+        report, coords, which = scan_rows(frame, groups.codes, options.vertices)
     report_rows(report, warn=warn)
     first = np.ones(len(which), dtype=bool)  # a row's first point (which is sorted)
     first[1:] = which[1:] != which[:-1]
