@@ -299,7 +299,7 @@ class AlphaShapes(NamedTuple):
         ``search="bisect"`` stopped at ``max_iterations`` with alpha 0; the piece
         search of ``outliers=`` stopped at :data:`geoalpha._core.MAX_UNION_NODES`.
     reason : ndarray of int
-        Why a group is degenerate (a :class:`~geoalpha._core.Reason`), 0 if not.
+        Why a group is degenerate (a :class:`~geoalpha.Reason`), 0 if not.
 
     Notes
     -----
