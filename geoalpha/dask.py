@@ -479,28 +479,37 @@ def hull(ddf, by=None, *, npartitions: int | None = None, **options):
     if names:  # the eager checks of the options, on the (empty) meta frame
         run(ddf._meta, by, opts, checks=False)
     grouped, crs, checked = _shuffled(ddf, names, by, opts, npartitions)
-    source = _srs(ddf.crs)  # (each partition parses it once per worker)
-    out = grouped.map_partitions(
-        _hull_partition,
-        by,
-        crs,
-        meta_each,
-        ddf.geometry.name,
-        source,
-        each,
-        checked,  # the partitions wait for it: its errors name every bad row
-        meta=meta_each,
-        enforce_metadata=False,
+    out = _on_partitions(
+        grouped, _hull_partition, ddf, by, crs, meta_each, each, checked
     )
     if split:
         out = _second_pass(out, grouped, names, opts, ddf, meta)
-    if opts.sort:
-        keys = list(meta.columns[: meta.columns.get_loc("alpha")])
-        out = out.repartition(npartitions=1).map_partitions(
+    keys = list(meta.columns[: meta.columns.get_loc("alpha")])
+    return _finished(out, keys, checked, meta, opts.sort)
+
+
+def _on_partitions(grouped, func, ddf, by, crs, meta, how, checked):
+    """Map ``func(part, by, crs, meta, geometry, source, how, checked)`` lazily.
+
+    ``how``: the options (hull) or the table to make (explain, curve);
+    ``checked``: the input checks, which every partition waits for (their
+    errors name every bad row).
+    """
+    source = _srs(ddf.crs)  # (each partition parses it once per worker)
+    geometry = ddf.geometry.name
+    args = (by, crs, meta, geometry, source, how, checked)
+    return grouped.map_partitions(func, *args, meta=meta, enforce_metadata=False)
+
+
+def _finished(out, keys: list, checked, meta, sort: bool):
+    """Return the partitions after ``checked``: in one, by ``keys``, if ``sort``."""
+    if sort:
+        out = out.repartition(npartitions=1)
+        return out.map_partitions(
             _finish, keys, checked, meta=meta, enforce_metadata=False
         )
-    elif checked is not None:  # the result depends on the checks, not the hulls
-        out = out.map_partitions(
+    if checked is not None:  # the result depends on the checks, not the tables
+        return out.map_partitions(
             _finish, [], checked, meta=meta, enforce_metadata=False
         )
     return out
@@ -663,29 +672,9 @@ def _per_group(ddf, by, npartitions, opts: Options, table, first: str, order: li
     names = _key_names(ddf, by)
     meta = table(ddf._meta, opts.crs, by)  # the eager checks of the options too
     grouped, crs, checked = _shuffled(ddf, names, by, opts, npartitions)
-    source = _srs(ddf.crs)  # (each partition parses it once per worker)
-    out = grouped.map_partitions(
-        _why_partition,
-        by,
-        crs,
-        meta,
-        ddf.geometry.name,
-        source,
-        table,
-        checked,  # the partitions wait for it: its errors name every bad row
-        meta=meta,
-        enforce_metadata=False,
-    )
+    out = _on_partitions(grouped, _why_partition, ddf, by, crs, meta, table, checked)
     keys = list(meta.columns[: meta.columns.get_loc(first)])
-    if opts.sort:
-        out = out.repartition(npartitions=1).map_partitions(
-            _finish, keys + order, checked, meta=meta, enforce_metadata=False
-        )
-    elif checked is not None:  # the result depends on the checks, not the tables
-        out = out.map_partitions(
-            _finish, [], checked, meta=meta, enforce_metadata=False
-        )
-    return out
+    return _finished(out, keys + order, checked, meta, opts.sort)
 
 
 class _Explain:
