@@ -85,6 +85,18 @@ class Reason(enum.IntEnum):
     guarantee stage found no valid polygon holding the group's points in the
     output coordinates); ``HEMISPHERE`` is ``crs="sphere"``'s refusal (a point
     beyond ``MAX_SPHERE_DEGREES`` of its group's centre).
+
+    Examples
+    --------
+    >>> import warnings
+    >>> import geoalpha
+    >>> from geoalpha import Reason
+    >>> xy = [[0, 0], [1, 1], [2, 2], [5, 5], [0, 3], [1, 3], [0, 4]]
+    >>> with warnings.catch_warnings():  # a DegenerateGroupWarning names them
+    ...     warnings.simplefilter("ignore")
+    ...     res = geoalpha.alpha_shapes(xy, [0, 0, 0, 1, 2, 2, 2])
+    >>> [Reason(r).name for r in res.reason]
+    ['COLLINEAR', 'FEW', 'OK']
     """
 
     OK = 0
@@ -317,6 +329,15 @@ class AlphaShapes(NamedTuple):
     ``keep`` (the groups that get a row), ``unsplit``, ``neighbours`` and
     ``ceded`` (``overlap="split"``) and ``planar_area`` (``area`` in the
     computation CRS, kept when ``area`` becomes ``area_m2``).
+
+    Examples
+    --------
+    >>> import geoalpha
+    >>> square = [[0, 0], [4, 0], [4, 4], [0, 4], [2, 2]]
+    >>> triangle = [[9, 9], [12, 9], [9, 12]]
+    >>> res = geoalpha.alpha_shapes(square + triangle, [0] * 5 + [1] * 3)
+    >>> res.n_points.tolist(), res.area.tolist(), res.degenerate.tolist()
+    ([5, 3], [16.0, 4.5], [False, False])
     """
 
     alpha: np.ndarray

@@ -290,6 +290,19 @@ def read_postgis(
     geoalpha.errors.InvalidInputError
         For a malformed URL or table name, both or neither of ``table`` and
         ``sql``, or a missing or ambiguous geometry column.
+
+    Examples
+    --------
+    With a PostGIS database (``docs/postgis.md`` loads the bundled data into
+    one; ``tests/test_postgis.py`` runs this against a real server):
+
+    >>> import geoalpha
+    >>> url = "postgresql://ga@127.0.0.1:5432/gadb"
+    >>> points = geoalpha.read_postgis(url, table="public.accidents")  # doctest: +SKIP
+    >>> points = geoalpha.read_postgis(
+    ...     url, sql="SELECT * FROM public.accidents WHERE year = 2014"
+    ... )  # doctest: +SKIP
+    >>> hulls = points.alpha.hull(by="cluster")  # doctest: +SKIP
     """
     if (table is None) == (sql is None):
         raise InvalidInputError(
@@ -585,6 +598,18 @@ def write_postgis(
         or the table exists (without ``overwrite``); one line, no password.
     geoalpha.errors.InvalidInputError
         For a malformed URL or table name, or a CRS without an EPSG code.
+
+    Examples
+    --------
+    With a PostGIS database (``tests/test_postgis.py`` runs this against a
+    real server):
+
+    >>> import geoalpha
+    >>> from geoalpha import datasets
+    >>> hulls = datasets.load("us_airports").alpha.hull(by="state")
+    >>> url = "postgresql://ga@127.0.0.1:5432/gadb"
+    >>> geoalpha.write_postgis(hulls, url, "public.state_hulls")  # doctest: +SKIP
+    'public.state_hulls'
     """
     import geopandas as gpd
 
