@@ -213,3 +213,56 @@ def geodesic_areas(
         without going down, ``lon`` and ``lat`` of different lengths, or a
         vertex that is not finite or has a latitude beyond +-90.
     """
+
+def split_overlaps(
+    xy: npt.NDArray[np.float64],
+    ring_offsets: npt.NDArray[np.int64],
+    polygon_offsets: npt.NDArray[np.int64],
+    geometry_offsets: npt.NDArray[np.int64],
+    points: npt.NDArray[np.float64],
+    point_offsets: npt.NDArray[np.int64],
+    pairs: npt.NDArray[np.int64],
+    *,
+    threads: int = 0,
+) -> dict[str, np.ndarray | list[str]]:
+    """``overlap="split"``: the overlaps of ``pairs`` given to the nearest point's group.
+
+    One constrained triangulation (spade) per component of overlapping groups
+    holds their rings and, per pair, the Voronoi edges between a point of
+    one group and one of the other; each triangle goes to the group of the
+    nearest point among those whose polygons hold it, and each group's
+    polygon is traced from its triangles (``src/split.rs``). The points in
+    the boxes the pairs share are checked with exact predicates: covered by
+    their group's triangles, strictly inside no other's. Components run on
+    ``threads`` threads with the GIL released.
+
+    Parameters
+    ----------
+    xy, ring_offsets, polygon_offsets, geometry_offsets
+        The polygons, one (Multi)Polygon a geometry, in the layout of
+        :func:`shapely.to_ragged_array` (closed rings).
+    points : ndarray of float64, shape (k, 2), C-contiguous
+        The points of each geometry's group (those its polygon covers).
+    point_offsets : ndarray of int64, shape (G + 1,)
+        Geometry ``g``'s points are ``points[point_offsets[g]:point_offsets[g + 1]]``.
+    pairs : ndarray of int64, shape (p, 2), C-contiguous
+        The pairs of geometries whose interiors overlap.
+    threads : int
+        Threads (0, or more than the cores: every core).
+
+    Returns
+    -------
+    dict
+        ``status`` (uint8, per geometry: 0 in no pair, 1 split, 2 its
+        component failed: a location of two groups, a coordinate spade
+        refuses, a constraint spade routed around a crossing, a failed
+        check); the split polygons as ``xy``, ``ring_offsets``,
+        ``polygon_offsets``, ``geometry_offsets`` (MultiPolygons, empty for
+        status 0 and 2); ``failures``, the reason of each failed component.
+
+    Raises
+    ------
+    ValueError
+        Offsets that do not rise from 0 to the length of what they index, or
+        a pair naming no geometry.
+    """

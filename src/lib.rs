@@ -11,6 +11,7 @@ pub mod mesh;
 pub mod rings;
 pub mod spectrum;
 pub mod sphere;
+pub mod split;
 pub mod stop;
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
@@ -210,6 +211,48 @@ fn py_geodesic_areas<'py>(
     Ok(areas.into_pyarray(py))
 }
 
+/// `overlap="split"`: the overlaps of the `pairs` of polygons given to the
+/// group of the nearest point, every component of overlapping groups from
+/// one constrained triangulation ([`split::split`]; arguments and the dict
+/// returned in `geoalpha/_kernel.pyi`).
+#[pyfunction(name = "split_overlaps")]
+#[pyo3(signature = (xy, ring_offsets, polygon_offsets, geometry_offsets, points, point_offsets, pairs, *, threads=0))]
+#[allow(clippy::too_many_arguments)] // (the layout's arrays, as shapely gives them)
+fn py_split_overlaps<'py>(
+    py: Python<'py>,
+    xy: PyReadonlyArray2<'py, f64>,
+    ring_offsets: PyReadonlyArray1<'py, i64>,
+    polygon_offsets: PyReadonlyArray1<'py, i64>,
+    geometry_offsets: PyReadonlyArray1<'py, i64>,
+    points: PyReadonlyArray2<'py, f64>,
+    point_offsets: PyReadonlyArray1<'py, i64>,
+    pairs: PyReadonlyArray2<'py, i64>,
+    threads: usize,
+) -> PyResult<Bound<'py, PyDict>> {
+    let polygons = split::Polygons {
+        xy: self::points("xy", &xy)?,
+        ring_offsets: ring_offsets.as_slice()?,
+        polygon_offsets: polygon_offsets.as_slice()?,
+        geometry_offsets: geometry_offsets.as_slice()?,
+    };
+    let sites = self::points("points", &points)?;
+    let point_offsets = point_offsets.as_slice()?;
+    if pairs.shape().len() != 2 || pairs.shape()[1] != 2 || !pairs.is_c_contiguous() {
+        return Err(PyValueError::new_err(
+            "pairs must be a C-contiguous array of shape (p, 2)",
+        ));
+    }
+    let pairs = pairs.as_slice()?.as_chunks::<2>().0;
+    let o = detached(py, threads, || {
+        split::split(&polygons, sites, point_offsets, pairs)
+    })?;
+    let d = dict_of!(py, o; status, ring_offsets, polygon_offsets, geometry_offsets);
+    let n = o.xy.len() / 2;
+    d.set_item("xy", o.xy.into_pyarray(py).reshape([n, 2])?)?;
+    d.set_item("failures", o.failures)?;
+    Ok(d)
+}
+
 /// The pool of `threads` threads (0: one per core; more than the cores the
 /// process may run on: that many), built once per process and count
 /// (building one costs more than a small call). A child made by
@@ -245,6 +288,7 @@ fn _kernel(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(py_alpha_shapes, m)?)?;
     m.add_function(wrap_pyfunction!(py_geodesic_areas, m)?)?;
     m.add_function(wrap_pyfunction!(py_sort_groups, m)?)?;
+    m.add_function(wrap_pyfunction!(py_split_overlaps, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add("SPADE_VERSION", env!("GEOALPHA_SPADE_VERSION"))?;
     m.add("NEAR_RTOL", frame::NEAR_RTOL)?;

@@ -7,6 +7,7 @@ polygons, against the input points.
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import warnings
 from pathlib import Path
@@ -99,6 +100,21 @@ def interleaved(n_groups=4, per_group=40, seed=0, spread=1.0, crs=None):
     return gpd.GeoDataFrame(
         {"g": group}, geometry=gpd.points_from_xy(xy[:, 0], xy[:, 1]), crs=crs
     )
+
+
+@contextlib.contextmanager
+def split_path(compiled: bool):
+    """Split in the kernel first (the default) or every pair with GEOS's overlays."""
+    before = overlap_module.COMPILED
+    overlap_module.COMPILED = compiled
+    try:
+        yield
+    finally:
+        overlap_module.COMPILED = before
+
+
+#: Both ways of splitting: the kernel's triangulation (default), GEOS's overlays.
+PATHS = pytest.mark.parametrize("compiled", [True, False], ids=["kernel", "geos"])
 
 
 # --- the option -----------------------------------------------------------------
@@ -223,14 +239,15 @@ def test_a_location_of_two_groups_is_a_boundary_vertex_of_both():
     holes=st.booleans(),
     grid=st.booleans(),
 )
+@PATHS
 def test_random_interleaved_clusters_have_no_overlap(
-    n_groups, per_group, seed, method, holes, grid
+    n_groups, per_group, seed, method, holes, grid, compiled
 ):
     pts = interleaved(n_groups, per_group, seed)
     if grid:  # coordinates on a grid: shared locations, collinear runs, duplicates
         xy = np.round(shapely.get_coordinates(pts.geometry) * 4) / 4
         pts["geometry"] = gpd.points_from_xy(xy[:, 0], xy[:, 1])
-    with warnings.catch_warnings(record=True) as caught:
+    with warnings.catch_warnings(record=True) as caught, split_path(compiled):
         warnings.simplefilter("always")
         split = geoalpha.hull(
             pts, "g", crs=None, method=method, holes=holes, overlap="split"
@@ -347,6 +364,7 @@ def test_a_wrong_union_of_losses_is_found_and_cut_again(monkeypatch):
     first loss. The pairs left overlapping are found and their groups cut again
     with the careful checks; the result is the one without the fault.
     """
+    monkeypatch.setattr(overlap_module, "COMPILED", False)  # (GEOS's overlays)
     pts = interleaved(n_groups=5, per_group=60, seed=3)
     right = geoalpha.hull(pts, "g", crs=None, overlap="split")
     made = []
@@ -374,8 +392,9 @@ def test_a_wrong_union_of_losses_is_found_and_cut_again(monkeypatch):
     ],
     ids=["cells-by-box", "union-by-subsets", "point-on-an-edge"],
 )
+@PATHS
 def test_grid_draws_that_once_failed_split_cleanly(
-    n_groups, per_group, seed, method, holes
+    n_groups, per_group, seed, method, holes, compiled
 ):
     """Draws of the property test above that faster shortcuts once broke.
 
@@ -390,7 +409,7 @@ def test_grid_draws_that_once_failed_split_cleanly(
     pts = interleaved(n_groups, per_group, seed)
     xy = np.round(shapely.get_coordinates(pts.geometry) * 4) / 4
     pts["geometry"] = gpd.points_from_xy(xy[:, 0], xy[:, 1])
-    with warnings.catch_warnings(record=True) as caught:
+    with warnings.catch_warnings(record=True) as caught, split_path(compiled):
         warnings.simplefilter("always")
         split = geoalpha.hull(
             pts, "g", crs=None, method=method, holes=holes, overlap="split"
@@ -410,22 +429,154 @@ def test_threads_split_the_same_polygons():
     assert_clean(four_counts(threaded, pts, "g"))
 
 
+# --- the kernel's split and GEOS's agree -------------------------------------------
+
+
+def _split_both(pts, **options):
+    """``hull(overlap="split")`` both ways, and the pairs GEOS split in the first."""
+    calls = []
+    geos = overlap_module._split_geos
+
+    def spy(*args, **kwargs):
+        calls.append(len(args[6]))  # (its pairs)
+        return geos(*args, **kwargs)
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            overlap_module._split_geos = spy
+            kernel = geoalpha.hull(pts, "g", overlap="split", **options)
+        finally:
+            overlap_module._split_geos = geos
+        with split_path(False):
+            reference = geoalpha.hull(pts, "g", overlap="split", **options)
+    return kernel, reference, sum(calls)
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    n_groups=st.integers(2, 6),
+    per_group=st.integers(3, 60),
+    seed=st.integers(0, 2**32 - 1),
+    method=st.sampled_from(["alpha", "convex", "concave", "knn"]),
+)
+def test_the_kernel_splits_as_the_overlays_do(n_groups, per_group, seed, method):
+    """The kernel's triangulation gives each overlap to the same group as GEOS.
+
+    Independent ways to the same polygons: the Voronoi cells of GEOS cut out of
+    each overlap by float overlays, and the kernel's constrained triangulation.
+    Each group's two polygons differ by at most 1e-9 of its area (rounding at
+    the crossings). Clusters spread three times wider than their centres: most
+    components are the kernel's (dense interleaves go to GEOS, where spade
+    routes a constraint around a crossing; tested below).
+    """
+    pts = interleaved(n_groups, per_group, seed, spread=3.0)
+    kernel, reference, _ = _split_both(pts, crs=None, method=method)
+    a, b = kernel.geometry.array, reference.geometry.array
+    differ = shapely.area(shapely.symmetric_difference(a, b))
+    assert (differ <= 1e-9 * np.maximum(shapely.area(b), 1e-300)).all()
+    assert_clean(four_counts(kernel, pts, "g"))
+
+
+def test_the_kernel_splits_us_airports_by_state_as_the_overlays_do():
+    """Real overlaps (9 pairs of states), every one split in the kernel."""
+    gdf = datasets.load("us_airports")
+    gdf = gdf[gdf["state"].notna()].rename(columns={"state": "g"})
+    kernel, reference, by_geos = _split_both(gdf.reset_index(drop=True))
+    assert by_geos == 0
+    a, b = kernel.geometry.array, reference.geometry.array
+    differ = shapely.area(shapely.symmetric_difference(a, b))
+    assert (differ <= 1e-9 * np.maximum(shapely.area(b), 1e-300)).all()
+    assert (kernel["area_ceded_m2"].to_numpy() > 0).sum() >= 9
+
+
+def test_a_component_the_kernel_cannot_split_is_split_by_geos():
+    """A location of two groups: its component goes to GEOS, the others do not.
+
+    Two far-apart pairs of overlapping squares; one pair shares a point. That
+    pair is split with a half-plane through the point (GEOS's path); the
+    other pair in the kernel. Both hold the four
+    counts, and the kernel's pair is the same as GEOS gives it.
+    """
+    corners = [(0, 0), (2, 0), (2, 2), (0, 2)]
+    rows = []
+    for g, (dx, dy) in enumerate([(0, 0), (1, 0), (10, 0), (11, 0)]):
+        rows += [(f"g{g}", x + dx, y + dy) for x, y in corners]
+    rows += [("g0", 1.5, 1.0), ("g1", 1.5, 1.0)]  # shared by g0 and g1
+    frame = pd.DataFrame(rows, columns=["g", "x", "y"])
+    pts = gpd.GeoDataFrame(frame, geometry=gpd.points_from_xy(frame.x, frame.y))
+    kernel, reference, by_geos = _split_both(pts, crs=None, method="convex")
+    assert by_geos == 1  # the pair g0/g1 only
+    assert_clean(four_counts(kernel, pts, "g"))
+    far = kernel["g"].isin(["g2", "g3"]).to_numpy()
+    np.testing.assert_allclose(kernel["area"][far], [3.0, 3.0], rtol=1e-12)
+    assert shapely.equals_exact(
+        kernel.geometry.array[~far], reference.geometry.array[~far]
+    ).all()
+
+
+def test_constraints_spade_routes_around_a_crossing_fall_back_to_geos():
+    """The Lansing species, all six over one another: many crossings at a point.
+
+    Where constraints cross near one point, spade may route one through a nearby
+    vertex instead of the rounded crossing, which would give a sliver to the
+    wrong group (1e-3 of an area here, found against GEOS). The kernel checks
+    every constraint's path and fails such a component: GEOS splits it, so the
+    result is GEOS's, exactly.
+    """
+    frame = pd.read_csv(LANSING)
+    pts = gpd.GeoDataFrame(
+        frame.rename(columns={"species": "g"}),
+        geometry=gpd.points_from_xy(frame["x"], frame["y"]),
+    )
+    kernel, reference, by_geos = _split_both(pts, crs=None)
+    assert by_geos == 15  # every pair of the six
+    assert shapely.equals_exact(kernel.geometry.array, reference.geometry.array).all()
+
+
+def test_kernel_failures_fall_back_whole(monkeypatch):
+    """Every component the kernel reports failed is split by GEOS instead."""
+    pts = interleaved(n_groups=5, per_group=60, seed=3)
+    real = overlap_module._kernel
+
+    class Failing:
+        def __getattr__(self, name):
+            return getattr(real, name)
+
+        def split_overlaps(self, *args, **kwargs):
+            got = real.split_overlaps(*args, **kwargs)
+            got["status"][:] = 2  # (as for a component spade could not do)
+            return got
+
+    with split_path(False), warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        reference = geoalpha.hull(pts, "g", crs=None, overlap="split")
+    monkeypatch.setattr(overlap_module, "_kernel", Failing())
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        split = geoalpha.hull(pts, "g", crs=None, overlap="split")
+    assert shapely.equals_exact(split.geometry.array, reference.geometry.array).all()
+
+
 # --- real data --------------------------------------------------------------------
 
 
-def test_us_airports_by_state():
+@PATHS
+def test_us_airports_by_state(compiled):
     gdf = datasets.load("us_airports")
     gdf = gdf[gdf["state"].notna()].reset_index(drop=True)
     kept = geoalpha.hull(gdf, "state")
     before = four_counts(kept, gdf, "state")
     assert before["intersection"] > 0 and before["foreign"] > 0
-    split = geoalpha.hull(gdf, "state", overlap="split")
+    with split_path(compiled):
+        split = geoalpha.hull(gdf, "state", overlap="split")
     assert_clean(four_counts(split, gdf, "state"))
     assert (split["area_ceded_m2"] > 0).sum() >= 9  # at least one side of 9 pairs
 
 
 @pytest.mark.parametrize("name", ["uk_clusters", "stats19", "lansing"], ids=str)
-def test_real_datasets_have_no_overlap(name):
+@PATHS
+def test_real_datasets_have_no_overlap(name, compiled):
     if name == "lansing":
         frame = pd.read_csv(LANSING)
         pts = gpd.GeoDataFrame(
@@ -438,7 +589,8 @@ def test_real_datasets_have_no_overlap(name):
             {"uk_clusters": "Cluster", "stats19": "Local_Authority_(Highway)"}[name],
             "auto",
         )
-    split = geoalpha.hull(pts, by, crs=crs, overlap="split")
+    with split_path(compiled):
+        split = geoalpha.hull(pts, by, crs=crs, overlap="split")
     assert_clean(four_counts(split, pts, by))
     if name == "lansing":  # the species interleave: every one gave and got area
         assert (split["area_ceded"] > 0).all()  # (planar: no CRS)

@@ -13,7 +13,7 @@ import shapely
 from geoalpha import _core as kernel
 from geoalpha import _kernel
 
-__all__ = ["geodesic_areas"]
+__all__ = ["geodesic_areas", "layout"]
 
 _POLYGONAL = (shapely.GeometryType.POLYGON, shapely.GeometryType.MULTIPOLYGON)
 
@@ -68,7 +68,7 @@ def geodesic_areas(
     out = np.zeros(len(geometry))
     if not len(geoms):
         return out
-    coords, (rings, polygons, geometries) = _layout(geoms)
+    coords, (rings, polygons, geometries) = layout(geoms)
     lon, lat = coords[:, 0], coords[:, 1]
     if to_lonlat is not None and len(coords):
         # a closed ring's last vertex repeats its first: move each vertex once
@@ -90,7 +90,7 @@ def geodesic_areas(
     return np.bincount(owner, weights=areas, minlength=len(geometry))
 
 
-def _layout(geoms: np.ndarray) -> tuple[np.ndarray, tuple[np.ndarray, ...]]:
+def layout(geoms: np.ndarray) -> tuple[np.ndarray, tuple[np.ndarray, ...]]:
     """Vertices and the ring, polygon and geometry offsets the kernel takes."""
     # Polygons without holes (most hulls): offsets from vertex counts (faster).
     one_ring = shapely.get_type_id(geoms) == shapely.GeometryType.POLYGON

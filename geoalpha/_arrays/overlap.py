@@ -18,10 +18,15 @@ import shapely
 from scipy.spatial import cKDTree
 
 from geoalpha import _core as kernel
+from geoalpha import _kernel
+from geoalpha._arrays.area import layout
 from geoalpha._arrays.guarantee import EMPTY_POLYGON, covered, enforce
 
 __all__ = ["Split", "overlapping_pairs", "split_overlaps"]
 
+#: Split in the kernel (``src/split.rs``) first; False: every pair by GEOS
+#: (the tests run both).
+COMPILED = True
 #: Relative slack on the radius within which points may be nearest to an overlap.
 _SLACK = 1e-9
 #: Largest radius (of the polygon's extent) of a disc :func:`_carve` cuts out.
@@ -169,6 +174,141 @@ def split_overlaps(
     take = np.flatnonzero(own)
     order = take[np.argsort(codes[take], kind="stable")]
     starts = np.searchsorted(codes[order], np.arange(n + 1))
+    out = geoms.copy()
+    done = np.zeros(n, dtype=bool)
+    if COMPILED:
+        out, done = _split_compiled(geoms, xy, order, starts, pairs, n_jobs)
+    rest = pairs[~done[pairs[:, 0]]]  # (a component is done whole or not at all)
+    failed = np.zeros(n, dtype=bool)
+    still = np.zeros((0, 2), dtype=np.int64)
+    shared = np.zeros((0, 2))
+    shared_groups = np.zeros((0, 2), dtype=np.int64)
+    if len(rest):
+        geos = _split_geos(geoms, xy, codes, own, order, starts, rest, n_jobs)
+        out = np.where(done, out, geos.geometry)
+        failed, still = geos.failed, geos.still
+        shared, shared_groups = geos.shared, geos.shared_groups
+    return Split(
+        out,
+        involved & ~failed,
+        _neighbours(out, touching, np.where(failed[touching].any(axis=1), False, inner))
+        if len(touching)
+        else np.zeros(n, dtype=np.int64),
+        shared,
+        shared_groups,
+        failed,
+        still,
+    )
+
+
+def _split_compiled(geoms, xy, order, starts, pairs, n_jobs):
+    """Split the overlaps of ``pairs`` in the kernel; return the polygons, done.
+
+    One constrained triangulation per component of overlapping groups
+    (``src/split.rs``): every triangle goes to the group of the nearest point
+    among those whose polygons hold it, and each group's polygon is traced
+    from its triangles, so the split polygons are interior-disjoint by
+    construction, with the same vertices where they meet. The kernel checks
+    the points where polygons changed (in the boxes the pairs share), with
+    exact predicates on the triangles: each covered by its group's and
+    strictly inside no other's; here each polygon is checked valid (GEOS).
+    ``done[g]`` is False for the groups of a component the kernel could not
+    split (a location of two groups, a coordinate it refuses, a check that
+    failed): :func:`_split_geos` splits those.
+    """
+    n = len(geoms)
+    inv = np.unique(pairs)
+    local = np.full(n, -1, dtype=np.int64)
+    local[inv] = np.arange(len(inv))
+    coords, (rings, polygons, index) = layout(geoms[inv])
+    sites = np.concatenate([order[starts[g] : starts[g + 1]] for g in inv])
+    counts = starts[inv + 1] - starts[inv]
+    got = _kernel.split_overlaps(
+        np.ascontiguousarray(coords, dtype=np.float64),
+        rings,
+        polygons,
+        index,
+        np.ascontiguousarray(xy[sites], dtype=np.float64),
+        np.concatenate([[0], np.cumsum(counts)]).astype(np.int64),
+        np.ascontiguousarray(local[pairs], dtype=np.int64),
+        threads=kernel.threads(n_jobs),
+    )
+    out = geoms.copy()
+    done = np.zeros(n, dtype=bool)
+    ok = got["status"] == 1
+    if not ok.any():
+        return out, done
+    split = shapely.from_ragged_array(
+        shapely.GeometryType.MULTIPOLYGON,
+        got["xy"],
+        (got["ring_offsets"], got["polygon_offsets"], got["geometry_offsets"]),
+    )
+    one = shapely.get_num_geometries(split) == 1  # as GEOS's overlays return it
+    split[one] = shapely.get_geometry(split[one], 0)
+    which = inv[ok]
+    out[which] = split[ok]
+    done[which] = True
+    bad = np.zeros(n, dtype=bool)
+    chunks = np.array_split(np.flatnonzero(ok), max(1, kernel.threads(n_jobs)))
+    valid = _map(lambda at: shapely.is_valid(split[at]), chunks, n_jobs, at_least=1)
+    bad[inv[np.concatenate(chunks)]] = ~np.concatenate(valid)
+    if bad.any():
+        out, bad = _repaired(out, bad, xy, order, starts, pairs[done[pairs[:, 0]]])
+    if bad.any():  # their components are split by GEOS instead
+        component = _components(n, pairs)
+        done &= ~np.isin(component, component[bad])
+    return np.where(done, out, geoms), done
+
+
+def _repaired(out, bad, xy, order, starts, pairs):
+    """Repair the kernel's split polygons GEOS finds invalid; return them, failed.
+
+    Constraints that cross near one point can leave vertices a few units in the
+    last place apart, a ring doubling back on itself there (spade rounds each
+    crossing); :func:`shapely.make_valid` removes that. A repaired polygon is
+    checked again with GEOS: its points covered, none of its neighbours'
+    strictly inside, no overlap with a neighbour beyond 1e-9 of the larger.
+    """
+    out = out.copy()
+    which = np.flatnonzero(bad)
+    out[which] = _areal(shapely.make_valid(out[which], method="structure"))
+    failed = bad & ~shapely.is_valid(out)
+    for g in which[~failed[which]]:
+        mine = xy[order[starts[g] : starts[g + 1]]]
+        near = pairs[(pairs == g).any(axis=1)]
+        others = near[near != g]
+        theirs = np.concatenate([xy[order[starts[h] : starts[h + 1]]] for h in others])
+        shapely.prepare(out[g])
+        failed[g] = (
+            not shapely.intersects_xy(out[g], *mine.T).all()
+            or shapely.contains_xy(out[g], *theirs.T).any()
+            or _still_overlap(np.repeat(out[g], len(others)), out[others]).any()
+        )
+    return out, failed
+
+
+def _components(n: int, pairs: np.ndarray) -> np.ndarray:
+    """Return the component of every group in the graph of ``pairs`` (a label each)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    return connected_components(graph, directed=False)[1]
+
+
+def _split_geos(geoms, xy, codes, own, order, starts, pairs, n_jobs) -> Split:
+    """Split the overlaps of ``pairs`` with GEOS's overlays (the general way).
+
+    Per pair, the Voronoi cells (GEOS) of the points that can be nearest to
+    the overlap, restricted to it (:func:`_split_pair`); each group's polygon
+    less what it lost (:func:`_cut`), checked. A location holding points of
+    both groups is split here (a half-plane through it, :func:`_half_plane`).
+    Returns a :class:`Split` whose ``neighbours`` is not filled.
+    """
+    n = len(geoms)
+    involved = np.zeros(n, dtype=bool)
+    involved[pairs.ravel()] = True
+    take = np.flatnonzero(own)
     losses: list[list] = [[] for _ in range(n)]
     broken = np.zeros(n, dtype=bool)
     shared, shared_groups = [], []
@@ -248,9 +388,7 @@ def split_overlaps(
     return Split(
         out,
         mask & ~failed,
-        _neighbours(out, touching, np.where(failed[touching].any(axis=1), False, inner))
-        if len(touching)
-        else np.zeros(n, dtype=np.int64),
+        np.zeros(n, dtype=np.int64),
         np.concatenate(shared) if shared else np.zeros((0, 2)),
         np.concatenate(shared_groups) if shared else np.zeros((0, 2), dtype=np.int64),
         failed,
@@ -372,7 +510,7 @@ def _carve(geoms, xy, foreign: dict, mine: dict) -> np.ndarray:
     return geoms
 
 
-def _map(func, items, n_jobs: int | None) -> list:
+def _map(func, items, n_jobs: int | None, at_least: int = _THREAD_ITEMS) -> list:
     """Return ``[func(item) for item in items]``, on threads from many items.
 
     GEOS releases the GIL, so the pairs (or groups) are split in parallel; each
@@ -380,7 +518,7 @@ def _map(func, items, n_jobs: int | None) -> list:
     ``n_jobs``.
     """
     items = list(items)
-    workers = min(kernel.threads(n_jobs), len(items) // _THREAD_ITEMS)
+    workers = min(kernel.threads(n_jobs), len(items) // at_least)
     if workers <= 1:
         return [func(item) for item in items]
     with ThreadPoolExecutor(workers) as pool:
