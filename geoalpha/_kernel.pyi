@@ -225,7 +225,7 @@ def split_overlaps(
     *,
     threads: int = 0,
 ) -> dict[str, np.ndarray | list[str]]:
-    """``overlap="split"``: the overlaps of ``pairs`` given to the nearest point's group.
+    """``overlap="split"``: each overlap of ``pairs`` to the nearest point's group.
 
     One constrained triangulation (spade) per component of overlapping groups
     holds their rings and, per pair, the Voronoi edges between a point of
