@@ -249,9 +249,10 @@ def _split_compiled(geoms, xy, order, starts, pairs, n_jobs):
     out[which] = split[ok]
     done[which] = True
     bad = np.zeros(n, dtype=bool)
-    chunks = np.array_split(np.flatnonzero(ok), max(1, kernel.threads(n_jobs)))
-    valid = _map(lambda at: shapely.is_valid(split[at]), chunks, n_jobs, at_least=1)
-    bad[inv[np.concatenate(chunks)]] = ~np.concatenate(valid)
+    # (in this thread: shapely.is_valid silences GEOS's warnings with
+    # warnings.catch_warnings, which on another thread would drop the
+    # caller's own record of warnings meanwhile)
+    bad[which] = ~shapely.is_valid(split[ok])
     if bad.any():
         out, bad = _repaired(out, bad, xy, order, starts, pairs[done[pairs[:, 0]]])
     if bad.any():  # their components are split by GEOS instead
@@ -510,7 +511,7 @@ def _carve(geoms, xy, foreign: dict, mine: dict) -> np.ndarray:
     return geoms
 
 
-def _map(func, items, n_jobs: int | None, at_least: int = _THREAD_ITEMS) -> list:
+def _map(func, items, n_jobs: int | None) -> list:
     """Return ``[func(item) for item in items]``, on threads from many items.
 
     GEOS releases the GIL, so the pairs (or groups) are split in parallel; each
@@ -518,7 +519,7 @@ def _map(func, items, n_jobs: int | None, at_least: int = _THREAD_ITEMS) -> list
     ``n_jobs``.
     """
     items = list(items)
-    workers = min(kernel.threads(n_jobs), len(items) // at_least)
+    workers = min(kernel.threads(n_jobs), len(items) // _THREAD_ITEMS)
     if workers <= 1:
         return [func(item) for item in items]
     with ThreadPoolExecutor(workers) as pool:
