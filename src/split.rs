@@ -485,14 +485,10 @@ fn split_component(input: &Input, groups: &[usize], pairs: &[[usize; 2]]) -> Com
         .map(|(&[a, b], &common)| {
             let (pa, pb) = (input.points(a), input.points(b));
             let shapes = [&shapes[local[&a]], &shapes[local[&b]]];
-            let sites = match margin(pa, pb, shapes, common) {
-                Some(m) => {
-                    let frame = [common[0] - m, common[1] - m, common[2] + m, common[3] + m];
-                    let inside = |p: &&Xy| {
-                        p[0] >= frame[0] && p[0] <= frame[2] && p[1] >= frame[1] && p[1] <= frame[3]
-                    };
-                    let na: Vec<Xy> = pa.iter().filter(inside).copied().collect();
-                    let nb: Vec<Xy> = pb.iter().filter(inside).copied().collect();
+            let sites = match near_overlap(pa, pb, shapes, common) {
+                Some(near) => {
+                    let na: Vec<Xy> = pa.iter().filter(|p| near.keeps(p)).copied().collect();
+                    let nb: Vec<Xy> = pb.iter().filter(|p| near.keeps(p)).copied().collect();
                     voronoi(&na, &nb)?
                 }
                 None => voronoi(pa, pb)?,
@@ -706,21 +702,50 @@ fn owners(
     Ok(owner)
 }
 
-/// Cells per side of the grid [`margin`] lays over a pair's common box.
+/// Cells per side of the grid [`near_overlap`] lays over a pair's common box.
 const GRID: usize = 16;
 
-/// How far beyond the common `frame` of a pair's polygons a point of either
-/// group can still be the nearest to a location of their overlap (None: it
-/// could not be bounded, take every point).
+/// Where the points that can be nearest to a location of a pair's overlap
+/// lie: within `reach` of a cell of the grid over the common box that may
+/// meet both polygons (see [`near_overlap`]).
+struct Near {
+    frame: Box2,
+    cell: [f64; 2],
+    reach: f64,
+    /// Cells within `reach` of a cell that counts (clamped to the grid).
+    marked: Vec<bool>,
+}
+
+impl Near {
+    /// Whether `p` may be the nearest point to a location of the overlap.
+    fn keeps(&self, p: &Xy) -> bool {
+        let (f, r) = (self.frame, self.reach);
+        if !(p[0] >= f[0] - r && p[0] <= f[2] + r && p[1] >= f[1] - r && p[1] <= f[3] + r) {
+            return false;
+        }
+        let clamp = |v: f64| (v.floor().max(0.0) as usize).min(GRID - 1);
+        let (i, j) = (
+            clamp((p[0] - f[0]) / self.cell[0]),
+            clamp((p[1] - f[1]) / self.cell[1]),
+        );
+        self.marked[j * GRID + i]
+    }
+}
+
+/// The points of either group that can be the nearest to a location of the
+/// overlap of a pair's polygons, within their common `frame` (None: it could
+/// not be bounded, take every point).
 ///
 /// A grid over the frame; a cell counts if it may meet both polygons (its
 /// centre inside, or an edge crossing it). From a location in a cell, the
 /// nearest point is at most `d + h` away, `d` bounding the distance from the
 /// cell's centre to its nearest point (a point found in the cell or the
 /// rings of cells around it) and `h` half the cell's diagonal; so a point
-/// farther than `d + 2h` from the centre is nearer to none of its locations,
-/// and none beyond the largest such reach past the frame is.
-fn margin(a: &[Xy], b: &[Xy], shapes: [&Shape; 2], frame: Box2) -> Option<f64> {
+/// farther than `d + 2h` from the centre is nearer to none of its locations.
+/// With `reach` the largest such bound, a point is kept if it lies within
+/// `reach` of the frame, in a cell (clamped to the grid) that many cells or
+/// fewer from one that counts.
+fn near_overlap(a: &[Xy], b: &[Xy], shapes: [&Shape; 2], frame: Box2) -> Option<Near> {
     let (w, h) = (
         (frame[2] - frame[0]) / GRID as f64,
         (frame[3] - frame[1]) / GRID as f64,
@@ -745,6 +770,7 @@ fn margin(a: &[Xy], b: &[Xy], shapes: [&Shape; 2], frame: Box2) -> Option<f64> {
     }
     let half = 0.5 * w.hypot(h);
     let mut reach: f64 = 0.0;
+    let mut counts = vec![false; GRID * GRID];
     for j in 0..GRID {
         for i in 0..GRID {
             let cell = [
@@ -756,6 +782,7 @@ fn margin(a: &[Xy], b: &[Xy], shapes: [&Shape; 2], frame: Box2) -> Option<f64> {
             if !shapes.iter().all(|s| s.may_meet(cell)) {
                 continue;
             }
+            counts[j * GRID + i] = true;
             let centre = [(cell[0] + cell[2]) / 2.0, (cell[1] + cell[3]) / 2.0];
             let mut d = f64::INFINITY;
             for ring in 0..GRID {
@@ -779,7 +806,28 @@ fn margin(a: &[Xy], b: &[Xy], shapes: [&Shape; 2], frame: Box2) -> Option<f64> {
         }
     }
     // (rounding: a little more)
-    Some(reach * (1.0 + 1e-9) + 1e-9 * (frame[2] - frame[0]).max(frame[3] - frame[1]))
+    let reach = reach * (1.0 + 1e-9) + 1e-9 * (frame[2] - frame[0]).max(frame[3] - frame[1]);
+    // A point within `reach` of a counting cell's centre is at most this many
+    // cells from it, in either direction (its own cell clamped to the grid).
+    let k = ((reach / w.min(h)).ceil() as usize).min(GRID);
+    let mut marked = vec![false; GRID * GRID];
+    for j in 0..GRID {
+        for i in 0..GRID {
+            if counts[j * GRID + i] {
+                for jj in j.saturating_sub(k)..=(j + k).min(GRID - 1) {
+                    for ii in i.saturating_sub(k)..=(i + k).min(GRID - 1) {
+                        marked[jj * GRID + ii] = true;
+                    }
+                }
+            }
+        }
+    }
+    Some(Near {
+        frame,
+        cell: [w, h],
+        reach,
+        marked,
+    })
 }
 
 /// The Delaunay triangulation of two groups' points (side 0 and 1).

@@ -9,6 +9,7 @@ covered by its own group's polygon and is strictly inside no other
 
 from __future__ import annotations
 
+import functools
 import itertools
 from concurrent.futures import ThreadPoolExecutor
 from typing import NamedTuple
@@ -249,10 +250,12 @@ def _split_compiled(geoms, xy, order, starts, pairs, n_jobs):
     out[which] = split[ok]
     done[which] = True
     bad = np.zeros(n, dtype=bool)
-    # (in this thread: shapely.is_valid silences GEOS's warnings with
-    # warnings.catch_warnings, which on another thread would drop the
-    # caller's own record of warnings meanwhile)
-    bad[which] = ~shapely.is_valid(split[ok])
+    # On threads, by is_valid_reason: shapely.is_valid silences GEOS with
+    # warnings.catch_warnings, which off the main thread would swap the
+    # caller's warning filters (and drop its record of warnings) meanwhile.
+    chunks = np.array_split(np.flatnonzero(ok), max(1, kernel.threads(n_jobs)))
+    valid = _map(_valid, chunks, n_jobs, split=split, at_least=1)
+    bad[inv[np.concatenate(chunks)]] = ~np.concatenate(valid)
     if bad.any():
         out, bad = _repaired(out, bad, xy, order, starts, pairs[done[pairs[:, 0]]])
     if bad.any():  # their components are split by GEOS instead
@@ -286,6 +289,11 @@ def _repaired(out, bad, xy, order, starts, pairs):
             or _still_overlap(np.repeat(out[g], len(others)), out[others]).any()
         )
     return out, failed
+
+
+def _valid(at: np.ndarray, split: np.ndarray) -> np.ndarray:
+    """Whether ``split[at]`` are valid (GEOS), without ``warnings.catch_warnings``."""
+    return shapely.is_valid_reason(split[at]) == "Valid Geometry"
 
 
 def _components(n: int, pairs: np.ndarray) -> np.ndarray:
@@ -511,15 +519,19 @@ def _carve(geoms, xy, foreign: dict, mine: dict) -> np.ndarray:
     return geoms
 
 
-def _map(func, items, n_jobs: int | None) -> list:
-    """Return ``[func(item) for item in items]``, on threads from many items.
+def _map(func, items, n_jobs: int | None, at_least: int = _THREAD_ITEMS, **kw) -> list:
+    """Return ``[func(item, **kw) for item in items]``, on threads from many items.
 
     GEOS releases the GIL, so the pairs (or groups) are split in parallel; each
     item is independent and the results come in order: the same for any
-    ``n_jobs``.
+    ``n_jobs``. Threads from ``at_least`` items each. ``func`` must not use
+    ``warnings.catch_warnings`` (process-wide: it would swap the caller's
+    filters meanwhile), as ``shapely.is_valid`` and ``shapely.total_bounds`` do.
     """
     items = list(items)
-    workers = min(kernel.threads(n_jobs), len(items) // _THREAD_ITEMS)
+    if kw:
+        func = functools.partial(func, **kw)
+    workers = min(kernel.threads(n_jobs), len(items) // at_least)
     if workers <= 1:
         return [func(item) for item in items]
     with ThreadPoolExecutor(workers) as pool:
