@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import functools
 import itertools
+import warnings
 from concurrent.futures import ThreadPoolExecutor
 from typing import NamedTuple
 
@@ -222,15 +223,17 @@ def _split_compiled(geoms, xy, order, starts, pairs, n_jobs):
     local = np.full(n, -1, dtype=np.int64)
     local[inv] = np.arange(len(inv))
     coords, (rings, polygons, index) = layout(geoms[inv])
-    sites = np.concatenate([order[starts[g] : starts[g + 1]] for g in inv])
     counts = starts[inv + 1] - starts[inv]
+    first = np.concatenate([[0], np.cumsum(counts)])
+    # (each group's slice of ``order``, one after the other, in one gather)
+    sites = order[np.repeat(starts[inv] - first[:-1], counts) + np.arange(first[-1])]
     got = _kernel.split_overlaps(
         np.ascontiguousarray(coords, dtype=np.float64),
         rings,
         polygons,
         index,
         np.ascontiguousarray(xy[sites], dtype=np.float64),
-        np.concatenate([[0], np.cumsum(counts)]).astype(np.int64),
+        first.astype(np.int64),
         np.ascontiguousarray(local[pairs], dtype=np.int64),
         threads=kernel.threads(n_jobs),
     )
@@ -250,11 +253,14 @@ def _split_compiled(geoms, xy, order, starts, pairs, n_jobs):
     out[which] = split[ok]
     done[which] = True
     bad = np.zeros(n, dtype=bool)
-    # On threads, by is_valid_reason: shapely.is_valid silences GEOS with
-    # warnings.catch_warnings, which off the main thread would swap the
-    # caller's warning filters (and drop its record of warnings) meanwhile.
+    # On threads. shapely.is_valid silences GEOS with warnings.catch_warnings,
+    # which swaps the process's warning filters: here, inside this thread's own
+    # catch_warnings, they only swap its "ignore" (the caller's filters and
+    # record of warnings are restored when all have ended).
     chunks = np.array_split(np.flatnonzero(ok), max(1, kernel.threads(n_jobs)))
-    valid = _map(_valid, chunks, n_jobs, split=split, at_least=1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        valid = _map(_valid, chunks, n_jobs, split=split, at_least=1)
     bad[inv[np.concatenate(chunks)]] = ~np.concatenate(valid)
     if bad.any():
         out, bad = _repaired(out, bad, xy, order, starts, pairs[done[pairs[:, 0]]])
@@ -292,8 +298,8 @@ def _repaired(out, bad, xy, order, starts, pairs):
 
 
 def _valid(at: np.ndarray, split: np.ndarray) -> np.ndarray:
-    """Whether ``split[at]`` are valid (GEOS), without ``warnings.catch_warnings``."""
-    return shapely.is_valid_reason(split[at]) == "Valid Geometry"
+    """Whether ``split[at]`` are valid (GEOS)."""
+    return shapely.is_valid(split[at])
 
 
 def _components(n: int, pairs: np.ndarray) -> np.ndarray:
@@ -524,9 +530,10 @@ def _map(func, items, n_jobs: int | None, at_least: int = _THREAD_ITEMS, **kw) -
 
     GEOS releases the GIL, so the pairs (or groups) are split in parallel; each
     item is independent and the results come in order: the same for any
-    ``n_jobs``. Threads from ``at_least`` items each. ``func`` must not use
-    ``warnings.catch_warnings`` (process-wide: it would swap the caller's
-    filters meanwhile), as ``shapely.is_valid`` and ``shapely.total_bounds`` do.
+    ``n_jobs``. Threads from ``at_least`` items each. A ``func`` that uses
+    ``warnings.catch_warnings`` (process-wide), as ``shapely.is_valid`` and
+    ``shapely.total_bounds`` do, must run inside the caller's own
+    ``catch_warnings``, or it swaps the caller's filters meanwhile.
     """
     items = list(items)
     if kw:
