@@ -31,6 +31,7 @@ use spade::{
 };
 
 use crate::frame::Xy;
+use crate::mesh::Union;
 
 /// Polygons in geoarrow's MultiPolygon layout (shapely's `to_ragged_array`):
 /// geometry `g` is polygons `geometry_offsets[g]..geometry_offsets[g + 1]`,
@@ -92,25 +93,23 @@ pub fn split(
 ) -> Result<Output, String> {
     let n = polygons.geometry_offsets.len().saturating_sub(1);
     check_offsets(polygons, points, point_offsets, n)?;
-    let mut parent: Vec<usize> = (0..n).collect();
+    let mut union = Union::new(n);
     for &[a, b] in pairs {
-        let (a, b) = (index(a, n)?, index(b, n)?);
-        let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
-        parent[ra.max(rb)] = ra.min(rb);
+        union.union(index(a, n)?, index(b, n)?);
     }
-    let mut members: HashMap<usize, Vec<usize>> = HashMap::new();
+    let mut members: HashMap<u32, Vec<usize>> = HashMap::new();
     let mut in_pair = vec![false; n];
     for &[a, b] in pairs {
         in_pair[a as usize] = true;
         in_pair[b as usize] = true;
     }
     for g in (0..n).filter(|&g| in_pair[g]) {
-        let root = find(&mut parent, g);
+        let root = union.find(g as u32);
         members.entry(root).or_default().push(g);
     }
-    let mut of_component: HashMap<usize, Vec<[usize; 2]>> = HashMap::new();
+    let mut of_component: HashMap<u32, Vec<[usize; 2]>> = HashMap::new();
     for &[a, b] in pairs {
-        let root = find(&mut parent, a as usize);
+        let root = union.find(a as u32);
         of_component
             .entry(root)
             .or_default()
@@ -260,19 +259,11 @@ fn check_offsets(
     Ok(())
 }
 
-fn index(i: i64, n: usize) -> Result<usize, String> {
-    usize::try_from(i)
+fn index(i: i64, n: usize) -> Result<u32, String> {
+    u32::try_from(i)
         .ok()
-        .filter(|&i| i < n)
+        .filter(|&i| (i as usize) < n)
         .ok_or_else(|| format!("pair names geometry {i}, of {n}"))
-}
-
-fn find(parent: &mut [usize], mut a: usize) -> usize {
-    while parent[a] != a {
-        parent[a] = parent[parent[a]];
-        a = parent[a];
-    }
-    a
 }
 
 /// A point of a pair's Voronoi diagram: its position and group (0 or 1).
@@ -985,18 +976,14 @@ fn trace(
 ) -> Result<Vec<Vec<Polygon>>, String> {
     let owner_of = |f: FixedFaceHandle<spade::handles::PossiblyOuterTag>| owner[f.index()];
     // Triangles of one group joined across the edges inside its region.
-    let mut parent: Vec<usize> = (0..owner.len()).collect();
+    let mut joined = Union::new(owner.len());
     let mut boundary: Vec<FixedDirectedEdgeHandle> = Vec::new();
     for e in cdt.directed_edges() {
         let (left, right) = (e.face().fix(), e.rev().face().fix());
         let Some(g) = owner_of(left) else { continue };
         if owner_of(right) == Some(g) {
             if left.index() < right.index() {
-                let (a, b) = (
-                    find(&mut parent, left.index()),
-                    find(&mut parent, right.index()),
-                );
-                parent[a.max(b)] = a.min(b);
+                joined.union(left.index() as u32, right.index() as u32);
             }
         } else {
             boundary.push(e.fix());
@@ -1061,13 +1048,13 @@ fn trace(
         }
     }
     // Shells (counter-clockwise) and holes, by connected triangles.
-    let mut shells: HashMap<usize, (usize, usize)> = HashMap::new();
+    let mut shells: HashMap<u32, (usize, usize)> = HashMap::new();
     let mut out: Vec<Vec<Polygon>> = vec![Vec::new(); n];
-    let mut holes: Vec<(usize, Vec<Xy>)> = Vec::new();
+    let mut holes: Vec<(u32, Vec<Xy>)> = Vec::new();
     for ring in loops {
         let face = cdt.directed_edge(handles[ring[0]]).face();
         let g = owner_of(face.fix()).ok_or("a ring of no group")?;
-        let root = find(&mut parent, face.fix().index());
+        let root = joined.find(face.fix().index() as u32);
         // A vertex made by splitting two constraints where they cross, where
         // the ring runs straight on (to 1e-9 of a radian: along the
         // constraint it split), is left out: the ring keeps the edge it had

@@ -113,6 +113,22 @@ def split_path(compiled: bool):
         overlap_module.COMPILED = before
 
 
+def on_grid(pts):
+    """The points rounded to a 0.25 grid: shared locations, collinear runs."""
+    xy = np.round(shapely.get_coordinates(pts.geometry) * 4) / 4
+    return pts.assign(geometry=gpd.points_from_xy(xy[:, 0], xy[:, 1]))
+
+
+def split_named(pts, compiled: bool, **options):
+    """``hull(overlap="split")`` (``crs=None``) one way, and the warnings that name
+    groups kept unsplit or pairs still overlapping."""
+    with warnings.catch_warnings(record=True) as caught, split_path(compiled):
+        warnings.simplefilter("always")
+        split = geoalpha.hull(pts, "g", crs=None, overlap="split", **options)
+    named = [str(w.message) for w in caught]
+    return split, [m for m in named if "still overlap" in m or "kept their hull" in m]
+
+
 #: Both ways of splitting: the kernel's triangulation (default), GEOS's overlays.
 PATHS = pytest.mark.parametrize("compiled", [True, False], ids=["kernel", "geos"])
 
@@ -245,15 +261,8 @@ def test_random_interleaved_clusters_have_no_overlap(
 ):
     pts = interleaved(n_groups, per_group, seed)
     if grid:  # coordinates on a grid: shared locations, collinear runs, duplicates
-        xy = np.round(shapely.get_coordinates(pts.geometry) * 4) / 4
-        pts["geometry"] = gpd.points_from_xy(xy[:, 0], xy[:, 1])
-    with warnings.catch_warnings(record=True) as caught, split_path(compiled):
-        warnings.simplefilter("always")
-        split = geoalpha.hull(
-            pts, "g", crs=None, method=method, holes=holes, overlap="split"
-        )
-    named = [str(w.message) for w in caught]
-    named = [m for m in named if "still overlap" in m or "kept their hull" in m]
+        pts = on_grid(pts)
+    split, named = split_named(pts, compiled, method=method, holes=holes)
     counts = four_counts(split, pts, "g")
     # Where GEOS's float overlay cannot cut a pair (about 1 % of such random
     # draws), the groups are named in a warning: never a silent overlap.
@@ -406,16 +415,9 @@ def test_grid_draws_that_once_failed_split_cleanly(
     overlaps' boxes missed a point of a touching hull left 3e-17 inside by
     rounding. Each now splits without a warning and holds the four counts.
     """
-    pts = interleaved(n_groups, per_group, seed)
-    xy = np.round(shapely.get_coordinates(pts.geometry) * 4) / 4
-    pts["geometry"] = gpd.points_from_xy(xy[:, 0], xy[:, 1])
-    with warnings.catch_warnings(record=True) as caught, split_path(compiled):
-        warnings.simplefilter("always")
-        split = geoalpha.hull(
-            pts, "g", crs=None, method=method, holes=holes, overlap="split"
-        )
-    named = [str(w.message) for w in caught]
-    assert not [m for m in named if "still overlap" in m or "kept their hull" in m]
+    pts = on_grid(interleaved(n_groups, per_group, seed))
+    split, named = split_named(pts, compiled, method=method, holes=holes)
+    assert not named
     assert_clean(four_counts(split, pts, "g"))
 
 
@@ -430,6 +432,18 @@ def test_threads_split_the_same_polygons():
 
 
 # --- the kernel's split and GEOS's agree -------------------------------------------
+
+
+def two_pairs_of_squares():
+    """Squares g0/g1 overlapping by half, sharing the point (1.5, 1); g2/g3 alike,
+    10 units away, sharing none (points at the corners)."""
+    corners = [(0, 0), (2, 0), (2, 2), (0, 2)]
+    rows = []
+    for g, dx in enumerate([0, 1, 10, 11]):
+        rows += [(f"g{g}", x + dx, y) for x, y in corners]
+    rows += [("g0", 1.5, 1.0), ("g1", 1.5, 1.0)]
+    frame = pd.DataFrame(rows, columns=["g", "x", "y"])
+    return gpd.GeoDataFrame(frame, geometry=gpd.points_from_xy(frame.x, frame.y))
 
 
 def _split_both(pts, **options):
@@ -511,13 +525,7 @@ def test_a_component_the_kernel_cannot_split_is_split_by_geos():
     other pair in the kernel. Both hold the four
     counts, and the kernel's pair is the same as GEOS gives it.
     """
-    corners = [(0, 0), (2, 0), (2, 2), (0, 2)]
-    rows = []
-    for g, (dx, dy) in enumerate([(0, 0), (1, 0), (10, 0), (11, 0)]):
-        rows += [(f"g{g}", x + dx, y + dy) for x, y in corners]
-    rows += [("g0", 1.5, 1.0), ("g1", 1.5, 1.0)]  # shared by g0 and g1
-    frame = pd.DataFrame(rows, columns=["g", "x", "y"])
-    pts = gpd.GeoDataFrame(frame, geometry=gpd.points_from_xy(frame.x, frame.y))
+    pts = two_pairs_of_squares()
     kernel, reference, by_geos = _split_both(pts, crs=None, method="convex")
     assert by_geos == 1  # the pair g0/g1 only
     assert_clean(four_counts(kernel, pts, "g"))
@@ -536,13 +544,7 @@ def test_the_callers_record_of_warnings_is_whole():
     call in two lost its warnings.) Twenty calls on two threads, each with a
     pair split in the kernel and a location of two groups: each records it.
     """
-    corners = [(0, 0), (2, 0), (2, 2), (0, 2)]
-    rows = []
-    for g, dx in enumerate([0, 1, 10, 11]):
-        rows += [(f"g{g}", x + dx, y) for x, y in corners]
-    rows += [("g0", 1.5, 1.0), ("g1", 1.5, 1.0)]
-    frame = pd.DataFrame(rows, columns=["g", "x", "y"])
-    pts = gpd.GeoDataFrame(frame, geometry=gpd.points_from_xy(frame.x, frame.y))
+    pts = two_pairs_of_squares()
     for _ in range(20):
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")

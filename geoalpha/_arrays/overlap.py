@@ -9,7 +9,6 @@ covered by its own group's polygon and is strictly inside no other
 
 from __future__ import annotations
 
-import functools
 import itertools
 import warnings
 from concurrent.futures import ThreadPoolExecutor
@@ -260,46 +259,14 @@ def _split_compiled(geoms, xy, order, starts, pairs, n_jobs):
     chunks = np.array_split(np.flatnonzero(ok), max(1, kernel.threads(n_jobs)))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        valid = _map(_valid, chunks, n_jobs, split=split, at_least=1)
+        valid = _map(lambda at: shapely.is_valid(split[at]), chunks, n_jobs, 1)
     bad[inv[np.concatenate(chunks)]] = ~np.concatenate(valid)
-    if bad.any():
-        out, bad = _repaired(out, bad, xy, order, starts, pairs[done[pairs[:, 0]]])
+    # (rounded crossings can leave a ring doubling back within a few units in
+    # the last place: rare, and GEOS's split checks and mends what it makes)
     if bad.any():  # their components are split by GEOS instead
         component = _components(n, pairs)
         done &= ~np.isin(component, component[bad])
     return np.where(done, out, geoms), done
-
-
-def _repaired(out, bad, xy, order, starts, pairs):
-    """Repair the kernel's split polygons GEOS finds invalid; return them, failed.
-
-    Constraints that cross near one point can leave vertices a few units in the
-    last place apart, a ring doubling back on itself there (spade rounds each
-    crossing); :func:`shapely.make_valid` removes that. A repaired polygon is
-    checked again with GEOS: its points covered, none of its neighbours'
-    strictly inside, no overlap with a neighbour beyond 1e-9 of the larger.
-    """
-    out = out.copy()
-    which = np.flatnonzero(bad)
-    out[which] = _areal(shapely.make_valid(out[which], method="structure"))
-    failed = bad & ~shapely.is_valid(out)
-    for g in which[~failed[which]]:
-        mine = xy[order[starts[g] : starts[g + 1]]]
-        near = pairs[(pairs == g).any(axis=1)]
-        others = near[near != g]
-        theirs = np.concatenate([xy[order[starts[h] : starts[h + 1]]] for h in others])
-        shapely.prepare(out[g])
-        failed[g] = (
-            not shapely.intersects_xy(out[g], *mine.T).all()
-            or shapely.contains_xy(out[g], *theirs.T).any()
-            or _still_overlap(np.repeat(out[g], len(others)), out[others]).any()
-        )
-    return out, failed
-
-
-def _valid(at: np.ndarray, split: np.ndarray) -> np.ndarray:
-    """Whether ``split[at]`` are valid (GEOS)."""
-    return shapely.is_valid(split[at])
 
 
 def _components(n: int, pairs: np.ndarray) -> np.ndarray:
@@ -525,8 +492,8 @@ def _carve(geoms, xy, foreign: dict, mine: dict) -> np.ndarray:
     return geoms
 
 
-def _map(func, items, n_jobs: int | None, at_least: int = _THREAD_ITEMS, **kw) -> list:
-    """Return ``[func(item, **kw) for item in items]``, on threads from many items.
+def _map(func, items, n_jobs: int | None, at_least: int = _THREAD_ITEMS) -> list:
+    """Return ``[func(item) for item in items]``, on threads from many items.
 
     GEOS releases the GIL, so the pairs (or groups) are split in parallel; each
     item is independent and the results come in order: the same for any
@@ -536,8 +503,6 @@ def _map(func, items, n_jobs: int | None, at_least: int = _THREAD_ITEMS, **kw) -
     ``catch_warnings``, or it swaps the caller's filters meanwhile.
     """
     items = list(items)
-    if kw:
-        func = functools.partial(func, **kw)
     workers = min(kernel.threads(n_jobs), len(items) // at_least)
     if workers <= 1:
         return [func(item) for item in items]
